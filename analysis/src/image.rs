@@ -1,0 +1,187 @@
+//! Reading images: OpenEXR (any channels, half or float, plus the string attributes of its header)
+//! and Radiance RGBE `.hdr`. Used for environment maps (CONVENTIONS §2) and for renders to analyse
+//! (CONVENTIONS §5). Every failure becomes an [`Error`] naming the file.
+//!
+//! NaN or infinite values are rejected here, once, so no analysis or light ever sees them.
+
+use crate::error::{Error, Result};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A float image with named channels (`R`, `G`, `B`, `normal.X`, `stderr.R`, …), row 0 at the top.
+#[derive(Clone, Debug, Default)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    /// Row-major samples of each channel, `width * height` long.
+    pub channels: BTreeMap<String, Vec<f32>>,
+    /// String attributes of the EXR header (e.g. `reflect:camera`, a JSON object written by the renderer).
+    pub attributes: BTreeMap<String, String>,
+}
+
+/// An RGB float image, row 0 at the top.
+#[derive(Clone, Debug, Default)]
+pub struct RgbImage {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl RgbImage {
+    #[inline]
+    pub fn get(&self, row: usize, col: usize) -> [f32; 3] {
+        self.pixels[row * self.width + col]
+    }
+}
+
+impl Image {
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels.get(name).map(|v| v.as_slice())
+    }
+
+    /// The three channels `{prefix}R/G/B` (prefix "" for the main image, "stderr." for the error layer).
+    pub fn rgb_layer(&self, prefix: &str) -> Option<RgbImage> {
+        let r = self.channel(&format!("{prefix}R"))?;
+        let g = self.channel(&format!("{prefix}G"))?;
+        let b = self.channel(&format!("{prefix}B"))?;
+        Some(RgbImage {
+            width: self.width,
+            height: self.height,
+            pixels: (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect(),
+        })
+    }
+
+    /// The main RGB image; a luminance-only (`Y`) EXR is replicated to grey.
+    pub fn rgb(&self) -> Option<RgbImage> {
+        self.rgb_layer("").or_else(|| {
+            let y = self.channel("Y")?;
+            Some(RgbImage { width: self.width, height: self.height, pixels: y.iter().map(|&v| [v, v, v]).collect() })
+        })
+    }
+}
+
+/// Reads an `.exr` or `.hdr` file (chosen by its first bytes, not its name) with all its channels.
+pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|e| Error::file(path, format!("cannot read file: {e}")))?;
+    let img = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        read_exr_bytes(&bytes)
+    } else if bytes.starts_with(b"#?") {
+        read_hdr_bytes(&bytes)
+    } else {
+        Err(Error::new("not an OpenEXR or Radiance .hdr file (unrecognised header)"))
+    }
+    .map_err(|e| e.in_file(path))?;
+    if img.width == 0 || img.height == 0 {
+        return Err(Error::file(path, "image has no pixels"));
+    }
+    for (name, data) in &img.channels {
+        if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+            return Err(Error::file(
+                path,
+                format!("channel {name} has a non-finite value ({}) at row {}, column {}", data[i], i / img.width, i % img.width),
+            ));
+        }
+    }
+    Ok(img)
+}
+
+/// Reads the RGB radiance of an `.exr` or `.hdr` file (see [`read_image`]).
+pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
+    let path = path.as_ref();
+    let img = read_image(path)?;
+    img.rgb().ok_or_else(|| Error::file(path, "image has no R, G, B (or Y) channels"))
+}
+
+fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
+    use image::ImageDecoder;
+    let dec = image::codecs::hdr::HdrDecoder::new(std::io::Cursor::new(bytes))
+        .map_err(|e| Error::new(format!("corrupt Radiance .hdr: {e}")))?;
+    let (w, h) = dec.dimensions();
+    let (w, h) = (w as usize, h as usize);
+    check_size(w, h)?;
+    let mut buf = vec![0u8; dec.total_bytes() as usize];
+    dec.read_image(&mut buf).map_err(|e| Error::new(format!("corrupt Radiance .hdr: {e}")))?;
+    let floats: Vec<f32> = buf.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
+    if floats.len() != w * h * 3 {
+        return Err(Error::new("corrupt Radiance .hdr: pixel data is truncated"));
+    }
+    let mut channels = BTreeMap::new();
+    for (i, name) in ["R", "G", "B"].iter().enumerate() {
+        channels.insert(name.to_string(), floats.iter().skip(i).step_by(3).copied().collect());
+    }
+    Ok(Image { width: w, height: h, channels, attributes: BTreeMap::new() })
+}
+
+fn read_exr_bytes(bytes: &[u8]) -> Result<Image> {
+    use exr::prelude::{AttributeValue, FlatSamples, ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| Error::new(format!("corrupt OpenEXR file: {e}")))?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    check_size(w, h)?;
+    let mut channels = BTreeMap::new();
+    for ch in &layer.channel_data.list {
+        let data: Vec<f32> = match &ch.sample_data {
+            FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
+            FlatSamples::F32(v) => v.clone(),
+            FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+        };
+        if data.len() != w * h {
+            return Err(Error::new(format!("channel {} is subsampled, which is not supported", ch.name)));
+        }
+        channels.insert(ch.name.to_string(), data);
+    }
+    let mut attributes = BTreeMap::new();
+    let others = image.attributes.other.iter().chain(layer.attributes.other.iter());
+    for (k, v) in others {
+        if let AttributeValue::Text(t) = v {
+            attributes.insert(k.to_string(), t.to_string());
+        }
+    }
+    Ok(Image { width: w, height: h, channels, attributes })
+}
+
+/// Images larger than this many pixels per side are refused as absurd rather than allocated.
+pub const MAX_IMAGE_SIDE: usize = 1 << 15;
+
+fn check_size(w: usize, h: usize) -> Result<()> {
+    if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
+        return Err(Error::new(format!("absurd image size {w}×{h}")));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_grace_probe() {
+        let p = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/grace_probe.hdr");
+        let img = read_rgb(p).expect("grace probe");
+        assert_eq!((img.width, img.height), (1000, 1000));
+        // Centre of the probe (world +z, up) is bright-ish and finite.
+        let c = img.get(500, 500);
+        assert!(c.iter().all(|v| v.is_finite() && *v >= 0.0));
+    }
+
+    #[test]
+    fn corrupt_hdr_is_an_error_naming_the_file() {
+        let dir = std::env::temp_dir().join(format!("reflect-img-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("bad.hdr");
+        std::fs::write(&f, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 10 +X 10\n\x01\x02").unwrap();
+        let e = read_rgb(&f).unwrap_err();
+        assert!(e.to_string().contains("bad.hdr"), "{e}");
+        let g = dir.join("bad.exr");
+        std::fs::write(&g, b"garbage").unwrap();
+        assert!(read_rgb(&g).unwrap_err().to_string().contains("unrecognised"));
+    }
+}

@@ -1,0 +1,26 @@
+//! STUB: to be completed.
+use super::{BrdfSample, Bxdf};
+#[allow(unused_imports)]
+use super::Horizon;
+use crate::math::{Rgb, Vec2, Vec3};
+
+#[derive(Clone, Debug)]
+pub struct Mirror {
+    pub kr: Rgb,
+}
+impl Mirror {
+    pub fn new(kr: Rgb) -> Self {
+        Mirror { kr }
+    }
+}
+impl Bxdf for Mirror {
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
+        todo!()
+    }
+    fn sample(&self, _wo: Vec3, _u_lobe: f32, _u: Vec2) -> Option<BrdfSample> {
+        todo!()
+    }
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        todo!()
+    }
+}

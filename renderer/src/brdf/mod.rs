@@ -1,0 +1,111 @@
+//! BRDFs exactly as CONVENTIONS §4 defines them.
+//!
+//! Every model works in the local shading frame (normal = +z, see [`crate::math::Frame`]) with
+//! ω_o and ω_i pointing away from the surface. `eval` returns the *transfer function*
+//! ρ̂(ω_o, ω_i) = BRDF · cosθ'_i of the paper (eq. 1), so an estimator multiplies it by the incident
+//! radiance only. A `sample` returns ρ̂/pdf as its weight.
+
+pub mod lambert;
+pub mod microfacet;
+pub mod mirror;
+pub mod mix;
+pub mod phong;
+pub mod torrance_sparrow;
+
+pub use lambert::Lambert;
+pub use microfacet::{Fresnel, Microfacet, MicrofacetDistribution};
+pub use mirror::Mirror;
+pub use mix::Mix;
+pub use phong::Phong;
+pub use torrance_sparrow::TorranceSparrow;
+
+use crate::math::{Rgb, Vec2, Vec3};
+
+/// Whether a lobe sees light from below the local horizon (CONVENTIONS §4, paper sec. 3.6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Horizon {
+    /// Physical: nothing arrives from n·ω_i ≤ 0 (the convex object occludes itself there).
+    #[default]
+    Clamp,
+    /// The paper's simplification: the lobe gathers distant light in every direction it covers.
+    Ignore,
+}
+
+/// A direction drawn from a BRDF.
+#[derive(Clone, Copy, Debug)]
+pub struct BrdfSample {
+    /// Incident direction, local frame, pointing away from the surface.
+    pub wi: Vec3,
+    /// ρ̂(ω_o, ω_i) / pdf (for a delta lobe: the lobe's weight itself).
+    pub weight: Rgb,
+    /// Solid-angle density of `wi` (for a delta lobe: the probability of choosing that lobe).
+    pub pdf: f32,
+    /// Drawn from a Dirac lobe (mirror): `eval`/`pdf` do not contain it, no MIS applies.
+    pub delta: bool,
+}
+
+/// The interface every BRDF implements (local frame, normal = +z).
+pub trait Bxdf {
+    /// Transfer function ρ̂ = BRDF·cosθ'_i (zero for Dirac components).
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
+    /// Draws ω_i given ω_o. `u_lobe` selects among lobes (mix), `u` drives the warp.
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>;
+    /// Solid-angle density with which `sample` draws `wi` (non-Dirac part only).
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// True when the BRDF gathers light below the horizon (horizon = "ignore"): the integrator then
+    /// does not test those directions for self-occlusion.
+    fn ignores_horizon(&self) -> bool {
+        false
+    }
+    /// True when the BRDF is purely Dirac (mirror): light sampling cannot help.
+    fn is_delta(&self) -> bool {
+        false
+    }
+}
+
+/// Enum dispatch over all models: the integrator's hot path sees one concrete type.
+#[derive(Clone, Debug)]
+pub enum Brdf {
+    Mirror(Mirror),
+    Lambert(Lambert),
+    Phong(Phong),
+    TorranceSparrow(TorranceSparrow),
+    Microfacet(Microfacet),
+    Mix(Mix),
+}
+
+macro_rules! dispatch {
+    ($self:ident, $b:ident => $e:expr) => {
+        match $self {
+            Brdf::Mirror($b) => $e,
+            Brdf::Lambert($b) => $e,
+            Brdf::Phong($b) => $e,
+            Brdf::TorranceSparrow($b) => $e,
+            Brdf::Microfacet($b) => $e,
+            Brdf::Mix($b) => $e,
+        }
+    };
+}
+
+impl Bxdf for Brdf {
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        dispatch!(self, b => b.eval(wo, wi))
+    }
+    #[inline]
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        dispatch!(self, b => b.sample(wo, u_lobe, u))
+    }
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        dispatch!(self, b => b.pdf(wo, wi))
+    }
+    #[inline]
+    fn ignores_horizon(&self) -> bool {
+        dispatch!(self, b => b.ignores_horizon())
+    }
+    #[inline]
+    fn is_delta(&self) -> bool {
+        dispatch!(self, b => b.is_delta())
+    }
+}

@@ -1,0 +1,20 @@
+//! STUB: to be completed.
+use super::{Hit, Ray, Shape};
+
+pub struct SceneGeometry {
+    pub shapes: Vec<Shape>,
+}
+impl SceneGeometry {
+    /// Builds the BVH over all objects; `shapes[i]` is object i.
+    pub fn new(shapes: Vec<Shape>) -> Self {
+        SceneGeometry { shapes }
+    }
+    /// Closest hit with t in (0, ray.t_max).
+    pub fn intersect(&self, _ray: &Ray) -> Option<Hit> {
+        todo!()
+    }
+    /// Any hit with t in (0, ray.t_max).
+    pub fn occluded(&self, _ray: &Ray) -> bool {
+        todo!()
+    }
+}

@@ -1,0 +1,1 @@
+//! Integrator. STUB.

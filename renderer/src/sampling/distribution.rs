@@ -1,0 +1,1 @@
+//! Discrete and piecewise-constant 1D/2D distributions (for environment-map importance sampling).

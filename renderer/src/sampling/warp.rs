@@ -1,0 +1,1 @@
+//! Warps from the unit square to directions (cosine hemisphere, cones, spheres, …).
