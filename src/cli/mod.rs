@@ -1,0 +1,39 @@
+//! The command line: one file per subcommand.
+
+pub mod analyze;
+pub mod render;
+pub mod sh;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+pub type Error = analysis::Error;
+
+#[derive(Parser, Debug)]
+#[command(name = "reflect", version, about = "Path tracer and verifier of the frequency-space theory of reflection")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene (TOML) to OpenEXR.
+    Render(render::RenderArgs),
+    /// Spherical-harmonic tools: project environments, transfer coefficients.
+    #[command(subcommand)]
+    Sh(sh::ShCommand),
+    /// Project renders (EXR) into SH and compare with the lighting.
+    Analyze(analyze::AnalyzeArgs),
+    /// Render, analyse and check the paper's claims (placeholder: renders the default scene).
+    Verify(render::RenderArgs),
+}
+
+pub fn run(cli: Cli) -> Result<ExitCode, Error> {
+    match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Sh(c) => sh::run(c),
+        Command::Analyze(a) => analyze::run(a),
+        Command::Verify(a) => render::run(a),
+    }
+}
