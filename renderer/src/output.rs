@@ -1,1 +1,116 @@
-//! Output. STUB.
+//! Writing results: float OpenEXR with the layers of CONVENTIONS §5 and the scene's camera, render
+//! settings, lighting and objects as JSON string attributes in the header (`reflect:camera`,
+//! `reflect:render`, `reflect:lighting`, `reflect:objects`, and the whole scene as
+//! `reflect:scene`), so an analysis can read the geometry back from the file alone; and an
+//! optional tone-mapped sRGB PNG preview.
+//!
+//! Files are written atomically: to a temporary file in the same directory, then renamed, so a
+//! failed or interrupted write never leaves a partial output.
+
+use crate::film::Film;
+use crate::scene::Scene;
+use crate::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// JSON with every non-ASCII character escaped, because EXR text attributes are byte strings.
+fn ascii_json(v: &serde_json::Value) -> String {
+    let s = v.to_string();
+    let mut out = String::with_capacity(s.len());
+    for ch in s.chars() {
+        if ch.is_ascii() {
+            out.push(ch);
+        } else {
+            let mut buf = [0u16; 2];
+            for u in ch.encode_utf16(&mut buf) {
+                out.push_str(&format!("\\u{u:04x}"));
+            }
+        }
+    }
+    out
+}
+
+/// The header attributes describing how an image was made.
+pub fn header_attributes(scene: &Scene) -> Vec<(String, String)> {
+    let d = &scene.description;
+    let j = |v: serde_json::Result<serde_json::Value>| ascii_json(&v.unwrap_or(serde_json::Value::Null));
+    let mut render = serde_json::to_value(&d.render).unwrap_or_default();
+    if let Some(o) = render.as_object_mut() {
+        o.insert("integrator".into(), "path (NEE + BRDF sampling, MIS power heuristic)".into());
+    }
+    let scene_toml = toml::to_string(d).unwrap_or_default();
+    let scene_toml: String = scene_toml.chars().map(|c| if c.is_ascii() { c } else { '?' }).collect();
+    vec![
+        ("reflect:camera".into(), j(serde_json::to_value(&d.camera))),
+        ("reflect:render".into(), ascii_json(&render)),
+        ("reflect:lighting".into(), j(serde_json::to_value(&d.lighting))),
+        ("reflect:objects".into(), j(serde_json::to_value(&d.objects))),
+        ("reflect:scene".into(), scene_toml),
+    ]
+}
+
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+/// Writes `write(tmp)` then renames onto `path`; removes the temporary file on failure.
+fn atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::file(path, format!("cannot create output directory: {e}")))?;
+    }
+    let tmp = temp_path(path);
+    if let Err(m) = write(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::file(path, m));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::file(path, format!("cannot move output into place: {e}"))
+    })
+}
+
+/// Writes the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B.
+pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<()> {
+    use exr::prelude::*;
+    let (w, h) = (film.width as usize, film.height as usize);
+    let chan = |name: &str, f: &dyn Fn(&crate::film::Pixel) -> f32| {
+        AnyChannel::new(name, FlatSamples::F32(film.pixels.iter().map(f).collect()))
+    };
+    let list: smallvec::SmallVec<[AnyChannel<FlatSamples>; 4]> = smallvec::smallvec![
+        chan("R", &|p| p.rgb[0]),
+        chan("G", &|p| p.rgb[1]),
+        chan("B", &|p| p.rgb[2]),
+        chan("normal.X", &|p| p.normal[0]),
+        chan("normal.Y", &|p| p.normal[1]),
+        chan("normal.Z", &|p| p.normal[2]),
+        chan("mask.Y", &|p| p.mask),
+        chan("stderr.R", &|p| p.stderr[0]),
+        chan("stderr.G", &|p| p.stderr[1]),
+        chan("stderr.B", &|p| p.stderr[2]),
+    ];
+    let mut layer = Layer::new((w, h), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+    for (k, v) in attributes {
+        if let (Some(k), Some(v)) = (Text::new_or_none(k), Text::new_or_none(v)) {
+            layer.attributes.other.insert(k, AttributeValue::Text(v));
+        }
+    }
+    let image = Image::from_layer(layer);
+    atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))
+}
+
+/// sRGB transfer of a linear value in [0, 1].
+fn srgb(v: f32) -> f32 {
+    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// Writes a preview PNG: linear radiance × `exposure`, clamped, sRGB-encoded. Not for analysis.
+pub fn write_png(path: &Path, film: &Film, exposure: f32) -> Result<()> {
+    let mut buf = Vec::with_capacity(film.pixels.len() * 3);
+    for p in &film.pixels {
+        for c in p.rgb {
+            buf.push((srgb((c * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8);
+        }
+    }
+    let img = image::RgbImage::from_raw(film.width, film.height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
+    atomically(path, |tmp| img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}")))
+}

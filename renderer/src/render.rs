@@ -1,1 +1,133 @@
-//! Render. STUB.
+//! The render loop: tiles in parallel (rayon), each pixel's samples drawn from the counter-based
+//! sampler so the image is bit-identical for any thread count, a progress bar on stderr when it is
+//! a terminal, and throughput statistics at the end.
+
+use crate::camera::Camera;
+use crate::film::{Film, Pixel, PixelAccumulator};
+use crate::integrator::PathTracer;
+use crate::math::Vec2;
+use crate::sampling::Sampler;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::io::IsTerminal;
+use std::time::{Duration, Instant};
+
+/// Side of the square tiles that are the unit of parallel work.
+pub const TILE: u32 = 16;
+
+/// Throughput of a finished render.
+#[derive(Clone, Debug)]
+pub struct RenderStats {
+    pub wall: Duration,
+    pub samples: u64,
+    pub rays: u64,
+    pub threads: usize,
+}
+
+impl RenderStats {
+    pub fn samples_per_sec(&self) -> f64 {
+        self.samples as f64 / self.wall.as_secs_f64().max(1e-9)
+    }
+    pub fn rays_per_sec(&self) -> f64 {
+        self.rays as f64 / self.wall.as_secs_f64().max(1e-9)
+    }
+}
+
+impl std::fmt::Display for RenderStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:.3} s, {} samples ({:.2} M samples/s), {} rays ({:.2} M rays/s), {} threads",
+            self.wall.as_secs_f64(),
+            self.samples,
+            self.samples_per_sec() / 1e6,
+            self.rays,
+            self.rays_per_sec() / 1e6,
+            self.threads
+        )
+    }
+}
+
+/// Options of one render call that are not part of the scene.
+#[derive(Clone, Debug, Default)]
+pub struct RenderOptions {
+    /// Show a progress bar on stderr (only drawn when stderr is a terminal).
+    pub progress: bool,
+}
+
+/// Renders `scene` on the current rayon pool.
+pub fn render(scene: &Scene, opts: &RenderOptions) -> (Film, RenderStats) {
+    let s = &scene.settings;
+    let (w, h) = (s.width, s.height);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles_y = h.div_ceil(TILE);
+    let ntiles = (tiles_x * tiles_y) as usize;
+    let bar = if opts.progress && std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(ntiles as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% tiles, eta {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let tracer = PathTracer::new(scene);
+    let start = Instant::now();
+    let tiles: Vec<(Vec<Pixel>, u64)> = (0..ntiles)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
+            let r = render_tile(scene, &tracer, tx * TILE, ty * TILE, (tx * TILE + TILE).min(w), (ty * TILE + TILE).min(h));
+            bar.inc(1);
+            r
+        })
+        .collect();
+    let wall = start.elapsed();
+    bar.finish_and_clear();
+
+    let mut film = Film::new(w, h);
+    let mut rays = 0;
+    for (t, (pixels, r)) in tiles.into_iter().enumerate() {
+        rays += r;
+        let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
+        let (x0, y0) = (tx * TILE, ty * TILE);
+        let tw = (x0 + TILE).min(w) - x0;
+        for (i, px) in pixels.into_iter().enumerate() {
+            let (row, col) = (y0 + i as u32 / tw, x0 + i as u32 % tw);
+            film.pixels[(row * w + col) as usize] = px;
+        }
+    }
+    let stats = RenderStats { wall, samples: w as u64 * h as u64 * s.spp as u64, rays, threads: rayon::current_num_threads() };
+    (film, stats)
+}
+
+fn render_tile(scene: &Scene, tracer: &PathTracer, x0: u32, y0: u32, x1: u32, y1: u32) -> (Vec<Pixel>, u64) {
+    let s = &scene.settings;
+    let mut sampler = Sampler::new(s.sampler, s.seed);
+    let jitter = scene.camera.jitters();
+    let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    let mut rays = 0u64;
+    for row in y0..y1 {
+        for col in x0..x1 {
+            let pixel_id = row as u64 * s.width as u64 + col as u64;
+            let mut acc = PixelAccumulator::default();
+            for i in 0..s.spp {
+                sampler.start(pixel_id, i);
+                let u = sampler.next_2d();
+                let u = if jitter { u } else { Vec2::splat(0.5) };
+                let primary = scene.camera.generate(row, col, u);
+                let r = tracer.li(primary, &mut sampler);
+                rays += r.rays as u64;
+                acc.add(r.radiance, r.normal, r.hit);
+            }
+            out.push(acc.finish());
+        }
+    }
+    (out, rays)
+}
+
+/// Whether a camera is the normal-probe camera (its images are lat-long maps of normals).
+pub fn is_normal_probe(c: &Camera) -> bool {
+    matches!(c, Camera::NormalProbe(_))
+}

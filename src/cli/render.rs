@@ -1,10 +1,130 @@
-//! `reflect render`. STUB.
+//! `reflect render [SCENE.toml] [--out FILE.exr] [--spp N] [--seed N] [--threads N] [--png FILE]`
+//!
+//! Renders a scene file (or the built-in default: a Lambertian sphere under a built-in sky) to a
+//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints wall time, samples/s and rays/s.
+
 use super::Error;
+use renderer::render::{RenderOptions, render};
+use renderer::scene::{Scene, SceneFile, build::DEFAULT_SCENE};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-#[derive(clap::Args, Debug)]
-pub struct RenderArgs {}
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RenderArgs {
+    /// Scene file (TOML, CONVENTIONS §6). Without it, the built-in default scene.
+    pub scene: Option<PathBuf>,
+    /// Output OpenEXR file [default: out/<scene name>.exr].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Samples per pixel (overrides render.spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed (overrides render.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads [default: all cores]. The image does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also write a tone-mapped PNG preview here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Sampler: sobol or independent (overrides render.sampler).
+    #[arg(long)]
+    pub sampler: Option<String>,
+    /// Image width × height, e.g. 256x256 (overrides render.width/height).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
 
-pub fn run(_a: RenderArgs) -> Result<ExitCode, Error> {
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT")?;
+    Ok((w.trim().parse().map_err(|_| "bad width")?, h.trim().parse().map_err(|_| "bad height")?))
+}
+
+/// Parses a scene file (or the default scene) and applies command-line overrides.
+pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
+    let (text, base, path) = match &a.scene {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).map_err(|e| Error::file(p, format!("cannot read scene file: {e}")))?;
+            (text, p.parent().map(Path::to_path_buf).unwrap_or_default(), Some(p.clone()))
+        }
+        None => (DEFAULT_SCENE.to_string(), PathBuf::from("."), None),
+    };
+    let mut file = SceneFile::parse(&text).map_err(|m| match &path {
+        Some(p) => Error::file(p, m),
+        None => Error::new(m),
+    })?;
+    if let Some(s) = a.spp {
+        file.render.spp = s;
+    }
+    if let Some(s) = a.seed {
+        file.render.seed = s;
+    }
+    if let Some(s) = &a.sampler {
+        file.render.sampler = s.clone();
+    }
+    if let Some((w, h)) = a.size {
+        file.render.width = w;
+        file.render.height = h;
+    }
+    let mut scene = Scene::build(file, &base).map_err(|e| match &path {
+        Some(p) => e.in_file(p),
+        None => e,
+    })?;
+    scene.path = path;
+    Ok(scene)
+}
+
+/// Runs `f` on a rayon pool of `threads` workers (all cores when None).
+pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T, Error> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => Err(Error::new("--threads must be at least 1")),
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
+            Ok(pool.install(f))
+        }
+    }
+}
+
+pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
+    let scene = load_scene(&a)?;
+    let stem = a
+        .scene
+        .as_ref()
+        .and_then(|p| p.file_stem())
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "default".into());
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.exr")));
+    if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
+        return Err(Error::file(&out, "output file must end in .exr"));
+    }
+    let s = &scene.settings;
+    if !a.quiet {
+        eprintln!(
+            "rendering {} ({}×{}, {} spp, max_depth {}, seed {})",
+            scene.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "built-in default scene".into()),
+            s.width,
+            s.height,
+            s.spp,
+            s.max_depth,
+            s.seed
+        );
+    }
+    let opts = RenderOptions { progress: !a.quiet };
+    let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
+    renderer::output::write_exr(&out, &film, &renderer::output::header_attributes(&scene))?;
+    if let Some(png) = &a.png {
+        renderer::output::write_png(png, &film, 1.0)?;
+    }
+    if !a.quiet {
+        eprintln!("wrote {}: {stats}", out.display());
+    }
     Ok(ExitCode::SUCCESS)
 }

@@ -18,3 +18,10 @@ impl SceneGeometry {
         todo!()
     }
 }
+
+impl SceneGeometry {
+    /// True when the scene is exactly one sphere (no occlusion above any hit's horizon).
+    pub fn is_single_sphere(&self) -> bool {
+        self.shapes.len() == 1 && matches!(self.shapes[0], super::Shape::Sphere(_))
+    }
+}

@@ -8,3 +8,9 @@ pub struct TriangleMesh {
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
 }
+
+impl TriangleMesh {
+    pub fn transform(&mut self, _m: glam::Affine3A) {
+        todo!()
+    }
+}

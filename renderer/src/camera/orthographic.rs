@@ -1,0 +1,44 @@
+//! `orthographic` camera: parameters `from`, `to`, `up`, `extent` (half-width of the view).
+//! The ray through film point (x, y) has direction f and origin from + x·right + y·up'
+//! (CONVENTIONS §5), with x = extent·(2(c+½)/W − 1), y = extent·(H/W)·(1 − 2(r+½)/H) at pixel
+//! centres; `u` moves the point inside the pixel (box filter).
+
+use super::look_at_basis;
+use crate::geometry::Ray;
+use crate::math::{Vec2, Vec3};
+
+#[derive(Clone, Debug)]
+pub struct Orthographic {
+    pub from: Vec3,
+    pub forward: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub extent: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Orthographic {
+    pub fn new(from: Vec3, to: Vec3, up: Vec3, extent: f32, width: u32, height: u32) -> Result<Self, String> {
+        if !(extent > 0.0 && extent.is_finite()) {
+            return Err(format!("orthographic extent must be positive, got {extent}"));
+        }
+        let (forward, right, up) = look_at_basis(from, to, up)?;
+        Ok(Orthographic { from, forward, right, up, extent, width, height })
+    }
+
+    /// Film coordinates (x, y) of a point `u` inside pixel (row, col).
+    #[inline]
+    pub fn film_xy(&self, row: u32, col: u32, u: Vec2) -> (f32, f32) {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let x = self.extent * (2.0 * (col as f32 + u.x) / w - 1.0);
+        let y = self.extent * (h / w) * (1.0 - 2.0 * (row as f32 + u.y) / h);
+        (x, y)
+    }
+
+    #[inline]
+    pub fn generate(&self, row: u32, col: u32, u: Vec2) -> Ray {
+        let (x, y) = self.film_xy(row, col, u);
+        Ray::new(self.from + x * self.right + y * self.up, self.forward)
+    }
+}

@@ -1,0 +1,176 @@
+//! Unidirectional path tracer.
+//!
+//! At every vertex: next-event estimation (one light sample) and one BRDF sample, combined by
+//! multiple importance sampling with the power heuristic (Veach 1997); Russian roulette after
+//! `RR_START` vertices; at most `max_depth` surface vertices. Light is distant, so a light sample
+//! is a direction and its shadow ray is infinite.
+//!
+//! Visibility: a scene made of a single sphere cannot shadow itself in any direction above the
+//! local horizon, so shadow rays are skipped there (exact, and the common case of the paper).
+//! Directions below the horizon only reach a BRDF with `horizon = "ignore"` (the paper's
+//! simplification, CONVENTIONS §4): they gather the distant light unoccluded by definition.
+
+use crate::brdf::Bxdf;
+use crate::camera::PrimarySample;
+use crate::geometry::Ray;
+use crate::light::DistantLight;
+use crate::math::{Frame, Rgb, Vec3};
+use crate::sampling::Sampler;
+use crate::scene::Scene;
+
+/// Russian roulette starts after this many vertices (the first bounces are never cut).
+const RR_START: u32 = 3;
+
+/// What one primary sample returns.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SampleResult {
+    pub radiance: Rgb,
+    /// World-space shading normal of the first hit (zero on a miss).
+    pub normal: Vec3,
+    pub hit: bool,
+    /// Rays traced (camera, bounce and shadow rays) for throughput statistics.
+    pub rays: u32,
+}
+
+pub struct PathTracer<'a> {
+    scene: &'a Scene,
+    max_depth: u32,
+    /// True when no geometry can occlude a direction above a hit's horizon.
+    single_convex: bool,
+}
+
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// Offset along the geometric normal to keep secondary rays off their own surface, scaled with
+/// the magnitude of the position (f32 rounding grows with it).
+#[inline]
+fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+    let eps = 1e-4 * (1.0 + p.abs().max_element());
+    if ng.dot(dir) >= 0.0 { p + eps * ng } else { p - eps * ng }
+}
+
+impl<'a> PathTracer<'a> {
+    pub fn new(scene: &'a Scene) -> Self {
+        PathTracer { scene, max_depth: scene.settings.max_depth, single_convex: scene.geometry.is_single_sphere() }
+    }
+
+    #[inline]
+    fn visible(&self, p: Vec3, ng: Vec3, n: Vec3, dir: Vec3, ignores_horizon: bool, rays: &mut u32) -> bool {
+        if n.dot(dir) <= 0.0 && ignores_horizon {
+            return true;
+        }
+        if self.single_convex && ng.dot(dir) > 0.0 {
+            return true;
+        }
+        *rays += 1;
+        !self.scene.geometry.occluded(&Ray::new(offset_origin(p, ng, dir), dir))
+    }
+
+    /// Estimates the radiance of one primary sample. The sampler must already be positioned at
+    /// the pixel sample (dimension 2 onward: the camera used dimensions 0–1).
+    pub fn li(&self, primary: PrimarySample, sampler: &mut Sampler) -> SampleResult {
+        let scene = self.scene;
+        let light = &scene.light;
+        let mut out = SampleResult::default();
+        let mut beta = Rgb::ONE;
+        let mut radiance = Rgb::ZERO;
+
+        // The first vertex: from the camera ray, or given directly by the normal-probe camera.
+        let (mut p, mut n, mut ng, mut wo_world, mut object) = match primary {
+            PrimarySample::Surface { p, n, wo } => (p, n, n, wo, 0u32),
+            PrimarySample::Ray(ray) => {
+                out.rays += 1;
+                match scene.geometry.intersect(&ray) {
+                    Some(h) => (h.p, h.n, h.ng, -ray.dir, h.object),
+                    None => {
+                        out.radiance = light.eval(ray.dir);
+                        return out;
+                    }
+                }
+            }
+        };
+        out.hit = true;
+        out.normal = n;
+
+        let mut depth = 1u32;
+        loop {
+            let brdf = &scene.brdfs[object as usize];
+            let frame = Frame::from_normal(n);
+            let wo = frame.to_local(wo_world);
+            if wo.z <= 0.0 {
+                // Seen from below the shading hemisphere (e.g. an interpolated normal facing
+                // away): no reflection defined.
+                break;
+            }
+            let ignores = brdf.ignores_horizon();
+
+            // Next-event estimation: one direction from the light.
+            let u_light = sampler.next_2d();
+            if !brdf.is_delta() {
+                if let Some(ls) = light.sample(u_light) {
+                    let wi = frame.to_local(ls.wi);
+                    let f = brdf.eval(wo, wi);
+                    if f != Rgb::ZERO && self.visible(p, ng, n, ls.wi, ignores, &mut out.rays) {
+                        let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, brdf.pdf(wo, wi)) };
+                        radiance += beta * f * ls.value * w;
+                    }
+                }
+            }
+
+            // BRDF sampling: continues the path and, where it escapes, collects the light with
+            // the complementary MIS weight.
+            let u_lobe = sampler.next_1d();
+            let u_brdf = sampler.next_2d();
+            let Some(bs) = brdf.sample(wo, u_lobe, u_brdf) else { break };
+            if bs.weight == Rgb::ZERO {
+                break;
+            }
+            let wi_world = frame.to_world(bs.wi).normalize();
+            beta *= bs.weight;
+
+            // Below the horizon with horizon = "ignore": the lobe sees the distant light directly.
+            let escaped = if n.dot(wi_world) <= 0.0 && ignores {
+                None
+            } else if self.single_convex && ng.dot(wi_world) > 0.0 {
+                None
+            } else {
+                out.rays += 1;
+                scene.geometry.intersect(&Ray::new(offset_origin(p, ng, wi_world), wi_world))
+            };
+            match escaped {
+                None => {
+                    let le = light.eval(wi_world);
+                    if le != Rgb::ZERO {
+                        let w = if bs.delta || light.is_delta() { 1.0 } else { power_heuristic(bs.pdf, light.pdf(wi_world)) };
+                        radiance += beta * le * w;
+                    }
+                    break;
+                }
+                Some(h) => {
+                    if depth >= self.max_depth {
+                        break;
+                    }
+                    depth += 1;
+                    if depth > RR_START {
+                        let q = beta.abs().max_element().min(0.95);
+                        if sampler.next_1d() >= q {
+                            break;
+                        }
+                        beta /= q;
+                    }
+                    p = h.p;
+                    n = h.n;
+                    ng = h.ng;
+                    wo_world = -wi_world;
+                    object = h.object;
+                }
+            }
+        }
+        out.radiance = radiance;
+        out
+    }
+}

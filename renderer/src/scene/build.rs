@@ -1,0 +1,296 @@
+//! From a parsed [`SceneFile`] to a renderable [`Scene`]: validates every value (no NaN, no
+//! absurd sizes, positive parameters), loads meshes and environment maps relative to the scene
+//! file, and builds the BVH. Every failure is one line naming the scene file (or the data file).
+
+use super::file::{BrdfSection, CameraSection, LightingSection, ObjectSection, SceneFile};
+use crate::brdf::{self, Brdf, Horizon};
+use crate::camera::{Camera, NormalProbe, Orthographic, Perspective};
+use crate::geometry::{SceneGeometry, Shape, Sphere};
+use crate::light::{self, Light, Mapping};
+use crate::math::{Rgb, Vec3, rotation_xyz_deg};
+use crate::sampling::SamplerKind;
+use crate::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// Largest accepted image side and samples per pixel: beyond these a request is taken as a typo.
+pub const MAX_RESOLUTION: u32 = 16384;
+pub const MAX_SPP: u32 = 1 << 20;
+pub const MAX_DEPTH: u32 = 1024;
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    pub max_depth: u32,
+    pub sampler: SamplerKind,
+}
+
+/// Everything a render needs.
+pub struct Scene {
+    pub settings: RenderSettings,
+    pub camera: Camera,
+    pub light: Light,
+    pub geometry: SceneGeometry,
+    /// BRDF of object i.
+    pub brdfs: Vec<Brdf>,
+    /// The parsed description (with paths made absolute), written into the EXR header.
+    pub description: SceneFile,
+    /// Where the scene came from (None for the built-in default).
+    pub path: Option<PathBuf>,
+}
+
+/// The built-in default scene: a sphere under a built-in sky.
+pub const DEFAULT_SCENE: &str = include_str!("default.toml");
+
+impl Scene {
+    /// Loads and builds a scene file.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
+        let file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Scene::build(file, &base).map_err(|e| e.in_file(path)).map(|mut s| {
+            s.path = Some(path.to_path_buf());
+            s
+        })
+    }
+
+    /// The built-in default scene.
+    pub fn default_scene() -> Scene {
+        let file = SceneFile::parse(DEFAULT_SCENE).expect("built-in scene parses");
+        Scene::build(file, Path::new(".")).expect("built-in scene builds")
+    }
+
+    /// Builds a scene from its description; relative paths are resolved against `base`.
+    pub fn build(mut file: SceneFile, base: &Path) -> Result<Scene> {
+        let r = &file.render;
+        if r.width == 0 || r.height == 0 || r.width > MAX_RESOLUTION || r.height > MAX_RESOLUTION {
+            return Err(Error::new(format!(
+                "absurd resolution {}×{} (each side must be 1..={MAX_RESOLUTION})",
+                r.width, r.height
+            )));
+        }
+        if r.spp == 0 || r.spp > MAX_SPP {
+            return Err(Error::new(format!("spp = {} is out of range 1..={MAX_SPP}", r.spp)));
+        }
+        if r.max_depth == 0 || r.max_depth > MAX_DEPTH {
+            return Err(Error::new(format!("max_depth = {} is out of range 1..={MAX_DEPTH}", r.max_depth)));
+        }
+        let sampler = match r.sampler.as_str() {
+            "sobol" => SamplerKind::Sobol,
+            "independent" => SamplerKind::Independent,
+            s => return Err(Error::new(format!("render.sampler must be \"sobol\" or \"independent\", got {s:?}"))),
+        };
+        let settings = RenderSettings {
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            seed: r.seed,
+            max_depth: r.max_depth,
+            sampler,
+        };
+
+        // Objects.
+        let mut shapes = Vec::with_capacity(file.objects.len());
+        let mut brdfs = Vec::with_capacity(file.objects.len());
+        for (i, obj) in file.objects.iter_mut().enumerate() {
+            let ctx = |m: String| Error::new(format!("objects[{i}]: {m}"));
+            match obj {
+                ObjectSection::Sphere { center, radius, .. } => {
+                    let c = vec3(*center, "center").map_err(ctx)?;
+                    if !(*radius > 0.0 && radius.is_finite()) {
+                        return Err(ctx(format!("radius must be positive, got {radius}")));
+                    }
+                    shapes.push(Shape::Sphere(Sphere { center: c, radius: *radius }));
+                }
+                ObjectSection::Mesh { file: f, smooth, translate, scale, rotate_deg, .. } => {
+                    let p = resolve(base, f);
+                    *f = p.to_string_lossy().into_owned();
+                    let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+                    let mut mesh = match ext.as_str() {
+                        "obj" => crate::geometry::obj::load_obj(&p, *smooth)?,
+                        "gltf" | "glb" => crate::geometry::gltf::load_gltf(&p, *smooth)?,
+                        _ => return Err(Error::file(&p, "mesh file must be .obj, .gltf or .glb")),
+                    };
+                    let t = vec3(*translate, "translate").map_err(ctx)?;
+                    if !(*scale > 0.0 && scale.is_finite()) {
+                        return Err(ctx(format!("scale must be positive, got {scale}")));
+                    }
+                    let m = glam::Affine3A::from_scale_rotation_translation(
+                        Vec3::splat(*scale),
+                        glam::Quat::from_mat3(&rotation_xyz_deg(*rotate_deg)),
+                        t,
+                    );
+                    mesh.transform(m);
+                    shapes.push(Shape::Mesh(mesh));
+                }
+            }
+            brdfs.push(build_brdf(obj.brdf()).map_err(ctx)?);
+        }
+
+        // Camera.
+        let (w, h) = (settings.width, settings.height);
+        let first_sphere = match shapes.first() {
+            Some(Shape::Sphere(s)) => Some(*s),
+            _ => None,
+        };
+        let camera = build_camera(&file.camera, first_sphere, w, h).map_err(|m| Error::new(format!("camera: {m}")))?;
+
+        // Lighting.
+        let light = build_light(&mut file.lighting, base)?;
+        let geometry = SceneGeometry::new(shapes);
+        Ok(Scene { settings, camera, light, geometry, brdfs, description: file, path: None })
+    }
+}
+
+fn build_camera(c: &CameraSection, first_sphere: Option<Sphere>, w: u32, h: u32) -> std::result::Result<Camera, String> {
+    Ok(match c {
+        CameraSection::Orthographic { from, to, up, extent } => {
+            Camera::Orthographic(Orthographic::new(vec3(*from, "from")?, vec3(*to, "to")?, vec3(*up, "up")?, *extent, w, h)?)
+        }
+        CameraSection::Perspective { from, to, up, fov_deg } => {
+            Camera::Perspective(Perspective::new(vec3(*from, "from")?, vec3(*to, "to")?, vec3(*up, "up")?, *fov_deg, w, h)?)
+        }
+        CameraSection::NormalProbe { theta_o_deg, jitter } => {
+            let s = first_sphere.ok_or("the normal-probe camera needs objects[0] to be a sphere")?;
+            Camera::NormalProbe(NormalProbe::new(*theta_o_deg, *jitter, s.center, s.radius, w, h)?)
+        }
+    })
+}
+
+fn resolve(base: &Path, f: &str) -> PathBuf {
+    let p = Path::new(f);
+    if p.is_absolute() { p.to_path_buf() } else { base.join(p) }
+}
+
+fn vec3(v: [f32; 3], what: &str) -> std::result::Result<Vec3, String> {
+    if v.iter().all(|x| x.is_finite()) { Ok(Vec3::from(v)) } else { Err(format!("{what} has a non-finite component")) }
+}
+
+fn color(c: super::file::Color, what: &str) -> std::result::Result<Rgb, String> {
+    let v = c.rgb();
+    if v.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        Ok(Rgb::from(v))
+    } else {
+        Err(format!("{what} must be finite and non-negative, got {v:?}"))
+    }
+}
+
+fn positive(v: f32, what: &str) -> std::result::Result<f32, String> {
+    if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be positive, got {v}")) }
+}
+
+fn horizon(h: &str) -> std::result::Result<Horizon, String> {
+    match h {
+        "clamp" => Ok(Horizon::Clamp),
+        "ignore" => Ok(Horizon::Ignore),
+        _ => Err(format!("horizon must be \"clamp\" or \"ignore\", got {h:?}")),
+    }
+}
+
+/// Builds a BRDF from its table (CONVENTIONS §4).
+pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
+    Ok(match b {
+        BrdfSection::Mirror { kr } => Brdf::Mirror(brdf::Mirror::new(color(*kr, "kr")?)),
+        BrdfSection::Lambert { albedo } => Brdf::Lambert(brdf::Lambert::new(color(*albedo, "albedo")?)),
+        BrdfSection::Phong { ks, s, horizon: hz } => {
+            Brdf::Phong(brdf::Phong::new(color(*ks, "ks")?, positive(*s, "phong s")?, horizon(hz)?))
+        }
+        BrdfSection::TorranceSparrow { ks, sigma, horizon: hz } => Brdf::TorranceSparrow(brdf::TorranceSparrow::new(
+            color(*ks, "ks")?,
+            positive(*sigma, "torrance-sparrow sigma")?,
+            horizon(hz)?,
+        )),
+        BrdfSection::Microfacet { distribution, alpha, fresnel, f0, eta, k } => {
+            let d = match distribution.as_str() {
+                "beckmann" => brdf::MicrofacetDistribution::Beckmann,
+                "ggx" => brdf::MicrofacetDistribution::Ggx,
+                s => return Err(format!("microfacet distribution must be \"beckmann\" or \"ggx\", got {s:?}")),
+            };
+            let fr = match fresnel.as_str() {
+                "none" => brdf::Fresnel::None,
+                "schlick" => brdf::Fresnel::Schlick {
+                    f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")?,
+                },
+                "conductor" => brdf::Fresnel::Conductor {
+                    eta: color(eta.ok_or("fresnel = \"conductor\" needs eta")?, "eta")?,
+                    k: color(k.ok_or("fresnel = \"conductor\" needs k")?, "k")?,
+                },
+                s => return Err(format!("fresnel must be \"none\", \"schlick\" or \"conductor\", got {s:?}")),
+            };
+            Brdf::Microfacet(brdf::Microfacet::new(d, positive(*alpha, "microfacet alpha")?, fr))
+        }
+        BrdfSection::Mix { layers } => {
+            if layers.is_empty() {
+                return Err("mix needs at least one layer".into());
+            }
+            let mut v = Vec::with_capacity(layers.len());
+            for l in layers {
+                if !(l.weight >= 0.0 && l.weight.is_finite()) {
+                    return Err(format!("mix weight must be finite and non-negative, got {}", l.weight));
+                }
+                v.push((l.weight, build_brdf(&l.brdf)?));
+            }
+            Brdf::Mix(brdf::Mix::new(v))
+        }
+    })
+}
+
+fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
+    let lerr = |m: String| Error::new(format!("lighting: {m}"));
+    Ok(match l {
+        LightingSection::Uniform { radiance } => Light::Uniform(light::Uniform::new(color(*radiance, "radiance").map_err(lerr)?)),
+        LightingSection::Directional { direction, irradiance } => {
+            let d = vec3(*direction, "direction").map_err(lerr)?;
+            if d.length_squared() < 1e-12 {
+                return Err(lerr("direction must be non-zero".into()));
+            }
+            Light::Directional(light::Directional::new(d, color(*irradiance, "irradiance").map_err(lerr)?))
+        }
+        LightingSection::Axial { axis, profile } => {
+            let a = vec3(*axis, "axis").map_err(lerr)?;
+            if a.length_squared() < 1e-12 {
+                return Err(lerr("axis must be non-zero".into()));
+            }
+            if profile.is_empty() {
+                return Err(lerr("axial profile is empty".into()));
+            }
+            let mut prev = -1.0;
+            let mut table = Vec::with_capacity(profile.len());
+            for row in profile.iter() {
+                let [t, r, g, b] = *row;
+                if !(t > prev && (0.0..=180.0).contains(&t)) {
+                    return Err(lerr("axial profile angles must increase within [0, 180] degrees".into()));
+                }
+                prev = t;
+                table.push((t.to_radians(), color(super::file::Color::Rgb([r, g, b]), "axial radiance").map_err(lerr)?));
+            }
+            Light::Axial(light::Axial::new(a, table))
+        }
+        LightingSection::Sh { coefficients } => {
+            if coefficients.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(lerr("SH coefficients must be finite".into()));
+            }
+            let c: Vec<Rgb> = coefficients.iter().map(|&v| Rgb::from(v)).collect();
+            Light::Sh(light::ShLight::new(c))
+        }
+        LightingSection::Envmap { file, mapping, scale, rotate_deg } => {
+            let p = resolve(base, file);
+            *file = p.to_string_lossy().into_owned();
+            let m = match mapping.as_str() {
+                "latlong" => Mapping::LatLong,
+                "angular" => Mapping::Angular,
+                s => return Err(lerr(format!("mapping must be \"latlong\" or \"angular\", got {s:?}"))),
+            };
+            if !(*scale >= 0.0 && scale.is_finite()) {
+                return Err(lerr(format!("scale must be finite and non-negative, got {scale}")));
+            }
+            if rotate_deg.iter().any(|v| !v.is_finite()) {
+                return Err(lerr("rotate_deg must be finite".into()));
+            }
+            let img = analysis::image::read_rgb(&p)?;
+            Light::Envmap(light::Envmap::new(img, m, *scale, rotation_xyz_deg(*rotate_deg)).map_err(|e| e.in_file(&p))?)
+        }
+    })
+}

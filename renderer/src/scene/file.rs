@@ -1,0 +1,237 @@
+//! The scene-file vocabulary of CONVENTIONS §6, as serde structs. Unknown keys are errors
+//! (`deny_unknown_fields` everywhere), so a typo never silently changes a render.
+//!
+//! Extensions beyond §6 (all optional): `render.sampler` ("sobol" | "independent"),
+//! `camera.jitter` for the normal-probe camera, mesh `smooth`/`translate`/`scale`/`rotate_deg`,
+//! lighting `axial.profile = [[theta_deg, r, g, b], …]`, colours given as a scalar or an RGB triple.
+
+use serde::{Deserialize, Serialize};
+
+/// A colour given either as one number (grey) or as `[r, g, b]`.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum Color {
+    Grey(f32),
+    Rgb([f32; 3]),
+}
+
+impl Color {
+    pub fn rgb(self) -> [f32; 3] {
+        match self {
+            Color::Grey(v) => [v; 3],
+            Color::Rgb(c) => c,
+        }
+    }
+}
+
+fn one() -> Color {
+    Color::Grey(1.0)
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    #[serde(default)]
+    pub render: RenderSection,
+    pub camera: CameraSection,
+    pub lighting: LightingSection,
+    #[serde(default)]
+    pub objects: Vec<ObjectSection>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderSection {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    /// Path vertices; a convex object under distant light needs 1.
+    pub max_depth: u32,
+    /// "sobol" (default) or "independent".
+    pub sampler: String,
+}
+
+impl Default for RenderSection {
+    fn default() -> Self {
+        RenderSection { width: 512, height: 512, spp: 64, seed: 0, max_depth: 8, sampler: "sobol".into() }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum CameraSection {
+    Orthographic {
+        from: [f32; 3],
+        to: [f32; 3],
+        #[serde(default = "z_up")]
+        up: [f32; 3],
+        extent: f32,
+    },
+    Perspective {
+        from: [f32; 3],
+        to: [f32; 3],
+        #[serde(default = "z_up")]
+        up: [f32; 3],
+        fov_deg: f32,
+    },
+    NormalProbe {
+        #[serde(default)]
+        theta_o_deg: f32,
+        /// Average each pixel over its solid angle instead of sampling the pixel centre.
+        #[serde(default)]
+        jitter: bool,
+    },
+}
+
+fn z_up() -> [f32; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum LightingSection {
+    Uniform {
+        radiance: Color,
+    },
+    Directional {
+        /// Direction toward the source.
+        direction: [f32; 3],
+        irradiance: Color,
+    },
+    Axial {
+        #[serde(default = "z_up")]
+        axis: [f32; 3],
+        /// `[theta_deg, r, g, b]` rows, θ increasing from 0 to 180; linear in between.
+        profile: Vec<[f32; 4]>,
+    },
+    Sh {
+        /// RGB triples in index order k = l(l+1) + m.
+        coefficients: Vec<[f32; 3]>,
+    },
+    Envmap {
+        file: String,
+        mapping: String,
+        #[serde(default = "one_f")]
+        scale: f32,
+        #[serde(default)]
+        rotate_deg: [f32; 3],
+    },
+}
+
+fn one_f() -> f32 {
+    1.0
+}
+
+fn yes() -> bool {
+    true
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum ObjectSection {
+    Sphere {
+        #[serde(default)]
+        center: [f32; 3],
+        #[serde(default = "one_f")]
+        radius: f32,
+        brdf: BrdfSection,
+    },
+    Mesh {
+        file: String,
+        #[serde(default = "yes")]
+        smooth: bool,
+        #[serde(default)]
+        translate: [f32; 3],
+        #[serde(default = "one_f")]
+        scale: f32,
+        #[serde(default)]
+        rotate_deg: [f32; 3],
+        brdf: BrdfSection,
+    },
+}
+
+impl ObjectSection {
+    pub fn brdf(&self) -> &BrdfSection {
+        match self {
+            ObjectSection::Sphere { brdf, .. } | ObjectSection::Mesh { brdf, .. } => brdf,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum BrdfSection {
+    Mirror {
+        #[serde(default = "one")]
+        kr: Color,
+    },
+    Lambert {
+        albedo: Color,
+    },
+    Phong {
+        #[serde(default = "one")]
+        ks: Color,
+        s: f32,
+        #[serde(default = "clamp")]
+        horizon: String,
+    },
+    TorranceSparrow {
+        #[serde(default = "one")]
+        ks: Color,
+        sigma: f32,
+        #[serde(default = "clamp")]
+        horizon: String,
+    },
+    Microfacet {
+        /// "beckmann" | "ggx"
+        #[serde(default = "beckmann")]
+        distribution: String,
+        alpha: f32,
+        /// "none" | "schlick" | "conductor"
+        #[serde(default = "none_str")]
+        fresnel: String,
+        /// Schlick: reflectance at normal incidence.
+        #[serde(default)]
+        f0: Option<Color>,
+        /// Conductor: complex index of refraction η + i k.
+        #[serde(default)]
+        eta: Option<Color>,
+        #[serde(default)]
+        k: Option<Color>,
+    },
+    Mix {
+        layers: Vec<MixLayer>,
+    },
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MixLayer {
+    pub weight: f32,
+    pub brdf: BrdfSection,
+}
+
+fn clamp() -> String {
+    "clamp".into()
+}
+fn beckmann() -> String {
+    "beckmann".into()
+}
+fn none_str() -> String {
+    "none".into()
+}
+
+impl SceneFile {
+    /// Parses TOML text; errors carry the line number and serde's one-line message.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        toml::from_str::<SceneFile>(text).map_err(|e| {
+            let line = e.span().map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+            let msg = e.message().trim().replace('\n', " ");
+            match line {
+                Some(l) => format!("line {l}: {msg}"),
+                None => msg,
+            }
+        })
+    }
+}
