@@ -3,6 +3,7 @@
 pub mod analyze;
 pub mod render;
 pub mod sh;
+pub mod verify;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -25,8 +26,8 @@ pub enum Command {
     Sh(sh::ShCommand),
     /// Project renders (EXR) into SH and compare with the lighting.
     Analyze(analyze::AnalyzeArgs),
-    /// Render, analyse and check the paper's claims (placeholder: renders the default scene).
-    Verify(render::RenderArgs),
+    /// Render, analyse and check the paper's claims; report with error bars.
+    Verify(verify::VerifyArgs),
 }
 
 pub fn run(cli: Cli) -> Result<ExitCode, Error> {
@@ -34,6 +35,6 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Render(a) => render::run(a),
         Command::Sh(c) => sh::run(c),
         Command::Analyze(a) => analyze::run(a),
-        Command::Verify(a) => render::run(a),
+        Command::Verify(a) => verify::run(a),
     }
 }
