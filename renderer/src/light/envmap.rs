@@ -260,7 +260,7 @@ impl DistantLight for Envmap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::light::testutil::check_light;
+    use crate::light::testutil::{check_light, check_light_with};
     use crate::math::{rotation_xyz_deg, spherical_direction};
     use crate::sampling::chi2::{Chi2Config, TestRng};
 
@@ -453,7 +453,10 @@ mod tests {
     fn grace_loads_and_samples_by_its_pdf() {
         let e = Envmap::load(Path::new(GRACE), Mapping::Angular, 1.0, [0.0; 3]).unwrap();
         assert_eq!((e.image.width, e.image.height), (1000, 1000));
-        check_light(&e, "envmap grace", 1.0 - refused_mass(&e));
+        // The probe's sharp window edges need an even finer quadrature of the expected counts: at
+        // 96² points per cell the quadrature total is 0.99989 and p ≈ 1e-3 (seed 7); at 200² it is
+        // 1.00001 and p = 0.09, 0.48, 0.12 for seeds 7, 8, 9.
+        check_light_with(&e, "envmap grace", 1.0 - refused_mass(&e), 200);
     }
 
     #[test]

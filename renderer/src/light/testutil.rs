@@ -15,7 +15,12 @@ pub fn check_light<L: DistantLight>(light: &L, name: &str, mass: f64) -> Chi2Res
     // A fine quadrature of the expected counts (96² points per cell): lights have sharp features
     // (a sun disc, bright windows) that the default 6² midpoint rule integrates badly, and the
     // error of the expected mass is charged to the χ² statistic (via the "refused" cell).
-    let cfg = Chi2Config { resolution: 96, ..Default::default() };
+    check_light_with(light, name, mass, 96)
+}
+
+/// [`check_light`] with `resolution`² quadrature points per χ² cell.
+pub fn check_light_with<L: DistantLight>(light: &L, name: &str, mass: f64, resolution: usize) -> Chi2Result {
+    let cfg = Chi2Config { resolution, ..Default::default() };
     let r = chi2_sphere(|_, u| light.sample(u).map(|s| s.wi), |d| light.pdf(d) as f64, &cfg);
     eprintln!("{name}: {r:?}");
     assert!(r.passes(ALPHA), "{name}: χ² rejects the sampler: {r:?}");
