@@ -23,6 +23,7 @@ use super::{DistantLight, LightSample};
 use crate::math::{Rgb, Vec2, Vec3, PI};
 use crate::sampling::distribution::Distribution2D;
 use analysis::image::RgbImage;
+use rayon::prelude::*;
 use std::path::Path;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,7 +103,7 @@ impl Envmap {
             Mapping::Angular => {
                 let weights: Vec<f32> = image
                     .pixels
-                    .iter()
+                    .par_iter()
                     .enumerate()
                     .map(|(i, &p)| match angular_pixel_theta(i / w, i % w, w) {
                         Some(theta) => max_channel(p) * sinc(theta),
@@ -150,9 +151,10 @@ impl Envmap {
         (r, c, theta)
     }
 
-    /// ∫ L dω over the sphere, per channel, by the exact per-pixel solid angles of CONVENTIONS §2
-    /// (scaled; angular-map pixels outside the disc contribute nothing).
-    pub fn total_radiant_intensity(&self) -> [f64; 3] {
+    /// ∫ L dω over the sphere (the scalar irradiance, 4π × the mean radiance), per channel, as the
+    /// pixel sum with the per-pixel solid angles of CONVENTIONS §2 (exact for lat-long; the
+    /// midpoint value (2π/W)² sinθ/θ for the angular map, whose pixels outside the disc count 0).
+    pub fn radiance_integral(&self) -> [f64; 3] {
         let (w, h) = (self.image.width, self.image.height);
         let mut sum = [0.0f64; 3];
         for r in 0..h {
@@ -209,7 +211,7 @@ impl DistantLight for Envmap {
         let d = match &self.sampler {
             EnvSampler::LatLong(grid) => grid.sample(u)?.0,
             EnvSampler::Angular(dist) => {
-                if !(dist.integral() > 0.0) {
+                if dist.integral() <= 0.0 {
                     return None;
                 }
                 let (uv, _) = dist.sample_continuous(u);
@@ -432,21 +434,31 @@ mod tests {
     }
 
     #[test]
-    fn wrong_pdf_is_rejected() {
-        // Negative test: the lat-long light's samples against the pdf it would have without the
-        // sinθ of the pixel solid angle (uniform in θ instead of in z) must fail χ².
-        let e = Envmap::new(synthetic(64, 32), Mapping::LatLong, 1.0, glam::Mat3::IDENTITY).unwrap();
-        let cfg = Chi2Config { samples: 200_000, ..Default::default() };
-        let r = crate::sampling::chi2::chi2_sphere(
-            |_, u| e.sample(u).map(|s| s.wi),
-            |d| {
-                let theta = d.z.clamp(-1.0, 1.0).acos();
-                // Same total mass, but the within-row density ∝ 1/sinθ · (row mean of sinθ).
-                e.pdf(d) as f64 * (2.0 / PI as f64) / (theta.sin() as f64).max(1e-3)
-            },
-            &cfg,
-        );
-        assert!(!r.passes(1e-3), "{r:?}");
+    fn wrong_pdfs_are_rejected() {
+        // Negative tests: the χ² must see two plausible mistakes.
+        let cfg = Chi2Config { samples: 1_000_000, resolution: 96, ..Default::default() };
+        let run = |e: &Envmap, pdf: &dyn Fn(Vec3) -> f64| {
+            crate::sampling::chi2::chi2_sphere(|_, u| e.sample(u).map(|s| s.wi), pdf, &cfg)
+        };
+        // (1) Angular map without the Jacobian sinθ/θ of the image plane (p_uv / 4π² only).
+        let e = Envmap::new(synthetic(64, 64), Mapping::Angular, 1.0, glam::Mat3::IDENTITY).unwrap();
+        let r = run(&e, &|d| {
+            let theta = (d.x * d.x + d.y * d.y).sqrt().atan2(d.z);
+            (e.pdf(d) * sinc(theta)) as f64
+        });
+        assert!(!r.passes(1e-3), "missing Jacobian not detected: {r:?}");
+        // (2) Lat-long with the density of a θ-linear warp inside each pixel, p ∝ 1/(Δθ sinθ),
+        // instead of the z-linear one, p ∝ 1/Δz: same mass per pixel, wrong shape within pixels.
+        let (w, h) = (64, 32);
+        let e = Envmap::new(synthetic(w, h), Mapping::LatLong, 1.0, glam::Mat3::IDENTITY).unwrap();
+        let r = run(&e, &|d| {
+            let theta = (d.x * d.x + d.y * d.y).sqrt().atan2(d.z) as f64;
+            let dt = std::f64::consts::PI / h as f64;
+            let row = ((theta / dt) as usize).min(h - 1) as f64;
+            let dz = (row * dt).cos() - ((row + 1.0) * dt).cos();
+            e.pdf(d) as f64 * dz / (dt * theta.sin().max(1e-6))
+        });
+        assert!(!r.passes(1e-3), "θ-linear density not detected: {r:?}");
     }
 
     #[test]
@@ -459,14 +471,9 @@ mod tests {
         check_light_with(&e, "envmap grace", 1.0 - refused_mass(&e), 200);
     }
 
-    #[test]
-    fn grace_integral_by_sampling_matches_pixel_sum() {
-        // ∫ L dω by MC with the light's own samples vs the pixel sum with the exact per-pixel solid
-        // angles of CONVENTIONS §2. 4σ per channel with σ = sqrt(sample variance / n).
-        let e = Envmap::load(Path::new(GRACE), Mapping::Angular, 0.5, [10.0, 20.0, 30.0]).unwrap();
-        let exact = e.total_radiant_intensity();
-        let n = 1_000_000;
-        let mut rng = TestRng::new(17);
+    /// MC estimate of ∫ L dω with the light's own samples: (mean, σ) per channel, σ = sqrt(var/n).
+    fn mc_integral(e: &Envmap, n: usize, seed: u64) -> [(f64, f64); 3] {
+        let mut rng = TestRng::new(seed);
         let (mut s, mut s2) = ([0.0f64; 3], [0.0f64; 3]);
         for _ in 0..n {
             let v = e.sample(Vec2::new(rng.next_f32(), rng.next_f32())).map_or(Rgb::ZERO, |s| s.value);
@@ -475,9 +482,31 @@ mod tests {
                 s2[ch] += (v[ch] as f64).powi(2);
             }
         }
-        for ch in 0..3 {
+        std::array::from_fn(|ch| {
             let mean = s[ch] / n as f64;
-            let sigma = ((s2[ch] / n as f64 - mean * mean) / n as f64).sqrt();
+            (mean, ((s2[ch] / n as f64 - mean * mean) / n as f64).sqrt())
+        })
+    }
+
+    #[test]
+    fn latlong_integral_by_sampling_matches_pixel_sum() {
+        // Lat-long pixel solid angles are exact, so the pixel sum is the exact ∫ L dω: 4σ.
+        let e = Envmap::new(synthetic(64, 32), Mapping::LatLong, 1.5, rotation_xyz_deg([0.0, 40.0, 0.0])).unwrap();
+        let exact = e.radiance_integral();
+        for (ch, (mean, sigma)) in mc_integral(&e, 400_000, 23).into_iter().enumerate() {
+            assert!((mean - exact[ch]).abs() < 4.0 * sigma, "channel {ch}: {mean} ± {sigma} vs {}", exact[ch]);
+        }
+    }
+
+    #[test]
+    fn grace_integral_by_sampling_matches_pixel_sum() {
+        // ∫ L dω by MC with the light's own samples vs the pixel sum with the per-pixel solid angles
+        // of CONVENTIONS §2. 4σ per channel with σ = sqrt(sample variance / n) (≈ 3e-4 relative).
+        // The §2 angular formula is the midpoint value of the exact Jacobian (2/W)²·π² sinθ/θ: its
+        // error, O((2/W)²) ≈ 1e-5 relative plus the few dark rim pixels, is far below σ.
+        let e = Envmap::load(Path::new(GRACE), Mapping::Angular, 0.5, [10.0, 20.0, 30.0]).unwrap();
+        let exact = e.radiance_integral();
+        for (ch, (mean, sigma)) in mc_integral(&e, 1_000_000, 17).into_iter().enumerate() {
             eprintln!("grace ∫L dω channel {ch}: MC {mean} ± {sigma}, pixel sum {}", exact[ch]);
             assert!((mean - exact[ch]).abs() < 4.0 * sigma, "channel {ch}: {mean} ± {sigma} vs {}", exact[ch]);
             // Importance sampling by max channel: each channel's estimate is already precise.

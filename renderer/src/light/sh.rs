@@ -72,7 +72,7 @@ impl ShLight {
     pub fn eval_f64(&self, dir: Vec3) -> [f64; 3] {
         let (x, y, z) = (dir.x as f64, dir.y as f64, dir.z as f64);
         let len = (x * x + y * y + z * z).sqrt();
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return [0.0; 3];
         }
         let d = [x / len, y / len, z / len];

@@ -14,6 +14,7 @@
 //! CDFs are accumulated in f64 and stored in f32 (rounding is monotone, so they stay sorted).
 
 use crate::math::Vec2;
+use rayon::prelude::*;
 
 /// Largest f32 below 1: random numbers are clamped to it so `u = 1` cannot select past the end.
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -37,17 +38,15 @@ impl Distribution1D {
             f.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect()
         };
         let n = func.len();
+        let total: f64 = func.iter().map(|&v| v as f64).sum();
         let mut cdf = Vec::with_capacity(n + 1);
         cdf.push(0.0f32);
-        let mut acc = 0.0f64;
-        let mut running = Vec::with_capacity(n);
-        for &v in &func {
-            acc += v as f64;
-            running.push(acc);
-        }
-        let total = acc;
         if total > 0.0 {
-            cdf.extend(running.iter().map(|&s| (s / total) as f32));
+            let mut acc = 0.0f64;
+            for &v in &func {
+                acc += v as f64;
+                cdf.push((acc / total) as f32);
+            }
         } else {
             // Nothing to importance-sample: a uniform CDF keeps `sample_*` well defined.
             cdf.extend((1..=n).map(|i| i as f32 / n as f32));
@@ -158,7 +157,8 @@ impl Distribution2D {
     /// When `func.len() != nu * nv` or a dimension is 0 (a programming error, never user data).
     pub fn new(func: &[f32], nu: usize, nv: usize) -> Self {
         assert!(nu > 0 && nv > 0 && func.len() == nu * nv, "Distribution2D: {} values for {nu}×{nv}", func.len());
-        let conditional: Vec<Distribution1D> = func.chunks_exact(nu).map(Distribution1D::new).collect();
+        // Rows are independent: build them in parallel (collect keeps the order: deterministic).
+        let conditional: Vec<Distribution1D> = func.par_chunks_exact(nu).map(Distribution1D::new).collect();
         let row_integrals: Vec<f32> = conditional.iter().map(|d| d.integral() as f32).collect();
         let marginal = Distribution1D::new(&row_integrals);
         Distribution2D { conditional, marginal, nu, nv }
