@@ -17,7 +17,7 @@ use glam::DVec3;
 pub const ALPHA: f64 = 1e-5;
 
 pub fn chi2_cfg() -> Chi2Config {
-    Chi2Config { theta_bins: 32, phi_bins: 64, samples: 1_000_000, seed: 17, resolution: 10, ..Default::default() }
+    Chi2Config { theta_bins: 32, phi_bins: 64, samples: 1_000_000, seed: 17, resolution: 24, ..Default::default() }
 }
 
 /// Unit direction at polar angle θ (degrees), azimuth 0.4 rad (off the axes on purpose).
