@@ -194,7 +194,7 @@ impl Bxdf for Microfacet {
         let d = self.d(h);
         let lo = self.lambda(wo);
         let pdf = self.pdf_h(wo, h, d, lo);
-        if !(pdf > 0.0) {
+        if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
         let g = 1.0 / (1.0 + lo + self.lambda(wi));

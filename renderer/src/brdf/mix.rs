@@ -75,7 +75,7 @@ impl Bxdf for Mix {
             return Some(BrdfSample { wi: s.wi, weight: s.weight * (1.0 / self.inv_total), pdf: s.pdf * p, delta: true });
         }
         let pdf = self.pdf(wo, s.wi);
-        if !(pdf > 0.0) {
+        if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
         Some(BrdfSample { wi: s.wi, weight: self.eval(wo, s.wi) / pdf, pdf, delta: false })

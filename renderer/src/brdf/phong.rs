@@ -52,6 +52,7 @@ impl Bxdf for Phong {
         }
         let r = Vec3::new(-wo.x, -wo.y, wo.z);
         let local = warp::square_to_cos_power_lobe(u, self.inv_s_plus_1);
+        // Rotate the +z lobe onto R (warp::square_to_cos_power_lobe_about, keeping cos α = local.z).
         let wi = Frame::from_normal(r).to_world(local);
         if self.horizon == Horizon::Clamp && wi.z <= 0.0 {
             return None;

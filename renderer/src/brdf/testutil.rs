@@ -178,3 +178,47 @@ fn zoom_round_trip_and_jacobian() {
     );
     assert!((m - 1.0).abs() < 1e-4, "{m}");
 }
+
+/// Rough cost per call of sample + eval + pdf for each model (run with `--ignored --nocapture`;
+/// prints only, timing is machine dependent).
+#[test]
+#[ignore]
+fn timing() {
+    use super::*;
+    let models: Vec<(&str, Brdf)> = vec![
+        ("lambert", Brdf::Lambert(Lambert::new(Rgb::ONE))),
+        ("mirror", Brdf::Mirror(Mirror::new(Rgb::ONE))),
+        ("phong s=32", Brdf::Phong(Phong::new(Rgb::ONE, 32.0, Horizon::Clamp))),
+        ("ts σ=0.2", Brdf::TorranceSparrow(TorranceSparrow::new(Rgb::ONE, 0.2, Horizon::Clamp))),
+        ("ggx α=0.3", Brdf::Microfacet(Microfacet::new(MicrofacetDistribution::Ggx, 0.3, Fresnel::None))),
+        ("beckmann α=0.3", Brdf::Microfacet(Microfacet::new(MicrofacetDistribution::Beckmann, 0.3, Fresnel::None))),
+        (
+            "mix lambert+ggx",
+            Brdf::Mix(Mix::new(vec![
+                (0.5, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+                (0.5, Brdf::Microfacet(Microfacet::new(MicrofacetDistribution::Ggx, 0.3, Fresnel::None))),
+            ])),
+        ),
+    ];
+    let wo = dir_theta_deg(35.0);
+    for (name, b) in &models {
+        let mut rng = TestRng::new(1);
+        let n = 2_000_000;
+        let t0 = std::time::Instant::now();
+        let mut acc = 0.0f32;
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            if let Some(s) = b.sample(wo, rng.next_f32(), u) {
+                acc += s.weight.x;
+            }
+        }
+        let ts = t0.elapsed().as_secs_f64() / n as f64 * 1e9;
+        let t0 = std::time::Instant::now();
+        for _ in 0..n {
+            let wi = crate::sampling::warp::square_to_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            acc += b.eval(wo, wi).x + b.pdf(wo, wi);
+        }
+        let te = t0.elapsed().as_secs_f64() / n as f64 * 1e9;
+        eprintln!("{name:>16}: sample {ts:.1} ns, eval+pdf (+warp) {te:.1} ns  [{acc:.1}]");
+    }
+}

@@ -109,7 +109,7 @@ impl Bxdf for TorranceSparrow {
             return None;
         }
         let pdf = self.pdf_norm * (-theta * theta * self.inv_sigma2).exp() * ratio / woh;
-        if !(pdf > 0.0) {
+        if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
         let weight = self.ks * (self.z_trunc * woh / (wo.z * ratio));
