@@ -4,10 +4,13 @@
 //! - One obvhs compressed wide BVH8 (`CwBvh`, Ylitie et al. 2017) is built over the AABBs of all
 //!   primitives: each triangle of each mesh, and each sphere as a single custom primitive.
 //! - After the build the primitive records are reordered into the BVH's leaf order
-//!   (`primitive_indices`), so a leaf slot indexes [`Prim`] directly with no indirection.
-//! - Each [`Prim`] is three 16-byte lanes: triangles store (v0, e1, e2) for Möller–Trumbore, spheres
+//!   (`primitive_indices`), so a leaf slot indexes a `Prim` directly with no indirection.
+//! - Each `Prim` is three 16-byte lanes: triangles store (v0, e1, e2) for Möller–Trumbore, spheres
 //!   store (centre, radius); the `w` lane of the first vector tags the kind, so the leaf test reads
 //!   one 48-byte record.
+//! - Closest-hit traversal uses obvhs's `traverse!` loop with a software prefetch of the hit
+//!   children and leaf primitives of each node (~5–8% on a 1.3 M-triangle mesh, whose traversal
+//!   is bound by cache misses). Any-hit (`occluded`) stops at the first hit.
 //! - A scene that is a single sphere bypasses the BVH (one analytic test per ray), and an empty
 //!   scene always misses.
 //!
@@ -143,7 +146,8 @@ impl SceneGeometry {
         let (bvh, prims, refs) = if prims.is_empty() {
             (None, prims, refs)
         } else {
-            let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, probe_params(), &mut Duration::ZERO.clone());
+            let mut core_time = Duration::ZERO;
+            let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BUILD_PARAMS, &mut core_time);
             // Reorder into leaf order so a slot id indexes the records directly.
             let p2 = bvh.primitive_indices.iter().map(|&k| prims[k as usize]).collect();
             let r2 = bvh.primitive_indices.iter().map(|&k| refs[k as usize]).collect();
@@ -162,6 +166,13 @@ impl SceneGeometry {
         self.build_time
     }
 
+    /// A NaN/infinite origin or direction would poison the slab tests (and trip obvhs's debug
+    /// assertions); such a ray hits nothing.
+    #[inline(always)]
+    fn is_valid(ray: &Ray) -> bool {
+        ray.origin.is_finite() && ray.dir.is_finite()
+    }
+
     #[inline]
     fn bvh_ray(ray: &Ray) -> obvhs::ray::Ray {
         // obvhs takes the ray octant from `d < 0` but the slab sign from signum(d): a −0.0
@@ -178,6 +189,9 @@ impl SceneGeometry {
             return s.intersect(ray, 0);
         }
         let bvh = self.bvh.as_ref()?;
+        if !Self::is_valid(ray) {
+            return None;
+        }
         let mut traverse_ray = Self::bvh_ray(ray);
         let mut state = bvh.new_traversal(traverse_ray.direction);
         let mut node;
@@ -266,6 +280,9 @@ impl SceneGeometry {
             return s.intersect_t(ray.origin, ray.dir, ray.t_max).is_some();
         }
         let Some(bvh) = self.bvh.as_ref() else { return false };
+        if !Self::is_valid(ray) {
+            return false;
+        }
         !bvh.ray_traverse_miss(Self::bvh_ray(ray), |r, slot| {
             match self.prims[slot].intersect(r.origin, r.direction, r.tmax) {
                 Some((t, ..)) => t,
@@ -273,24 +290,6 @@ impl SceneGeometry {
             }
         })
     }
-
-    #[doc(hidden)]
-    pub fn probe_stats(&self, ray: &Ray) -> (u32, u32) {
-        let bvh = self.bvh.as_ref().unwrap();
-        let mut traverse_ray = Self::bvh_ray(ray);
-        let mut state = bvh.new_traversal(traverse_ray.direction);
-        let mut node;
-        let (mut nn, mut np) = (0u32, 0u32);
-        obvhs::traverse!(bvh, node, state, { nn += 1; node.intersect_ray(&traverse_ray, state.oct_inv4) }, {
-            np += 1;
-            if let Some((t, ..)) = self.prims[state.primitive_id as usize].intersect(traverse_ray.origin, traverse_ray.direction, traverse_ray.tmax) {
-                traverse_ray.tmax = t;
-            }
-        });
-        (nn, np)
-    }
-    #[doc(hidden)]
-    pub fn probe_sizes(&self) -> (usize, usize) { let b = self.bvh.as_ref().unwrap(); (b.nodes.len(), b.primitive_indices.len()) }
 
     /// Reference closest hit by testing every primitive of every shape (no BVH); for tests.
     pub fn intersect_brute_force(&self, ray: &Ray) -> Option<Hit> {
@@ -373,6 +372,8 @@ mod tests {
                     (target + in_box(&mut rng, 0.5) - o).normalize()
                 }
             };
+            // Every 10th ray is axis-aligned (±0.0 components exercise the octant/sign handling).
+            let d = if i % 10 == 9 { [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z][(i / 10) % 6] } else { d };
             let mut ray = Ray::new(o, d);
             if i % 7 == 0 {
                 ray.t_max = 3.0 * rng.next_f32();
@@ -439,6 +440,12 @@ mod tests {
         let mut short = r;
         short.t_max = 1.5;
         assert!(!g.occluded(&short) && g.intersect(&short).is_none());
+
+        // Non-finite rays hit nothing in a BVH scene.
+        let g = SceneGeometry::new(vec![Shape::Mesh(icosphere(1)), Shape::Sphere(Sphere::new(Vec3::Z * 3.0, 1.0))]);
+        let bad = Ray::new(Vec3::new(0.0, 0.0, f32::NAN), Vec3::Z);
+        assert!(g.intersect(&bad).is_none() && !g.occluded(&bad));
+        assert!(g.intersect(&r).is_some());
     }
 
     #[test]
@@ -450,11 +457,3 @@ mod tests {
     use super::super::TriangleMesh;
 }
 
-fn probe_params() -> BvhBuildParams {
-    let mut p = BUILD_PARAMS;
-    if let Ok(v) = std::env::var("BVH_SD") { p.ploc_search_distance = match v.as_str() { "min" => PlocSearchDistance::Minimum, "low" => PlocSearchDistance::Low, "med" => PlocSearchDistance::Medium, _ => PlocSearchDistance::High }; }
-    if let Ok(v) = std::env::var("BVH_RE") { p.reinsertion_batch_ratio = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("BVH_LEAF") { p.max_prims_per_leaf = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("BVH_SDT") { p.search_depth_threshold = v.parse().unwrap(); }
-    p
-}
