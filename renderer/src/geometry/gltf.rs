@@ -96,7 +96,7 @@ fn read_primitive(
         Some(ix) => ix.into_u32().collect(),
         None => (0..n).collect(),
     };
-    if indices.len() % 3 != 0 {
+    if !indices.len().is_multiple_of(3) {
         return Err(format!("{} indices is not a multiple of 3", indices.len()));
     }
     if let Some(&bad) = indices.iter().find(|&&k| k >= n) {
@@ -255,7 +255,7 @@ mod tests {
         check_tetra(&load_gltf(&p, true).expect("external"), true);
         // GLB: header, JSON chunk (space-padded), BIN chunk.
         let mut json = tetra_json(None, 3).into_bytes();
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let total = 12 + 8 + json.len() + 8 + buf.len();

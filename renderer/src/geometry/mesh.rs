@@ -96,7 +96,7 @@ impl TriangleMesh {
             let p = t.map(|k| self.positions[k as usize].as_dvec3());
             let nf = (p[1] - p[0]).cross(p[2] - p[0]);
             let len = nf.length();
-            if !(len > 0.0) {
+            if len.is_nan() || len <= 0.0 {
                 continue; // degenerate: no direction to contribute
             }
             let nf = nf / len;

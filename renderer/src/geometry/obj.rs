@@ -25,7 +25,6 @@ pub fn load_obj(path: &Path, smooth: bool) -> crate::Result<TriangleMesh> {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     // Materials are irrelevant here (BRDFs come from the scene file); a missing .mtl is not an error.
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| err(format!("invalid OBJ: {e}")))?;
@@ -38,7 +37,7 @@ pub fn load_obj(path: &Path, smooth: bool) -> crate::Result<TriangleMesh> {
 
     for model in &models {
         let m = &model.mesh;
-        if m.indices.len() % 3 != 0 {
+        if !m.indices.len().is_multiple_of(3) {
             return Err(err(format!("model '{}' is not triangulated", model.name)));
         }
         let base = mesh.positions.len() as u32;
