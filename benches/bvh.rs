@@ -7,6 +7,9 @@
 //!   all hit; origins inside the ball still hit the surface from inside).
 //!
 //! Run: `cargo bench --bench bvh` (about 2 minutes). Throughput is printed as elements/s = rays/s.
+//! Before each group one untimed-by-criterion pass per ray set prints the hit fraction, the
+//! wall-clock rate, and the rate normalised by the process CPU time (what 2 dedicated cores would
+//! give; on a machine shared with other jobs the wall-clock numbers understate it).
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
@@ -58,6 +61,16 @@ fn rays(kind: &str, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// User + system CPU time of this process (all threads) from /proc/self/stat, Linux only.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name: state is field 3, utime 14, stime 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0) // USER_HZ = 100 on Linux
+}
+
 /// Closest hits of all rays on the pool; returns the number of hits so nothing is optimised away.
 fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray]) -> usize {
     pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| geo.intersect(r).is_some()).count())
@@ -78,8 +91,18 @@ fn bench(c: &mut Criterion) {
             tris as f64 / t0.elapsed().as_secs_f64() * 1e-6
         );
         for (kind, rs) in &ray_sets {
-            let hits = trace(&pool, &geo, rs);
-            println!("  {kind}: hit fraction {:.4}", hits as f64 / rs.len() as f64);
+            let hits = trace(&pool, &geo, rs); // also warms caches and the pool
+            let (c0, t0) = (process_cpu_seconds(), Instant::now());
+            black_box(trace(&pool, &geo, rs));
+            let (cpu, wall) = (process_cpu_seconds().map(|c| c - c0.unwrap_or(0.0)), t0.elapsed().as_secs_f64());
+            // On a shared machine the wall-clock rate understates the code's speed; the rate per
+            // CPU-second × THREADS is what THREADS dedicated cores would give (no contention).
+            let cpu_rate = cpu.map_or(String::from("n/a"), |c| format!("{:.2} M rays/s", N_RAYS as f64 / (c / THREADS as f64) * 1e-6));
+            println!(
+                "  {kind}: hit fraction {:.4}; one pass {:.2} M rays/s wall, {cpu_rate} CPU-time-normalised to {THREADS} cores",
+                hits as f64 / rs.len() as f64,
+                N_RAYS as f64 / wall * 1e-6
+            );
         }
 
         let mut g = c.benchmark_group(format!("bvh_icosphere{n}_{tris}tris_{THREADS}threads"));
