@@ -1,26 +1,264 @@
-//! STUB: to be completed.
-use super::{BrdfSample, Bxdf};
-#[allow(unused_imports)]
-use super::Horizon;
+//! `mix`: a weighted sum of BRDFs, ρ̂ = Σ_j w_j ρ̂_j (CONVENTIONS §4; e.g. diffuse + specular as in
+//! the paper's reference [17]).
+//!
+//! Parameters: `layers` = [(w_j, BRDF_j)], weights w_j ≥ 0 (negative weights are not selected by
+//! sampling; the scene loader should reject them).
+//!
+//! Sampling is one-sample MIS over the layers: layer j is chosen with probability
+//! p_j = w_j / Σw using `u_lobe` (remapped to [0,1) for the layer's own use), its direction is
+//! drawn, and the returned density is the mixture pdf Σ_k p_k pdf_k(ω_i), so the weight
+//! ρ̂/pdf stays bounded wherever any layer samples well. Dirac layers (mirror) are not part of
+//! `eval`/`pdf`; their draws come back with `delta = true`, weight = w_j·k_r / p_j and pdf = p_j
+//! (times the layer's own delta pdf). `is_delta` holds only if every layer is a Dirac;
+//! `ignores_horizon` if any layer ignores it.
+use super::{Brdf, BrdfSample, Bxdf};
 use crate::math::{Rgb, Vec2, Vec3};
 
 #[derive(Clone, Debug)]
 pub struct Mix {
     pub layers: Vec<(f32, super::Brdf)>,
+    /// 1 / Σ max(w_j, 0): turns a weight into a selection probability.
+    inv_total: f32,
+    all_delta: bool,
+    any_ignore: bool,
 }
 impl Mix {
     pub fn new(layers: Vec<(f32, super::Brdf)>) -> Self {
-        Mix { layers }
+        let total: f32 = layers.iter().map(|(w, _)| w.max(0.0)).sum();
+        let inv_total = if total > 0.0 { 1.0 / total } else { 0.0 };
+        let all_delta = !layers.is_empty() && layers.iter().all(|(_, b)| b.is_delta());
+        let any_ignore = layers.iter().any(|(_, b)| b.ignores_horizon());
+        Mix { layers, inv_total, all_delta, any_ignore }
+    }
+
+    /// Selection probability of a layer of weight w.
+    #[inline]
+    fn prob(&self, w: f32) -> f32 {
+        w.max(0.0) * self.inv_total
+    }
+
+    /// Picks a layer with probability p_j from u ∈ [0,1); returns it, p_j and u remapped to [0,1).
+    #[inline]
+    fn choose(&self, u: f32) -> Option<(f32, &Brdf, f32)> {
+        let mut cdf = 0.0;
+        let mut last = None;
+        for (w, b) in &self.layers {
+            let p = self.prob(*w);
+            if p <= 0.0 {
+                continue;
+            }
+            if u < cdf + p {
+                return Some((p, b, ((u - cdf) / p).clamp(0.0, 1.0 - f32::EPSILON * 0.5)));
+            }
+            cdf += p;
+            last = Some((p, b, cdf - p));
+        }
+        // Rounding left u just above the last cdf: give it to the last selectable layer.
+        last.map(|(p, b, c)| (p, b, ((u - c) / p).clamp(0.0, 1.0 - f32::EPSILON * 0.5)))
     }
 }
 impl Bxdf for Mix {
-    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
-        todo!()
+    #[inline]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.layers.iter().fold(Rgb::ZERO, |acc, (w, b)| acc + *w * b.eval(wo, wi))
     }
-    fn sample(&self, _wo: Vec3, _u_lobe: f32, _u: Vec2) -> Option<BrdfSample> {
-        todo!()
+
+    #[inline]
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let (p, layer, u_sub) = self.choose(u_lobe)?;
+        let s = layer.sample(wo, u_sub, u)?;
+        if s.delta {
+            // w_j k_r / p_j = k_r Σw.
+            return Some(BrdfSample { wi: s.wi, weight: s.weight * (1.0 / self.inv_total), pdf: s.pdf * p, delta: true });
+        }
+        let pdf = self.pdf(wo, s.wi);
+        if !pdf.is_finite() || pdf <= 0.0 {
+            return None;
+        }
+        Some(BrdfSample { wi: s.wi, weight: self.eval(wo, s.wi) / pdf, pdf, delta: false })
     }
-    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        todo!()
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.layers.iter().fold(0.0, |acc, (w, b)| acc + self.prob(*w) * b.pdf(wo, wi))
+    }
+
+    #[inline]
+    fn ignores_horizon(&self) -> bool {
+        self.any_ignore
+    }
+
+    #[inline]
+    fn is_delta(&self) -> bool {
+        self.all_delta
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::brdf::testutil::*;
+    use crate::brdf::{Horizon, Lambert, Microfacet, MicrofacetDistribution, Mirror, Phong, TorranceSparrow};
+    use crate::sampling::chi2::chi2_sphere;
+
+    const THETAS: [f32; 3] = [0.0, 30.0, 70.0];
+
+    fn diffuse_glossy() -> Mix {
+        Mix::new(vec![
+            (0.6, Brdf::Lambert(Lambert::new(Rgb::new(0.8, 0.6, 0.4)))),
+            (0.4, Brdf::Phong(Phong::new(Rgb::ONE, 8.0, Horizon::Clamp))),
+        ])
+    }
+
+    fn diffuse_ts_mirror() -> Mix {
+        Mix::new(vec![
+            (0.5, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+            (0.3, Brdf::TorranceSparrow(TorranceSparrow::new(Rgb::ONE, 0.3, Horizon::Clamp))),
+            (0.2, Brdf::Mirror(Mirror::new(Rgb::new(0.9, 0.8, 0.7)))),
+        ])
+    }
+
+    #[test]
+    fn eval_is_weighted_sum() {
+        let m = diffuse_glossy();
+        let wo = dir_theta_deg(30.0);
+        let wi = dir_theta_deg(-25.0);
+        let want = 0.6 * m.layers[0].1.eval(wo, wi) + 0.4 * m.layers[1].1.eval(wo, wi);
+        assert!((m.eval(wo, wi) - want).abs().max_element() < 1e-6);
+        let pw = 0.6 * m.layers[0].1.pdf(wo, wi) + 0.4 * m.layers[1].1.pdf(wo, wi);
+        assert!((m.pdf(wo, wi) - pw).abs() < 1e-6);
+    }
+
+    /// Chi-square of the mixture; delta draws (mirror) are turned into refusals, whose expected
+    /// count is then the pdf's missing mass (= the mirror's selection probability).
+    #[test]
+    fn chi2_mixtures() {
+        for m in [diffuse_glossy(), diffuse_ts_mirror()] {
+            for t in THETAS {
+                let wo = dir_theta_deg(t);
+                let r = chi2_sphere(
+                    |ul, u| m.sample(wo, ul, u).filter(|s| !s.delta).map(|s| s.wi),
+                    |wi| m.pdf(wo, wi) as f64,
+                    &chi2_cfg(),
+                );
+                assert!(r.passes(ALPHA), "θo={t}: {r:?}");
+            }
+        }
+    }
+
+    /// Claiming only the Lambert layer's pdf for the whole mixture must fail.
+    #[test]
+    fn chi2_rejects_wrong_pdf() {
+        let m = diffuse_glossy();
+        let wo = dir_theta_deg(30.0);
+        let r = chi2_sphere(|ul, u| m.sample(wo, ul, u).map(|s| s.wi), |wi| m.layers[0].1.pdf(wo, wi) as f64, &chi2_cfg());
+        assert!(!r.passes(ALPHA), "{r:?}");
+    }
+
+    #[test]
+    fn pdf_mass_weights_and_delta_samples() {
+        let m = diffuse_ts_mirror();
+        for t in THETAS {
+            let wo = dir_theta_deg(t);
+            check_sample_consistency(&m, wo, 20_000, 4);
+            check_sample_consistency(&diffuse_glossy(), wo, 20_000, 4);
+            // Non-delta mass: pdf integral = fraction of draws that are kept and non-delta.
+            let mass = integrate_zoomed(|wi| m.pdf(wo, wi) as f64, Vec3::Z, 1.0, 1024);
+            let mut rng = crate::sampling::chi2::TestRng::new(12);
+            let n = 1_000_000;
+            let (mut kept, mut deltas) = (0usize, 0usize);
+            for _ in 0..n {
+                let ul = rng.next_f32();
+                match m.sample(wo, ul, Vec2::new(rng.next_f32(), rng.next_f32())) {
+                    Some(s) if s.delta => {
+                        deltas += 1;
+                        assert!((s.wi - refl(wo)).length() < 1e-6);
+                        assert!((s.pdf - 0.2).abs() < 1e-6);
+                        // w·k_r/p = 0.2 k_r / 0.2.
+                        assert!((s.weight - Rgb::new(0.9, 0.8, 0.7)).abs().max_element() < 1e-5);
+                    }
+                    Some(_) => kept += 1,
+                    None => {}
+                }
+            }
+            let f = kept as f64 / n as f64;
+            let sf = (f * (1.0 - f) / n as f64).sqrt();
+            assert!((mass - f).abs() < 5.0 * sf + 1e-3, "θo={t}: mass {mass} vs {f}");
+            let fd = deltas as f64 / n as f64;
+            assert!((fd - 0.2).abs() < 5.0 * (0.2f64 * 0.8 / n as f64).sqrt(), "{fd}");
+        }
+    }
+
+    /// Lambert (albedo 1, w = 0.5) + Phong ignore (k_s = 1, w = 0.5) has albedo exactly 1; with a
+    /// mirror layer the Dirac adds w·k_r. MC with 5σ (σ from the sample variance).
+    #[test]
+    fn albedo() {
+        let m = Mix::new(vec![
+            (0.5, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+            (0.5, Brdf::Phong(Phong::new(Rgb::ONE, 16.0, Horizon::Ignore))),
+        ]);
+        for t in THETAS {
+            let (a, e) = albedo_mc(&m, dir_theta_deg(t), 1_000_000, 2);
+            assert!((a.x - 1.0).abs() < 5.0 * e.x + 1e-6, "θo={t}: {a} ± {e}");
+        }
+        let m = Mix::new(vec![
+            (0.7, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+            (0.3, Brdf::Mirror(Mirror::new(Rgb::new(1.0, 0.5, 0.0)))),
+        ]);
+        let (a, e) = albedo_mc(&m, dir_theta_deg(40.0), 1_000_000, 3);
+        let want = glam::DVec3::new(1.0, 0.85, 0.7);
+        assert!((a - want).abs().max_element() < 5.0 * e.max_element(), "{a} ± {e}");
+        // Energy: every mixture of unit layers with Σw = 1 stays ≤ 1.
+        for mm in [diffuse_glossy(), diffuse_ts_mirror()] {
+            for t in THETAS {
+                let (a, e) = albedo_mc(&mm, dir_theta_deg(t), 1_000_000, 5);
+                assert!((a - 5.0 * e).max_element() <= 1.0, "θo={t}: {a}");
+            }
+        }
+    }
+
+    #[test]
+    fn flags_and_reciprocity() {
+        let mirrors = Mix::new(vec![
+            (0.5, Brdf::Mirror(Mirror::new(Rgb::ONE))),
+            (0.5, Brdf::Mirror(Mirror::new(Rgb::splat(0.5)))),
+        ]);
+        assert!(mirrors.is_delta() && !diffuse_ts_mirror().is_delta());
+        let ign = Mix::new(vec![
+            (0.5, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+            (0.5, Brdf::Phong(Phong::new(Rgb::ONE, 16.0, Horizon::Ignore))),
+        ]);
+        assert!(ign.ignores_horizon() && !diffuse_glossy().ignores_horizon());
+        assert!(!Mix::new(vec![]).is_delta());
+        assert!(Mix::new(vec![]).sample(Vec3::Z, 0.5, Vec2::splat(0.5)).is_none());
+        check_reciprocity(
+            &Mix::new(vec![
+                (0.5, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+                (
+                    0.5,
+                    Brdf::Microfacet(Microfacet::new(
+                        MicrofacetDistribution::Ggx,
+                        0.3,
+                        crate::brdf::Fresnel::Schlick { f0: Rgb::splat(0.04) },
+                    )),
+                ),
+            ]),
+            3,
+        );
+    }
+
+    /// u_lobe is remapped: a layer sees the full [0,1) range of its own u_lobe (nested mixes).
+    #[test]
+    fn lobe_selection_remap() {
+        let m = diffuse_glossy();
+        let (p, _, u) = m.choose(0.3).unwrap();
+        assert!((p - 0.6).abs() < 1e-6 && (u - 0.5).abs() < 1e-6);
+        let (p, _, u) = m.choose(0.8).unwrap();
+        assert!((p - 0.4).abs() < 1e-6 && (u - 0.5).abs() < 1e-5);
+        let (_, _, u) = m.choose(1.0 - 1e-7).unwrap();
+        assert!(u < 1.0);
     }
 }

@@ -12,6 +12,10 @@ pub mod mix;
 pub mod phong;
 pub mod torrance_sparrow;
 
+pub mod fresnel;
+#[cfg(test)]
+pub(crate) mod testutil;
+
 pub use lambert::Lambert;
 pub use microfacet::{Fresnel, Microfacet, MicrofacetDistribution};
 pub use mirror::Mirror;

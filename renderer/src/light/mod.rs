@@ -5,6 +5,7 @@
 pub mod axial;
 pub mod directional;
 pub mod envmap;
+mod latlong_grid;
 pub mod sh;
 pub mod uniform;
 
@@ -81,3 +82,6 @@ impl DistantLight for Light {
         dispatch!(self, l => l.is_delta())
     }
 }
+
+#[cfg(test)]
+mod testutil;

@@ -1,1 +1,400 @@
 //! Discrete and piecewise-constant 1D/2D distributions (for environment-map importance sampling).
+//!
+//! - [`Distribution1D`]: a non-negative function tabulated on `n` equal cells of [0, 1], sampled by
+//!   inverting its CDF with a binary search (O(log n)), either as a cell index (`sample_discrete`,
+//!   probability mass `f_i / Σ f`) or as a continuous point (`sample_continuous`, density
+//!   `f_i / ∫f` with ∫f = Σ f / n), as in pbrt's `PiecewiseConstant1D`.
+//! - [`Distribution2D`]: a function on an `nu × nv` grid of [0, 1]² (row-major, `v` the row),
+//!   sampled as marginal in `v` (the row integrals) times the conditional in `u` of the chosen row.
+//!   Its density with respect to the unit square is `f(u, v) / ∫∫f`.
+//!
+//! Cells of zero weight are never chosen (the search skips zero-width CDF steps), so a density of 0
+//! really means "never sampled". An all-zero function gives a distribution with integral 0: it
+//! samples uniformly but reports pdf 0, and callers (lights) treat integral 0 as "cannot sample".
+//! CDFs are accumulated in f64 and stored in f32 (rounding is monotone, so they stay sorted).
+
+use crate::math::Vec2;
+use rayon::prelude::*;
+
+/// Largest f32 below 1: random numbers are clamped to it so `u = 1` cannot select past the end.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    /// The tabulated function (non-negative; negative or NaN inputs are stored as 0).
+    func: Vec<f32>,
+    /// cdf[0] = 0, cdf[n] = 1, cdf[i+1] − cdf[i] = f_i / Σ f.
+    cdf: Vec<f32>,
+    /// ∫₀¹ f(x) dx = Σ f_i / n.
+    func_int: f64,
+}
+
+impl Distribution1D {
+    /// Tabulates `f` on `f.len()` equal cells of [0, 1]. An empty slice is treated as one cell of 0.
+    pub fn new(f: &[f32]) -> Self {
+        let func: Vec<f32> = if f.is_empty() {
+            vec![0.0]
+        } else {
+            f.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect()
+        };
+        let n = func.len();
+        let total: f64 = func.iter().map(|&v| v as f64).sum();
+        let mut cdf = Vec::with_capacity(n + 1);
+        cdf.push(0.0f32);
+        if total > 0.0 {
+            let mut acc = 0.0f64;
+            for &v in &func {
+                acc += v as f64;
+                cdf.push((acc / total) as f32);
+            }
+        } else {
+            // Nothing to importance-sample: a uniform CDF keeps `sample_*` well defined.
+            cdf.extend((1..=n).map(|i| i as f32 / n as f32));
+        }
+        cdf[n] = 1.0;
+        Distribution1D { func, cdf, func_int: total / n as f64 }
+    }
+
+    /// Number of cells.
+    #[inline]
+    pub fn count(&self) -> usize {
+        self.func.len()
+    }
+
+    /// ∫₀¹ f (0 when the function is identically zero).
+    #[inline]
+    pub fn integral(&self) -> f64 {
+        self.func_int
+    }
+
+    /// The tabulated value of cell `i`.
+    #[inline]
+    pub fn func(&self, i: usize) -> f32 {
+        self.func[i]
+    }
+
+    /// The CDF at the cell boundaries (n + 1 entries).
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
+    /// Cell i with cdf[i] ≤ u < cdf[i+1] (zero-width cells are skipped).
+    #[inline]
+    fn find(&self, u: f32) -> usize {
+        let n = self.func.len();
+        // partition_point gives the first index with cdf > u; cdf[0] = 0 ≤ u, so it is ≥ 1.
+        let i = self.cdf.partition_point(|&c| c <= u);
+        i.saturating_sub(1).min(n - 1)
+    }
+
+    /// Draws a cell index with probability f_i / Σ f. Returns (index, probability mass, `u`
+    /// remapped to [0, 1) within the chosen cell, reusable as a fresh uniform number).
+    #[inline]
+    pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        let u = u.clamp(0.0, ONE_MINUS_EPSILON);
+        let i = self.find(u);
+        let (c0, c1) = (self.cdf[i], self.cdf[i + 1]);
+        let width = c1 - c0;
+        let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, ONE_MINUS_EPSILON) } else { 0.0 };
+        (i, self.pmf(i), remapped)
+    }
+
+    /// Probability mass of cell `i` (0 when the function is identically zero).
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        if self.func_int > 0.0 {
+            (self.func[i] as f64 / (self.func_int * self.func.len() as f64)) as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// Draws x ∈ [0, 1) with density f(x)/∫f. Returns (x, density, cell index).
+    #[inline]
+    pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
+        let (i, _, du) = self.sample_discrete(u);
+        let n = self.func.len() as f32;
+        let x = ((i as f32 + du) / n).min(ONE_MINUS_EPSILON);
+        (x, self.pdf_cell(i), i)
+    }
+
+    /// Density f_i/∫f of cell `i` with respect to x ∈ [0, 1].
+    #[inline]
+    pub fn pdf_cell(&self, i: usize) -> f32 {
+        if self.func_int > 0.0 {
+            (self.func[i] as f64 / self.func_int) as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// Density at x ∈ [0, 1] (0 outside).
+    #[inline]
+    pub fn pdf(&self, x: f32) -> f32 {
+        if !(0.0..=1.0).contains(&x) {
+            return 0.0;
+        }
+        let i = ((x * self.func.len() as f32) as usize).min(self.func.len() - 1);
+        self.pdf_cell(i)
+    }
+}
+
+/// A piecewise-constant density on [0, 1]², `nu` cells along u (columns) and `nv` along v (rows).
+#[derive(Clone, Debug)]
+pub struct Distribution2D {
+    /// One conditional distribution in u per row v.
+    conditional: Vec<Distribution1D>,
+    /// Distribution of the rows, by their integrals ∫ f(u, v) du.
+    marginal: Distribution1D,
+    nu: usize,
+    nv: usize,
+}
+
+impl Distribution2D {
+    /// `func` is row-major: `func[iv * nu + iu]`, `nu * nv` values.
+    ///
+    /// # Panics
+    /// When `func.len() != nu * nv` or a dimension is 0 (a programming error, never user data).
+    pub fn new(func: &[f32], nu: usize, nv: usize) -> Self {
+        assert!(nu > 0 && nv > 0 && func.len() == nu * nv, "Distribution2D: {} values for {nu}×{nv}", func.len());
+        // Rows are independent: build them in parallel (collect keeps the order: deterministic).
+        let conditional: Vec<Distribution1D> = func.par_chunks_exact(nu).map(Distribution1D::new).collect();
+        let row_integrals: Vec<f32> = conditional.iter().map(|d| d.integral() as f32).collect();
+        let marginal = Distribution1D::new(&row_integrals);
+        Distribution2D { conditional, marginal, nu, nv }
+    }
+
+    /// (nu, nv).
+    #[inline]
+    pub fn size(&self) -> (usize, usize) {
+        (self.nu, self.nv)
+    }
+
+    /// ∫∫ f du dv over the unit square (0 when f ≡ 0: then nothing can be sampled).
+    #[inline]
+    pub fn integral(&self) -> f64 {
+        self.marginal.integral()
+    }
+
+    /// Draws (u, v) ∈ [0, 1)² with density f/∫∫f. Returns the point and its density with respect to
+    /// the unit square (0 if f ≡ 0).
+    #[inline]
+    pub fn sample_continuous(&self, u: Vec2) -> (Vec2, f32) {
+        let (v, _, iv) = self.marginal.sample_continuous(u.y);
+        let (x, _, iu) = self.conditional[iv].sample_continuous(u.x);
+        (Vec2::new(x, v), self.pdf_index(iu, iv))
+    }
+
+    /// Density of cell (column `iu`, row `iv`) with respect to the unit square.
+    #[inline]
+    pub fn pdf_index(&self, iu: usize, iv: usize) -> f32 {
+        let total = self.marginal.integral();
+        if total > 0.0 {
+            (self.conditional[iv].func(iu) as f64 / total) as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// Density at `uv` ∈ [0, 1]² (0 outside).
+    #[inline]
+    pub fn pdf(&self, uv: Vec2) -> f32 {
+        if !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y) {
+            return 0.0;
+        }
+        let iu = ((uv.x * self.nu as f32) as usize).min(self.nu - 1);
+        let iv = ((uv.y * self.nv as f32) as usize).min(self.nv - 1);
+        self.pdf_index(iu, iv)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::{chi2_survival, TestRng};
+
+    /// Pearson χ² of observed counts against expected counts (cells with expectation 0 must stay
+    /// empty). Returns the p-value.
+    fn chi2_counts(observed: &[f64], expected: &[f64]) -> f64 {
+        let mut stat = 0.0;
+        let mut dof = 0usize;
+        for (o, e) in observed.iter().zip(expected) {
+            if *e == 0.0 {
+                assert_eq!(*o, 0.0, "a cell of zero probability was sampled");
+                continue;
+            }
+            assert!(*e >= 5.0, "test design: expected count {e} < 5");
+            stat += (o - e).powi(2) / e;
+            dof += 1;
+        }
+        chi2_survival(stat, (dof - 1) as f64)
+    }
+
+    // Six χ² tests below: Šidák-style alpha ≈ 1e-3 / 6.
+    const ALPHA: f64 = 1.5e-4;
+
+    #[test]
+    fn one_d_pmf_cdf_and_integral() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, 4.0]);
+        assert_eq!(d.count(), 4);
+        assert!((d.integral() - 2.0).abs() < 1e-12);
+        let expect_cdf = [0.0, 0.125, 0.125, 0.5, 1.0];
+        for (c, e) in d.cdf().iter().zip(expect_cdf) {
+            assert!((c - e).abs() < 1e-7);
+        }
+        assert!((d.pmf(3) - 0.5).abs() < 1e-7);
+        assert!((d.pdf(0.9) - 2.0).abs() < 1e-6, "density 4/2 in the last cell");
+        assert_eq!(d.pdf(0.3), 0.0);
+        assert_eq!(d.pdf(1.5), 0.0);
+        // Inversion: the continuous sample at u = cdf(x) is x.
+        for &x in &[0.05f32, 0.6, 0.99] {
+            let i = (x * 4.0) as usize;
+            let u = d.cdf()[i] + (x * 4.0 - i as f32) * (d.cdf()[i + 1] - d.cdf()[i]);
+            let (xs, pdf, is) = d.sample_continuous(u);
+            assert!((xs - x).abs() < 1e-5, "{xs} vs {x}");
+            assert_eq!(is, i);
+            assert_eq!(pdf, d.pdf_cell(i));
+        }
+        // u = 1 (or beyond) never runs past the end; u at a zero-width step skips the empty cell.
+        assert_eq!(d.sample_discrete(1.0).0, 3);
+        assert_eq!(d.sample_discrete(0.125).0, 2);
+    }
+
+    #[test]
+    fn one_d_all_zero_reports_zero_pdf() {
+        let d = Distribution1D::new(&[0.0, 0.0, f32::NAN, -1.0]);
+        assert_eq!(d.integral(), 0.0);
+        let (x, pdf, _) = d.sample_continuous(0.3);
+        assert!((0.0..1.0).contains(&x));
+        assert_eq!(pdf, 0.0);
+        assert_eq!(d.pdf(0.3), 0.0);
+        let e = Distribution1D::new(&[]);
+        assert_eq!(e.count(), 1);
+        assert_eq!(e.integral(), 0.0);
+    }
+
+    #[test]
+    fn one_d_discrete_chi_square() {
+        let f: Vec<f32> = (0..50).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 + (i as f32 * 0.37).sin().abs() * 5.0 }).collect();
+        let d = Distribution1D::new(&f);
+        let n = 200_000;
+        let mut rng = TestRng::new(11);
+        let mut obs = vec![0.0; f.len()];
+        for _ in 0..n {
+            let (i, pmf, r) = d.sample_discrete(rng.next_f32());
+            assert!(pmf > 0.0 && (0.0..1.0).contains(&r));
+            obs[i] += 1.0;
+        }
+        let exp: Vec<f64> = (0..f.len()).map(|i| d.pmf(i) as f64 * n as f64).collect();
+        let p = chi2_counts(&obs, &exp);
+        assert!(p > ALPHA, "p = {p}");
+    }
+
+    #[test]
+    fn one_d_continuous_chi_square_on_sub_cells() {
+        // Bins finer than the cells: within a cell the density must be flat.
+        let f = [0.5f32, 2.0, 0.0, 1.0, 4.0];
+        let d = Distribution1D::new(&f);
+        let sub = 8;
+        let bins = f.len() * sub;
+        let n = 200_000;
+        let mut rng = TestRng::new(12);
+        let mut obs = vec![0.0; bins];
+        for _ in 0..n {
+            let (x, pdf, i) = d.sample_continuous(rng.next_f32());
+            assert_eq!(pdf, d.pdf(x), "returned density equals pdf(x)");
+            assert_eq!(i, (x * f.len() as f32) as usize);
+            obs[((x * bins as f32) as usize).min(bins - 1)] += 1.0;
+        }
+        let exp: Vec<f64> = (0..bins).map(|b| d.pdf((b as f32 + 0.5) / bins as f32) as f64 / bins as f64 * n as f64).collect();
+        let p = chi2_counts(&obs, &exp);
+        assert!(p > ALPHA, "p = {p}");
+    }
+
+    #[test]
+    fn one_d_wrong_density_is_rejected() {
+        // Negative test of the harness: compare draws of a non-uniform f with uniform expectations.
+        let d = Distribution1D::new(&[1.0, 2.0, 3.0, 4.0]);
+        let n = 100_000;
+        let mut rng = TestRng::new(13);
+        let mut obs = [0.0; 4];
+        for _ in 0..n {
+            obs[d.sample_discrete(rng.next_f32()).0] += 1.0;
+        }
+        let p = chi2_counts(&obs, &[n as f64 / 4.0; 4]);
+        assert!(p < 1e-6, "p = {p}");
+    }
+
+    fn test_grid() -> (Vec<f32>, usize, usize) {
+        let (nu, nv) = (12, 7);
+        let f = (0..nu * nv)
+            .map(|k| {
+                let (iu, iv) = (k % nu, k / nu);
+                if iv == 2 || (iu + iv) % 5 == 0 {
+                    0.0
+                } else {
+                    0.2 + ((iu as f32 * 0.9).cos() * (iv as f32 * 1.3).sin()).abs() * 3.0
+                }
+            })
+            .collect();
+        (f, nu, nv)
+    }
+
+    #[test]
+    fn two_d_pdf_integrates_to_one_and_matches_function() {
+        let (f, nu, nv) = test_grid();
+        let d = Distribution2D::new(&f, nu, nv);
+        let total: f64 = f.iter().map(|&v| v as f64).sum::<f64>() / (nu * nv) as f64;
+        assert!((d.integral() - total).abs() < 1e-6 * total);
+        let mut int = 0.0;
+        for iv in 0..nv {
+            for iu in 0..nu {
+                let p = d.pdf(Vec2::new((iu as f32 + 0.5) / nu as f32, (iv as f32 + 0.5) / nv as f32));
+                assert!((p as f64 - f[iv * nu + iu] as f64 / total).abs() < 1e-5);
+                int += p as f64 / (nu * nv) as f64;
+            }
+        }
+        assert!((int - 1.0).abs() < 1e-5, "∫pdf = {int}");
+        assert_eq!(d.pdf(Vec2::new(-0.1, 0.5)), 0.0);
+    }
+
+    #[test]
+    fn two_d_chi_square_on_sub_cells() {
+        let (f, nu, nv) = test_grid();
+        let d = Distribution2D::new(&f, nu, nv);
+        let (su, sv) = (2 * nu, 2 * nv); // two bins per cell per axis: flatness within cells too
+        let n = 300_000;
+        let mut rng = TestRng::new(14);
+        let mut obs = vec![0.0; su * sv];
+        for _ in 0..n {
+            let (p, pdf) = d.sample_continuous(Vec2::new(rng.next_f32(), rng.next_f32()));
+            assert!(pdf > 0.0);
+            assert_eq!(pdf, d.pdf(p));
+            let bu = ((p.x * su as f32) as usize).min(su - 1);
+            let bv = ((p.y * sv as f32) as usize).min(sv - 1);
+            obs[bv * su + bu] += 1.0;
+        }
+        let exp: Vec<f64> = (0..su * sv)
+            .map(|b| {
+                let c = Vec2::new(((b % su) as f32 + 0.5) / su as f32, ((b / su) as f32 + 0.5) / sv as f32);
+                d.pdf(c) as f64 / (su * sv) as f64 * n as f64
+            })
+            .collect();
+        let p = chi2_counts(&obs, &exp);
+        assert!(p > ALPHA, "p = {p}");
+    }
+
+    #[test]
+    fn two_d_large_grid_builds() {
+        // 1000 × 1000 (the Grace probe size): the integral survives a million f32 cells.
+        let (nu, nv) = (1000, 1000);
+        let f: Vec<f32> = (0..nu * nv).map(|k| ((k % 977) as f32).sqrt()).collect();
+        let t = std::time::Instant::now();
+        let d = Distribution2D::new(&f, nu, nv);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        // Timing is reported, not asserted (the machine is shared); the result must be usable.
+        eprintln!("Distribution2D 1000×1000 built in {ms:.1} ms");
+        let expect = f.iter().map(|&v| v as f64).sum::<f64>() / (nu * nv) as f64;
+        assert!((d.integral() - expect).abs() < 1e-5 * expect);
+    }
+}

@@ -266,14 +266,14 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
                 prev = t;
                 table.push((t.to_radians(), color(super::file::Color::Rgb([r, g, b]), "axial radiance").map_err(lerr)?));
             }
-            Light::Axial(light::Axial::new(a, table))
+            Light::Axial(light::Axial::try_new(a, table)?)
         }
         LightingSection::Sh { coefficients } => {
             if coefficients.iter().flatten().any(|v| !v.is_finite()) {
                 return Err(lerr("SH coefficients must be finite".into()));
             }
             let c: Vec<Rgb> = coefficients.iter().map(|&v| Rgb::from(v)).collect();
-            Light::Sh(light::ShLight::new(c))
+            Light::Sh(light::ShLight::new(c).map_err(|e| lerr(e.message))?)
         }
         LightingSection::Envmap { file, mapping, scale, rotate_deg } => {
             let p = resolve(base, file);

@@ -1,0 +1,97 @@
+//! Importance sampling of directions on a lat-long grid of cells (CONVENTIONS §2: row r spans
+//! θ ∈ [πr/H, π(r+1)/H], column c spans φ ∈ [2πc/W, 2π(c+1)/W], row 0 at the top, θ = 0).
+//!
+//! Parameters: `height` H, `width` W and a non-negative value g per cell (the radiance to follow,
+//! e.g. the max channel of a pixel). A cell is chosen with probability ∝ g·ΔΩ, ΔΩ = (2π/W)·Δz its
+//! exact solid angle (Δz = cos θ_top − cos θ_bottom), by a [`Distribution2D`] over the unit square
+//! (u = φ/2π, v = row coordinate). Within the cell the direction is drawn uniformly in solid
+//! angle: φ linear in u and z = cosθ linear in v. That warp has the constant Jacobian
+//! dω = dz dφ = 2π·H·Δz_r du dv on row r, so the solid-angle density is exactly
+//! p(ω) = p_uv / (2π H Δz_r) = g / Σ g ΔΩ: piecewise constant on the sphere, proportional to g,
+//! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
+
+use crate::math::{Vec2, Vec3, PI};
+use crate::sampling::distribution::Distribution2D;
+
+#[derive(Clone, Debug)]
+pub struct LatLongGrid {
+    width: usize,
+    height: usize,
+    dist: Distribution2D,
+    /// cos(πr/H) for r = 0..=H: the z range of each row.
+    z_edge: Vec<f32>,
+    /// 1 / (2π H Δz_r): converts the unit-square density to solid angle on row r.
+    inv_jacobian: Vec<f32>,
+}
+
+impl LatLongGrid {
+    /// `g` is row-major, `height` rows of `width` cells, all ≥ 0 (negative or NaN count as 0).
+    pub fn new(g: &[f32], width: usize, height: usize) -> Self {
+        assert!(width > 0 && height > 0 && g.len() == width * height, "LatLongGrid: bad size");
+        let z64: Vec<f64> = (0..=height).map(|r| (std::f64::consts::PI * r as f64 / height as f64).cos()).collect();
+        let dz: Vec<f64> = z64.windows(2).map(|w| w[0] - w[1]).collect();
+        let weights: Vec<f32> = g
+            .chunks_exact(width)
+            .zip(&dz)
+            .flat_map(|(row, &d)| row.iter().map(move |&v| if v > 0.0 { (v as f64 * d) as f32 } else { 0.0 }))
+            .collect();
+        let inv_jacobian =
+            dz.iter().map(|&d| (1.0 / (2.0 * std::f64::consts::PI * height as f64 * d)) as f32).collect();
+        LatLongGrid {
+            width,
+            height,
+            dist: Distribution2D::new(&weights, width, height),
+            z_edge: z64.iter().map(|&z| z as f32).collect(),
+            inv_jacobian,
+        }
+    }
+
+    /// False when every cell has g = 0 (nothing to sample).
+    #[inline]
+    pub fn can_sample(&self) -> bool {
+        self.dist.integral() > 0.0
+    }
+
+    /// (row, column) of the cell containing unit direction `d`.
+    #[inline]
+    pub fn cell(&self, d: Vec3) -> (usize, usize) {
+        // atan2 keeps θ accurate near the poles, where acos(z) loses precision in f32.
+        let theta = (d.x * d.x + d.y * d.y).sqrt().atan2(d.z);
+        let mut phi = d.y.atan2(d.x);
+        if phi < 0.0 {
+            phi += 2.0 * PI;
+        }
+        let r = ((theta * (1.0 / PI) * self.height as f32) as usize).min(self.height - 1);
+        let c = ((phi * (0.5 / PI) * self.width as f32) as usize).min(self.width - 1);
+        (r, c)
+    }
+
+    /// Draws a direction; returns it with its solid-angle density, or None if nothing can be sampled.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        if !self.can_sample() {
+            return None;
+        }
+        let (uv, p) = self.dist.sample_continuous(u);
+        let fv = uv.y * self.height as f32;
+        let r = (fv as usize).min(self.height - 1);
+        let t = (fv - r as f32).clamp(0.0, 1.0);
+        let z = self.z_edge[r] + t * (self.z_edge[r + 1] - self.z_edge[r]);
+        let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
+        let (sp, cp) = (2.0 * PI * uv.x).sin_cos();
+        Some((Vec3::new(sin_theta * cp, sin_theta * sp, z), p * self.inv_jacobian[r]))
+    }
+
+    /// Solid-angle density of `sample` at unit direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        let (r, c) = self.cell(d);
+        self.pdf_cell(r, c)
+    }
+
+    /// Solid-angle density on cell (row, column).
+    #[inline]
+    pub fn pdf_cell(&self, r: usize, c: usize) -> f32 {
+        self.dist.pdf_index(c, r) * self.inv_jacobian[r]
+    }
+}
