@@ -59,6 +59,7 @@ impl Channel {
         }
     }
 
+    #[cfg(test)]
     /// A synthetic normal-probe image (tests): value f(n) + noise, stderr σ.
     pub fn synthetic_probe(w: usize, h: usize, f: impl Fn([f64; 3]) -> f64, sigma: f64, seed: u64) -> Channel {
         let mut rng = renderer::sampling::chi2::TestRng::new(seed);
@@ -127,7 +128,6 @@ pub struct Fit {
     /// Σ_p w_p (residual_p / σ_p)² / Σ_p w_p over pixels with σ_p > 0 (≈ 1 for a correct model
     /// with honest σ and unit weights); None when no pixel has σ > 0.
     pub reduced_chi2: Option<f64>,
-    pub max_abs_residual: f64,
 }
 
 /// Weighted least squares: minimise Σ_p w_p (v_p − Σ_j A_pj x_j)². Rows with w_p = 0 are skipped.
@@ -164,19 +164,18 @@ pub fn lsq(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64]) -> O
         }
         *sj = v.max(0.0).sqrt();
     }
-    let (mut chi, mut wsum, mut maxr) = (0.0, 0.0, 0.0f64);
+    let (mut chi, mut wsum) = (0.0, 0.0);
     for (i, a) in rows.iter().enumerate() {
         if weight[i] == 0.0 {
             continue;
         }
         let r = value[i] - (0..p).map(|j| a[j] * coef[j]).sum::<f64>();
-        maxr = maxr.max(r.abs());
         if sigma[i] > 0.0 {
             chi += weight[i] * (r / sigma[i]).powi(2);
             wsum += weight[i];
         }
     }
-    Some(Fit { coef, sigma: sig, reduced_chi2: (wsum > 0.0).then(|| chi / wsum), max_abs_residual: maxr })
+    Some(Fit { coef, sigma: sig, reduced_chi2: (wsum > 0.0).then(|| chi / wsum) })
 }
 
 /// Gauss–Jordan inverse with partial pivoting of a small p × p matrix; None if singular.
