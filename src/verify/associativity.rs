@@ -54,7 +54,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed + 4);
     let filter = transfer::phong(if ctx.wrong { 1.2 * S } else { S }, LMAX);
     let blurred: Vec<f64> = light.iter().enumerate().map(|(k, v)| v * filter[lm(k).0]).collect();
-    let spp = ctx.spp(64, 512);
+    let spp = ctx.spp(128, 256);
     let pa = Spec::probe(ctx, spp, Lighting::Sh(light), &format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"));
     let pb = Spec::probe(ctx, 4, Lighting::Sh(blurred), "{ type = \"mirror\", kr = 1.0 }");
     let a = Channel::from_film(&render_spec(ctx, &pa)?, 0);

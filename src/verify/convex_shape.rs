@@ -172,7 +172,7 @@ fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed + 5);
-    let spec = Spec::probe(ctx, ctx.spp(64, 512), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
     let probe = Measured::from_fit(&fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?, LMAX);
     let ortho = fit_views(ctx, &light, Shape::Sphere, false)?;

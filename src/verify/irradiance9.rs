@@ -89,7 +89,7 @@ pub fn energy_share(ch: &Channel) -> f64 {
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let mut c = Check::new(NAME, EQUATION, "9-term (l ≤ 2) approximation of Lambertian reflection under Grace; energy share 127/128");
     let lg = grace::coefficients()?;
-    let spec = Spec::probe(ctx, ctx.spp(128, 1024), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(256, 512), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let ch = Channel::from_film(&render_spec(ctx, &spec)?, grace::CHANNEL);
     let m = nine_term_error(&ch).ok_or("non-positive pixel or singular fit")?;
     // The prediction on the same grid.
@@ -123,7 +123,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     c.push(Row::new("kernel energy share in l ≤ 2", expected, share, 0.0).approx(qshare - 127.0 / 128.0).floor(10.0 * F32_FLOOR));
     c.note(format!(
         "Grace (green), normal-probe {}×{}, {} spp; predicted rms/mean/max 9-term relative error {:.4}/{:.4}/{:.4}, measured {:.4} ± {:.4} / {:.4} / {:.4} (mean and max of |e| are biased up by the noise)",
-        spec.width, spec.height, ctx.spp(128, 1024), p.rms(), p.mean_abs, p.max_abs, m.rms(), m.sigma_rms(), m.mean_abs, m.max_abs
+        spec.width, spec.height, ctx.spp(256, 512), p.rms(), p.mean_abs, p.max_abs, m.rms(), m.sigma_rms(), m.mean_abs, m.max_abs
     ));
     c.note(format!("energy share: measured {share:.6}, same quadrature of the exact kernel {qshare:.6}, 127/128 = {:.6}", 127.0 / 128.0));
     let _ = index(0, 0);

@@ -35,14 +35,14 @@ pub fn evaluate(sh: &Measured, grace: Option<&Measured>, pred: &[f64]) -> Check 
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed);
-    let spec = Spec::probe(ctx, ctx.spp(64, 512), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
     let fit = fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?;
     let sh = Measured::from_fit(&fit, LMAX);
 
     // Grace: fit orders up to grace::LMAX so the (small) l > 8 content is modelled, report l ≤ 8.
     let lg = grace::coefficients()?;
-    let spec = Spec::probe(ctx, ctx.spp(64, 512), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
     let gfit = fit_filter_probe(&Channel::from_film(&film, grace::CHANNEL), &lg, grace::LMAX).ok_or("singular fit")?;
     let gm = Measured::from_fit(&gfit, LMAX);

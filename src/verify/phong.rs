@@ -53,7 +53,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             eprintln!("  phong s = {s}");
         }
         let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {s:?}, horizon = \"ignore\" }}");
-        let spec = Spec::probe(ctx, ctx.spp(64, 512), Lighting::Sh(light.clone()), &brdf);
+        let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
         let film = render_spec(ctx, &spec)?;
         let fit = fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?;
         fits.push(fit.reduced_chi2);
@@ -64,7 +64,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         "normal-probe {}×{}, {} spp, SH lighting l ≤ {LMAX}, horizon = ignore",
         2 * ctx.probe_height(),
         ctx.probe_height(),
-        ctx.spp(64, 512)
+        ctx.spp(128, 256)
     ));
     for ((s, _), chi) in per_s.iter().zip(&fits) {
         if let Some(x) = chi {

@@ -57,7 +57,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             eprintln!("  torrance-sparrow σ = {sigma}");
         }
         let brdf = format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {sigma:?}, horizon = \"clamp\" }}");
-        let spec = Spec::probe(ctx, ctx.spp(64, 512), Lighting::Sh(light.clone()), &brdf);
+        let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
         let film = render_spec(ctx, &spec)?;
         let fit = fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?;
         let m = Measured::from_fit(&fit, LMAX);
