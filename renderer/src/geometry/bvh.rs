@@ -156,6 +156,12 @@ impl SceneGeometry {
         SceneGeometry { shapes, bvh, prims, refs, single_sphere: None, build_time: start.elapsed() }
     }
 
+    /// True when the scene is exactly one sphere: nothing can occlude a direction above the
+    /// horizon of any of its points (the integrator then skips those shadow rays).
+    pub fn is_single_sphere(&self) -> bool {
+        self.single_sphere.is_some()
+    }
+
     /// Number of BVH primitives (triangles plus spheres); 1 for the single-sphere fast path.
     pub fn num_primitives(&self) -> usize {
         if self.single_sphere.is_some() { 1 } else { self.prims.len() }
