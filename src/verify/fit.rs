@@ -236,6 +236,26 @@ pub fn fit_filter_probe(ch: &Channel, light: &[f64], lmax_fit: usize) -> Option<
     lsq(&rows, &ch.value, &ch.sigma, &weight)
 }
 
+/// Like [`fit_filter_probe`], but the order parts are evaluated at `dir(r, c)` instead of the
+/// pixel's normal (e.g. the reflection vector R at non-normal exitance).
+pub fn fit_filter_at(ch: &Channel, light: &[f64], lmax_fit: usize, dir: impl Fn(usize, usize) -> [f64; 3]) -> Option<Fit> {
+    let (w, h) = (ch.width, ch.height);
+    let basis = ShBasis::new(lmax_fit);
+    let mut y = vec![0.0; num_coefficients(lmax_fit)];
+    let mut rows = Vec::with_capacity(w * h);
+    let mut weight = Vec::with_capacity(w * h);
+    for r in 0..h {
+        let om = latlong_omega(r, w, h);
+        for c in 0..w {
+            let mut s = vec![0.0; lmax_fit + 1];
+            order_parts(&basis, light, dir(r, c), &mut y, &mut s);
+            rows.push(s);
+            weight.push(om);
+        }
+    }
+    lsq(&rows, &ch.value, &ch.sigma, &weight)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -23,6 +23,7 @@ pub mod horizon;
 pub mod irradiance9;
 pub mod lambert;
 pub mod mirror;
+pub mod oblique;
 pub mod phong;
 pub mod plot;
 pub mod report;
