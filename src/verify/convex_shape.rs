@@ -49,16 +49,15 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 /// Adds the fit rows of one orthographic view (camera at `from`, looking at the origin).
 /// `use_layer`: shift the footprint normals to the render's normal layer (meshes).
-pub fn add_view_rows(
-    ch: &Channel,
-    from: [f64; 3],
-    up: [f64; 3],
-    light: &[f64],
-    use_layer: bool,
-    rows: &mut Vec<Vec<f64>>,
-    value: &mut Vec<f64>,
-    sigma: &mut Vec<f64>,
-) {
+/// Design matrix rows, pixel values and their σ accumulated over views.
+#[derive(Default)]
+pub struct Design {
+    pub rows: Vec<Vec<f64>>,
+    pub value: Vec<f64>,
+    pub sigma: Vec<f64>,
+}
+
+pub fn add_view_rows(ch: &Channel, from: [f64; 3], up: [f64; 3], light: &[f64], use_layer: bool, d: &mut Design) {
     let f = normalize([-from[0], -from[1], -from[2]]);
     let right = normalize(cross(f, up));
     let upp = cross(right, f);
@@ -109,9 +108,9 @@ pub fn add_view_rows(
                     col[l] += s[l] / (SUB * SUB) as f64;
                 }
             }
-            rows.push(col);
-            value.push(ch.value[i]);
-            sigma.push(ch.sigma[i]);
+            d.rows.push(col);
+            d.value.push(ch.value[i]);
+            d.sigma.push(ch.sigma[i]);
         }
     }
 }
@@ -150,7 +149,7 @@ pub fn write_icosphere(path: &std::path::Path, subdivisions: u32) -> Result<(), 
 
 fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<Measured, String> {
     let size = if ctx.quick { 64 } else { 128 };
-    let (mut rows, mut value, mut sigma) = (vec![], vec![], vec![]);
+    let mut d = Design::default();
     for (from, up) in views() {
         let spec = Spec {
             width: size,
@@ -163,10 +162,10 @@ fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<
             brdf: "{ type = \"lambert\", albedo = 1.0 }".into(),
         };
         let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
-        add_view_rows(&ch, from, up, light, use_layer, &mut rows, &mut value, &mut sigma);
+        add_view_rows(&ch, from, up, light, use_layer, &mut d);
     }
-    let weight = vec![1.0; rows.len()];
-    let fit = lsq(&rows, &value, &sigma, &weight).ok_or("singular orthographic fit")?;
+    let weight = vec![1.0; d.rows.len()];
+    let fit = lsq(&d.rows, &d.value, &d.sigma, &weight).ok_or("singular orthographic fit")?;
     Ok(Measured::from_fit(&fit, LMAX))
 }
 
@@ -254,9 +253,9 @@ mod tests {
                 ch.normal.push([0.0; 3]);
             }
         }
-        let (mut rows, mut value, mut sigma) = (vec![], vec![], vec![]);
-        add_view_rows(&ch, from, up, &light, false, &mut rows, &mut value, &mut sigma);
-        let fit = lsq(&rows, &value, &sigma, &vec![1.0; rows.len()]).unwrap();
+        let mut d = Design::default();
+        add_view_rows(&ch, from, up, &light, false, &mut d);
+        let fit = lsq(&d.rows, &d.value, &d.sigma, &vec![1.0; d.rows.len()]).unwrap();
         // Only one cap is seen, so high orders are poorly conditioned; l ≤ 2 are well determined.
         for l in 0..=2 {
             assert!((fit.coef[l] - 1.0).abs() < 1e-3, "l={l}: {}", fit.coef[l]);

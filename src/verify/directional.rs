@@ -21,8 +21,11 @@ pub const EQUATION: &str = "eq. 19-22";
 pub const LMAX: usize = 8;
 pub const IRRADIANCE: f64 = 2.0;
 
-/// The three lobes: (label, BRDF TOML, ρ̂(γ), Λ_l ρ̂_l).
-pub fn lobes() -> Vec<(&'static str, &'static str, fn(f64) -> f64, Vec<f64>)> {
+/// One lobe: (label, BRDF TOML, ρ̂(γ), Λ_l ρ̂_l).
+pub type Lobe = (&'static str, &'static str, fn(f64) -> f64, Vec<f64>);
+
+/// The three lobes.
+pub fn lobes() -> Vec<Lobe> {
     vec![
         ("lambert", "{ type = \"lambert\", albedo = 1.0 }", transfer::lambert_lobe as fn(f64) -> f64, transfer::lambert(LMAX)),
         ("phong s=8", "{ type = \"phong\", ks = 1.0, s = 8.0, horizon = \"ignore\" }", |g| transfer::phong_lobe(8.0, g), transfer::phong(8.0, LMAX)),
@@ -42,9 +45,8 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel, e: f64, rho: fn(f
     let pred: Vec<f64> = (0..w * h).map(|i| e * rho(dot(latlong_dir(i / w, i % w, w, h), z).clamp(-1.0, 1.0).acos())).collect();
     let pmax = pred.iter().cloned().fold(0.0, f64::max);
     let mut worst: Option<Row> = None;
-    for i in 0..w * h {
-        let row = Row::new(format!("{label}: worst pixel B vs E ρ̂"), pred[i], ch.value[i], ch.sigma[i])
-            .floor(F32_FLOOR * (pred[i].abs() + 1e-3 * pmax));
+    for (i, &p) in pred.iter().enumerate() {
+        let row = Row::new(format!("{label}: worst pixel B vs E ρ̂"), p, ch.value[i], ch.sigma[i]).floor(F32_FLOOR * (p.abs() + 1e-3 * pmax));
         if worst.as_ref().is_none_or(|wr| row.ratio() > wr.ratio()) {
             worst = Some(row);
         }
@@ -55,10 +57,10 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel, e: f64, rho: fn(f
     let floor_ch = Channel { sigma: pred.iter().map(|p| F32_FLOOR * (p.abs() + 1e-3 * pmax)).collect(), ..ch.clone() };
     let (b, sb) = project_probe(&Channel { sigma: (0..w * h).map(|i| ch.sigma[i].hypot(floor_ch.sigma[i])).collect(), ..ch.clone() }, LMAX);
     let (bp, _) = project_probe(&Channel { value: pred.clone(), ..floor_ch.clone() }, LMAX);
-    for l in 0..=LMAX {
+    for (l, &al) in a.iter().enumerate().take(LMAX + 1) {
         let k = index(l, 0);
         let lam = (4.0 * std::f64::consts::PI / (2 * l + 1) as f64).sqrt();
-        let expect = e * a[l] / lam;
+        let expect = e * al / lam;
         c.push(Row::new(format!("{label}: B_{l}0 = E ρ̂_l"), expect, b[k], sb[k]).approx(bp[k] - expect));
     }
     let mut wm: Option<Row> = None;

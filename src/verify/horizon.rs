@@ -107,7 +107,9 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let size = if ctx.quick { 96 } else { 192 };
     let mut plot_curves = vec![];
     let mut plot_points = vec![];
-    let cases: Vec<(&str, String, Box<dyn Fn(f64) -> f64>, Box<dyn Fn(f64) -> f64>)> = vec![
+    // (label, BRDF, prediction, deliberately wrong prediction).
+    type Case<'a> = (&'a str, String, Box<dyn Fn(f64) -> f64 + 'a>, Box<dyn Fn(f64) -> f64 + 'a>);
+    let cases: Vec<Case> = vec![
         ("phong clamp", format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"clamp\" }}"), Box::new(|t| phong_clamp.at(t)), Box::new(|_| 1.0)),
         ("phong ignore", format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"), Box::new(|_| 1.0), Box::new(|_| 1.0)),
         ("TS clamp", format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"clamp\" }}"), Box::new(|t| ts_clamp.at(t)), Box::new(|t| ts_ignore.at(t))),

@@ -51,13 +51,13 @@ pub fn evaluate(ch: &Channel, light: &[f64], gain: f64) -> Check {
     }
     if let Some(fit) = lsq(&rows, &ch.value, &floors, &weight) {
         let m = Measured::from_fit(&fit, LMAX);
-        filter::rows(&mut c, "B_lm/L_lm", &m, &vec![gain; LMAX + 1], None, false);
+        filter::rows(&mut c, "B_lm/L_lm", &m, &[gain; LMAX + 1], None, false);
         c.plots.push(super::check::Plot {
             file: "mirror.svg".into(),
             title: "Mirror: Λ_l ρ̂_l (eq. 33)".into(),
             x_label: "l".into(),
             y_label: "Λ_l ρ̂_l".into(),
-            curves: vec![filter::curve("eq. 33", &vec![1.0; LMAX + 1])],
+            curves: vec![filter::curve("eq. 33", &[1.0; LMAX + 1])],
             points: vec![m.series("measured")],
         });
     }

@@ -4,15 +4,16 @@
 //! l ≤ 12; measured Λ_l ρ̂_l vs eq. 50 integrated numerically (deciding) and vs exp(−(σl)²) of
 //! eq. 57 (informative, approximation error |eq. 57 − eq. 50| stated per row).
 //! (b) Non-normal exitance θ_o ∈ {30°, 60°}, `normal-probe` renders at θ_o:
-//!   - the l = 0 term (the albedo ∫ ρ̂ dω_i) under uniform lighting vs its exact value from 2-D
-//!     quadrature of eq. 48 (deciding), and its departure from normal exitance (informative);
-//!   - under an SH lighting l ≤ 8, the per-order filter measured about the reflection vector R
-//!     (pixel-space least squares of B(n) on S_l(R(n))) vs the same fit applied to the image
-//!     predicted by direct numerical integration of eq. 48 ([`super::oblique`]; deciding, with
-//!     the quadrature error stated as the difference between two resolutions). The fit absorbs
-//!     the q = 0 term plus the leakage of the q ≠ 0 terms; reported next to it (informative):
-//!     the pure q = 0 term Λ_l ρ̂_l0(θ_o) by quadrature, eq. 59, and normal exitance eq. 50 —
-//!     i.e. how far the q = 0 term departs from normal exitance, measured vs predicted.
+//! - the l = 0 term (the albedo ∫ ρ̂ dω_i) under uniform lighting vs its exact value from 2-D
+//!   quadrature of eq. 48 (deciding), and its departure from normal exitance (informative);
+//! - under an SH lighting l ≤ 8, the per-order filter measured about the reflection vector R
+//!   (pixel-space least squares of B(n) on S_l(R(n))) vs the same fit applied to the image
+//!   predicted by direct numerical integration of eq. 48 ([`super::oblique`]; deciding, with
+//!   the quadrature error stated as the difference between two resolutions). The fit absorbs
+//!   the q = 0 term plus the leakage of the q ≠ 0 terms; reported next to it (informative):
+//!   the pure q = 0 term Λ_l ρ̂_l0(θ_o) by quadrature, eq. 59, and normal exitance eq. 50 —
+//!   i.e. how far the q = 0 term departs from normal exitance, measured vs predicted.
+//!
 //! Wrong prediction: eq. 50 and the θ_o predictions with σ × 1.2, the θ_o albedo × 1.05.
 
 use super::Ctx;
