@@ -246,24 +246,14 @@ impl DistantLight for Envmap {
                     // The part of a rim pixel outside the probe's disc: no direction maps there.
                     return None;
                 }
-                // The sampled pixel, its radiance and the density with the exact Jacobian at the
-                // sampled point: no inverse mapping needed.
-                let w = self.image.width;
-                let i = ((uv.y * w as f32) as usize).min(w - 1) * w + ((uv.x * w as f32) as usize).min(w - 1);
                 let rho = rho2.sqrt();
-                let theta = PI * rho;
-                let (st, ct) = theta.sin_cos();
-                let pdf = angular_pdf(self.pdf_uv[i], theta);
-                if !(pdf > 0.0 && pdf.is_finite()) {
-                    return None;
-                }
-                let d = if rho > 0.0 { Vec3::new(st * a / rho, st * b / rho, ct) } else { Vec3::Z };
-                let wi = (self.rotation * d).normalize();
-                return Some(LightSample { wi, value: self.radiance[i] / pdf, pdf, delta: false });
+                let (st, ct) = (PI * rho).sin_cos();
+                if rho > 0.0 { Vec3::new(st * a / rho, st * b / rho, ct) } else { Vec3::Z }
             }
         };
         let wi = (self.rotation * d).normalize();
-        // Recomputed from wi so that (pdf, value) agree exactly with pdf(wi) and eval(wi).
+        // Recomputed from wi (one joint lookup) so that (pdf, value) agree exactly with pdf(wi)
+        // and eval(wi), also where rounding puts wi across a pixel edge from the sampled point.
         let (value, pdf) = self.eval_pdf(wi);
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
