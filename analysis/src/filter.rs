@@ -104,7 +104,7 @@ mod tests {
         let lighting: Vec<[f64; 3]> = (0..n)
             .map(|k| {
                 let (l, m) = crate::sh::lm(k);
-                if l == 3 { [0.0; 3] } else { [1.0 + 0.1 * m as f64, 0.5, -0.3 * (k as f64).sin()] }
+                if l == 3 { [0.0; 3] } else { [1.0 + 0.1 * m as f64, 0.5, -0.3 * (k as f64).cos()] }
             })
             .collect();
         let f = crate::transfer::phong::phong(8.0, lmax);

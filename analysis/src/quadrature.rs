@@ -96,7 +96,7 @@ mod tests {
     fn gauss_legendre_is_exact_for_degree_2n_minus_1() {
         for n in [1usize, 2, 5, 16, 64, 200] {
             let (x, w) = gauss_legendre(n);
-            for deg in [0usize, 1, 2, 2 * n - 2, 2 * n - 1] {
+            for deg in [0usize, 1, 2, 2 * n - 2, 2 * n - 1].into_iter().filter(|&d| d < 2 * n) {
                 let got: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(deg as i32)).sum();
                 let exact = if deg % 2 == 1 { 0.0 } else { 2.0 / (deg as f64 + 1.0) };
                 assert!((got - exact).abs() < 1e-13, "n={n} deg={deg}: {got} vs {exact}");

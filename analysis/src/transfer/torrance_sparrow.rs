@@ -112,12 +112,15 @@ mod tests {
         let sigma = 0.05;
         let f = normal_exitance(sigma, 40);
         let g = gaussian(sigma, 40);
-        // Λ_0 ρ̂_0 = 1 − exp(−π²/16σ²) ≈ 1 (lobe fully above the horizon).
-        assert!((f[0] - 1.0).abs() < 1e-12, "{}", f[0]);
-        // eq. 55: 1 − (σl)² + O((σl)⁴) at small σl.
-        for l in 1..=4 {
-            let x = sigma * l as f64;
-            assert!((f[l] - (1.0 - x * x)).abs() < 1.0 * x.powi(4), "l={l}: {}", f[l]);
+        // Eq. 53 replaces sin θ by θ; the exact integral keeps −θ³/6, which lowers Λ_0 ρ̂_0 by
+        // (8σ²/6) ∫ u³ e^{−u²} du = 2σ²/3, with the next term O(σ⁴).
+        let s2 = sigma * sigma;
+        assert!((f[0] - (1.0 - 2.0 * s2 / 3.0)).abs() < 2.0 * s2 * s2, "{}", f[0]);
+        // eq. 51 → 55: 1 − l(l+1)σ² (the paper rounds l(l+1) to l²) − 2σ²/3 + O((σ(l+1))⁴).
+        for l in 1..=6 {
+            let x = sigma * (l + 1) as f64;
+            let expect = 1.0 - (l * (l + 1)) as f64 * s2 - 2.0 * s2 / 3.0;
+            assert!((f[l] - expect).abs() < x.powi(4), "l={l}: {} vs {expect}", f[l]);
         }
         // eq. 57 is an approximation: within a few percent of the peak where it matters.
         for l in 0..=40 {
