@@ -87,11 +87,15 @@ fn project_angular(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
     let n = num_coefficients(lmax);
     let w = img.width;
     let basis = ShBasis::new(lmax);
+    // One partial sum per row (fixed reduction order); channels kept as separate arrays
+    // (structure of arrays) so the per-pixel accumulation vectorizes.
     let parts: Vec<Vec<[f64; 3]>> = (0..img.height)
         .into_par_iter()
         .map(|r| {
             let mut y = vec![0.0; n];
-            let mut acc = vec![[0.0; 3]; n];
+            let mut acc = vec![0.0; 3 * n];
+            let (ar, rest) = acc.split_at_mut(n);
+            let (ag, ab) = rest.split_at_mut(n);
             for c in 0..w {
                 let Some((d, dw)) = angular_pixel(r, c, w) else { continue };
                 let px = img.get(r, c);
@@ -101,12 +105,12 @@ fn project_angular(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
                 let v = [px[0] as f64 * dw, px[1] as f64 * dw, px[2] as f64 * dw];
                 basis.eval_into(d, &mut y);
                 for k in 0..n {
-                    acc[k][0] += v[0] * y[k];
-                    acc[k][1] += v[1] * y[k];
-                    acc[k][2] += v[2] * y[k];
+                    ar[k] += v[0] * y[k];
+                    ag[k] += v[1] * y[k];
+                    ab[k] += v[2] * y[k];
                 }
             }
-            acc
+            (0..n).map(|k| [acc[k], acc[n + k], acc[2 * n + k]]).collect()
         })
         .collect();
     sum_parts(parts, n)
