@@ -3,6 +3,7 @@
 //! - `lambert_ortho.exr`: orthographic view of a Lambertian sphere (headers of CONVENTIONS §5);
 //! - `lambert_ortho_rgb_only.exr`: the same pixels, R, G, B only, no header attributes;
 //! - `phong_probe.exr`: a `normal-probe` image of a Phong (s = 8) sphere, with a stderr layer.
+//!
 //! The lighting is the grace probe projected to l ≤ 6, given as `sh` lighting in the header.
 //!
 //! Usage: `cargo run -p reflect-analysis --release --example synth_renders -- OUTDIR`

@@ -13,6 +13,9 @@
 //! - [`lighting`]: the scene's lighting description → L_lm;
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
+// `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 pub mod error;
 pub mod filter;
 pub mod image;

@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)]
 //! Projection: SH-defined lighting recovered from sampled maps (lat-long, angular, function grid),
 //! lat-long projection of an analytic function converging as the image grows, the normal-probe
 //! projection with standard errors, and least-squares fits of synthetic orthographic views.

@@ -11,7 +11,7 @@
 
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
-use crate::sh::{index, num_coefficients, ShBasis};
+use crate::sh::{index, num_coefficients, RgbCoeffs, ShBasis};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -134,7 +134,7 @@ pub fn project_latlong(
     img: &RgbImage,
     variance: Option<&RgbImage>,
     lmax: usize,
-) -> (Vec<[f64; 3]>, Option<Vec<[f64; 3]>>) {
+) -> (RgbCoeffs, Option<RgbCoeffs>) {
     let n = num_coefficients(lmax);
     let (w, h) = (img.width, img.height);
     let nm = lmax + 1;
@@ -151,7 +151,7 @@ pub fn project_latlong(
     }
     let basis = ShBasis::new(lmax);
     let with_var = variance.is_some();
-    let parts: Vec<(Vec<[f64; 3]>, Vec<[f64; 3]>)> = (0..h)
+    let parts: Vec<(RgbCoeffs, RgbCoeffs)> = (0..h)
         .into_par_iter()
         .map(|r| {
             let th_top = PI * r as f64 / h as f64;

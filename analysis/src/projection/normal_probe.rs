@@ -6,9 +6,10 @@
 use super::envmap::project_latlong;
 use crate::error::{Error, Result};
 use crate::image::{Image, RgbImage};
+use crate::sh::RgbCoeffs;
 
 /// B_lm (RGB) and, when the image has a `stderr` layer, their standard errors.
-pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(Vec<[f64; 3]>, Option<Vec<[f64; 3]>>)> {
+pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Option<RgbCoeffs>)> {
     let rgb = img.rgb().ok_or_else(|| Error::new("normal-probe image has no R, G, B channels"))?;
     if rgb.width != 2 * rgb.height {
         return Err(Error::new(format!(

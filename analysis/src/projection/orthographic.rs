@@ -199,7 +199,8 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
     // Upper triangle of G (lane 0, weight w) and of H_c (lanes 1–3, weight w² σ_c²), packed by rows.
     let tri = p * (p + 1) / 2;
     let chunk = samples.len().div_ceil(BLOCKS);
-    let parts: Vec<(Vec<[f64; 4]>, Vec<[f64; 3]>)> = samples
+    type Partial = (Vec<[f64; 4]>, Vec<[f64; 3]>);
+    let parts: Vec<Partial> = samples
         .par_chunks(chunk)
         .map(|ss| {
             let mut acc = vec![[0.0f64; 4]; tri];

@@ -9,6 +9,9 @@ pub use basis::{index, lm, num_coefficients, ShBasis};
 pub use reconstruct::{latlong_direction, lmax_of, reconstruct_latlong, Reconstructor};
 pub use rotation::{rotate_coefficients, Rotation};
 
+/// RGB coefficients in index order k.
+pub type RgbCoeffs = Vec<[f64; 3]>;
+
 /// Λ_l = √(4π / (2l + 1)) (eq. 4).
 #[inline]
 pub fn lambda(l: usize) -> f64 {

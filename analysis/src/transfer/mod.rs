@@ -75,7 +75,7 @@ impl TransferModel {
     pub fn approximation(&self, lmax: usize) -> Option<(&'static str, Vec<f64>)> {
         match *self {
             TransferModel::Phong { s } => Some(("eq. 46", phong::gaussian(s, lmax))),
-            TransferModel::TorranceSparrow { sigma, theta_o } if theta_o == 0.0 => {
+            TransferModel::TorranceSparrow { sigma, theta_o: 0.0 } => {
                 Some(("eq. 57", torrance_sparrow::gaussian(sigma, lmax)))
             }
             TransferModel::TorranceSparrow { sigma, theta_o } => {
