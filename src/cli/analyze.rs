@@ -346,3 +346,89 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use analysis::image::write_exr;
+    use analysis::sh::{latlong_direction, Reconstructor};
+
+    fn args(images: Vec<PathBuf>, lmax: usize) -> AnalyzeArgs {
+        AnalyzeArgs {
+            images,
+            lighting: None,
+            mapping: None,
+            lmax,
+            param: None,
+            center: None,
+            radius: None,
+            from: None,
+            to: None,
+            up: None,
+            extent: None,
+            json: true,
+        }
+    }
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("reflect-cli-analyze-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    #[test]
+    fn normal_probe_render_is_analysed_and_bad_inputs_are_errors() {
+        // A Lambertian normal-probe image under SH lighting, exactly B = Λ_l ρ̂_l L_lm.
+        let l: Vec<[f64; 3]> = (0..9).map(|k| if k == 0 { [2.0, 2.0, 2.0] } else { [0.2, -0.1, 0.05] }).collect();
+        let b = analysis::predict::predict(&l, &analysis::transfer::lambert::lambert(2), [0.5, 0.5, 0.5]);
+        let (w, h) = (64, 32);
+        let mut rec = Reconstructor::new(2);
+        let mut img = Image { width: w, height: h, ..Default::default() };
+        let px: Vec<[f64; 3]> = (0..w * h).map(|i| rec.eval(&b, latlong_direction(i / w, i % w, w, h))).collect();
+        for (ch, n) in ["R", "G", "B"].iter().enumerate() {
+            img.channels.insert(n.to_string(), px.iter().map(|p| p[ch] as f32).collect());
+        }
+        img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
+        img.attributes.insert("reflect:lighting".into(), json!({"type": "sh", "coefficients": l}).to_string());
+        img.attributes.insert(
+            "reflect:objects".into(),
+            r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"lambert","albedo":[0.5,0.5,0.5]}}]"#.into(),
+        );
+        let good = tmp("probe.exr");
+        write_exr(&good, &img).unwrap();
+        assert!(run(args(vec![good.clone()], 2)).is_ok());
+
+        // Perspective renders cannot be analysed: an error naming the file.
+        img.attributes.insert("reflect:camera".into(), r#"{"type":"perspective","fov_deg":40}"#.into());
+        let persp = tmp("persp.exr");
+        write_exr(&persp, &img).unwrap();
+        let e = run(args(vec![persp], 2)).unwrap_err().to_string();
+        assert!(e.contains("persp.exr") && e.contains("perspective"), "{e}");
+
+        // No camera in the header and none on the command line.
+        img.attributes.remove("reflect:camera");
+        let nocam = tmp("nocam.exr");
+        write_exr(&nocam, &img).unwrap();
+        let e = run(args(vec![nocam], 2)).unwrap_err().to_string();
+        assert!(e.contains("nocam.exr") && e.contains("--from"), "{e}");
+
+        // Absurd l_max, missing file, bad --param.
+        assert!(run(args(vec![good.clone()], 100_000)).is_err());
+        assert!(run(args(vec![tmp("missing.exr")], 2)).unwrap_err().to_string().contains("missing.exr"));
+        let mut a = args(vec![good], 2);
+        a.param = Some("sideways".into());
+        assert!(run(a).is_err());
+    }
+
+    #[test]
+    fn transfer_arguments_are_checked() {
+        use super::super::sh::model_from_args;
+        assert!(model_from_args("phong", None, None, None).is_err());
+        assert!(model_from_args("phong", Some(-1.0), None, None).is_err());
+        assert!(model_from_args("lambert", Some(3.0), None, None).is_err());
+        assert!(model_from_args("torrance-sparrow", None, Some(0.1), Some(95.0)).is_err());
+        assert!(model_from_args("torrance-sparrow", None, Some(f64::NAN), None).is_err());
+        assert!(model_from_args("velvet", None, None, None).is_err());
+        assert_eq!(model_from_args("mirror", None, None, None).unwrap(), TransferModel::Mirror);
+    }
+}

@@ -151,7 +151,7 @@ fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
         TransferModel::Lambert => "eq. 38 closed form",
         TransferModel::Phong { .. } => "eq. 43 exact",
         TransferModel::Mirror => "eq. 33",
-        TransferModel::TorranceSparrow { theta_o, .. } if theta_o == 0.0 => "eq. 50 numerical integration",
+        TransferModel::TorranceSparrow { theta_o: 0.0, .. } => "eq. 50 numerical integration",
         TransferModel::TorranceSparrow { .. } => "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)",
     };
     if a.json {

@@ -102,6 +102,11 @@ mod tests {
             g *= (s - l as f64 + 2.0) / (s + l as f64 + 1.0);
         }
         assert!((f[100] - g).abs() < 1e-13 * g, "{} vs {g}", f[100]);
+        // Independent check: eq. 41 integrated in θ (composite Gauss resolving the 1/√s-wide lobe).
+        let num = crate::transfer::radial::radial(|t| (s + 1.0) / (2.0 * std::f64::consts::PI) * t.cos().powf(s), 0.2, 100);
+        for l in 0..=100 {
+            assert!((num[l] - f[l]).abs() < 1e-10 * f[l], "l={l}: {} vs {}", num[l], f[l]);
+        }
         // and the Gaussian limit of eq. 46 to within its stated O(l²/s²) correction
         let approx = (-(100.0f64 * 100.0) / (2.0 * s)).exp();
         assert!((f[100] / approx - 1.0).abs() < 0.02, "{} vs eq.46 {approx}", f[100]);
