@@ -178,6 +178,9 @@ fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Ve
 /// summation order, hence the result, does not depend on the number of threads).
 const BLOCKS: usize = 16;
 
+/// Samples per tile of the normal-equation accumulation (see `fit_orthographic`).
+const TILE: usize = 32;
+
 /// Fits RGB coefficients up to `lmax` to the covered pixels of all `views` (see module docs).
 pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax: usize) -> Result<Fit> {
     let mut samples = Vec::new();
@@ -206,24 +209,51 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
             let mut acc = vec![[0.0f64; 4]; tri];
             let mut rhs = vec![[0.0f64; 3]; p];
             let mut y = vec![0.0; p];
-            for s in ss {
-                basis.eval_into(s.dir, &mut y);
-                let lanes = [s.w, s.w * s.w * s.var[0], s.w * s.w * s.var[1], s.w * s.w * s.var[2]];
+            // Samples go in tiles of TILE: Y (p × TILE, column per sample) and the four weighted
+            // copies lane_ℓ · Y, so that each accumulator entry is updated once per tile by short
+            // dot products instead of streaming the whole p² accumulator once per sample.
+            let mut yt = vec![0.0f64; p * TILE];
+            let mut wyt = vec![[0.0f64; TILE]; 4 * p];
+            for tile in ss.chunks(TILE) {
+                let t = tile.len();
+                for (si, smp) in tile.iter().enumerate() {
+                    basis.eval_into(smp.dir, &mut y);
+                    let lanes = [smp.w, smp.w * smp.w * smp.var[0], smp.w * smp.w * smp.var[1], smp.w * smp.w * smp.var[2]];
+                    for i in 0..p {
+                        yt[i * TILE + si] = y[i];
+                        for l in 0..4 {
+                            wyt[4 * i + l][si] = lanes[l] * y[i];
+                        }
+                        for ch in 0..3 {
+                            rhs[i][ch] += lanes[0] * y[i] * smp.b[ch];
+                        }
+                    }
+                }
+                if t < TILE {
+                    // Zero the unused tail so full-width dot products stay exact.
+                    for i in 0..p {
+                        yt[i * TILE + t..(i + 1) * TILE].iter_mut().for_each(|v| *v = 0.0);
+                    }
+                }
                 let mut off = 0;
                 for i in 0..p {
-                    let yi = y[i];
-                    let li = [lanes[0] * yi, lanes[1] * yi, lanes[2] * yi, lanes[3] * yi];
-                    let row = &mut acc[off..off + p - i];
-                    for (a, &yj) in row.iter_mut().zip(&y[i..]) {
-                        a[0] += li[0] * yj;
-                        a[1] += li[1] * yj;
-                        a[2] += li[2] * yj;
-                        a[3] += li[3] * yj;
+                    let (w0, w1, w2, w3) = (&wyt[4 * i], &wyt[4 * i + 1], &wyt[4 * i + 2], &wyt[4 * i + 3]);
+                    for j in i..p {
+                        let yj = &yt[j * TILE..(j + 1) * TILE];
+                        let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
+                        for k in 0..TILE {
+                            s0 += w0[k] * yj[k];
+                            s1 += w1[k] * yj[k];
+                            s2 += w2[k] * yj[k];
+                            s3 += w3[k] * yj[k];
+                        }
+                        let a = &mut acc[off + j - i];
+                        a[0] += s0;
+                        a[1] += s1;
+                        a[2] += s2;
+                        a[3] += s3;
                     }
                     off += p - i;
-                    for ch in 0..3 {
-                        rhs[i][ch] += li[0] * s.b[ch];
-                    }
                 }
             }
             (acc, rhs)
