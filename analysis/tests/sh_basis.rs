@@ -142,6 +142,40 @@ fn rotated_coefficients_equal_projection_of_rotated_function() {
 }
 
 #[test]
+fn rotation_matrices_are_orthogonal_and_match_coefficient_rotation() {
+    let lmax = 10;
+    let r = Rotation::from_xyz_deg([25.0, -70.0, 140.0]);
+    let d = analysis::sh::rotation_matrices(lmax, &r);
+    let c = random_coeffs(lmax, 17);
+    let rot = rotate_coefficients(&c, &r);
+    for (l, dl) in d.iter().enumerate() {
+        let s = 2 * l + 1;
+        // D Dᵀ = I (rotations are orthogonal within each order; eq. 3 mixes only m).
+        for a in 0..s {
+            for b in 0..s {
+                let v: f64 = (0..s).map(|k| dl[a * s + k] * dl[b * s + k]).sum();
+                assert!((v - if a == b { 1.0 } else { 0.0 }).abs() < 1e-12, "l={l}");
+            }
+        }
+        for a in 0..s {
+            let v: f64 = (0..s).map(|b| dl[a * s + b] * c[l * l + b][0]).sum();
+            assert!((v - rot[l * l + a][0]).abs() < 1e-12, "l={l}");
+        }
+    }
+    // Eq. 4: D^l_m0 for the rotation taking +z to direction u equals Λ_l Y_lm(u).
+    let u = [0.6, 0.0, 0.8];
+    let ry = Rotation::axis_angle([0.0, 1.0, 0.0], 0.6f64.atan2(0.8));
+    let dy = analysis::sh::rotation_matrices(lmax, &ry);
+    let yu = ShBasis::new(lmax).eval(u);
+    for (l, dl) in dy.iter().enumerate() {
+        let s = 2 * l + 1;
+        for a in 0..s {
+            assert!((dl[a * s + l] - lambda(l) * yu[l * l + a]).abs() < 1e-12, "l={l} a={a}");
+        }
+    }
+}
+
+#[test]
 fn rotating_a_delta_moves_it() {
     // A delta at d has coefficients Y(d); rotated by R it is a delta at R d.
     let lmax = 20;

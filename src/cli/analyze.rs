@@ -192,7 +192,9 @@ fn lighting_of(a: &AnalyzeArgs, first: &Image) -> Result<Option<(Lighting, Strin
     match first.attributes.get("reflect:lighting") {
         Some(text) => {
             let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:lighting is not JSON: {e}")))?;
-            Ok(Some((Lighting::from_json(&v, None)?, "reflect:lighting header".to_string())))
+            // The renderer writes absolute paths; a relative one is taken relative to the image.
+            let base = a.images[0].parent();
+            Ok(Some((Lighting::from_json(&v, base)?, "reflect:lighting header".to_string())))
         }
         None => Ok(None),
     }
@@ -244,6 +246,12 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
                 Camera::NormalProbe { .. } => unreachable!(),
             })
             .collect();
+        if views.len() == 1 && param == Param::Normal {
+            eprintln!(
+                "note: one orthographic view sees one hemisphere of normals; energy of B above l_max aliases into the fit \
+                 (raise --lmax, add the opposite view, or render a normal-probe)"
+            );
+        }
         let fit = fit_orthographic(&views, &sphere, param, a.lmax).map_err(|e| {
             if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e }
         })?;
@@ -313,6 +321,10 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
     }
     if let Some(br) = &brdf {
         println!("# brdf: {}", br.table);
+        let horizon = br.table.get("horizon").and_then(|h| h.as_str()).unwrap_or("clamp");
+        if matches!(br.ty.as_str(), "phong" | "torrance-sparrow") && horizon != "ignore" {
+            println!("# note: horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences");
+        }
     }
     println!("{:>4} {:>4} {:>26} {:>26} {:>26}", "l", "m", "B_lm R ± se", "G ± se", "B ± se");
     for (k, v) in b.iter().enumerate() {

@@ -7,7 +7,7 @@ pub mod rotation;
 
 pub use basis::{index, lm, num_coefficients, ShBasis};
 pub use reconstruct::{latlong_direction, lmax_of, reconstruct_latlong, Reconstructor};
-pub use rotation::{rotate_coefficients, Rotation};
+pub use rotation::{rotate_coefficients, rotation_matrices, Rotation};
 
 /// RGB coefficients in index order k.
 pub type RgbCoeffs = Vec<[f64; 3]>;

@@ -98,3 +98,36 @@ pub fn rotate_coefficients(coeffs: &[[f64; 3]], r: &Rotation) -> Vec<[f64; 3]> {
     }
     out
 }
+
+/// The real rotation matrices D^l (eq. 3 in the real basis), l = 0 … lmax, each (2l+1)² row-major
+/// with rows m and columns m' in −l … l: c'_lm = Σ_m' D^l_mm' c_lm' for f_R(ω) = f(Rᵀω), i.e.
+/// D^l_mm' = ∫ Y_lm(ω) Y_lm'(Rᵀω) dω, by the same exact quadrature as [`rotate_coefficients`].
+pub fn rotation_matrices(lmax: usize, r: &Rotation) -> Vec<Vec<f64>> {
+    let n = num_coefficients(lmax);
+    let (xs, ws) = gauss_legendre(lmax + 1);
+    let nphi = 2 * lmax + 1;
+    let rt = r.transpose();
+    let basis = ShBasis::new(lmax);
+    let (mut y, mut yr) = (vec![0.0; n], vec![0.0; n]);
+    let mut d: Vec<Vec<f64>> = (0..=lmax).map(|l| vec![0.0; (2 * l + 1) * (2 * l + 1)]).collect();
+    for (z, wz) in xs.iter().zip(&ws) {
+        let st = (1.0 - z * z).max(0.0).sqrt();
+        let w = wz * 2.0 * std::f64::consts::PI / nphi as f64;
+        for j in 0..nphi {
+            let phi = 2.0 * std::f64::consts::PI * j as f64 / nphi as f64;
+            let dir = [st * phi.cos(), st * phi.sin(), *z];
+            basis.eval_into(dir, &mut y);
+            basis.eval_into(rt.apply(dir), &mut yr);
+            for (l, dl) in d.iter_mut().enumerate() {
+                let (k0, s) = (l * l, 2 * l + 1);
+                for a in 0..s {
+                    let wa = w * y[k0 + a];
+                    for b in 0..s {
+                        dl[a * s + b] += wa * yr[k0 + b];
+                    }
+                }
+            }
+        }
+    }
+    d
+}
