@@ -5,7 +5,8 @@
 //!   then the associated Legendre functions once per row. O(W H l_max) instead of O(W H l_max²), which
 //!   makes a 2048 × 1024 map at l_max = 20 a fraction of a second. An optional per-pixel variance
 //!   image propagates to per-coefficient variances Σ ΔΩ² Y² σ² (used for `normal-probe` renders).
-//! - Angular map (W × W, Debevec probe): per-pixel evaluation of all Y_lm, pixels with ρ > 1 skipped.
+//! - Angular map (W × W, Debevec probe): pixels with ρ > 1 skipped; the four pixels mirrored about
+//!   the image axes share θ, so one evaluation of all Y_lm serves four pixels (even W).
 //!
 //! Rows are processed in parallel and reduced in a fixed order (results do not depend on threads).
 
@@ -86,28 +87,87 @@ pub fn project_envmap(img: &RgbImage, mapping: Mapping, lmax: usize) -> Result<V
 fn project_angular(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
     let n = num_coefficients(lmax);
     let w = img.width;
+    if w % 2 == 1 {
+        return project_angular_generic(img, lmax);
+    }
     let basis = ShBasis::new(lmax);
-    // One partial sum per row (fixed reduction order); channels kept as separate arrays
-    // (structure of arrays) so the per-pixel accumulation vectorizes.
+    let half = w / 2;
+    // Symmetry: the pixels (r, c), (r, W−1−c), (W−1−r, c), (W−1−r, W−1−c) have the same θ and solid
+    // angle and azimuths φ, π − φ, −φ, π + φ. With A, B, C, D their radiances,
+    //   Σ L cos(mφ) = cos(mφ) [(A + C) + (−1)^m (B + D)],
+    //   Σ L sin(mφ) = sin(mφ) [(A − C) + (−1)^m (D − B)],
+    // so one evaluation of Y serves four pixels. One partial sum per quadrant row (fixed order).
+    let parts: Vec<Vec<[f64; 3]>> = (0..half)
+        .into_par_iter()
+        .map(|r| {
+            let mut y = vec![0.0; n];
+            let mut ys = vec![0.0; n];
+            let mut acc = vec![0.0; 3 * n];
+            let r2 = w - 1 - r;
+            for c in 0..half {
+                let Some((d, dw)) = angular_pixel(r, c, w) else { continue };
+                let c2 = w - 1 - c;
+                let px = |rr: usize, cc: usize| {
+                    let p = img.get(rr, cc);
+                    [p[0] as f64 * dw, p[1] as f64 * dw, p[2] as f64 * dw]
+                };
+                let (a, b, cq, dq) = (px(r, c), px(r, c2), px(r2, c), px(r2, c2));
+                if a == [0.0; 3] && b == [0.0; 3] && cq == [0.0; 3] && dq == [0.0; 3] {
+                    continue;
+                }
+                let u_pos = [a[0] + cq[0], a[1] + cq[1], a[2] + cq[2]];
+                let v_pos = [b[0] + dq[0], b[1] + dq[1], b[2] + dq[2]];
+                let u_neg = [a[0] - cq[0], a[1] - cq[1], a[2] - cq[2]];
+                let v_neg = [dq[0] - b[0], dq[1] - b[1], dq[2] - b[2]];
+                basis.eval_into(d, &mut y);
+                for l in 0..=lmax {
+                    let k0 = l * l;
+                    for (i, m) in (-(l as i64)..=(l as i64)).enumerate() {
+                        let k = k0 + i;
+                        ys[k] = if m % 2 == 0 { y[k] } else { -y[k] };
+                    }
+                    let mid = k0 + l; // m = 0
+                    let end = (l + 1) * (l + 1);
+                    for ch in 0..3 {
+                        let accc = &mut acc[ch * n..(ch + 1) * n];
+                        let (un, vn, up, vp) = (u_neg[ch], v_neg[ch], u_pos[ch], v_pos[ch]);
+                        for k in k0..mid {
+                            accc[k] += y[k] * un + ys[k] * vn;
+                        }
+                        for k in mid..end {
+                            accc[k] += y[k] * up + ys[k] * vp;
+                        }
+                    }
+                }
+            }
+            (0..n).map(|k| [acc[k], acc[n + k], acc[2 * n + k]]).collect()
+        })
+        .collect();
+    sum_parts(parts, n)
+}
+
+/// Per-pixel angular projection (any W, used for odd widths).
+fn project_angular_generic(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
+    let n = num_coefficients(lmax);
+    let w = img.width;
+    let basis = ShBasis::new(lmax);
     let parts: Vec<Vec<[f64; 3]>> = (0..img.height)
         .into_par_iter()
         .map(|r| {
             let mut y = vec![0.0; n];
             let mut acc = vec![0.0; 3 * n];
-            let (ar, rest) = acc.split_at_mut(n);
-            let (ag, ab) = rest.split_at_mut(n);
             for c in 0..w {
                 let Some((d, dw)) = angular_pixel(r, c, w) else { continue };
                 let px = img.get(r, c);
                 if px == [0.0; 3] {
                     continue;
                 }
-                let v = [px[0] as f64 * dw, px[1] as f64 * dw, px[2] as f64 * dw];
                 basis.eval_into(d, &mut y);
-                for k in 0..n {
-                    ar[k] += v[0] * y[k];
-                    ag[k] += v[1] * y[k];
-                    ab[k] += v[2] * y[k];
+                for ch in 0..3 {
+                    let v = px[ch] as f64 * dw;
+                    for (a, yk) in acc[ch * n..(ch + 1) * n].iter_mut().zip(&y) {
+                        *a += v * yk;
+                    }
                 }
             }
             (0..n).map(|k| [acc[k], acc[n + k], acc[2 * n + k]]).collect()
