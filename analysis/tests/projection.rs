@@ -214,6 +214,38 @@ fn ortho_image(c: &[[f64; 3]], cam: &OrthoCamera, sphere: &Sphere, param: Param,
     img
 }
 
+/// Adds `normal.X/Y/Z` (geometric normal at the pixel centre, 0 on a miss) to an orthographic image.
+fn add_normal_layer(img: &mut Image, cam: &OrthoCamera, sphere: &Sphere) {
+    let size = img.width;
+    let norm = |a: [f64; 3]| {
+        let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        [a[0] / n, a[1] / n, a[2] / n]
+    };
+    let f = norm([cam.to[0] - cam.from[0], cam.to[1] - cam.from[1], cam.to[2] - cam.from[2]]);
+    let right = norm([f[1] * cam.up[2] - f[2] * cam.up[1], f[2] * cam.up[0] - f[0] * cam.up[2], f[0] * cam.up[1] - f[1] * cam.up[0]]);
+    let up = [right[1] * f[2] - right[2] * f[1], right[2] * f[0] - right[0] * f[2], right[0] * f[1] - right[1] * f[0]];
+    let mut ch = vec![vec![0.0f32; size * size]; 3];
+    for r in 0..size {
+        for col in 0..size {
+            let x = cam.extent * (2.0 * (col as f64 + 0.5) / size as f64 - 1.0);
+            let y = cam.extent * (1.0 - 2.0 * (r as f64 + 0.5) / size as f64);
+            let o: Vec<f64> = (0..3).map(|i| cam.from[i] + x * right[i] + y * up[i] - sphere.center[i]).collect();
+            let t0 = -(o[0] * f[0] + o[1] * f[1] + o[2] * f[2]);
+            let d2 = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - t0 * t0;
+            if d2 >= sphere.radius * sphere.radius {
+                continue;
+            }
+            let t = t0 - (sphere.radius * sphere.radius - d2).sqrt();
+            for i in 0..3 {
+                ch[i][r * size + col] = ((o[i] + t * f[i]) / sphere.radius) as f32;
+            }
+        }
+    }
+    for (i, n) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
+        img.channels.insert(n.to_string(), ch[i].clone());
+    }
+}
+
 #[test]
 fn least_squares_recovers_sh_function_from_orthographic_views() {
     let sphere = Sphere { center: [0.2, -0.1, 0.3], radius: 0.8 };
@@ -237,6 +269,13 @@ fn least_squares_recovers_sh_function_from_orthographic_views() {
     let fit4 = fit_orthographic(&[OrthoView { image: &img4, camera: cams[0] }], &sphere, Param::Normal, 4).unwrap();
     assert!(max_err(&fit4.coefficients, &c4) < 1e-4, "hemisphere fit error {}", max_err(&fit4.coefficients, &c4));
     assert!(fit1.pixels_used > 20000);
+    // A normal layer (as the renderer writes) pointing like the geometry gives the same fit, even
+    // when the sphere given for coverage is slightly off.
+    let mut with_n = img4.clone();
+    add_normal_layer(&mut with_n, &cams[0], &sphere);
+    let shifted = Sphere { center: [0.2, -0.1, 0.31], radius: 0.79 };
+    let fit_n = fit_orthographic(&[OrthoView { image: &with_n, camera: cams[0] }], &shifted, Param::Normal, 4).unwrap();
+    assert!(max_err(&fit_n.coefficients, &c4) < 1e-4, "{}", max_err(&fit_n.coefficients, &c4));
     // Reflection parameterization: one view covers almost every reflection direction.
     let img_r = ortho_image(&c, &cams[0], &sphere, Param::Reflection, 200, None);
     let fit_r = fit_orthographic(&[OrthoView { image: &img_r, camera: cams[0] }], &sphere, Param::Reflection, lmax).unwrap();

@@ -3,8 +3,9 @@
 //!
 //! Parameters:
 //! - [`OrthoCamera`]: `from`, `to`, `up`, `extent` (CONVENTIONS §5 pixel → ray mapping);
-//! - [`Sphere`]: centre and radius (normals come from this geometry, so EXR files of any renderer
-//!   with only R, G, B work);
+//! - [`Sphere`]: centre and radius: which pixels are covered, and the normals when the image has no
+//!   `normal.X/Y/Z` layer (so EXR files of any renderer with only R, G, B work); with the layer, its
+//!   normalized per-pixel normal is used;
 //! - [`Param`]: the direction a pixel's radiance is attributed to: the normal n (radially symmetric
 //!   about n, e.g. Lambertian: B(n)) or the reflection vector R = 2(n·ω_o)n − ω_o (reparameterized
 //!   reflective BRDFs, e.g. Phong, mirror: B(R));
@@ -121,6 +122,10 @@ fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Ve
     let rgb = img.rgb().ok_or_else(|| Error::new("image has no R, G, B channels"))?;
     let stderr = img.rgb_layer("stderr.");
     let mask = img.channel("mask.Y");
+    let normals = match (img.channel("normal.X"), img.channel("normal.Y"), img.channel("normal.Z")) {
+        (Some(x), Some(y), Some(z)) => Some((x, y, z)),
+        _ => None,
+    };
     let f = normalize(sub(cam.to, cam.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
     let right = normalize(cross(f, cam.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
     let up = cross(right, f);
@@ -153,7 +158,17 @@ fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Ve
             }
             let t = along - (r * r - dist * dist).sqrt();
             let hit = add(o, scale(f, t));
-            let n = scale(sub(hit, sphere.center), 1.0 / r);
+            let mut n = scale(sub(hit, sphere.center), 1.0 / r);
+            // The renderer's normal layer (the pixel's mean first-hit normal) when present: robust
+            // to a slightly misplaced sphere; the geometric normal otherwise. A (near-)zero layer
+            // normal is a miss (or a pixel mostly off the object): skip it.
+            if let Some((nx, ny, nz)) = normals {
+                let m = [nx[i] as f64, ny[i] as f64, nz[i] as f64];
+                if dot(m, m) <= 0.25 {
+                    continue;
+                }
+                n = normalize(m).unwrap_or(n);
+            }
             let cos_o = dot(n, wo);
             let (dir, wt) = match param {
                 Param::Normal => (n, d_area / (r * r * cos_o)),
