@@ -46,7 +46,14 @@ fn field<'a>(t: &'a serde_json::Map<String, Value>, key: &str) -> Result<&'a Val
 
 impl Lighting {
     /// From the JSON form of a `[lighting]` table; relative `file` paths are resolved against `base`.
+    /// Unknown keys are an error (CONVENTIONS §6).
     pub fn from_json(v: &Value, base: Option<&Path>) -> Result<Lighting> {
+        Lighting::from_json_with(v, base, true)
+    }
+
+    /// As [`Lighting::from_json`]; with `strict = false` unknown keys are ignored (for the
+    /// `reflect:lighting` header, which a renderer may annotate with extra fields).
+    pub fn from_json_with(v: &Value, base: Option<&Path>, strict: bool) -> Result<Lighting> {
         let t = v.as_object().ok_or_else(|| Error::new("lighting: expected a table"))?;
         let ty = field(t, "type")?.as_str().ok_or_else(|| Error::new("lighting.type: expected a string"))?;
         let allowed: &[&str] = match ty {
@@ -57,7 +64,7 @@ impl Lighting {
             "axial" => return Err(Error::new("lighting type 'axial' is not supported by the analysis")),
             other => return Err(Error::new(format!("unknown lighting type '{other}'"))),
         };
-        if let Some(k) = t.keys().find(|k| !allowed.contains(&k.as_str())) {
+        if let Some(k) = t.keys().find(|k| strict && !allowed.contains(&k.as_str())) {
             return Err(Error::new(format!("lighting: unknown key '{k}' for type '{ty}'")));
         }
         let l = match ty {

@@ -194,7 +194,7 @@ fn lighting_of(a: &AnalyzeArgs, first: &Image) -> Result<Option<(Lighting, Strin
             let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:lighting is not JSON: {e}")))?;
             // The renderer writes absolute paths; a relative one is taken relative to the image.
             let base = a.images[0].parent();
-            Ok(Some((Lighting::from_json(&v, base)?, "reflect:lighting header".to_string())))
+            Ok(Some((Lighting::from_json_with(&v, base, false)?, "reflect:lighting header".to_string())))
         }
         None => Ok(None),
     }
