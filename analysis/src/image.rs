@@ -158,6 +158,38 @@ fn check_size(w: usize, h: usize) -> Result<()> {
     Ok(())
 }
 
+/// Writes `img` as a 32-bit float OpenEXR with all its channels and its string attributes
+/// (for tests, tools and the renderer's conventions of §5; attribute text must be ASCII/Latin-1).
+pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
+    use exr::prelude::{AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Layer, LayerAttributes, Text, WritableImage};
+    let path = path.as_ref();
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+    for (name, data) in &img.channels {
+        if data.len() != img.width * img.height {
+            return Err(Error::file(path, format!("channel {name} has {} samples, expected {}", data.len(), img.width * img.height)));
+        }
+        let text = Text::new_or_none(name.as_str()).ok_or_else(|| Error::file(path, format!("channel name {name} is not representable")))?;
+        channels.push(AnyChannel::new(text, FlatSamples::F32(data.clone())));
+    }
+    let mut attrs = LayerAttributes::default();
+    for (k, v) in &img.attributes {
+        let (Some(k), Some(v)) = (Text::new_or_none(k.as_str()), Text::new_or_none(v.as_str())) else {
+            return Err(Error::file(path, format!("attribute {k} is not representable in OpenEXR text")));
+        };
+        attrs.other.insert(k, AttributeValue::Text(v));
+    }
+    let layer = Layer::new(
+        (img.width, img.height),
+        attrs,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into_iter().collect()),
+    );
+    exr::prelude::Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| Error::file(path, format!("cannot write OpenEXR: {e}")))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,5 +215,22 @@ mod tests {
         let g = dir.join("bad.exr");
         std::fs::write(&g, b"garbage").unwrap();
         assert!(read_rgb(&g).unwrap_err().to_string().contains("unrecognised"));
+    }
+
+    #[test]
+    fn exr_round_trip_keeps_channels_and_attributes() {
+        let dir = std::env::temp_dir().join(format!("reflect-img-rt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("rt.exr");
+        let mut img = Image { width: 3, height: 2, ..Default::default() };
+        for (i, n) in ["R", "G", "B", "normal.X", "stderr.R"].iter().enumerate() {
+            img.channels.insert(n.to_string(), (0..6).map(|j| (i * 10 + j) as f32 * 0.5).collect());
+        }
+        img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
+        write_exr(&f, &img).unwrap();
+        let back = read_image(&f).unwrap();
+        assert_eq!((back.width, back.height), (3, 2));
+        assert_eq!(back.channels, img.channels);
+        assert_eq!(back.attributes.get("reflect:camera"), img.attributes.get("reflect:camera"));
     }
 }

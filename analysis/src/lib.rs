@@ -5,9 +5,26 @@
 //! coefficients L_lm, transfer coefficients Λ_l ρ̂_l, reflected-light coefficients B_lm, and the
 //! comparison B_lm = Λ_l ρ̂_l L_lm (eq. 15). It does not depend on the renderer, so it can analyse
 //! any renderer's EXR files. Conventions: `shared/CONVENTIONS.md` §2, §3, §4, §7.
+//!
+//! - [`sh`]: basis, reconstruction, rotation;
+//! - [`projection`]: environment maps, functions, `normal-probe` and orthographic renders;
+//! - [`transfer`]: Λ_l ρ̂_l of Lambert, Phong, mirror, Torrance–Sparrow, any radial lobe;
+//! - [`predict`], [`filter`]: B_lm from L_lm and the per-order filter measured from renders;
+//! - [`lighting`]: the scene's lighting description → L_lm;
+//! - [`lsq`], [`quadrature`]: numerical building blocks.
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod error;
+pub mod filter;
 pub mod image;
+pub mod lighting;
+pub mod lsq;
+pub mod predict;
+pub mod projection;
+pub mod quadrature;
 pub mod sh;
+pub mod transfer;
 
 pub use error::Error;

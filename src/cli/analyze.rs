@@ -1,10 +1,446 @@
-//! `reflect analyze`. STUB.
+//! `reflect analyze IMAGE.exr… [--lighting SCENE_OR_ENV] --lmax L [--json]`: project renders into
+//! SH (B_lm) and compare them with the lighting (L_lm) and, when the BRDF is known, with eq. 15.
+//!
+//! Images:
+//! - a `normal-probe` render (header `reflect:camera` type `normal-probe`): lat-long quadrature;
+//!   exactly one such image per run;
+//! - one or more orthographic images of a sphere: weighted least squares over the covered pixels.
+//!   The camera comes from the `reflect:camera` header, else from `--from/--to/--up/--extent`;
+//!   the sphere from the first sphere of `reflect:objects`, else `--center/--radius`
+//!   (default (0, 0, 0), 1). Files with only R, G, B work: normals come from the sphere.
+//!
+//! The direction B is a function of (`--param normal|reflection`) defaults from the BRDF in the
+//! header: `lambert` and `mix` → normal, reflective models → reflection; normal without a BRDF.
+//!
+//! Lighting: `--lighting scene.toml` (only its `[lighting]` table is read), or an environment map
+//! (`--mapping latlong|angular`, default inferred from the aspect ratio: W = H angular, W = 2H
+//! lat-long); without `--lighting`, the `reflect:lighting` header of the first image.
+//!
+//! Output: B_lm ± standard error, L_lm, the measured filter (per-order least-squares estimate of
+//! albedo · Λ_l ρ̂_l with its standard error; orders where L has no energy are unobservable) and,
+//! with a known BRDF, its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo.
+use super::sh::check_lmax;
 use super::Error;
+use analysis::filter::{measured_filter, OrderEstimate};
+use analysis::image::{read_image, Image};
+use analysis::lighting::Lighting;
+use analysis::projection::{fit_orthographic, project_normal_probe, Mapping, OrthoCamera, OrthoView, Param, Sphere};
+use analysis::sh::lm;
+use analysis::transfer::TransferModel;
+use serde_json::{json, Value};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(clap::Args, Debug)]
-pub struct AnalyzeArgs {}
+pub struct AnalyzeArgs {
+    /// Rendered images (OpenEXR): one normal-probe image, or one or more orthographic views.
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// Scene file (.toml, its [lighting] table) or environment map giving the lighting.
+    #[arg(long)]
+    pub lighting: Option<PathBuf>,
+    /// Mapping of an environment map given with --lighting (default: inferred from aspect ratio).
+    #[arg(long)]
+    pub mapping: Option<String>,
+    /// Highest SH order.
+    #[arg(long)]
+    pub lmax: usize,
+    /// normal | reflection: the direction the radiance is a function of (default: from the BRDF).
+    #[arg(long)]
+    pub param: Option<String>,
+    /// Sphere centre x,y,z when the header has no reflect:objects.
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+    pub center: Option<Vec<f64>>,
+    /// Sphere radius when the header has no reflect:objects.
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// Orthographic camera position x,y,z when the header has no reflect:camera.
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+    pub from: Option<Vec<f64>>,
+    /// Camera target x,y,z (default 0,0,0).
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+    pub to: Option<Vec<f64>>,
+    /// Camera up x,y,z (default 0,0,1).
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+    pub up: Option<Vec<f64>>,
+    /// Orthographic half-width of the view.
+    #[arg(long)]
+    pub extent: Option<f64>,
+    /// Print one JSON document to stdout.
+    #[arg(long)]
+    pub json: bool,
+}
 
-pub fn run(_a: AnalyzeArgs) -> Result<ExitCode, Error> {
+fn vec3(v: &Option<Vec<f64>>, name: &str, default: Option<[f64; 3]>) -> Result<Option<[f64; 3]>, Error> {
+    match v {
+        Some(x) if x.len() == 3 && x.iter().all(|v| v.is_finite()) => Ok(Some([x[0], x[1], x[2]])),
+        Some(_) => Err(Error::new(format!("--{name} needs three finite numbers x,y,z"))),
+        None => Ok(default),
+    }
+}
+
+fn json_vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
+    let a = v.get(key).and_then(|a| a.as_array()).filter(|a| a.len() == 3);
+    let a = a.ok_or_else(|| Error::new(format!("header: '{key}' must be an array of 3 numbers")))?;
+    let mut o = [0.0; 3];
+    for (i, x) in a.iter().enumerate() {
+        o[i] = x.as_f64().ok_or_else(|| Error::new(format!("header: '{key}' must hold numbers")))?;
+    }
+    Ok(o)
+}
+
+fn rgb_or_default(v: Option<&Value>, default: f64) -> [f64; 3] {
+    match v {
+        Some(Value::Number(n)) => [n.as_f64().unwrap_or(default); 3],
+        Some(Value::Array(a)) if a.len() == 3 => {
+            [0, 1, 2].map(|i| a[i].as_f64().unwrap_or(default))
+        }
+        _ => [default; 3],
+    }
+}
+
+/// The camera of one image.
+enum Camera {
+    Ortho(OrthoCamera),
+    NormalProbe { theta_o_deg: f64 },
+}
+
+fn camera_of(img: &Image, a: &AnalyzeArgs) -> Result<Camera, Error> {
+    if let Some(text) = img.attributes.get("reflect:camera") {
+        let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:camera is not JSON: {e}")))?;
+        let ty = v.get("type").and_then(|t| t.as_str()).unwrap_or("");
+        return match ty {
+            "orthographic" => Ok(Camera::Ortho(OrthoCamera {
+                from: json_vec3(&v, "from")?,
+                to: json_vec3(&v, "to")?,
+                up: json_vec3(&v, "up")?,
+                extent: v.get("extent").and_then(|e| e.as_f64()).ok_or_else(|| Error::new("header camera has no 'extent'"))?,
+            })),
+            "normal-probe" => Ok(Camera::NormalProbe {
+                theta_o_deg: v.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0),
+            }),
+            other => Err(Error::new(format!(
+                "camera type '{other}' cannot be analysed (use an orthographic or normal-probe render)"
+            ))),
+        };
+    }
+    let from = vec3(&a.from, "from", None)?;
+    match (from, a.extent) {
+        (Some(from), Some(extent)) => Ok(Camera::Ortho(OrthoCamera {
+            from,
+            to: vec3(&a.to, "to", Some([0.0; 3]))?.unwrap_or([0.0; 3]),
+            up: vec3(&a.up, "up", Some([0.0, 0.0, 1.0]))?.unwrap_or([0.0, 0.0, 1.0]),
+            extent,
+        })),
+        _ => Err(Error::new("no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera)")),
+    }
+}
+
+/// The BRDF of the analysed sphere, from the header: transfer model, RGB scale, name, table.
+struct Brdf {
+    model: Option<TransferModel>,
+    scale: [f64; 3],
+    ty: String,
+    table: Value,
+}
+
+fn sphere_and_brdf(img: &Image) -> Result<(Option<Sphere>, Option<Brdf>), Error> {
+    let Some(text) = img.attributes.get("reflect:objects") else { return Ok((None, None)) };
+    let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:objects is not JSON: {e}")))?;
+    let objs = v.as_array().ok_or_else(|| Error::new("header reflect:objects is not an array"))?;
+    let Some(o) = objs.iter().find(|o| o.get("shape").and_then(|s| s.as_str()) == Some("sphere")) else {
+        return Ok((None, None));
+    };
+    if objs.len() > 1 {
+        eprintln!("note: the scene has {} objects; analysing the first sphere", objs.len());
+    }
+    let sphere = Sphere {
+        center: json_vec3(o, "center").unwrap_or([0.0; 3]),
+        radius: o.get("radius").and_then(|r| r.as_f64()).unwrap_or(1.0),
+    };
+    let brdf = o.get("brdf").map(|b| {
+        let ty = b.get("type").and_then(|t| t.as_str()).unwrap_or("").to_string();
+        let num = |k: &str| b.get(k).and_then(|x| x.as_f64());
+        let (model, scale) = match ty.as_str() {
+            "lambert" => (Some(TransferModel::Lambert), rgb_or_default(b.get("albedo"), 1.0)),
+            "phong" => (num("s").map(|s| TransferModel::Phong { s }), rgb_or_default(b.get("ks"), 1.0)),
+            "mirror" => (Some(TransferModel::Mirror), rgb_or_default(b.get("kr"), 1.0)),
+            "torrance-sparrow" => (
+                num("sigma").map(|sigma| TransferModel::TorranceSparrow { sigma, theta_o: 0.0 }),
+                rgb_or_default(b.get("ks"), 1.0),
+            ),
+            _ => (None, [1.0; 3]),
+        };
+        let model = model.filter(|m| m.validate().is_ok());
+        Brdf { model, scale, ty, table: b.clone() }
+    });
+    Ok((Some(sphere), brdf))
+}
+
+fn lighting_of(a: &AnalyzeArgs, first: &Image) -> Result<Option<(Lighting, String)>, Error> {
+    if let Some(p) = &a.lighting {
+        let is_toml = p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            return Ok(Some((Lighting::from_scene_file(p)?, p.display().to_string())));
+        }
+        let mapping = a.mapping.as_deref().map(Mapping::parse).transpose()?;
+        return Ok(Some((Lighting::from_envmap_file(p, mapping), p.display().to_string())));
+    }
+    if a.mapping.is_some() {
+        return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
+    }
+    match first.attributes.get("reflect:lighting") {
+        Some(text) => {
+            let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:lighting is not JSON: {e}")))?;
+            // The renderer writes absolute paths; a relative one is taken relative to the image.
+            let base = a.images[0].parent();
+            Ok(Some((Lighting::from_json_with(&v, base, false)?, "reflect:lighting header".to_string())))
+        }
+        None => Ok(None),
+    }
+}
+
+pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
+    check_lmax(a.lmax)?;
+    let images: Vec<Image> = a.images.iter().map(read_image).collect::<Result<_, _>>()?;
+    let cameras: Vec<Camera> = images
+        .iter()
+        .zip(&a.images)
+        .map(|(img, p)| camera_of(img, &a).map_err(|e| e.in_file(p)))
+        .collect::<Result<_, _>>()?;
+    let (header_sphere, brdf) = sphere_and_brdf(&images[0]).map_err(|e| e.in_file(&a.images[0]))?;
+    let sphere = Sphere {
+        center: vec3(&a.center, "center", None)?.or(header_sphere.map(|s| s.center)).unwrap_or([0.0; 3]),
+        radius: a.radius.or(header_sphere.map(|s| s.radius)).unwrap_or(1.0),
+    };
+    let param = match a.param.as_deref() {
+        Some("normal") => Param::Normal,
+        Some("reflection") => Param::Reflection,
+        Some(o) => return Err(Error::new(format!("unknown --param '{o}' (expected normal or reflection)"))),
+        None => match brdf.as_ref().map(|b| b.ty.as_str()) {
+            Some("phong" | "mirror" | "torrance-sparrow" | "microfacet") => Param::Reflection,
+            _ => Param::Normal,
+        },
+    };
+
+    let n_probe = cameras.iter().filter(|c| matches!(c, Camera::NormalProbe { .. })).count();
+    let mut brdf = brdf;
+    let (b, b_se, method, pixels, se_source, rms) = if n_probe > 0 {
+        if images.len() != 1 {
+            return Err(Error::new("a normal-probe render must be analysed on its own (one image)"));
+        }
+        let Camera::NormalProbe { theta_o_deg } = cameras[0] else { unreachable!() };
+        // Torrance–Sparrow seen at θ_o: the q = 0 coefficient at that exitance angle.
+        if let Some(Brdf { model: Some(TransferModel::TorranceSparrow { theta_o, .. }), .. }) = brdf.as_mut() {
+            *theta_o = theta_o_deg.to_radians();
+        }
+        let (c, se) = project_normal_probe(&images[0], a.lmax).map_err(|e| e.in_file(&a.images[0]))?;
+        let src = if se.is_some() { "stderr-layer" } else { "none" };
+        (c, se, format!("normal-probe quadrature (theta_o {theta_o_deg}°)"), images[0].width * images[0].height, src, None)
+    } else {
+        let views: Vec<OrthoView> = images
+            .iter()
+            .zip(&cameras)
+            .map(|(image, c)| match c {
+                Camera::Ortho(camera) => OrthoView { image, camera: *camera },
+                Camera::NormalProbe { .. } => unreachable!(),
+            })
+            .collect();
+        if views.len() == 1 && param == Param::Normal {
+            eprintln!(
+                "note: one orthographic view sees one hemisphere of normals; energy of B above l_max aliases into the fit \
+                 (raise --lmax, add the opposite view, or render a normal-probe)"
+            );
+        }
+        let fit = fit_orthographic(&views, &sphere, param, a.lmax).map_err(|e| {
+            if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e }
+        })?;
+        (
+            fit.coefficients,
+            Some(fit.stderr),
+            format!("weighted least squares over {} orthographic view(s), {} parameterization", images.len(), param.name()),
+            fit.pixels_used,
+            fit.stderr_source,
+            Some(fit.rms_residual),
+        )
+    };
+
+    let lighting = lighting_of(&a, &images[0]).map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
+    let l_coeffs = match &lighting {
+        Some((l, _)) => Some(l.coefficients(a.lmax)?),
+        None => None,
+    };
+    let filter: Option<Vec<OrderEstimate>> =
+        l_coeffs.as_ref().map(|l| measured_filter(&b, b_se.as_deref(), l, a.lmax, 1e-8));
+    let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
+        br.model.map(|m| m.lambda_rho(a.lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect())
+    });
+
+    if a.json {
+        let filt = filter.as_ref().map(|f| {
+            f.iter()
+                .map(|o| {
+                    json!({"l": o.l, "energy": o.energy, "estimate": o.estimate, "stderr": o.stderr, "observable": o.observable()})
+                })
+                .collect::<Vec<_>>()
+        });
+        let predicted = match (&l_coeffs, &brdf) {
+            (Some(l), Some(Brdf { model: Some(m), scale, .. })) => {
+                Some(analysis::predict::predict(l, &m.lambda_rho(a.lmax), *scale))
+            }
+            _ => None,
+        };
+        let doc = json!({
+            "lmax": a.lmax,
+            "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "method": method,
+            "param": if n_probe > 0 { "normal" } else { param.name() },
+            "sphere": {"center": sphere.center, "radius": sphere.radius},
+            "pixels_used": pixels,
+            "stderr_source": se_source,
+            "rms_residual": rms,
+            "coefficients": b,
+            "stderr": b_se,
+            "lighting": lighting.as_ref().map(|(_, src)| json!({"source": src, "coefficients": l_coeffs})),
+            "filter": filt,
+            "brdf": brdf.as_ref().map(|b| b.table.clone()),
+            "lambda_rho_analytic": analytic,
+            "predicted": predicted,
+        });
+        println!("{doc}");
+        return Ok(ExitCode::SUCCESS);
+    }
+
+    println!("# {} — {method}", a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+    println!("# pixels used {pixels}, standard errors from {se_source}");
+    if let Some(r) = rms {
+        println!("# weighted RMS residual of the fit: {:.3e} {:.3e} {:.3e}", r[0], r[1], r[2]);
+    }
+    if let Some((_, src)) = &lighting {
+        println!("# lighting: {src}");
+    }
+    if let Some(br) = &brdf {
+        println!("# brdf: {}", br.table);
+        let horizon = br.table.get("horizon").and_then(|h| h.as_str()).unwrap_or("clamp");
+        if matches!(br.ty.as_str(), "phong" | "torrance-sparrow") && horizon != "ignore" {
+            println!("# note: horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences");
+        }
+    }
+    println!("{:>4} {:>4} {:>26} {:>26} {:>26}", "l", "m", "B_lm R ± se", "G ± se", "B ± se");
+    for (k, v) in b.iter().enumerate() {
+        let (l, m) = lm(k);
+        let se = b_se.as_ref().map(|s| s[k]);
+        let cell = |ch: usize| match se {
+            Some(s) => format!("{:.5e} ± {:.1e}", v[ch], s[ch]),
+            None => format!("{:.5e}", v[ch]),
+        };
+        println!("{l:>4} {m:>4} {:>26} {:>26} {:>26}", cell(0), cell(1), cell(2));
+    }
+    if let Some(f) = &filter {
+        println!("\n# measured filter (albedo · Λ_l ρ̂_l per order, least squares over m weighted by the lighting's energy)");
+        println!(
+            "{:>4} {:>26} {:>26} {:>26} {:>14}",
+            "l",
+            "R ± se",
+            "G ± se",
+            "B ± se",
+            if analytic.is_some() { "analytic (R)" } else { "" }
+        );
+        for o in f {
+            let cell = |ch: usize| match (o.estimate[ch], o.stderr[ch]) {
+                (Some(e), Some(s)) => format!("{e:.5e} ± {s:.1e}"),
+                (Some(e), None) => format!("{e:.5e}"),
+                _ => "unobservable".to_string(),
+            };
+            let an = analytic.as_ref().map(|a| format!("{:.5e}", a[o.l][0])).unwrap_or_default();
+            println!("{:>4} {:>26} {:>26} {:>26} {:>14}", o.l, cell(0), cell(1), cell(2), an);
+        }
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use analysis::image::write_exr;
+    use analysis::sh::{latlong_direction, Reconstructor};
+
+    fn args(images: Vec<PathBuf>, lmax: usize) -> AnalyzeArgs {
+        AnalyzeArgs {
+            images,
+            lighting: None,
+            mapping: None,
+            lmax,
+            param: None,
+            center: None,
+            radius: None,
+            from: None,
+            to: None,
+            up: None,
+            extent: None,
+            json: true,
+        }
+    }
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("reflect-cli-analyze-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    #[test]
+    fn normal_probe_render_is_analysed_and_bad_inputs_are_errors() {
+        // A Lambertian normal-probe image under SH lighting, exactly B = Λ_l ρ̂_l L_lm.
+        let l: Vec<[f64; 3]> = (0..9).map(|k| if k == 0 { [2.0, 2.0, 2.0] } else { [0.2, -0.1, 0.05] }).collect();
+        let b = analysis::predict::predict(&l, &analysis::transfer::lambert::lambert(2), [0.5, 0.5, 0.5]);
+        let (w, h) = (64, 32);
+        let mut rec = Reconstructor::new(2);
+        let mut img = Image { width: w, height: h, ..Default::default() };
+        let px: Vec<[f64; 3]> = (0..w * h).map(|i| rec.eval(&b, latlong_direction(i / w, i % w, w, h))).collect();
+        for (ch, n) in ["R", "G", "B"].iter().enumerate() {
+            img.channels.insert(n.to_string(), px.iter().map(|p| p[ch] as f32).collect());
+        }
+        img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
+        img.attributes.insert("reflect:lighting".into(), json!({"type": "sh", "coefficients": l}).to_string());
+        img.attributes.insert(
+            "reflect:objects".into(),
+            r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"lambert","albedo":[0.5,0.5,0.5]}}]"#.into(),
+        );
+        let good = tmp("probe.exr");
+        write_exr(&good, &img).unwrap();
+        assert!(run(args(vec![good.clone()], 2)).is_ok());
+
+        // Perspective renders cannot be analysed: an error naming the file.
+        img.attributes.insert("reflect:camera".into(), r#"{"type":"perspective","fov_deg":40}"#.into());
+        let persp = tmp("persp.exr");
+        write_exr(&persp, &img).unwrap();
+        let e = run(args(vec![persp], 2)).unwrap_err().to_string();
+        assert!(e.contains("persp.exr") && e.contains("perspective"), "{e}");
+
+        // No camera in the header and none on the command line.
+        img.attributes.remove("reflect:camera");
+        let nocam = tmp("nocam.exr");
+        write_exr(&nocam, &img).unwrap();
+        let e = run(args(vec![nocam], 2)).unwrap_err().to_string();
+        assert!(e.contains("nocam.exr") && e.contains("--from"), "{e}");
+
+        // Absurd l_max, missing file, bad --param.
+        assert!(run(args(vec![good.clone()], 100_000)).is_err());
+        assert!(run(args(vec![tmp("missing.exr")], 2)).unwrap_err().to_string().contains("missing.exr"));
+        let mut a = args(vec![good], 2);
+        a.param = Some("sideways".into());
+        assert!(run(a).is_err());
+    }
+
+    #[test]
+    fn transfer_arguments_are_checked() {
+        use super::super::sh::model_from_args;
+        assert!(model_from_args("phong", None, None, None).is_err());
+        assert!(model_from_args("phong", Some(-1.0), None, None).is_err());
+        assert!(model_from_args("lambert", Some(3.0), None, None).is_err());
+        assert!(model_from_args("torrance-sparrow", None, Some(0.1), Some(95.0)).is_err());
+        assert!(model_from_args("torrance-sparrow", None, Some(f64::NAN), None).is_err());
+        assert!(model_from_args("velvet", None, None, None).is_err());
+        assert_eq!(model_from_args("mirror", None, None, None).unwrap(), TransferModel::Mirror);
+    }
 }

@@ -1,13 +1,191 @@
-//! `reflect sh …`. STUB.
+//! `reflect sh …`: spherical-harmonic tools.
+//!
+//! - `reflect sh project ENV [--mapping latlong|angular] --lmax L [--json]`: L_lm of an environment
+//!   map (`.exr` or `.hdr`). Without `--mapping` the mapping is inferred from the aspect ratio
+//!   (W = H → angular, W = 2H → lat-long; anything else is an error).
+//! - `reflect sh transfer --brdf lambert|phong|mirror|torrance-sparrow [--s S] [--sigma X]
+//!   [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (CONVENTIONS §4), with the
+//!   paper's approximation alongside where it has one (eq. 46, 57, 59).
+//!
+//! `--json` prints one JSON document (CONVENTIONS §7) to stdout; otherwise a table.
 use super::Error;
+use analysis::image::read_rgb;
+use analysis::projection::{project_envmap, Mapping};
+use analysis::sh::lm;
+use analysis::transfer::TransferModel;
+use serde_json::json;
+use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// Largest l_max accepted on the command line (the basis is accurate far beyond; this guards
+/// against accidental huge allocations).
+pub const MAX_LMAX: usize = 200;
 
 #[derive(clap::Subcommand, Debug)]
 pub enum ShCommand {
-    /// Project an environment map into SH.
-    Project,
+    /// Project an environment map into SH (L_lm, RGB).
+    Project(ProjectArgs),
+    /// Transfer coefficients Λ_l ρ̂_l of a BRDF (unit albedo / k_s).
+    Transfer(TransferArgs),
 }
 
-pub fn run(_c: ShCommand) -> Result<ExitCode, Error> {
+#[derive(clap::Args, Debug)]
+pub struct ProjectArgs {
+    /// Environment map (.exr or .hdr).
+    pub env: PathBuf,
+    /// latlong | angular (default: inferred from the aspect ratio, W = H angular, W = 2H lat-long).
+    #[arg(long)]
+    pub mapping: Option<String>,
+    /// Highest SH order.
+    #[arg(long)]
+    pub lmax: usize,
+    /// Print one JSON document to stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct TransferArgs {
+    /// lambert | phong | mirror | torrance-sparrow
+    #[arg(long)]
+    pub brdf: String,
+    /// Phong exponent s (> 0).
+    #[arg(long)]
+    pub s: Option<f64>,
+    /// Torrance–Sparrow roughness σ (radians, > 0).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Torrance–Sparrow exitance angle θ_o in degrees (default 0, normal exitance).
+    #[arg(long = "theta-o")]
+    pub theta_o: Option<f64>,
+    /// Highest SH order.
+    #[arg(long)]
+    pub lmax: usize,
+    /// Print one JSON document to stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(c: ShCommand) -> Result<ExitCode, Error> {
+    match c {
+        ShCommand::Project(a) => project(a),
+        ShCommand::Transfer(a) => transfer(a),
+    }
+}
+
+pub fn check_lmax(lmax: usize) -> Result<(), Error> {
+    if lmax > MAX_LMAX {
+        return Err(Error::new(format!("--lmax {lmax} is above the supported maximum {MAX_LMAX}")));
+    }
+    Ok(())
+}
+
+fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
+    check_lmax(a.lmax)?;
+    let img = read_rgb(&a.env)?;
+    let mapping = match &a.mapping {
+        Some(m) => Mapping::parse(m)?,
+        None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&a.env))?,
+    };
+    let c = project_envmap(&img, mapping, a.lmax).map_err(|e| e.in_file(&a.env))?;
+    if a.json {
+        let doc = json!({
+            "file": a.env.display().to_string(),
+            "mapping": mapping.name(),
+            "lmax": a.lmax,
+            "coefficients": c,
+        });
+        println!("{doc}");
+    } else {
+        println!("# {} ({} {}×{}), l_max {}", a.env.display(), mapping.name(), img.width, img.height, a.lmax);
+        println!("{:>4} {:>4} {:>14} {:>14} {:>14}", "l", "m", "R", "G", "B");
+        for (k, v) in c.iter().enumerate() {
+            let (l, m) = lm(k);
+            println!("{l:>4} {m:>4} {:>14.6e} {:>14.6e} {:>14.6e}", v[0], v[1], v[2]);
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The transfer model named on the command line, with its parameters checked.
+pub fn model_from_args(brdf: &str, s: Option<f64>, sigma: Option<f64>, theta_o_deg: Option<f64>) -> Result<TransferModel, Error> {
+    let unused = |name: &str, v: Option<f64>| match v {
+        Some(_) => Err(Error::new(format!("--{name} does not apply to --brdf {brdf}"))),
+        None => Ok(()),
+    };
+    let m = match brdf {
+        "lambert" | "mirror" => {
+            unused("s", s)?;
+            unused("sigma", sigma)?;
+            unused("theta-o", theta_o_deg)?;
+            if brdf == "lambert" { TransferModel::Lambert } else { TransferModel::Mirror }
+        }
+        "phong" => {
+            unused("sigma", sigma)?;
+            unused("theta-o", theta_o_deg)?;
+            TransferModel::Phong { s: s.ok_or_else(|| Error::new("--brdf phong needs --s"))? }
+        }
+        "torrance-sparrow" => {
+            unused("s", s)?;
+            TransferModel::TorranceSparrow {
+                sigma: sigma.ok_or_else(|| Error::new("--brdf torrance-sparrow needs --sigma"))?,
+                theta_o: theta_o_deg.unwrap_or(0.0).to_radians(),
+            }
+        }
+        other => {
+            return Err(Error::new(format!(
+                "unknown --brdf '{other}' (expected lambert, phong, mirror or torrance-sparrow)"
+            )))
+        }
+    };
+    m.validate()?;
+    Ok(m)
+}
+
+fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
+    check_lmax(a.lmax)?;
+    let model = model_from_args(&a.brdf, a.s, a.sigma, a.theta_o)?;
+    let f = model.lambda_rho(a.lmax);
+    let approx = model.approximation(a.lmax);
+    let method = match model {
+        TransferModel::Lambert => "eq. 38 closed form",
+        TransferModel::Phong { .. } => "eq. 43 exact",
+        TransferModel::Mirror => "eq. 33",
+        TransferModel::TorranceSparrow { theta_o: 0.0, .. } => "eq. 50 numerical integration",
+        TransferModel::TorranceSparrow { .. } => "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)",
+    };
+    if a.json {
+        let mut doc = json!({
+            "brdf": a.brdf,
+            "lmax": a.lmax,
+            "method": method,
+            "lambda_rho": f,
+        });
+        if let Some(s) = a.s {
+            doc["s"] = json!(s);
+        }
+        if let Some(s) = a.sigma {
+            doc["sigma"] = json!(s);
+        }
+        if let Some(t) = a.theta_o {
+            doc["theta_o_deg"] = json!(t);
+        }
+        if let Some((name, v)) = &approx {
+            doc["approximation"] = json!({"equation": name, "lambda_rho": v});
+        }
+        println!("{doc}");
+    } else {
+        println!("# Λ_l ρ̂_l of {} ({method}), unit albedo / k_s", a.brdf);
+        match &approx {
+            Some((name, _)) => println!("{:>4} {:>22} {:>22}", "l", "Λ_l ρ̂_l", name),
+            None => println!("{:>4} {:>22}", "l", "Λ_l ρ̂_l"),
+        }
+        for l in 0..=a.lmax {
+            match &approx {
+                Some((_, v)) => println!("{l:>4} {:>22.15e} {:>22.15e}", f[l], v[l]),
+                None => println!("{l:>4} {:>22.15e}", f[l]),
+            }
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }

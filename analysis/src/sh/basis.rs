@@ -32,6 +32,9 @@ pub struct ShBasis {
     /// a_lm, b_lm of the recurrence P̄_l^m = a_lm (z P̄_{l-1}^m − b_lm P̄_{l-2}^m), indexed like k for m ≥ 0.
     a: Vec<f64>,
     b: Vec<f64>,
+    /// √(2l+1) (for P̄_l^{l−1} = √(2l+1) z P̄_{l−1}^{l−1}) and √((2l+1)/(2l)) (for P̄_l^l), by l.
+    sub_diag: Vec<f64>,
+    diag: Vec<f64>,
 }
 
 impl ShBasis {
@@ -47,7 +50,9 @@ impl ShBasis {
                 b[k] = (((lf - 1.0) * (lf - 1.0) - mf * mf) / (4.0 * (lf - 1.0) * (lf - 1.0) - 1.0)).sqrt();
             }
         }
-        ShBasis { lmax, a, b }
+        let sub_diag = (0..=lmax).map(|l| (2.0 * l as f64 + 1.0).sqrt()).collect();
+        let diag = (0..=lmax).map(|l| if l == 0 { 0.0 } else { ((2.0 * l as f64 + 1.0) / (2.0 * l as f64)).sqrt() }).collect();
+        ShBasis { lmax, a, b, sub_diag, diag }
     }
 
     pub fn lmax(&self) -> usize {
@@ -56,53 +61,50 @@ impl ShBasis {
 
     /// Writes Y_k(dir) for k < (lmax+1)² into `out` (which must have at least that length).
     /// `dir` must be a unit vector (x, y, z) in the world frame of CONVENTIONS §1.
+    ///
+    /// Two passes, no allocation: (1) the normalized associated Legendre values P̄_l^m(z) (without
+    /// the sin^m θ factor) go into the m ≥ 0 slots, l outer and m inner, so the recurrences of the
+    /// different m are independent and pipeline/vectorize instead of forming one long dependency
+    /// chain; (2) each m is multiplied by √2 Re/Im (x + iy)^m = √2 sin^m θ (cos mφ, sin mφ), which
+    /// needs no trigonometry and is exact at the poles.
     pub fn eval_into(&self, dir: [f64; 3], out: &mut [f64]) {
         let lmax = self.lmax;
         let [x, y, z] = dir;
         let n = num_coefficients(lmax);
         assert!(out.len() >= n, "output buffer too small for lmax {lmax}");
-        // Normalized P̄_l^m(z) such that Y_lm = P̄_l^m · {1, √2 cos mφ, √2 sin mφ} · (sinθ)^m-free part:
-        // we fold sin^m θ cos(mφ) = Re (x + iy)^m, which needs no trigonometry and is exact at the poles.
+        let out = &mut out[..n];
         const INV_4PI: f64 = 1.0 / (4.0 * std::f64::consts::PI);
-        // P̄_m^m = (−1)^0 · sqrt((2m+1)/(4π) · (2m−1)!!² / (2m)!) without the sin^m θ factor.
-        let mut pmm = INV_4PI.sqrt(); // m = 0
-        let (mut c, mut s) = (1.0f64, 0.0f64); // Re/Im of (x + i y)^m
-        for m in 0..=lmax {
-            if m > 0 {
-                let mf = m as f64;
-                pmm *= ((2.0 * mf + 1.0) / (2.0 * mf)).sqrt();
-                let (c2, s2) = (c * x - s * y, c * y + s * x);
-                c = c2;
-                s = s2;
+        // Pass 1. P̄_0^0 = 1/√(4π); P̄_m^m = P̄_{m−1}^{m−1} √((2m+1)/(2m)); P̄_{m+1}^m = √(2m+3) z P̄_m^m;
+        // P̄_l^m = a_lm (z P̄_{l−1}^m − b_lm P̄_{l−2}^m).
+        out[0] = INV_4PI.sqrt();
+        let mut pmm = out[0];
+        for l in 1..=lmax {
+            let k = l * (l + 1);
+            let k1 = (l - 1) * l;
+            if l >= 2 {
+                let k2 = (l - 2) * (l - 1);
+                let (a, b) = (&self.a[k..k + l - 1], &self.b[k..k + l - 1]);
+                for m in 0..=(l - 2) {
+                    out[k + m] = a[m] * (z * out[k1 + m] - b[m] * out[k2 + m]);
+                }
             }
-            let (cm, sm) = if m == 0 { (1.0, 0.0) } else { (std::f64::consts::SQRT_2 * c, std::f64::consts::SQRT_2 * s) };
-            // l = m
-            let mut p_prev2 = 0.0;
-            let mut p_prev = pmm;
-            store(out, m, m, p_prev, cm, sm);
-            if m < lmax {
-                // l = m + 1: P̄_{m+1}^m = sqrt(2m+3) z P̄_m^m
-                let p = (2.0 * m as f64 + 3.0).sqrt() * z * pmm;
-                store(out, m + 1, m, p, cm, sm);
-                p_prev2 = p_prev;
-                p_prev = p;
-            }
-            for l in (m + 2)..=lmax {
-                let k = index(l, m as i64);
-                let p = self.a[k] * (z * p_prev - self.b[k] * p_prev2);
-                store(out, l, m, p, cm, sm);
-                p_prev2 = p_prev;
-                p_prev = p;
-            }
+            // m = l − 1 and m = l.
+            out[k + l - 1] = self.sub_diag[l] * z * pmm;
+            pmm *= self.diag[l];
+            out[k + l] = pmm;
         }
-
-        #[inline(always)]
-        fn store(out: &mut [f64], l: usize, m: usize, p: f64, cm: f64, sm: f64) {
-            if m == 0 {
-                out[index(l, 0)] = p;
-            } else {
-                out[index(l, m as i64)] = p * cm;
-                out[index(l, -(m as i64))] = p * sm;
+        // Pass 2: azimuthal factors.
+        let (mut c, mut s) = (1.0f64, 0.0f64);
+        for m in 1..=lmax {
+            let (c2, s2) = (c * x - s * y, c * y + s * x);
+            c = c2;
+            s = s2;
+            let (cm, sm) = (std::f64::consts::SQRT_2 * c, std::f64::consts::SQRT_2 * s);
+            for l in m..=lmax {
+                let k = l * (l + 1);
+                let p = out[k + m];
+                out[k - m] = p * sm;
+                out[k + m] = p * cm;
             }
         }
     }

@@ -1,6 +1,19 @@
 //! Real spherical harmonics in the convention of CONVENTIONS §3 (orthonormal, no Condon–Shortley
-//! phase, flat index k = l(l+1) + m).
+//! phase, flat index k = l(l+1) + m): evaluation, reconstruction and rotation.
 
 pub mod basis;
+pub mod reconstruct;
+pub mod rotation;
 
 pub use basis::{index, lm, num_coefficients, ShBasis};
+pub use reconstruct::{latlong_direction, lmax_of, reconstruct_latlong, Reconstructor};
+pub use rotation::{rotate_coefficients, rotation_matrices, Rotation};
+
+/// RGB coefficients in index order k.
+pub type RgbCoeffs = Vec<[f64; 3]>;
+
+/// Λ_l = √(4π / (2l + 1)) (eq. 4).
+#[inline]
+pub fn lambda(l: usize) -> f64 {
+    (4.0 * std::f64::consts::PI / (2.0 * l as f64 + 1.0)).sqrt()
+}

@@ -15,7 +15,12 @@
 //!   scene always misses.
 //!
 //! Parameters: `BUILD_PARAMS` (the obvhs build preset, chosen so 1.3 M triangles build in ~1 s
-//! on one core while keeping traversal fast).
+//! on one core while keeping traversal fast: on the 1.3 M-triangle icosphere, a higher PLOC search
+//! radius or 6× more reinsertion changed the nodes visited per hitting ray by < 2% (14.1 → 13.9)
+//! at 2–3× the build time).
+//!
+//! Hits have t in (0, t_max) for triangles and (1e-4·r, t_max) for spheres (see
+//! [`super::sphere::SPHERE_T_EPSILON`]); rays with non-finite origin or direction hit nothing.
 
 use super::mesh::TriangleRecord;
 use super::{Hit, Ray, Shape, Sphere};

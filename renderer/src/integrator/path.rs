@@ -143,9 +143,9 @@ impl<'a> PathTracer<'a> {
             };
             match escaped {
                 None => {
-                    let le = light.eval(wi_world);
+                    let (le, light_pdf) = light.eval_pdf(wi_world);
                     if le != Rgb::ZERO {
-                        let w = if bs.delta || light.is_delta() { 1.0 } else { power_heuristic(bs.pdf, light.pdf(wi_world)) };
+                        let w = if bs.delta || light.is_delta() { 1.0 } else { power_heuristic(bs.pdf, light_pdf) };
                         radiance += beta * le * w;
                     }
                     break;

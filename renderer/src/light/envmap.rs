@@ -50,6 +50,11 @@ pub struct Envmap {
     /// rotationᵀ: world → map.
     inv_rotation: glam::Mat3,
     sampler: EnvSampler,
+    /// Hot-path tables, one entry per pixel: radiance × scale (0 outside the angular disc) and,
+    /// for the angular map, the sampling density with respect to the unit square. They let
+    /// `eval`, `pdf` and `sample` cost one pixel lookup each.
+    radiance: Vec<Rgb>,
+    pdf_uv: Vec<f32>,
 }
 
 /// sinθ/θ, → 1 at θ = 0 (the angular map's solid-angle factor).
@@ -113,7 +118,17 @@ impl Envmap {
                 EnvSampler::Angular(Distribution2D::new(&weights, w, h))
             }
         };
-        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler })
+        let radiance: Vec<Rgb> = (0..w * h)
+            .map(|i| match mapping {
+                Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
+                _ => Rgb::from(image.pixels[i]) * scale,
+            })
+            .collect();
+        let pdf_uv: Vec<f32> = match &sampler {
+            EnvSampler::Angular(dist) => (0..w * h).map(|i| dist.pdf_index(i % w, i / w)).collect(),
+            EnvSampler::LatLong(_) => Vec::new(),
+        };
+        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler, radiance, pdf_uv })
     }
 
     /// Reads an `.exr` / `.hdr` file and builds the light; every error names the file.
@@ -121,19 +136,6 @@ impl Envmap {
     pub fn load(path: &Path, mapping: Mapping, scale: f32, rotate_deg: [f32; 3]) -> crate::Result<Self> {
         let image = analysis::image::read_rgb(path)?;
         Envmap::new(image, mapping, scale, crate::math::rotation_xyz_deg(rotate_deg)).map_err(|e| e.in_file(path))
-    }
-
-    /// Pixel (row, column) holding map direction `d` (unit), or None for angular-map pixels whose
-    /// centre lies outside the disc (radiance 0 there).
-    #[inline]
-    fn pixel(&self, d: Vec3) -> Option<(usize, usize)> {
-        match &self.sampler {
-            EnvSampler::LatLong(grid) => Some(grid.cell(d)),
-            EnvSampler::Angular(_) => {
-                let (r, c, _) = self.angular_lookup(d);
-                angular_pixel_theta(r, c, self.image.width).map(|_| (r, c))
-            }
-        }
     }
 
     /// Angular map: (row, column, θ) of map direction `d`, clamped to the image.
@@ -200,9 +202,32 @@ fn angular_pixel_theta(r: usize, c: usize, w: usize) -> Option<f32> {
 impl DistantLight for Envmap {
     #[inline]
     fn eval(&self, wi: Vec3) -> Rgb {
-        match self.pixel(self.inv_rotation * wi) {
-            Some((r, c)) => Rgb::from(self.image.get(r, c)) * self.scale,
-            None => Rgb::ZERO,
+        let d = self.inv_rotation * wi;
+        match &self.sampler {
+            EnvSampler::LatLong(grid) => {
+                let (r, c) = grid.cell(d);
+                self.radiance[r * self.image.width + c]
+            }
+            EnvSampler::Angular(_) => {
+                let (r, c, _) = self.angular_lookup(d);
+                self.radiance[r * self.image.width + c]
+            }
+        }
+    }
+
+    #[inline]
+    fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
+        let d = self.inv_rotation * wi;
+        match &self.sampler {
+            EnvSampler::LatLong(grid) => {
+                let (r, c) = grid.cell(d);
+                (self.radiance[r * self.image.width + c], grid.pdf(d))
+            }
+            EnvSampler::Angular(_) => {
+                let (r, c, theta) = self.angular_lookup(d);
+                let i = r * self.image.width + c;
+                (self.radiance[i], angular_pdf(self.pdf_uv[i], theta))
+            }
         }
     }
 
@@ -223,20 +248,17 @@ impl DistantLight for Envmap {
                 }
                 let rho = rho2.sqrt();
                 let (st, ct) = (PI * rho).sin_cos();
-                if rho > 0.0 {
-                    Vec3::new(st * a / rho, st * b / rho, ct)
-                } else {
-                    Vec3::Z
-                }
+                if rho > 0.0 { Vec3::new(st * a / rho, st * b / rho, ct) } else { Vec3::Z }
             }
         };
         let wi = (self.rotation * d).normalize();
-        // Recomputed from wi so that (pdf, value) agree exactly with pdf(wi) and eval(wi).
-        let pdf = self.pdf(wi);
+        // Recomputed from wi (one joint lookup) so that (pdf, value) agree exactly with pdf(wi)
+        // and eval(wi), also where rounding puts wi across a pixel edge from the sampled point.
+        let (value, pdf) = self.eval_pdf(wi);
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(LightSample { wi, value: self.eval(wi) / pdf, pdf, delta: false })
+        Some(LightSample { wi, value: value / pdf, pdf, delta: false })
     }
 
     #[inline]
@@ -244,19 +266,20 @@ impl DistantLight for Envmap {
         let d = self.inv_rotation * wi;
         match &self.sampler {
             EnvSampler::LatLong(grid) => grid.pdf(d),
-            EnvSampler::Angular(dist) => {
+            EnvSampler::Angular(_) => {
                 let (r, c, theta) = self.angular_lookup(d);
-                let p = dist.pdf_index(c, r);
-                let jac = 4.0 * PI * PI * sinc(theta);
-                // At θ = π (a single direction) the Jacobian vanishes: density 0 there by convention.
-                if p > 0.0 && jac > 0.0 {
-                    p / jac
-                } else {
-                    0.0
-                }
+                angular_pdf(self.pdf_uv[r * self.image.width + c], theta)
             }
         }
     }
+}
+
+/// Angular map: solid-angle density from the unit-square density, dω = 4π² (sinθ/θ) du dv. At
+/// θ = π (a single direction) the Jacobian vanishes: density 0 there by convention.
+#[inline]
+fn angular_pdf(p_uv: f32, theta: f32) -> f32 {
+    let jac = 4.0 * PI * PI * sinc(theta);
+    if p_uv > 0.0 && jac > 0.0 { p_uv / jac } else { 0.0 }
 }
 
 #[cfg(test)]
@@ -363,7 +386,7 @@ mod tests {
         let EnvSampler::Angular(dist) = &e.sampler else { unreachable!() };
         assert_eq!(dist.pdf_index(0, 0), 0.0);
         // The south pole maps to ρ = 1, φ = 0: row 4, column 7 (centre ρ ≈ 0.88 < 1, inside).
-        assert_eq!(e.pixel(-Vec3::Z), Some((4, 7)));
+        assert_eq!(e.angular_lookup(-Vec3::Z).0..=e.angular_lookup(-Vec3::Z).1, 4..=7);
         // (a, b) = (0.8, 0.55) is inside the disc (ρ ≈ 0.971) but in pixel (1, 7), whose centre
         // (0.875, 0.625) is outside: radiance and density 0 there.
         let d = spherical_direction(PI * (0.8f32 * 0.8 + 0.55 * 0.55).sqrt(), 0.55f32.atan2(0.8));

@@ -41,6 +41,11 @@ pub trait DistantLight {
     fn is_delta(&self) -> bool {
         false
     }
+    /// `(eval(wi), pdf(wi))` together: lights whose two lookups share work override it.
+    #[inline]
+    fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
+        (self.eval(wi), self.pdf(wi))
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -80,6 +85,10 @@ impl DistantLight for Light {
     #[inline]
     fn is_delta(&self) -> bool {
         dispatch!(self, l => l.is_delta())
+    }
+    #[inline]
+    fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
+        dispatch!(self, l => l.eval_pdf(wi))
     }
 }
 

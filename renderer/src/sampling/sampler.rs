@@ -63,26 +63,61 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
     lk_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// First Sobol dimension (van der Corput in base 2).
+/// Owen scramble of a value given bit-reversed: `owen_scramble(x, seed)` for x = reverse(r).
 #[inline(always)]
-fn sobol0(i: u32) -> u32 {
-    i.reverse_bits()
+fn owen_scramble_reversed(r: u32, seed: u32) -> u32 {
+    lk_permutation(r, seed).reverse_bits()
 }
 
-/// Second Sobol dimension (primitive polynomial x + 1).
+/// Second Sobol dimension (primitive polynomial x + 1), bit-reversed: the XOR of the (reversed)
+/// generator-matrix columns of the set bits of `i`, read from four byte-indexed tables (shuffled
+/// indices use all 32 bits, so a bit loop would run 32 times). Kept reversed because Owen
+/// scrambling works on reversed bits.
 #[inline(always)]
-fn sobol1(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
-    let mut r = 0;
-    while i != 0 {
-        if i & 1 != 0 {
-            r ^= v;
-        }
-        i >>= 1;
-        v ^= v >> 1;
-    }
-    r
+fn sobol1_reversed(i: u32) -> u32 {
+    SOBOL1_TABLES[0][(i & 0xff) as usize]
+        ^ SOBOL1_TABLES[1][((i >> 8) & 0xff) as usize]
+        ^ SOBOL1_TABLES[2][((i >> 16) & 0xff) as usize]
+        ^ SOBOL1_TABLES[3][(i >> 24) as usize]
 }
+
+/// Column k of the generator matrix: v_0 = 2^31, v_{k+1} = v_k ^ (v_k >> 1).
+const fn sobol1_columns() -> [u32; 32] {
+    let mut v = [0u32; 32];
+    let mut c = 1u32 << 31;
+    let mut k = 0;
+    while k < 32 {
+        v[k] = c;
+        c ^= c >> 1;
+        k += 1;
+    }
+    v
+}
+
+const fn sobol1_tables() -> [[u32; 256]; 4] {
+    let cols = sobol1_columns();
+    let mut t = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut x = 0;
+        while x < 256 {
+            let mut r = 0u32;
+            let mut b = 0;
+            while b < 8 {
+                if x & (1 << b) != 0 {
+                    r ^= cols[byte * 8 + b];
+                }
+                b += 1;
+            }
+            t[byte][x] = r.reverse_bits();
+            x += 1;
+        }
+        byte += 1;
+    }
+    t
+}
+
+static SOBOL1_TABLES: [[u32; 256]; 4] = sobol1_tables();
 
 impl Sampler {
     pub fn new(kind: SamplerKind, seed: u64) -> Self {
@@ -110,8 +145,9 @@ impl Sampler {
         match self.kind {
             SamplerKind::Independent => to_unit_f32((hash2(key, self.index as u64) >> 32) as u32),
             SamplerKind::Sobol => {
+                // First Sobol dimension (van der Corput) is reverse(i): scramble it reversed.
                 let i = owen_scramble(self.index, key as u32);
-                to_unit_f32(owen_scramble(sobol0(i), (key >> 32) as u32))
+                to_unit_f32(owen_scramble_reversed(i, (key >> 32) as u32))
             }
         }
     }
@@ -130,8 +166,8 @@ impl Sampler {
                 let i = owen_scramble(self.index, key as u32);
                 let k2 = mix64(key);
                 Vec2::new(
-                    to_unit_f32(owen_scramble(sobol0(i), (key >> 32) as u32)),
-                    to_unit_f32(owen_scramble(sobol1(i), k2 as u32)),
+                    to_unit_f32(owen_scramble_reversed(i, (key >> 32) as u32)),
+                    to_unit_f32(owen_scramble_reversed(sobol1_reversed(i), k2 as u32)),
                 )
             }
         }
@@ -176,6 +212,25 @@ mod tests {
                 seen[cy * shape.0 + cx] += 1;
             }
             assert!(seen.iter().all(|&c| c == 1), "shape {shape:?}: {seen:?}");
+        }
+    }
+
+    #[test]
+    fn sobol1_tables_match_the_bit_loop() {
+        let slow = |mut i: u32| {
+            let (mut v, mut r) = (1u32 << 31, 0u32);
+            while i != 0 {
+                if i & 1 != 0 {
+                    r ^= v;
+                }
+                i >>= 1;
+                v ^= v >> 1;
+            }
+            r
+        };
+        let mut rng = crate::sampling::chi2::TestRng::new(9);
+        for i in (0..4096).chain((0..4096).map(|_| rng.next_u64() as u32)) {
+            assert_eq!(sobol1_reversed(i).reverse_bits(), slow(i));
         }
     }
 

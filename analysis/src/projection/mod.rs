@@ -1,0 +1,13 @@
+//! Projection into spherical harmonics: of environment maps ([`envmap`]), of any function of
+//! direction ([`function`]), of `normal-probe` renders ([`normal_probe`]) and of orthographic
+//! images of a sphere by weighted least squares ([`orthographic`]).
+
+pub mod envmap;
+pub mod function;
+pub mod normal_probe;
+pub mod orthographic;
+
+pub use envmap::{project_envmap, project_latlong, Mapping};
+pub use function::{project_function, project_function_scalar};
+pub use normal_probe::project_normal_probe;
+pub use orthographic::{fit_orthographic, Fit, OrthoCamera, OrthoView, Param, Sphere};

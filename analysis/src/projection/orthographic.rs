@@ -1,0 +1,376 @@
+//! SH coefficients of the reflected radiance from one or more orthographic images of a sphere, by
+//! weighted least squares over the covered part of the sphere.
+//!
+//! Parameters:
+//! - [`OrthoCamera`]: `from`, `to`, `up`, `extent` (CONVENTIONS §5 pixel → ray mapping);
+//! - [`Sphere`]: centre and radius: which pixels are covered, and the normals when the image has no
+//!   `normal.X/Y/Z` layer (so EXR files of any renderer with only R, G, B work); with the layer, its
+//!   normalized per-pixel normal is used;
+//! - [`Param`]: the direction a pixel's radiance is attributed to: the normal n (radially symmetric
+//!   about n, e.g. Lambertian: B(n)) or the reflection vector R = 2(n·ω_o)n − ω_o (reparameterized
+//!   reflective BRDFs, e.g. Phong, mirror: B(R));
+//! - `lmax`.
+//!
+//! A pixel is used when its whole footprint lies on the sphere (centre distance + half diagonal
+//! < radius) and, if the image has `mask.Y`, the mask is ≥ 0.999. The fit minimizes
+//! Σ_j w_j (B_j − Σ_k c_k Y_k(d_j))² with w_j the solid angle the pixel covers in the fitted
+//! direction domain (normal: ΔA / (r² n·ω_o); reflection: 4 ΔA / r², since dω_R = 4 (n·ω_o) dω_n),
+//! so that on the full sphere it tends to the L² projection. Coefficient covariance is the sandwich
+//! G⁻¹ (Σ w² σ² y yᵀ) G⁻¹ with G = Σ w y yᵀ, σ from the `stderr` layer, or, without one, a common
+//! per-channel σ² estimated from the weighted-fit residuals (homoscedastic model).
+
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::lsq::Cholesky;
+use crate::sh::{num_coefficients, ShBasis};
+use rayon::prelude::*;
+
+/// Orthographic camera of CONVENTIONS §5.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrthoCamera {
+    pub from: [f64; 3],
+    pub to: [f64; 3],
+    pub up: [f64; 3],
+    pub extent: f64,
+}
+
+/// A sphere in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: [f64; 3],
+    pub radius: f64,
+}
+
+impl Default for Sphere {
+    fn default() -> Self {
+        Sphere { center: [0.0; 3], radius: 1.0 }
+    }
+}
+
+/// Which direction the pixel's radiance is a function of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    Normal,
+    Reflection,
+}
+
+impl Param {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Param::Normal => "normal",
+            Param::Reflection => "reflection",
+        }
+    }
+}
+
+/// One image with its camera.
+#[derive(Clone, Copy, Debug)]
+pub struct OrthoView<'a> {
+    pub image: &'a Image,
+    pub camera: OrthoCamera,
+}
+
+/// Result of a least-squares fit.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    pub coefficients: Vec<[f64; 3]>,
+    pub stderr: Vec<[f64; 3]>,
+    /// `"stderr-layer"` or `"residuals"`.
+    pub stderr_source: &'static str,
+    pub pixels_used: usize,
+    /// Weighted RMS residual per channel (√(Σ w r² / Σ w)).
+    pub rms_residual: [f64; 3],
+}
+
+#[inline]
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline]
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+#[inline]
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+#[inline]
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
+    let n = dot(a, a).sqrt();
+    (n > 0.0 && n.is_finite()).then(|| scale(a, 1.0 / n))
+}
+
+/// One covered pixel: fit direction, weight, radiance and variance.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    dir: [f64; 3],
+    w: f64,
+    b: [f64; 3],
+    var: [f64; 3],
+}
+
+fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Vec<Sample>) -> Result<bool> {
+    let img = view.image;
+    let cam = &view.camera;
+    let rgb = img.rgb().ok_or_else(|| Error::new("image has no R, G, B channels"))?;
+    let stderr = img.rgb_layer("stderr.");
+    let mask = img.channel("mask.Y");
+    let normals = match (img.channel("normal.X"), img.channel("normal.Y"), img.channel("normal.Z")) {
+        (Some(x), Some(y), Some(z)) => Some((x, y, z)),
+        _ => None,
+    };
+    let f = normalize(sub(cam.to, cam.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
+    let right = normalize(cross(f, cam.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
+    let up = cross(right, f);
+    if !(cam.extent > 0.0) || !(sphere.radius > 0.0) {
+        return Err(Error::new("camera extent and sphere radius must be positive"));
+    }
+    let (w, h) = (img.width, img.height);
+    let pix = 2.0 * cam.extent / w as f64; // square pixels (§5: y scaled by H/W)
+    let d_area = pix * pix;
+    let half_diag = pix * std::f64::consts::FRAC_1_SQRT_2;
+    let r = sphere.radius;
+    let wo = scale(f, -1.0);
+    for row in 0..h {
+        for col in 0..w {
+            let i = row * w + col;
+            if let Some(m) = mask
+                && m[i] < 0.999
+            {
+                continue;
+            }
+            let x = cam.extent * (2.0 * (col as f64 + 0.5) / w as f64 - 1.0);
+            let y = cam.extent * (h as f64 / w as f64) * (1.0 - 2.0 * (row as f64 + 0.5) / h as f64);
+            let o = add(cam.from, add(scale(right, x), scale(up, y)));
+            let oc = sub(sphere.center, o);
+            let along = dot(oc, f);
+            let perp = sub(oc, scale(f, along));
+            let dist = dot(perp, perp).sqrt();
+            if dist + half_diag >= r || along <= 0.0 {
+                continue;
+            }
+            let t = along - (r * r - dist * dist).sqrt();
+            let hit = add(o, scale(f, t));
+            let mut n = scale(sub(hit, sphere.center), 1.0 / r);
+            // The renderer's normal layer (the pixel's mean first-hit normal) when present: robust
+            // to a slightly misplaced sphere; the geometric normal otherwise. A (near-)zero layer
+            // normal is a miss (or a pixel mostly off the object): skip it.
+            if let Some((nx, ny, nz)) = normals {
+                let m = [nx[i] as f64, ny[i] as f64, nz[i] as f64];
+                if dot(m, m) <= 0.25 {
+                    continue;
+                }
+                n = normalize(m).unwrap_or(n);
+            }
+            let cos_o = dot(n, wo);
+            let (dir, wt) = match param {
+                Param::Normal => (n, d_area / (r * r * cos_o)),
+                Param::Reflection => (sub(scale(n, 2.0 * cos_o), wo), 4.0 * d_area / (r * r)),
+            };
+            let Some(dir) = normalize(dir) else { continue };
+            let px = rgb.pixels[i];
+            let var = match &stderr {
+                Some(s) => {
+                    let e = s.pixels[i];
+                    [(e[0] as f64).powi(2), (e[1] as f64).powi(2), (e[2] as f64).powi(2)]
+                }
+                None => [1.0; 3],
+            };
+            out.push(Sample { dir, w: wt, b: [px[0] as f64, px[1] as f64, px[2] as f64], var });
+        }
+    }
+    Ok(stderr.is_some())
+}
+
+/// Number of fixed blocks the normal equations are accumulated in (fixed, so the floating-point
+/// summation order, hence the result, does not depend on the number of threads).
+const BLOCKS: usize = 16;
+
+/// Samples per tile of the normal-equation accumulation (see `fit_orthographic`).
+const TILE: usize = 32;
+
+/// Fits RGB coefficients up to `lmax` to the covered pixels of all `views` (see module docs).
+pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax: usize) -> Result<Fit> {
+    let mut samples = Vec::new();
+    let mut all_have_stderr = true;
+    for v in views {
+        all_have_stderr &= collect_samples(v, sphere, param, &mut samples)?;
+    }
+    let p = num_coefficients(lmax);
+    if samples.len() < 2 * p {
+        return Err(Error::new(format!(
+            "only {} pixels lie on the sphere, too few for {p} coefficients (l_max {lmax}); check the camera and sphere or lower --lmax",
+            samples.len()
+        )));
+    }
+    if !all_have_stderr {
+        samples.iter_mut().for_each(|s| s.var = [1.0; 3]);
+    }
+    let basis = ShBasis::new(lmax);
+    // Upper triangle of G (lane 0, weight w) and of H_c (lanes 1–3, weight w² σ_c²), packed by rows.
+    let tri = p * (p + 1) / 2;
+    let chunk = samples.len().div_ceil(BLOCKS);
+    type Partial = (Vec<[f64; 4]>, Vec<[f64; 3]>);
+    let parts: Vec<Partial> = samples
+        .par_chunks(chunk)
+        .map(|ss| {
+            let mut acc = vec![[0.0f64; 4]; tri];
+            let mut rhs = vec![[0.0f64; 3]; p];
+            let mut y = vec![0.0; p];
+            // Samples go in tiles of TILE: Y (p × TILE, column per sample) and the four weighted
+            // copies lane_ℓ · Y, so that each accumulator entry is updated once per tile by short
+            // dot products instead of streaming the whole p² accumulator once per sample.
+            let mut yt = vec![0.0f64; p * TILE];
+            let mut wyt = vec![[0.0f64; TILE]; 4 * p];
+            for tile in ss.chunks(TILE) {
+                let t = tile.len();
+                for (si, smp) in tile.iter().enumerate() {
+                    basis.eval_into(smp.dir, &mut y);
+                    let lanes = [smp.w, smp.w * smp.w * smp.var[0], smp.w * smp.w * smp.var[1], smp.w * smp.w * smp.var[2]];
+                    for i in 0..p {
+                        yt[i * TILE + si] = y[i];
+                        for l in 0..4 {
+                            wyt[4 * i + l][si] = lanes[l] * y[i];
+                        }
+                        for ch in 0..3 {
+                            rhs[i][ch] += lanes[0] * y[i] * smp.b[ch];
+                        }
+                    }
+                }
+                if t < TILE {
+                    // Zero the unused tail so full-width dot products stay exact.
+                    for i in 0..p {
+                        yt[i * TILE + t..(i + 1) * TILE].iter_mut().for_each(|v| *v = 0.0);
+                    }
+                }
+                let mut off = 0;
+                for i in 0..p {
+                    let (w0, w1, w2, w3) = (&wyt[4 * i], &wyt[4 * i + 1], &wyt[4 * i + 2], &wyt[4 * i + 3]);
+                    for j in i..p {
+                        let yj = &yt[j * TILE..(j + 1) * TILE];
+                        let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
+                        for k in 0..TILE {
+                            s0 += w0[k] * yj[k];
+                            s1 += w1[k] * yj[k];
+                            s2 += w2[k] * yj[k];
+                            s3 += w3[k] * yj[k];
+                        }
+                        let a = &mut acc[off + j - i];
+                        a[0] += s0;
+                        a[1] += s1;
+                        a[2] += s2;
+                        a[3] += s3;
+                    }
+                    off += p - i;
+                }
+            }
+            (acc, rhs)
+        })
+        .collect();
+    let mut acc = vec![[0.0f64; 4]; tri];
+    let mut rhs = vec![[0.0f64; 3]; p];
+    for (a, r) in parts {
+        for (x, y) in acc.iter_mut().zip(&a) {
+            for l in 0..4 {
+                x[l] += y[l];
+            }
+        }
+        for (x, y) in rhs.iter_mut().zip(&r) {
+            for ch in 0..3 {
+                x[ch] += y[ch];
+            }
+        }
+    }
+    let unpack = |lane: usize| {
+        let mut m = vec![0.0; p * p];
+        let mut off = 0;
+        for i in 0..p {
+            for j in i..p {
+                m[i * p + j] = acc[off + j - i][lane];
+                m[j * p + i] = acc[off + j - i][lane];
+            }
+            off += p - i;
+        }
+        m
+    };
+    let g = unpack(0);
+    let chol = Cholesky::new(&g, p, 1e-13).map_err(|e| {
+        Error::new(format!(
+            "{} — the covered part of the sphere does not determine all SH coefficients up to l_max {lmax}; add views or lower --lmax",
+            e.message
+        ))
+    })?;
+    let mut coefficients = vec![[0.0; 3]; p];
+    for ch in 0..3 {
+        let mut b: Vec<f64> = rhs.iter().map(|r| r[ch]).collect();
+        chol.solve(&mut b);
+        for k in 0..p {
+            coefficients[k][ch] = b[k];
+        }
+    }
+    // Residuals (weighted RMS, and the homoscedastic σ² estimate when there is no stderr layer).
+    let (rss, rss_w, sum_w) = samples
+        .par_chunks(chunk)
+        .map(|ss| {
+            let mut y = vec![0.0; p];
+            let (mut rss, mut rssw, mut sw) = ([0.0f64; 3], [0.0f64; 3], 0.0f64);
+            for s in ss {
+                basis.eval_into(s.dir, &mut y);
+                for ch in 0..3 {
+                    let pred: f64 = coefficients.iter().zip(&y).map(|(c, y)| c[ch] * y).sum();
+                    let r = s.b[ch] - pred;
+                    rss[ch] += r * r;
+                    rssw[ch] += s.w * r * r;
+                }
+                sw += s.w;
+            }
+            (rss, rssw, sw)
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .fold(([0.0; 3], [0.0; 3], 0.0), |(a, b, c), (x, y, z)| {
+            ([a[0] + x[0], a[1] + x[1], a[2] + x[2]], [b[0] + y[0], b[1] + y[1], b[2] + y[2]], c + z)
+        });
+    let dof = (samples.len() - p) as f64;
+    let ginv = chol.inverse();
+    let mut stderr = vec![[0.0; 3]; p];
+    for ch in 0..3 {
+        let hmat = unpack(ch + 1);
+        let sigma2 = if all_have_stderr { 1.0 } else { rss[ch] / dof };
+        // diag(G⁻¹ H G⁻¹)_k = Σ_ij G⁻¹_ki H_ij G⁻¹_jk.
+        let rows: Vec<f64> = (0..p)
+            .into_par_iter()
+            .map(|k| {
+                let gk = &ginv[k * p..(k + 1) * p];
+                let mut s = 0.0;
+                for i in 0..p {
+                    let hi = &hmat[i * p..(i + 1) * p];
+                    let t: f64 = hi.iter().zip(gk).map(|(h, g)| h * g).sum();
+                    s += gk[i] * t;
+                }
+                s
+            })
+            .collect();
+        for k in 0..p {
+            stderr[k][ch] = (rows[k] * sigma2).max(0.0).sqrt();
+        }
+    }
+    Ok(Fit {
+        coefficients,
+        stderr,
+        stderr_source: if all_have_stderr { "stderr-layer" } else { "residuals" },
+        pixels_used: samples.len(),
+        rms_residual: [
+            (rss_w[0] / sum_w).sqrt(),
+            (rss_w[1] / sum_w).sqrt(),
+            (rss_w[2] / sum_w).sqrt(),
+        ],
+    })
+}
