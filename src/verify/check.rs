@@ -75,6 +75,8 @@ pub struct Series {
     pub x: Vec<f64>,
     pub y: Vec<f64>,
     pub err: Option<Vec<f64>>,
+    /// Draw dashed (approximations, e.g. eq. 46 and 57).
+    pub dashed: bool,
 }
 
 /// A plot attached to a check (rendered to SVG by the report).

@@ -111,6 +111,7 @@ pub fn figure2(ch: &Channel) -> Plot {
         x: thetas.iter().map(|t| t.to_degrees()).collect(),
         y: thetas.iter().map(|t| t.cos().max(0.0)).collect(),
         err: None,
+        dashed: false,
     }];
     for order in [0usize, 1, 2, 4] {
         let mut p = vec![0.0; order + 1];
@@ -121,7 +122,7 @@ pub fn figure2(ch: &Channel) -> Plot {
                 (0..=order).map(|l| (2 * l + 1) as f64 / 4.0 * a[l] * p[l]).sum()
             })
             .collect();
-        curves.push(Series { name: format!("order ≤ {order}"), x: curves[0].x.clone(), y, err: None });
+        curves.push(Series { name: format!("order ≤ {order}"), x: curves[0].x.clone(), y, err: None, dashed: false });
     }
     let (w, h) = (ch.width, ch.height);
     let pts = Series {
@@ -129,6 +130,7 @@ pub fn figure2(ch: &Channel) -> Plot {
         x: (0..h).map(|r| (std::f64::consts::PI * (r as f64 + 0.5) / h as f64).to_degrees()).collect(),
         y: (0..h).map(|r| std::f64::consts::PI * ch.value[r * w] / IRRADIANCE).collect(),
         err: Some((0..h).map(|r| std::f64::consts::PI * ch.sigma[r * w] / IRRADIANCE).collect()),
+        dashed: false,
     };
     Plot {
         file: "fig2_clamped_cosine.svg".into(),

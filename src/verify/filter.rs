@@ -23,6 +23,7 @@ impl Measured {
             x: (0..self.a.len()).map(|l| l as f64).collect(),
             y: self.a.clone(),
             err: Some(self.sigma.clone()),
+            dashed: false,
         }
     }
 }
@@ -43,5 +44,10 @@ pub fn rows(check: &mut Check, prefix: &str, m: &Measured, pred: &[f64], approx:
 
 /// A prediction curve as a plot series.
 pub fn curve(name: &str, v: &[f64]) -> Series {
-    Series { name: name.into(), x: (0..v.len()).map(|l| l as f64).collect(), y: v.to_vec(), err: None }
+    Series { name: name.into(), x: (0..v.len()).map(|l| l as f64).collect(), y: v.to_vec(), err: None, dashed: false }
+}
+
+/// A dashed prediction curve (the paper's approximate formulas).
+pub fn dashed(name: &str, v: &[f64]) -> Series {
+    Series { dashed: true, ..curve(name, v) }
 }

@@ -135,6 +135,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             x: b.iter().map(|v| v.0).collect(),
             y: b.iter().map(|v| v.1).collect(),
             err: Some(b.iter().map(|v| v.2).collect()),
+            dashed: false,
         });
         let xs: Vec<f64> = (0..=85).map(|d| d as f64).collect();
         plot_curves.push(Series {
@@ -142,6 +143,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             x: xs.clone(),
             y: xs.iter().map(|d| right(d.to_radians())).collect(),
             err: None,
+            dashed: false,
         });
     }
     for d in [30.0f64, 60.0, 75.0] {

@@ -80,7 +80,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let mut points = vec![];
     for (s, m) in &per_s {
         curves.push(filter::curve(&format!("eq. 43, s={s}"), &transfer::phong(*s, LMAX)));
-        curves.push(filter::curve(&format!("eq. 46, s={s}"), &transfer::phong_gaussian(*s, LMAX)));
+        curves.push(filter::dashed(&format!("eq. 46, s={s}"), &transfer::phong_gaussian(*s, LMAX)));
         points.push(m.series(&format!("measured, s={s}")));
     }
     c.plots.push(Plot {

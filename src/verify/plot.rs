@@ -47,15 +47,27 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, plotters::coord::Shift>, plot
         .y_label_area_size(60)
         .build_cartesian_2d(x0..x1, y0..y1)?;
     chart.configure_mesh().x_desc(&plot.x_label).y_desc(&plot.y_label).draw()?;
-    for (i, s) in plot.curves.iter().enumerate() {
-        let color = COLORS[i % COLORS.len()];
-        chart
-            .draw_series(LineSeries::new(s.x.iter().zip(&s.y).map(|(&x, &y)| (x, y)), color.stroke_width(2)))?
-            .label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+    // Colours pair up: a dashed approximation takes the colour of the exact curve before it.
+    let mut ci = 0usize;
+    for s in &plot.curves {
+        if !s.dashed {
+            ci += 1;
+        }
+        let color = COLORS[(ci + COLORS.len() - 1) % COLORS.len()];
+        let pts = s.x.iter().zip(&s.y).map(|(&x, &y)| (x, y));
+        let drawn = if s.dashed {
+            chart.draw_series(DashedLineSeries::new(pts, 6, 4, color.stroke_width(2)))?
+        } else {
+            chart.draw_series(LineSeries::new(pts, color.stroke_width(2)))?
+        };
+        drawn.label(s.name.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
     }
+    // Measured points take the colour of their curve when there is one solid curve per point
+    // series (Figure 4, the horizon study); otherwise colours after the curves'.
+    let solid = plot.curves.iter().filter(|s| !s.dashed).count();
     for (i, s) in plot.points.iter().enumerate() {
-        let color = COLORS[(i + 3) % COLORS.len()];
+        let idx = if plot.points.len() == solid { i } else { solid + i };
+        let color = COLORS[idx % COLORS.len()];
         if let Some(err) = &s.err {
             // Vertical error bars ±σ as line segments (the `errorbar` feature is not enabled).
             chart.draw_series(

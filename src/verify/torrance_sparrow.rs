@@ -95,12 +95,12 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         ));
         plots.push(Plot {
             file: format!("ts_sigma_{sigma}.svg"),
-            title: format!("Torrance–Sparrow σ = {sigma}: Λ_l ρ̂_l at normal exitance"),
+            title: format!("Torrance–Sparrow σ = {sigma}: Λ_l ρ̂_l, normal exitance and θo = 30°, 60°"),
             x_label: "l".into(),
             y_label: "Λ_l ρ̂_l".into(),
             curves: vec![
                 filter::curve("eq. 50 (numerical)", &transfer::torrance_sparrow(sigma, LMAX)),
-                filter::curve("eq. 57 exp(−(σl)²)", &transfer::torrance_sparrow_gaussian(sigma, LMAX)),
+                filter::dashed("eq. 57 exp(−(σl)²)", &transfer::torrance_sparrow_gaussian(sigma, LMAX)),
             ],
             points: vec![m.series("measured")],
         });
@@ -147,6 +147,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             ));
             plots[si].points.push(m.series(&format!("measured about R, θo = {t}°")));
             plots[si].curves.push(filter::curve(&format!("q = 0 term, θo = {t}°"), &q0));
+            plots[si].curves.push(filter::dashed(&format!("fit of the eq. 48 image about R, θo = {t}° (decides)"), &pf));
         }
     }
     c.plots = plots;
