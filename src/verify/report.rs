@@ -99,6 +99,18 @@ pub fn markdown(checks: &[Check], quick: bool, seconds: f64) -> String {
         if let Some(e) = &c.error {
             let _ = writeln!(s, "**Could not run:** {e}\n");
         }
+        let deciding: Vec<&Row> = c.rows.iter().filter(|r| !r.informative).collect();
+        if !deciding.is_empty() {
+            let zmax = deciding.iter().filter(|r| r.sigma > 0.0).map(|r| r.deviation() / r.sigma).fold(0.0, f64::max);
+            let _ = writeln!(
+                s,
+                "- {} deciding rows, {} pass; largest |Δ|/tolerance = {:.2}; largest |Δ|/σ = {:.2} (rows with σ > 0)",
+                deciding.len(),
+                deciding.iter().filter(|r| r.passed()).count(),
+                c.worst().map(Row::ratio).unwrap_or(0.0),
+                zmax
+            );
+        }
         for d in &c.details {
             let _ = writeln!(s, "- {d}");
         }
