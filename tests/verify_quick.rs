@@ -92,4 +92,12 @@ fn one_check_table_and_bad_input() {
     assert!(stdout.is_empty());
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(stderr.contains("no-such-check") && stderr.contains("lambert"));
+    // A report folder that cannot be created is bad input too (exit 2, one line naming it).
+    let blocker = dir.join("a-file");
+    std::fs::write(&blocker, "x").unwrap();
+    let bad = blocker.join("sub");
+    let (code, _, stderr) = verify(&["--quick", "--check", "mirror", "--out", bad.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("a-file"));
 }
