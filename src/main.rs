@@ -1,6 +1,7 @@
 //! `reflect`: render, analyse and verify (see README.md).
 
 mod cli;
+mod verify;
 
 use clap::Parser;
 use std::process::ExitCode;

@@ -1,0 +1,197 @@
+//! The result of one verification check and the tolerance rule every check uses.
+//!
+//! A check compares a list of measured quantities (each with its standard error σ, propagated
+//! from the renderer's per-pixel `stderr` layer through the linear analysis) with the paper's
+//! prediction. Row i passes when
+//!
+//! |measured_i − expected_i| ≤ k·σ_i + approx_i + floor_i,
+//!
+//! where k = [`K_SIGMA`] (stated, never tuned), `approx_i` is the *stated* approximation error of
+//! the prediction when the paper's formula is itself an approximation (eq. 46, 57; computed, not
+//! chosen), and `floor_i` is the float rounding of an f32 renderer for noise-free quantities
+//! (deterministic renders such as a mirror or a directional source have σ = 0). A check passes
+//! when all its rows pass. Rows marked `informative` are reported but do not decide the verdict
+//! (e.g. the Gaussian approximation eq. 46 where it is known not to hold).
+
+use serde_json::{Value, json};
+
+/// k of the k·σ rule. With ≈ 300 compared numbers in a full run, a two-sided 4σ threshold gives
+/// ≈ 300 × 6.3e-5 ≈ 2 % chance of a spurious failure of a correct claim over the whole run.
+pub const K_SIGMA: f64 = 4.0;
+
+/// Relative rounding floor of f32 rendering for noise-free quantities (≈ 100 ulp of f32).
+pub const F32_FLOOR: f64 = 1e-5;
+
+/// One compared number.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub label: String,
+    pub expected: f64,
+    pub measured: f64,
+    pub sigma: f64,
+    pub approx: f64,
+    pub floor: f64,
+    /// Reported but not part of the verdict.
+    pub informative: bool,
+}
+
+impl Row {
+    pub fn new(label: impl Into<String>, expected: f64, measured: f64, sigma: f64) -> Row {
+        Row { label: label.into(), expected, measured, sigma, approx: 0.0, floor: 0.0, informative: false }
+    }
+    pub fn approx(mut self, a: f64) -> Row {
+        self.approx = a.abs();
+        self
+    }
+    pub fn floor(mut self, f: f64) -> Row {
+        self.floor = f.abs();
+        self
+    }
+    pub fn informative(mut self) -> Row {
+        self.informative = true;
+        self
+    }
+    /// k·σ + approximation error + rounding floor.
+    pub fn tolerance(&self) -> f64 {
+        K_SIGMA * self.sigma + self.approx + self.floor
+    }
+    pub fn deviation(&self) -> f64 {
+        (self.measured - self.expected).abs()
+    }
+    pub fn passed(&self) -> bool {
+        self.measured.is_finite() && self.deviation() <= self.tolerance()
+    }
+    /// |Δ| / tolerance: < 1 passes.
+    pub fn ratio(&self) -> f64 {
+        let t = self.tolerance();
+        if t > 0.0 { self.deviation() / t } else if self.deviation() == 0.0 { 0.0 } else { f64::INFINITY }
+    }
+}
+
+/// A named series for plots: x, y and optional error bars.
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    pub name: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub err: Option<Vec<f64>>,
+    /// Draw dashed (approximations, e.g. eq. 46 and 57).
+    pub dashed: bool,
+}
+
+/// A plot attached to a check (rendered to SVG by the report).
+#[derive(Clone, Debug, Default)]
+pub struct Plot {
+    pub file: String,
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    /// Analytic curves (lines).
+    pub curves: Vec<Series>,
+    /// Measured points (with error bars).
+    pub points: Vec<Series>,
+}
+
+/// The result of one check.
+#[derive(Clone, Debug, Default)]
+pub struct Check {
+    pub name: String,
+    pub equation: String,
+    pub description: String,
+    pub rows: Vec<Row>,
+    /// Free-form notes (what was rendered, the stated approximation errors, what is not checked).
+    pub details: Vec<String>,
+    pub plots: Vec<Plot>,
+    /// Wall time of the check (renders + analysis), seconds.
+    pub seconds: f64,
+    /// Set when the check could not run (e.g. a render failed): then it fails.
+    pub error: Option<String>,
+}
+
+impl Check {
+    pub fn new(name: &str, equation: &str, description: &str) -> Check {
+        Check { name: name.into(), equation: equation.into(), description: description.into(), ..Default::default() }
+    }
+
+    pub fn failed_to_run(name: &str, equation: &str, msg: String) -> Check {
+        Check { name: name.into(), equation: equation.into(), error: Some(msg), ..Default::default() }
+    }
+
+    pub fn push(&mut self, row: Row) {
+        self.rows.push(row);
+    }
+
+    pub fn note(&mut self, s: impl Into<String>) {
+        self.details.push(s.into());
+    }
+
+    /// Passes when it ran, has at least one deciding row, and every deciding row passes.
+    pub fn passed(&self) -> bool {
+        self.error.is_none()
+            && self.rows.iter().any(|r| !r.informative)
+            && self.rows.iter().filter(|r| !r.informative).all(Row::passed)
+    }
+
+    /// The deciding row with the largest |Δ|/tolerance (the one the table shows).
+    pub fn worst(&self) -> Option<&Row> {
+        self.rows
+            .iter()
+            .filter(|r| !r.informative)
+            .max_by(|a, b| a.ratio().partial_cmp(&b.ratio()).unwrap_or(std::cmp::Ordering::Equal))
+    }
+
+    /// The JSON object of CONVENTIONS §7 (plus rows and details).
+    pub fn to_json(&self) -> Value {
+        let num = |v: f64| if v.is_finite() { json!(v) } else { Value::Null };
+        let deciding: Vec<&Row> = self.rows.iter().filter(|r| !r.informative).collect();
+        json!({
+            "name": self.name,
+            "equation": self.equation,
+            "passed": self.passed(),
+            "measured": deciding.iter().map(|r| num(r.measured)).collect::<Vec<_>>(),
+            "expected": deciding.iter().map(|r| num(r.expected)).collect::<Vec<_>>(),
+            "tolerance": deciding.iter().map(|r| num(r.tolerance())).collect::<Vec<_>>(),
+            "sigma": deciding.iter().map(|r| num(r.sigma)).collect::<Vec<_>>(),
+            "labels": deciding.iter().map(|r| r.label.clone()).collect::<Vec<_>>(),
+            "k_sigma": K_SIGMA,
+            "rows": self.rows.iter().map(|r| json!({
+                "label": r.label, "expected": num(r.expected), "measured": num(r.measured),
+                "sigma": num(r.sigma), "approx": num(r.approx), "floor": num(r.floor),
+                "tolerance": num(r.tolerance()), "passed": r.passed(), "informative": r.informative,
+            })).collect::<Vec<_>>(),
+            "details": self.details,
+            "error": self.error,
+            "seconds": self.seconds,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tolerance_rule() {
+        let r = Row::new("a", 1.0, 1.03, 0.01);
+        assert!(r.passed(), "3σ < 4σ");
+        let r = Row::new("a", 1.0, 1.05, 0.01);
+        assert!(!r.passed(), "5σ > 4σ");
+        let r = Row::new("a", 1.0, 1.05, 0.01).approx(0.02);
+        assert!(r.passed(), "4σ + 0.02 ≥ 0.05");
+        let r = Row::new("a", 1.0, f64::NAN, 0.01);
+        assert!(!r.passed(), "NaN never passes");
+    }
+
+    #[test]
+    fn informative_rows_do_not_decide_and_empty_checks_fail() {
+        let mut c = Check::new("x", "eq. 1", "");
+        assert!(!c.passed(), "a check with nothing compared must not pass");
+        c.push(Row::new("a", 1.0, 2.0, 0.01).informative());
+        assert!(!c.passed());
+        c.push(Row::new("b", 1.0, 1.0, 0.01));
+        assert!(c.passed());
+        c.push(Row::new("c", 1.0, 1.5, 0.01));
+        assert!(!c.passed());
+        assert_eq!(c.worst().map(|r| r.label.as_str()), Some("c"));
+    }
+}

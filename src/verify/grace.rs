@@ -1,0 +1,69 @@
+//! The Grace Cathedral probe's SH coefficients L_lm (one channel), by quadrature over the pixels
+//! of the angular map with their exact solid angles (CONVENTIONS §2), computed once per run.
+//!
+//! The renderer looks the map up by nearest pixel, so the lighting it integrates is piecewise
+//! constant; the pixel-centre quadrature differs from that lighting's exact coefficients by
+//! O((l·Δ)²) with Δ = 2π/1000 the pixel's angular size: ≈ 1e-3 relative at l = 16. The checks that
+//! use Grace fit Lambert's low-pass filter, whose coefficients there are < 0.2 %, so this is far
+//! below their noise.
+
+use super::scenes::grace_path;
+use analysis::sh::{ShBasis, num_coefficients};
+use std::f64::consts::PI;
+use std::sync::OnceLock;
+
+/// Largest order projected.
+pub const LMAX: usize = 16;
+
+/// Channel analysed in the Grace checks (green: the middle of the spectrum).
+pub const CHANNEL: usize = 1;
+
+static COEFFS: OnceLock<Result<Vec<f64>, String>> = OnceLock::new();
+
+/// L_lm of the green channel, l ≤ [`LMAX`].
+pub fn coefficients() -> Result<Vec<f64>, String> {
+    COEFFS.get_or_init(project).clone()
+}
+
+fn project() -> Result<Vec<f64>, String> {
+    let img = analysis::image::read_rgb(grace_path()).map_err(|e| e.to_string())?;
+    if img.width != img.height {
+        return Err(format!("{}: the angular probe must be square", grace_path()));
+    }
+    let w = img.width;
+    let n = num_coefficients(LMAX);
+    let basis = ShBasis::new(LMAX);
+    use rayon::prelude::*;
+    let sum = (0..w)
+        .into_par_iter()
+        .map(|r| {
+            let mut y = vec![0.0; n];
+            let mut acc = vec![0.0; n];
+            for c in 0..w {
+                let u = (c as f64 + 0.5 - w as f64 / 2.0) / (w as f64 / 2.0);
+                let v = (w as f64 / 2.0 - r as f64 - 0.5) / (w as f64 / 2.0);
+                let rho = (u * u + v * v).sqrt();
+                if rho > 1.0 {
+                    continue;
+                }
+                let theta = PI * rho;
+                let phi = v.atan2(u);
+                let dir = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
+                let sinc = if theta > 1e-12 { theta.sin() / theta } else { 1.0 };
+                let om = (2.0 * PI / w as f64).powi(2) * sinc;
+                basis.eval_into(dir, &mut y);
+                let val = img.get(r, c)[CHANNEL] as f64 * om;
+                for k in 0..n {
+                    acc[k] += val * y[k];
+                }
+            }
+            acc
+        })
+        .reduce(|| vec![0.0; n], |mut a, b| {
+            for k in 0..n {
+                a[k] += b[k];
+            }
+            a
+        });
+    Ok(sum)
+}

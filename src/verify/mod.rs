@@ -1,0 +1,91 @@
+//! `reflect verify`: render, project into SH, compare with the paper's analytic predictions, and
+//! report which claims the renders confirm, with error bars (issue 4).
+//!
+//! One file per check family; each exposes `run(ctx) -> Result<Check, String>` (renders + analysis)
+//! and cheap `evaluate`-style functions that turn measured numbers and a prediction into a
+//! [`check::Check`], so unit tests can feed deliberately wrong predictions without rendering.
+//! The tolerance rule (k·σ + stated approximation error) lives in [`check`].
+//!
+//! Options: `quick` (reduced resolution and samples, < 60 s on 2 cores), `wrong` (a hidden switch
+//! that makes every check compare with a deliberately wrong prediction, e.g. Lambert × 1.05 or a
+//! Phong exponent off by 20 %: the integration tests assert that each check then fails on real
+//! renders), `seed`, `out` (report folder).
+
+pub mod associativity;
+pub mod axial;
+pub mod check;
+pub mod convex_shape;
+pub mod directional;
+pub mod filter;
+pub mod fit;
+pub mod grace;
+pub mod horizon;
+pub mod irradiance9;
+pub mod lambert;
+pub mod mirror;
+pub mod oblique;
+pub mod phong;
+pub mod plot;
+pub mod report;
+pub mod scenes;
+pub mod torrance_sparrow;
+pub mod transfer;
+pub mod uniform;
+
+use check::Check;
+use std::path::PathBuf;
+
+/// Settings shared by every check.
+#[derive(Clone, Debug)]
+pub struct Ctx {
+    pub quick: bool,
+    /// Compare with deliberately wrong predictions (tests that every check can fail).
+    pub wrong: bool,
+    pub seed: u64,
+    pub out: PathBuf,
+    pub verbose: bool,
+}
+
+impl Ctx {
+    /// Height of normal-probe renders (width = 2 × height).
+    pub fn probe_height(&self) -> u32 {
+        if self.quick { 48 } else { 96 }
+    }
+    /// Samples per pixel: `quick` or `full` depending on the mode.
+    pub fn spp(&self, quick: u32, full: u32) -> u32 {
+        if self.quick { quick } else { full }
+    }
+}
+
+/// A check: its name (for `--check`), its equations, and the function that runs it.
+pub struct Entry {
+    pub name: &'static str,
+    pub equation: &'static str,
+    pub run: fn(&Ctx) -> Result<Check, String>,
+}
+
+/// All checks, in the order of issue 4.
+pub const CHECKS: &[Entry] = &[
+    Entry { name: lambert::NAME, equation: lambert::EQUATION, run: lambert::run },
+    Entry { name: irradiance9::NAME, equation: irradiance9::EQUATION, run: irradiance9::run },
+    Entry { name: phong::NAME, equation: phong::EQUATION, run: phong::run },
+    Entry { name: torrance_sparrow::NAME, equation: torrance_sparrow::EQUATION, run: torrance_sparrow::run },
+    Entry { name: mirror::NAME, equation: mirror::EQUATION, run: mirror::run },
+    Entry { name: directional::NAME, equation: directional::EQUATION, run: directional::run },
+    Entry { name: axial::NAME, equation: axial::EQUATION, run: axial::run },
+    Entry { name: uniform::NAME, equation: uniform::EQUATION, run: uniform::run },
+    Entry { name: associativity::NAME, equation: associativity::EQUATION, run: associativity::run },
+    Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
+    Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
+];
+
+/// Runs one entry, timing it and turning an error into a failed check.
+pub fn run_entry(ctx: &Ctx, e: &Entry) -> Check {
+    let t = std::time::Instant::now();
+    let mut c = match (e.run)(ctx) {
+        Ok(c) => c,
+        Err(msg) => Check::failed_to_run(e.name, e.equation, msg),
+    };
+    c.seconds = t.elapsed().as_secs_f64();
+    c
+}

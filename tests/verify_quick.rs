@@ -1,0 +1,95 @@
+//! `reflect verify --quick` end to end (issue 4): every check passes on real renders, each one
+//! fails when compared with a deliberately wrong prediction (the hidden `--wrong-prediction`
+//! switch: Lambert × 1.05, Phong exponent × 1.2, TS σ × 1.2, mirror gain 0.95, E × 1.05, a 5°
+//! tilted axial light, albedo × 1.05, a wrong blur, the ignore curve for clamp, …), the report
+//! folder is complete, and bad input exits 2.
+
+mod common;
+
+use serde_json::Value;
+use std::process::Command;
+
+fn verify(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).arg("verify").args(args).output().expect("run reflect verify");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const NAMES: [&str; 11] = [
+    "lambert",
+    "irradiance9",
+    "phong",
+    "torrance-sparrow",
+    "mirror",
+    "directional",
+    "axial",
+    "uniform",
+    "associativity",
+    "convex-shape",
+    "horizon",
+];
+
+#[test]
+fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
+    let dir = common::temp_dir("verify-quick");
+    let d = dir.to_str().unwrap();
+    let (code, stdout, stderr) = verify(&["--quick", "--json", "--out", d]);
+    let doc: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("bad JSON ({e}):\n{stdout}\n{stderr}"));
+    let checks = doc["checks"].as_array().expect("checks array");
+    let names: Vec<&str> = checks.iter().map(|c| c["name"].as_str().unwrap()).collect();
+    assert_eq!(names, NAMES);
+    for c in checks {
+        for key in ["name", "equation", "passed", "measured", "expected", "tolerance"] {
+            assert!(c.get(key).is_some(), "check {} lacks {key}", c["name"]);
+        }
+        assert!(!c["measured"].as_array().unwrap().is_empty(), "{} compared nothing", c["name"]);
+    }
+    let failed: Vec<&str> = checks.iter().filter(|c| c["passed"] != true).map(|c| c["name"].as_str().unwrap()).collect();
+    assert!(failed.is_empty(), "failed checks {failed:?}\n{stderr}");
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("lambert") && stderr.contains("PASS"), "progress and table on stderr with --json");
+    for f in [
+        "report.md",
+        "report.html",
+        "fig2_clamped_cosine.svg",
+        "fig3_lambert.svg",
+        "fig4_phong.svg",
+        "ts_sigma_0.05.svg",
+        "ts_sigma_0.1.svg",
+        "ts_sigma_0.2.svg",
+        "horizon.svg",
+    ] {
+        let p = dir.join(f);
+        let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));
+        assert!(meta.len() > 200, "{} is empty", p.display());
+    }
+    let svg = std::fs::read_to_string(dir.join("fig3_lambert.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("measured"));
+
+    // Every check must fail against a deliberately wrong prediction, on the same renders.
+    let (code, stdout, stderr) = verify(&["--quick", "--json", "--wrong-prediction", "--out", d]);
+    assert_eq!(code, 1, "{stderr}");
+    let doc: Value = serde_json::from_str(&stdout).unwrap();
+    for c in doc["checks"].as_array().unwrap() {
+        assert_eq!(c["passed"], false, "check {} did not detect the wrong prediction", c["name"]);
+    }
+}
+
+#[test]
+fn one_check_table_and_bad_input() {
+    let dir = common::temp_dir("verify-one");
+    let (code, stdout, _) = verify(&["--quick", "--check", "mirror", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(stdout.contains("mirror") && stdout.contains("PASS") && !stdout.contains("lambert"), "{stdout}");
+    for h in ["check", "equation", "expected", "measured", "tolerance", "result"] {
+        assert!(stdout.lines().next().unwrap_or("").contains(h), "table header lacks {h}");
+    }
+    let (code, stdout, stderr) = verify(&["--check", "no-such-check"]);
+    assert_eq!(code, 2);
+    assert!(stdout.is_empty());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("no-such-check") && stderr.contains("lambert"));
+}
