@@ -196,6 +196,20 @@ const BLOCKS: usize = 16;
 /// Samples per tile of the normal-equation accumulation (see `fit_orthographic`).
 const TILE: usize = 32;
 
+/// Dot product of two tiles with 8 independent partial sums, so that it vectorizes (a single
+/// running sum is one long dependency chain, since floating-point addition may not be reordered).
+#[inline(always)]
+fn dot_tile(a: &[f64; TILE], b: &[f64]) -> f64 {
+    let b: &[f64; TILE] = b.try_into().expect("tile length");
+    let mut s = [0.0f64; 8];
+    for (ca, cb) in a.chunks_exact(8).zip(b.chunks_exact(8)) {
+        for u in 0..8 {
+            s[u] += ca[u] * cb[u];
+        }
+    }
+    (s[0] + s[4]) + (s[1] + s[5]) + ((s[2] + s[6]) + (s[3] + s[7]))
+}
+
 /// Fits RGB coefficients up to `lmax` to the covered pixels of all `views` (see module docs).
 pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax: usize) -> Result<Fit> {
     let mut samples = Vec::new();
@@ -255,12 +269,18 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
                     let (w0, w1, w2, w3) = (&wyt[4 * i], &wyt[4 * i + 1], &wyt[4 * i + 2], &wyt[4 * i + 3]);
                     for j in i..p {
                         let yj = &yt[j * TILE..(j + 1) * TILE];
-                        let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
-                        for k in 0..TILE {
-                            s0 += w0[k] * yj[k];
-                            s1 += w1[k] * yj[k];
-                            s2 += w2[k] * yj[k];
-                            s3 += w3[k] * yj[k];
+                        let (s0, s1, s2, s3);
+                        if all_have_stderr {
+                            s0 = dot_tile(w0, yj);
+                            s1 = dot_tile(w1, yj);
+                            s2 = dot_tile(w2, yj);
+                            s3 = dot_tile(w3, yj);
+                        } else {
+                            // Without a stderr layer the three variance lanes are identical.
+                            s0 = dot_tile(w0, yj);
+                            s1 = dot_tile(w1, yj);
+                            s2 = s1;
+                            s3 = s1;
                         }
                         let a = &mut acc[off + j - i];
                         a[0] += s0;
