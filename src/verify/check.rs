@@ -79,9 +79,19 @@ pub struct Series {
     pub dashed: bool,
 }
 
+/// Where a plot's legend goes (away from the data).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Legend {
+    #[default]
+    MiddleRight,
+    UpperRight,
+    LowerLeft,
+}
+
 /// A plot attached to a check (rendered to SVG by the report).
 #[derive(Clone, Debug, Default)]
 pub struct Plot {
+    pub legend: Legend,
     pub file: String,
     pub title: String,
     pub x_label: String,

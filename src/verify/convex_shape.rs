@@ -189,6 +189,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         obj.display()
     ));
     c.plots.push(Plot {
+        legend: super::check::Legend::MiddleRight,
         file: "convex_shape.svg".into(),
         title: "Any convex shape: Λ_l ρ̂_l from three paths (Lambert)".into(),
         x_label: "l".into(),

@@ -139,6 +139,7 @@ pub fn figure2(ch: &Channel) -> Plot {
         dashed: false,
     };
     Plot {
+        legend: super::check::Legend::UpperRight,
         file: "fig2_clamped_cosine.svg".into(),
         title: "Figure 2: clamped cosine and its SH approximations".into(),
         x_label: "θ (degrees)".into(),

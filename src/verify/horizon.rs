@@ -161,6 +161,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         c.note("WRONG-PREDICTION MODE: clamp renders compared with the ignore prediction");
     }
     c.plots.push(Plot {
+        legend: super::check::Legend::LowerLeft,
         file: "horizon.svg".into(),
         title: "Horizon: B/(k_s L) under uniform light vs viewing angle".into(),
         x_label: "θ_o (degrees)".into(),

@@ -65,6 +65,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         ));
     }
     c.plots.push(Plot {
+        legend: super::check::Legend::UpperRight,
         file: "fig3_lambert.svg".into(),
         title: "Figure 3: Lambertian Λ_l ρ̂_l vs l".into(),
         x_label: "l".into(),

@@ -53,6 +53,7 @@ pub fn evaluate(ch: &Channel, light: &[f64], gain: f64) -> Check {
         let m = Measured::from_fit(&fit, LMAX);
         filter::rows(&mut c, "B_lm/L_lm", &m, &[gain; LMAX + 1], None, false);
         c.plots.push(super::check::Plot {
+            legend: super::check::Legend::MiddleRight,
             file: "mirror.svg".into(),
             title: "Mirror: Λ_l ρ̂_l (eq. 33)".into(),
             x_label: "l".into(),

@@ -84,6 +84,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         points.push(m.series(&format!("measured, s={s}")));
     }
     c.plots.push(Plot {
+        legend: super::check::Legend::MiddleRight,
         file: "fig4_phong.svg".into(),
         title: "Figure 4: Phong Λ_l ρ̂_l vs l (eq. 43 and Gaussian eq. 46)".into(),
         x_label: "l".into(),

@@ -1,7 +1,7 @@
 //! SVG plots of a [`Plot`]: analytic curves as lines, measured points with error bars, drawn
 //! with `plotters` (SVG backend).
 
-use super::check::Plot;
+use super::check::{Legend, Plot};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -79,7 +79,12 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, plotters::coord::Shift>, plot
             .label(s.name.clone())
             .legend(move |(x, y)| Circle::new((x + 9, y), 3, color.filled()));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw()?;
+    let pos = match plot.legend {
+        Legend::MiddleRight => SeriesLabelPosition::MiddleRight,
+        Legend::UpperRight => SeriesLabelPosition::UpperRight,
+        Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+    };
+    chart.configure_series_labels().position(pos).background_style(WHITE.mix(0.85)).border_style(BLACK).draw()?;
     Ok(())
 }
 

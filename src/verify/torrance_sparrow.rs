@@ -94,6 +94,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             oblique.iter().map(|(t, m, s)| format!("{t}°: {m:.4} ± {s:.4}")).collect::<Vec<_>>().join(", ")
         ));
         plots.push(Plot {
+            legend: super::check::Legend::UpperRight,
             file: format!("ts_sigma_{sigma}.svg"),
             title: format!("Torrance–Sparrow σ = {sigma}: Λ_l ρ̂_l, normal exitance and θo = 30°, 60°"),
             x_label: "l".into(),
