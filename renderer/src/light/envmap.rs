@@ -50,11 +50,19 @@ pub struct Envmap {
     /// rotationᵀ: world → map.
     inv_rotation: glam::Mat3,
     sampler: EnvSampler,
-    /// Hot-path tables, one entry per pixel: radiance × scale (0 outside the angular disc) and,
-    /// for the angular map, the sampling density with respect to the unit square. They let
-    /// `eval`, `pdf` and `sample` cost one pixel lookup each.
-    radiance: Vec<Rgb>,
-    pdf_uv: Vec<f32>,
+    /// Hot-path table, one 16-byte texel per pixel: radiance × scale (0 outside the angular disc)
+    /// and, for the angular map, the sampling density with respect to the unit square. Keeping
+    /// both in one texel makes `eval_pdf` of a BRDF-sampled direction a single cache miss (the
+    /// table is megabytes, and such directions land anywhere).
+    texels: Vec<Texel>,
+}
+
+/// One pixel of the hot-path table (16 bytes, aligned so it never straddles a cache line).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Texel {
+    radiance: [f32; 3],
+    pdf_uv: f32,
 }
 
 /// sinθ/θ, → 1 at θ = 0 (the angular map's solid-angle factor).
@@ -118,17 +126,20 @@ impl Envmap {
                 EnvSampler::Angular(Distribution2D::new(&weights, w, h))
             }
         };
-        let radiance: Vec<Rgb> = (0..w * h)
-            .map(|i| match mapping {
-                Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
-                _ => Rgb::from(image.pixels[i]) * scale,
+        let texels: Vec<Texel> = (0..w * h)
+            .map(|i| {
+                let radiance = match mapping {
+                    Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
+                    _ => Rgb::from(image.pixels[i]) * scale,
+                };
+                let pdf_uv = match &sampler {
+                    EnvSampler::Angular(dist) => dist.pdf_index(i % w, i / w),
+                    EnvSampler::LatLong(_) => 0.0,
+                };
+                Texel { radiance: radiance.to_array(), pdf_uv }
             })
             .collect();
-        let pdf_uv: Vec<f32> = match &sampler {
-            EnvSampler::Angular(dist) => (0..w * h).map(|i| dist.pdf_index(i % w, i / w)).collect(),
-            EnvSampler::LatLong(_) => Vec::new(),
-        };
-        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler, radiance, pdf_uv })
+        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler, texels })
     }
 
     /// Reads an `.exr` / `.hdr` file and builds the light; every error names the file.
@@ -206,11 +217,11 @@ impl DistantLight for Envmap {
         match &self.sampler {
             EnvSampler::LatLong(grid) => {
                 let (r, c) = grid.cell(d);
-                self.radiance[r * self.image.width + c]
+                Rgb::from(self.texels[r * self.image.width + c].radiance)
             }
             EnvSampler::Angular(_) => {
                 let (r, c, _) = self.angular_lookup(d);
-                self.radiance[r * self.image.width + c]
+                Rgb::from(self.texels[r * self.image.width + c].radiance)
             }
         }
     }
@@ -221,12 +232,13 @@ impl DistantLight for Envmap {
         match &self.sampler {
             EnvSampler::LatLong(grid) => {
                 let (r, c) = grid.cell(d);
-                (self.radiance[r * self.image.width + c], grid.pdf(d))
+                (Rgb::from(self.texels[r * self.image.width + c].radiance), grid.pdf(d))
             }
             EnvSampler::Angular(_) => {
                 let (r, c, theta) = self.angular_lookup(d);
                 let i = r * self.image.width + c;
-                (self.radiance[i], angular_pdf(self.pdf_uv[i], theta))
+                let t = &self.texels[i];
+                (Rgb::from(t.radiance), angular_pdf(t.pdf_uv, theta))
             }
         }
     }
@@ -268,7 +280,7 @@ impl DistantLight for Envmap {
             EnvSampler::LatLong(grid) => grid.pdf(d),
             EnvSampler::Angular(_) => {
                 let (r, c, theta) = self.angular_lookup(d);
-                angular_pdf(self.pdf_uv[r * self.image.width + c], theta)
+                angular_pdf(self.texels[r * self.image.width + c].pdf_uv, theta)
             }
         }
     }

@@ -81,10 +81,19 @@ impl Distribution1D {
     /// Cell i with cdf[i] ≤ u < cdf[i+1] (zero-width cells are skipped).
     #[inline]
     fn find(&self, u: f32) -> usize {
+        // The last i with cdf[i] ≤ u (cdf[0] = 0 ≤ u), by a branch-free binary search: the
+        // comparison feeds a conditional move, so the unpredictable branch of a classic search
+        // (one misprediction per level) disappears from the renderer's hot path.
         let n = self.func.len();
-        // partition_point gives the first index with cdf > u; cdf[0] = 0 ≤ u, so it is ≥ 1.
-        let i = self.cdf.partition_point(|&c| c <= u);
-        i.saturating_sub(1).min(n - 1)
+        let cdf = &self.cdf[..n];
+        let (mut base, mut len) = (0usize, n);
+        while len > 1 {
+            let half = len / 2;
+            let mid = base + half;
+            base = if cdf[mid] <= u { mid } else { base };
+            len -= half;
+        }
+        base
     }
 
     /// Draws a cell index with probability f_i / Σ f. Returns (index, probability mass, `u`
