@@ -108,8 +108,20 @@ impl<'a> PathTracer<'a> {
             }
             let ignores = brdf.ignores_horizon();
 
-            // Next-event estimation: one direction from the light.
             let u_light = sampler.next_2d();
+            let u_lobe = sampler.next_1d();
+            let u_brdf = sampler.next_2d();
+
+            // The BRDF direction is drawn first so that the light's data for it (an environment
+            // texel, megabytes away from anything recently used) can be fetched from memory while
+            // next-event estimation runs; it is used only after NEE, as before.
+            let bs = brdf.sample(wo, u_lobe, u_brdf).filter(|bs| bs.weight != Rgb::ZERO);
+            let wi_world = bs.map(|bs| frame.to_world(bs.wi).normalize());
+            if let Some(d) = wi_world {
+                light.prefetch(d);
+            }
+
+            // Next-event estimation: one direction from the light.
             if !brdf.is_delta() {
                 if let Some(ls) = light.sample(u_light) {
                     let wi = frame.to_local(ls.wi);
@@ -123,13 +135,7 @@ impl<'a> PathTracer<'a> {
 
             // BRDF sampling: continues the path and, where it escapes, collects the light with
             // the complementary MIS weight.
-            let u_lobe = sampler.next_1d();
-            let u_brdf = sampler.next_2d();
-            let Some(bs) = brdf.sample(wo, u_lobe, u_brdf) else { break };
-            if bs.weight == Rgb::ZERO {
-                break;
-            }
-            let wi_world = frame.to_world(bs.wi).normalize();
+            let (Some(bs), Some(wi_world)) = (bs, wi_world) else { break };
             beta *= bs.weight;
 
             // Below the horizon with horizon = "ignore": the lobe sees the distant light directly.

@@ -57,6 +57,19 @@ pub struct Envmap {
     texels: Vec<Texel>,
 }
 
+/// Asks the CPU to start loading `x` into cache (no-op where there is no such instruction).
+#[inline(always)]
+fn prefetch_read<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults and has no architectural effect; the pointer
+    // comes from a live reference.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
 /// One pixel of the hot-path table (16 bytes, aligned so it never straddles a cache line).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
@@ -224,6 +237,22 @@ impl DistantLight for Envmap {
                 Rgb::from(self.texels[r * self.image.width + c].radiance)
             }
         }
+    }
+
+    #[inline]
+    fn prefetch(&self, wi: Vec3) {
+        let d = self.inv_rotation * wi;
+        let i = match &self.sampler {
+            EnvSampler::LatLong(grid) => {
+                let (r, c) = grid.cell(d);
+                r * self.image.width + c
+            }
+            EnvSampler::Angular(_) => {
+                let (r, c, _) = self.angular_lookup(d);
+                r * self.image.width + c
+            }
+        };
+        prefetch_read(&self.texels[i]);
     }
 
     #[inline]

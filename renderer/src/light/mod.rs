@@ -41,6 +41,10 @@ pub trait DistantLight {
     fn is_delta(&self) -> bool {
         false
     }
+    /// A hint that `eval`/`eval_pdf` of `wi` follows soon: lights backed by large tables start
+    /// loading the data from memory. No effect on results.
+    #[inline]
+    fn prefetch(&self, _wi: Vec3) {}
     /// `(eval(wi), pdf(wi))` together: lights whose two lookups share work override it.
     #[inline]
     fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
@@ -89,6 +93,10 @@ impl DistantLight for Light {
     #[inline]
     fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
         dispatch!(self, l => l.eval_pdf(wi))
+    }
+    #[inline]
+    fn prefetch(&self, wi: Vec3) {
+        dispatch!(self, l => l.prefetch(wi))
     }
 }
 
