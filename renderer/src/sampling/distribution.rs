@@ -27,6 +27,10 @@ pub struct Distribution1D {
     cdf: Vec<f32>,
     /// ∫₀¹ f(x) dx = Σ f_i / n.
     func_int: f64,
+    /// Guide table (the "cutpoint" method): guide[j] = the cell holding u = j/n. A search for u
+    /// starts there and walks forward, touching one or two cache lines instead of the ~log₂ n
+    /// scattered ones of a binary search. It finds exactly the same cell.
+    guide: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -52,7 +56,16 @@ impl Distribution1D {
             cdf.extend((1..=n).map(|i| i as f32 / n as f32));
         }
         cdf[n] = 1.0;
-        Distribution1D { func, cdf, func_int: total / n as f64 }
+        let mut guide = Vec::with_capacity(n);
+        let mut i = 0usize;
+        for j in 0..n {
+            let u = j as f32 / n as f32;
+            while i + 1 < n && cdf[i + 1] <= u {
+                i += 1;
+            }
+            guide.push(i as u32);
+        }
+        Distribution1D { func, cdf, func_int: total / n as f64, guide }
     }
 
     /// Number of cells.
@@ -81,19 +94,14 @@ impl Distribution1D {
     /// Cell i with cdf[i] ≤ u < cdf[i+1] (zero-width cells are skipped).
     #[inline]
     fn find(&self, u: f32) -> usize {
-        // The last i with cdf[i] ≤ u (cdf[0] = 0 ≤ u), by a branch-free binary search: the
-        // comparison feeds a conditional move, so the unpredictable branch of a classic search
-        // (one misprediction per level) disappears from the renderer's hot path.
+        // The last i < n with cdf[i] ≤ u (cdf[0] = 0 ≤ u): start from the guide entry of
+        // ⌊u·n⌋/n ≤ u, which is never past the answer, and walk forward.
         let n = self.func.len();
-        let cdf = &self.cdf[..n];
-        let (mut base, mut len) = (0usize, n);
-        while len > 1 {
-            let half = len / 2;
-            let mid = base + half;
-            base = if cdf[mid] <= u { mid } else { base };
-            len -= half;
+        let mut i = self.guide[((u * n as f32) as usize).min(n - 1)] as usize;
+        while i + 1 < n && self.cdf[i + 1] <= u {
+            i += 1;
         }
-        base
+        i
     }
 
     /// Draws a cell index with probability f_i / Σ f. Returns (index, probability mass, `u`
@@ -220,6 +228,21 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The guided search returns exactly the cell of a plain binary search, zero-width cells
+    /// included.
+    #[test]
+    fn guided_search_equals_binary_search() {
+        let mut rng = crate::sampling::chi2::TestRng::new(3);
+        let f: Vec<f32> = (0..1000).map(|i| if i % 7 == 0 { 0.0 } else { rng.next_f32().powi(8) * 100.0 }).collect();
+        let d = Distribution1D::new(&f);
+        for k in 0..200_000 {
+            let u = if k < 1000 { k as f32 / 1000.0 } else { rng.next_f32() };
+            let u = u.clamp(0.0, ONE_MINUS_EPSILON);
+            let expect = (d.cdf.partition_point(|&c| c <= u)).saturating_sub(1).min(d.count() - 1);
+            assert_eq!(d.find(u), expect, "u = {u}");
+        }
+    }
     use crate::sampling::chi2::{chi2_survival, TestRng};
 
     /// Pearson χ² of observed counts against expected counts (cells with expectation 0 must stay
