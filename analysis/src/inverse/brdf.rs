@@ -1,0 +1,1 @@
+//! Inverse BRDF (eq. 16): placeholder, filled in below.
