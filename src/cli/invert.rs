@@ -248,7 +248,7 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
         "discrepancy" => Rule::Discrepancy,
         o => return Err(Error::new(format!("unknown --rule '{o}' (expected gcv or discrepancy)"))),
     };
-    if a.output.is_some() && !(a.width >= 4 && a.width % 2 == 0 && a.width <= 16384) {
+    if a.output.is_some() && !(a.width >= 4 && a.width.is_multiple_of(2) && a.width <= 16384) {
         return Err(Error::new(format!("--width must be even and in [4, 16384], got {}", a.width)));
     }
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
