@@ -214,7 +214,11 @@ fn rgb_of(v: Option<&Value>) -> Option<[f64; 3]> {
 fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
     let theta_o_deg = (theta_o != 0.0).then_some(theta_o.to_degrees());
     let (model, name, header_albedo) = match (&a.brdf, header) {
-        (Some(name), _) => (model_from_args(name, a.s, a.sigma, theta_o_deg)?, name.clone(), None),
+        (Some(name), _) => {
+            // θ_o of a normal-probe image only changes the Torrance–Sparrow coefficients (eq. 59).
+            let th = if name == "torrance-sparrow" { theta_o_deg } else { None };
+            (model_from_args(name, a.s, a.sigma, th)?, name.clone(), None)
+        }
         (None, Some(b)) => {
             let ty = b.get("type").and_then(|t| t.as_str()).unwrap_or("").to_string();
             let (key, s, sigma) = match ty.as_str() {
@@ -356,7 +360,7 @@ fn print_text(doc: &Value) {
         println!("# brdf {}, albedo {}, orders with amplification > {} are ill-conditioned", doc["brdf"], doc["albedo"], doc["max_amplification"]);
         println!("{:>4} {:>12} {:>14} {:>16}", "l", "Λ_l ρ̂_l", "amplification", "status");
         for o in doc["orders"].as_array().into_iter().flatten() {
-            println!("{:>4} {:>12} {:>14} {:>16}", o["l"], fmt_opt(&o["lambda_rho"]), fmt_opt(&o["amplification"]), o["status"].as_str().unwrap_or(""));
+            println!("{:>4} {:>12} {:>14} {:>16}", o["l"].as_u64().unwrap_or(0), fmt_opt(&o["lambda_rho"]), fmt_opt(&o["amplification"]), o["status"].as_str().unwrap_or(""));
         }
         println!("\n{:>4} {:>30} {:>14}", "k", "L_lm (R) ± se", "regularised R");
         let c = doc["coefficients"].as_array().cloned().unwrap_or_default();
@@ -372,7 +376,7 @@ fn print_text(doc: &Value) {
         println!("{:>4} {:>30}", "l", "Λ_l ρ̂_l (R) ± se");
         for o in doc["filter"].as_array().into_iter().flatten() {
             let cell = if o["observable"] == true { format!("{} ± {}", fmt_opt(&o["estimate"][0]), fmt_opt(&o["stderr"][0])) } else { "unobservable".into() };
-            println!("{:>4} {cell:>30}", o["l"]);
+            println!("{:>4} {cell:>30}", o["l"].as_u64().unwrap_or(0));
         }
         let iv = |v: &Value| v.as_f64().map_or("unbounded".to_string(), |x| format!("{x:.4}"));
         println!(
