@@ -20,6 +20,7 @@ pub mod filter;
 pub mod fit;
 pub mod grace;
 pub mod horizon;
+pub mod inverse_brdf;
 pub mod inverse_lighting;
 pub mod irradiance9;
 pub mod lambert;
