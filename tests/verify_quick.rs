@@ -18,7 +18,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 11] = [
+const NAMES: [&str; 12] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -30,6 +30,7 @@ const NAMES: [&str; 11] = [
     "associativity",
     "convex-shape",
     "horizon",
+    "inverse-lighting",
 ];
 
 #[test]

@@ -10,6 +10,7 @@
 //! - [`projection`]: environment maps, functions, `normal-probe` and orthographic renders;
 //! - [`transfer`]: Λ_l ρ̂_l of Lambert, Phong, mirror, Torrance–Sparrow, any radial lobe;
 //! - [`predict`], [`filter`]: B_lm from L_lm and the per-order filter measured from renders;
+//! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
@@ -19,6 +20,7 @@
 pub mod error;
 pub mod filter;
 pub mod image;
+pub mod inverse;
 pub mod lighting;
 pub mod lsq;
 pub mod predict;

@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand.
 
 pub mod analyze;
+pub mod invert;
 pub mod render;
 pub mod sh;
 pub mod verify;
@@ -26,6 +27,9 @@ pub enum Command {
     Sh(sh::ShCommand),
     /// Project renders (EXR) into SH and compare with the lighting.
     Analyze(analyze::AnalyzeArgs),
+    /// Inverse rendering: recover the lighting (eq. 17) or the BRDF (eq. 16) from renders of a sphere.
+    #[command(subcommand)]
+    Invert(invert::InvertCommand),
     /// Render, analyse and check the paper's claims; report with error bars.
     Verify(verify::VerifyArgs),
 }
@@ -35,6 +39,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Render(a) => render::run(a),
         Command::Sh(c) => sh::run(c),
         Command::Analyze(a) => analyze::run(a),
+        Command::Invert(c) => invert::run(c),
         Command::Verify(a) => verify::run(a),
     }
 }

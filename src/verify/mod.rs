@@ -20,6 +20,8 @@ pub mod filter;
 pub mod fit;
 pub mod grace;
 pub mod horizon;
+pub mod inverse_brdf;
+pub mod inverse_lighting;
 pub mod irradiance9;
 pub mod lambert;
 pub mod mirror;
@@ -77,6 +79,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: associativity::NAME, equation: associativity::EQUATION, run: associativity::run },
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
+    Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.

@@ -1,0 +1,344 @@
+//! Inverse BRDF (eq. 16): estimate the transfer coefficients Λ_l ρ̂_l = B_lm / L_lm per order from
+//! the reflected light and a known lighting, then fit a BRDF model's parameter to them.
+//!
+//! Per-order estimates: [`crate::filter::measured_filter`] (least squares over m, weighted by the
+//! lighting's energy in each m; orders where L has no energy are unobservable, sec. 3.4).
+//!
+//! Fit (parameters: the estimates, the [`Model`], the search range of its parameter p): the model
+//! gives g_l(p) = Λ_l ρ̂_l — Phong's eq. 43 with p = s, Torrance–Sparrow's eq. 50 (normal
+//! exitance) or its q = 0 coefficient at θ_o with p = σ. Each channel has its own unknown scale
+//! k_c (k_s or albedo), profiled out in closed form, so
+//! χ²(p) = min_k Σ_c Σ_l w_lc (f̂_lc − k_c g_l(p))², k̂_c = Σ_l w f̂ g / Σ_l w g².
+//! Weights are w = 1/σ̂_lc² when every used estimate has a standard error; otherwise w = 1 and
+//! χ² is rescaled by dof / χ²_min (dof = orders·channels − channels − 1), i.e. the residual
+//! scatter stands in for σ. p̂ minimises χ² (log grid of 40 points per decade, then golden-section
+//! in ln p); the confidence interval is where the χ² profile stays within Δχ² = 1 of its minimum
+//! (68 % for one parameter). A side on which χ² never rises by 1 inside the search range is
+//! reported as unbounded (`None`): the data cannot tell p from larger (or smaller) values — the
+//! ill-conditioning of sec. 3.3 and 3.6 under uniform or low-frequency lighting.
+
+use crate::error::{Error, Result};
+use crate::filter::{measured_filter, OrderEstimate};
+use crate::transfer::TransferModel;
+
+/// The parametric model fitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Model {
+    /// Normalized Phong, parameter s (eq. 43).
+    Phong,
+    /// Simplified Torrance–Sparrow at exitance angle θ_o (radians), parameter σ (eq. 50 at θ_o = 0).
+    TorranceSparrow { theta_o: f64 },
+}
+
+impl Model {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Model::Phong => "phong",
+            Model::TorranceSparrow { .. } => "torrance-sparrow",
+        }
+    }
+    pub fn parameter_name(&self) -> &'static str {
+        match self {
+            Model::Phong => "s",
+            Model::TorranceSparrow { .. } => "sigma",
+        }
+    }
+    /// The default search range of the parameter: s ∈ [0.5, 10⁴], σ ∈ [0.005, 1].
+    pub fn default_range(&self) -> (f64, f64) {
+        match self {
+            Model::Phong => (0.5, 1.0e4),
+            Model::TorranceSparrow { .. } => (0.005, 1.0),
+        }
+    }
+    pub fn transfer(&self, p: f64) -> TransferModel {
+        match *self {
+            Model::Phong => TransferModel::Phong { s: p },
+            Model::TorranceSparrow { theta_o } => TransferModel::TorranceSparrow { sigma: p, theta_o },
+        }
+    }
+}
+
+/// Per-order estimates of (albedo ·) Λ_l ρ̂_l from B_lm and L_lm (eq. 16); orders where the
+/// lighting's energy is below 1e-8 of its largest order are unobservable.
+pub fn estimate_transfer(b: &[[f64; 3]], b_stderr: Option<&[[f64; 3]]>, lighting: &[[f64; 3]], lmax: usize) -> Result<Vec<OrderEstimate>> {
+    let n = crate::sh::num_coefficients(lmax);
+    if b.len() < n || lighting.len() < n || b_stderr.is_some_and(|s| s.len() < n) {
+        return Err(Error::new(format!("inverse BRDF needs {n} coefficients of B, its standard errors and L for l_max {lmax}")));
+    }
+    Ok(measured_filter(b, b_stderr, lighting, lmax, 1e-8))
+}
+
+/// Result of [`fit_model`].
+#[derive(Clone, Debug)]
+pub struct BrdfFit {
+    pub model: Model,
+    /// p̂ (s or σ).
+    pub parameter: f64,
+    /// Δχ² = 1 interval; `None` on a side where χ² stays within 1 of its minimum up to the range edge.
+    pub interval: (Option<f64>, Option<f64>),
+    pub range: (f64, f64),
+    /// k̂_c at p̂ per channel (`None` for a channel with no usable order).
+    pub scale: [Option<f64>; 3],
+    pub chi2_min: f64,
+    pub dof: i64,
+    /// True when the weights are 1/σ̂² (else unit weights rescaled by the residual scatter).
+    pub weighted_by_stderr: bool,
+    /// Number of (order, channel) estimates used.
+    pub points: usize,
+    /// The χ² profile on the search grid, (p, χ²(p) − χ²_min), for plots of the error curve.
+    pub profile: Vec<(f64, f64)>,
+}
+
+impl BrdfFit {
+    /// Interval width relative to p̂, ∞ when a side is unbounded.
+    pub fn relative_width(&self) -> f64 {
+        match self.interval {
+            (Some(lo), Some(hi)) => (hi - lo) / self.parameter,
+            _ => f64::INFINITY,
+        }
+    }
+    /// χ²(p) − χ²_min at the profile grid point nearest p (in ln p): the height of the error curve.
+    pub fn delta_chi2_at(&self, p: f64) -> f64 {
+        self.profile.iter().min_by(|a, b| (a.0.ln() - p.ln()).abs().total_cmp(&(b.0.ln() - p.ln()).abs())).map_or(0.0, |q| q.1)
+    }
+    pub fn contains(&self, p: f64) -> bool {
+        self.interval.0.is_none_or(|lo| lo <= p) && self.interval.1.is_none_or(|hi| p <= hi)
+    }
+}
+
+/// (l, channel, estimate, weight) of the usable estimates.
+type Point = (usize, usize, f64, f64);
+
+fn usable_points(est: &[OrderEstimate]) -> (Vec<Point>, bool) {
+    let mut pts = Vec::new();
+    let mut all_se = true;
+    for o in est {
+        for ch in 0..3 {
+            if let Some(f) = o.estimate[ch] {
+                match o.stderr[ch] {
+                    Some(s) if s > 0.0 && s.is_finite() => pts.push((o.l, ch, f, 1.0 / (s * s))),
+                    _ => {
+                        all_se = false;
+                        pts.push((o.l, ch, f, 1.0));
+                    }
+                }
+            }
+        }
+    }
+    if !all_se {
+        pts.iter_mut().for_each(|p| p.3 = 1.0);
+    }
+    (pts, all_se)
+}
+
+/// χ²(p) with the per-channel scales profiled out; also returns k̂.
+fn chi2_at(model: Model, p: f64, pts: &[Point], lmax: usize) -> (f64, [Option<f64>; 3]) {
+    let g = model.transfer(p).lambda_rho(lmax);
+    let mut k = [None; 3];
+    for ch in 0..3 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for &(l, c, f, w) in pts.iter().filter(|q| q.1 == ch) {
+            let _ = c;
+            num += w * f * g[l];
+            den += w * g[l] * g[l];
+        }
+        if den > 0.0 {
+            k[ch] = Some(num / den);
+        }
+    }
+    let chi2 = pts.iter().map(|&(l, c, f, w)| w * (f - k[c].unwrap_or(0.0) * g[l]).powi(2)).sum();
+    (chi2, k)
+}
+
+/// Weighted least-squares fit of the model parameter with its Δχ² = 1 interval (module doc).
+pub fn fit_model(est: &[OrderEstimate], model: Model, range: Option<(f64, f64)>) -> Result<BrdfFit> {
+    let (lo, hi) = range.unwrap_or(model.default_range());
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Err(Error::new(format!("the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]", model.parameter_name())));
+    }
+    if let Model::TorranceSparrow { theta_o } = model {
+        model.transfer(lo).validate()?;
+        if !(0.0..std::f64::consts::FRAC_PI_2).contains(&theta_o) {
+            return Err(Error::new("theta_o must be in [0°, 90°)"));
+        }
+    }
+    let lmax = est.iter().map(|o| o.l).max().ok_or_else(|| Error::new("no transfer estimates to fit"))?;
+    let (pts, weighted) = usable_points(est);
+    let channels = (0..3).filter(|ch| pts.iter().any(|p| p.1 == *ch)).count();
+    if channels == 0 {
+        return Err(Error::new("no observable order: the lighting has no energy where it was measured"));
+    }
+    let dof = pts.len() as i64 - channels as i64 - 1;
+    let chi2 = |p: f64| chi2_at(model, p, &pts, lmax).0;
+
+    // Log grid, then golden section in ln p around the best grid point.
+    let decades = (hi / lo).log10();
+    let n = ((40.0 * decades).ceil() as usize).max(20);
+    let grid: Vec<f64> = (0..=n).map(|i| lo * (hi / lo).powf(i as f64 / n as f64)).collect();
+    let values: Vec<f64> = grid.iter().map(|&p| chi2(p)).collect();
+    let ibest = (0..=n).min_by(|&a, &b| values[a].total_cmp(&values[b])).unwrap_or(0);
+    let (mut a, mut b) = (grid[ibest.saturating_sub(1)].ln(), grid[(ibest + 1).min(n)].ln());
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..80 {
+        let (c, d) = (b - r * (b - a), a + r * (b - a));
+        if chi2(c.exp()) < chi2(d.exp()) { b = d } else { a = c }
+    }
+    let mut p_hat = (0.5 * (a + b)).exp();
+    if values[ibest] < chi2(p_hat) {
+        p_hat = grid[ibest];
+    }
+    let (chi2_raw, scale) = chi2_at(model, p_hat, &pts, lmax);
+    // Unit weights: rescale so that χ²_min/dof = 1 (the scatter estimates σ).
+    let factor = if weighted || dof <= 0 || chi2_raw <= 0.0 { 1.0 } else { dof as f64 / chi2_raw };
+    let delta = |p: f64| (chi2(p) - chi2_raw) * factor;
+    let crossing = |inside: f64, outside: f64| {
+        let (mut a, mut b) = (inside.ln(), outside.ln());
+        for _ in 0..60 {
+            let m = 0.5 * (a + b);
+            if delta(m.exp()) < 1.0 { a = m } else { b = m }
+        }
+        (0.5 * (a + b)).exp()
+    };
+    let mut lower = None;
+    let mut inside = p_hat;
+    for &p in grid.iter().rev().filter(|&&p| p < p_hat) {
+        if delta(p) >= 1.0 {
+            lower = Some(crossing(inside, p));
+            break;
+        }
+        inside = p;
+    }
+    let mut upper = None;
+    inside = p_hat;
+    for &p in grid.iter().filter(|&&p| p > p_hat) {
+        if delta(p) >= 1.0 {
+            upper = Some(crossing(inside, p));
+            break;
+        }
+        inside = p;
+    }
+    let profile = grid.iter().zip(&values).map(|(&p, &v)| (p, (v - chi2_raw) * factor)).collect();
+    Ok(BrdfFit {
+        model,
+        parameter: p_hat,
+        interval: (lower, upper),
+        range: (lo, hi),
+        scale,
+        chi2_min: chi2_raw * factor,
+        dof,
+        weighted_by_stderr: weighted,
+        points: pts.len(),
+        profile,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inverse::lighting::tests::Gauss;
+    use crate::sh::{index, num_coefficients};
+
+    /// L_lm = δ_m0 Y_l0(0) = δ_m0 √((2l+1)/4π) for l ≤ l_light, 0 above: a directional source at
+    /// the pole, all orders (l_light = lmax) or its 9-term approximation (l_light = 2).
+    fn directional(lmax: usize, l_light: usize) -> Vec<[f64; 3]> {
+        let mut c = vec![[0.0; 3]; num_coefficients(lmax)];
+        for l in 0..=l_light.min(lmax) {
+            c[index(l, 0)] = [1.0 / crate::sh::lambda(l); 3];
+        }
+        c
+    }
+
+    /// B = k g(p) L + N(0, σ²) with σ = `sigma`.
+    fn render(l: &[[f64; 3]], g: &[f64], k: [f64; 3], sigma: f64, rng: &mut Gauss) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let b = crate::predict::predict(l, g, k).into_iter().map(|v| v.map(|x| x + sigma * rng.normal())).collect();
+        (b, vec![[sigma; 3]; l.len()])
+    }
+
+    fn fit(model: Model, p_true: f64, lmax: usize, l_light: usize, sigma: f64, seed: u64) -> BrdfFit {
+        let light = directional(lmax, l_light);
+        let g = model.transfer(p_true).lambda_rho(lmax);
+        let mut rng = Gauss::new(seed);
+        let (b, se) = render(&light, &g, [0.7, 0.5, 0.3], sigma, &mut rng);
+        let est = estimate_transfer(&b, Some(&se), &light, lmax).unwrap();
+        fit_model(&est, model, None).unwrap()
+    }
+
+    /// |p̂ − p| within 4 half-widths of the interval (4σ: a single 1σ interval misses 32 % of the time).
+    fn within_4_sigma(f: &BrdfFit, p: f64) -> bool {
+        match f.interval {
+            (Some(lo), Some(hi)) => (f.parameter - p).abs() <= 4.0 * 0.5 * (hi - lo),
+            _ => true,
+        }
+    }
+
+    #[test]
+    fn phong_exponent_is_sharp_under_a_directional_source_and_loose_under_9_terms() {
+        // s = 32, l ≤ 16, σ_B = 1e-2. Directional (all orders): accurate, narrow interval. 9-term
+        // lighting (l ≤ 2): Λ_l ρ̂_l = 1, 33/34, 32/35 barely depend on s, so the interval is wide
+        // (sec. 3.3). Measured (seed 1): p̂ 32.07 in [31.63, 32.52] (relative width 0.028) vs 33.8 in
+        // [23.4, 59.2] (1.06); Δχ² at s = 64: 2238 vs 1.25.
+        let s = 32.0;
+        let dir = fit(Model::Phong, s, 16, 16, 1e-2, 1);
+        let nine = fit(Model::Phong, s, 16, 2, 1e-2, 1);
+        assert!(within_4_sigma(&dir, s), "{} {:?}", dir.parameter, dir.interval);
+        assert!(dir.relative_width() < 0.05, "directional width {}", dir.relative_width());
+        // Able to fail: a wrong exponent (s = 40) lies outside the directional interval ...
+        assert!(!dir.contains(40.0));
+        // ... but not outside the 9-term one, which is > 10× wider.
+        assert!(within_4_sigma(&nine, s), "{} {:?}", nine.parameter, nine.interval);
+        assert!(nine.relative_width() > 10.0 * dir.relative_width(), "9-term {} vs directional {}", nine.relative_width(), dir.relative_width());
+        // Flat error curve: Δχ² at s = 2·32 is > 100× smaller under 9 terms.
+        assert!(nine.delta_chi2_at(2.0 * s) < 0.01 * dir.delta_chi2_at(2.0 * s), "{} vs {}", nine.delta_chi2_at(2.0 * s), dir.delta_chi2_at(2.0 * s));
+        // Uniform lighting (order 0 only): with a free scale the χ² profile is flat, no bound at all.
+        let uni = fit(Model::Phong, s, 16, 0, 1e-2, 1);
+        assert_eq!(uni.interval, (None, None));
+        assert!(uni.profile.iter().all(|(_, d)| d.abs() < 1e-9));
+    }
+
+    #[test]
+    fn torrance_sparrow_sigma_is_sharp_under_a_directional_source_and_loose_under_9_terms() {
+        // σ = 0.1, same setting; sec. 3.6. Measured (seed 2): σ̂ 0.1011 in [0.1005, 0.1016] (relative
+        // width 0.012) vs 0.037 in (unbounded, 0.085]: the 9-term χ² profile is so flat and skewed
+        // that its 1σ interval even misses 0.1 on this seed; Δχ² at σ = 0.2: 11857 vs 46.
+        let sigma = 0.1;
+        let dir = fit(Model::TorranceSparrow { theta_o: 0.0 }, sigma, 16, 16, 1e-2, 2);
+        let nine = fit(Model::TorranceSparrow { theta_o: 0.0 }, sigma, 16, 2, 1e-2, 2);
+        assert!(within_4_sigma(&dir, sigma), "{} {:?}", dir.parameter, dir.interval);
+        assert!(dir.relative_width() < 0.05, "{}", dir.relative_width());
+        assert!(!dir.contains(0.12));
+        assert!(within_4_sigma(&nine, sigma), "{} {:?}", nine.parameter, nine.interval);
+        assert!(nine.relative_width() > 10.0 * dir.relative_width(), "{} vs {}", nine.relative_width(), dir.relative_width());
+        assert!(nine.delta_chi2_at(2.0 * sigma) < 0.01 * dir.delta_chi2_at(2.0 * sigma), "{} vs {}", nine.delta_chi2_at(2.0 * sigma), dir.delta_chi2_at(2.0 * sigma));
+    }
+
+    #[test]
+    fn delta_chi2_interval_covers_the_truth_68_percent_of_the_time() {
+        // 300 noisy directional fits of s = 20 (l ≤ 10, σ_B = 3e-3). Coverage of a Δχ² = 1 interval
+        // is 68.3 %; binomial σ = √(0.683·0.317/300) = 2.7 %: 4σ band.
+        let trials = 300;
+        let hits = (0..trials).filter(|&t| fit(Model::Phong, 20.0, 10, 10, 3e-3, 100 + t as u64).contains(20.0)).count();
+        let frac = hits as f64 / trials as f64;
+        let sd = (0.683f64 * 0.317 / trials as f64).sqrt();
+        assert!((frac - 0.683).abs() < 4.0 * sd, "coverage {frac}");
+    }
+
+    #[test]
+    fn unit_weights_use_the_residual_scatter_and_bad_inputs_are_errors() {
+        let lmax = 12;
+        let light = directional(lmax, lmax);
+        // Lighting with energy in every m (so residuals over m exist without standard errors).
+        let light: Vec<[f64; 3]> = light.iter().enumerate().map(|(k, v)| if v[0] != 0.0 { *v } else { [0.05 * ((k % 5) as f64 + 1.0); 3] }).collect();
+        let g = crate::transfer::phong::phong(16.0, lmax);
+        let mut rng = Gauss::new(9);
+        let (b, _) = render(&light, &g, [1.0; 3], 1e-3, &mut rng);
+        let est = estimate_transfer(&b, None, &light, lmax).unwrap();
+        let f = fit_model(&est, Model::Phong, None).unwrap();
+        assert!(!f.weighted_by_stderr);
+        assert!(f.contains(16.0) || (f.parameter - 16.0).abs() < 0.05 * 16.0, "{} {:?}", f.parameter, f.interval);
+        assert!(f.relative_width() < 0.2, "{}", f.relative_width());
+        assert!(estimate_transfer(&b[..10], None, &light, lmax).is_err());
+        assert!(fit_model(&est, Model::Phong, Some((5.0, 1.0))).is_err());
+        assert!(fit_model(&est, Model::Phong, Some((0.0, 1.0))).is_err());
+        assert!(fit_model(&[], Model::Phong, None).is_err());
+    }
+}

@@ -1,0 +1,12 @@
+//! Inverse rendering in frequency space (paper sec. 2.2 and sec. 3): what the reflection equation
+//! B_lm = Λ_l ρ̂_l L_lm (eq. 15) lets one recover from images, and how well.
+//!
+//! - [`lighting`]: inverse lighting (eq. 17), L_lm = B_lm / (Λ_l ρ̂_l) per order with standard
+//!   errors, noise amplification, a recovered / ill-conditioned / unobservable classification and a
+//!   Tikhonov-regularised reconstruction whose λ is chosen by a stated rule.
+//! - [`brdf`]: inverse BRDF (eq. 16), Λ_l ρ̂_l per order from B_lm and L_lm, and a weighted
+//!   least-squares fit of the Phong exponent s (eq. 43) or the Torrance–Sparrow σ (eq. 50) with a
+//!   confidence interval from the χ² profile (Δχ² = 1).
+
+pub mod brdf;
+pub mod lighting;
