@@ -21,10 +21,10 @@
 //! with a known BRDF, its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo.
 use super::sh::check_lmax;
 use super::Error;
+use super::header::{first_sphere, json_rgb, json_vec3, lighting_of};
 use analysis::filter::{measured_filter, OrderEstimate};
 use analysis::image::{read_image, Image};
-use analysis::lighting::Lighting;
-use analysis::projection::{fit_orthographic, project_normal_probe, Mapping, OrthoCamera, OrthoView, Param, Sphere};
+use analysis::projection::{fit_orthographic, project_normal_probe, OrthoCamera, OrthoView, Param, Sphere};
 use analysis::sh::lm;
 use analysis::transfer::TransferModel;
 use serde_json::{json, Value};
@@ -79,26 +79,6 @@ fn vec3(v: &Option<Vec<f64>>, name: &str, default: Option<[f64; 3]>) -> Result<O
     }
 }
 
-fn json_vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
-    let a = v.get(key).and_then(|a| a.as_array()).filter(|a| a.len() == 3);
-    let a = a.ok_or_else(|| Error::new(format!("header: '{key}' must be an array of 3 numbers")))?;
-    let mut o = [0.0; 3];
-    for (i, x) in a.iter().enumerate() {
-        o[i] = x.as_f64().ok_or_else(|| Error::new(format!("header: '{key}' must hold numbers")))?;
-    }
-    Ok(o)
-}
-
-fn rgb_or_default(v: Option<&Value>, default: f64) -> [f64; 3] {
-    match v {
-        Some(Value::Number(n)) => [n.as_f64().unwrap_or(default); 3],
-        Some(Value::Array(a)) if a.len() == 3 => {
-            [0, 1, 2].map(|i| a[i].as_f64().unwrap_or(default))
-        }
-        _ => [default; 3],
-    }
-}
-
 /// The camera of one image.
 enum Camera {
     Ortho(OrthoCamera),
@@ -145,20 +125,15 @@ struct Brdf {
 }
 
 fn sphere_and_brdf(img: &Image) -> Result<(Option<Sphere>, Option<Brdf>), Error> {
-    let Some(text) = img.attributes.get("reflect:objects") else { return Ok((None, None)) };
-    let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:objects is not JSON: {e}")))?;
-    let objs = v.as_array().ok_or_else(|| Error::new("header reflect:objects is not an array"))?;
-    let Some(o) = objs.iter().find(|o| o.get("shape").and_then(|s| s.as_str()) == Some("sphere")) else {
+    let (sphere, brdf, count) = first_sphere(img)?;
+    if sphere.is_none() {
         return Ok((None, None));
-    };
-    if objs.len() > 1 {
-        eprintln!("note: the scene has {} objects; analysing the first sphere", objs.len());
     }
-    let sphere = Sphere {
-        center: json_vec3(o, "center").unwrap_or([0.0; 3]),
-        radius: o.get("radius").and_then(|r| r.as_f64()).unwrap_or(1.0),
-    };
-    let brdf = o.get("brdf").map(|b| {
+    if count > 1 {
+        eprintln!("note: the scene has {count} objects; analysing the first sphere");
+    }
+    let rgb_or_default = |v: Option<&Value>, d: f64| json_rgb(v).unwrap_or([d; 3]);
+    let brdf = brdf.as_ref().map(|b| {
         let ty = b.get("type").and_then(|t| t.as_str()).unwrap_or("").to_string();
         let num = |k: &str| b.get(k).and_then(|x| x.as_f64());
         let (model, scale) = match ty.as_str() {
@@ -174,30 +149,7 @@ fn sphere_and_brdf(img: &Image) -> Result<(Option<Sphere>, Option<Brdf>), Error>
         let model = model.filter(|m| m.validate().is_ok());
         Brdf { model, scale, ty, table: b.clone() }
     });
-    Ok((Some(sphere), brdf))
-}
-
-fn lighting_of(a: &AnalyzeArgs, first: &Image) -> Result<Option<(Lighting, String)>, Error> {
-    if let Some(p) = &a.lighting {
-        let is_toml = p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-        if is_toml {
-            return Ok(Some((Lighting::from_scene_file(p)?, p.display().to_string())));
-        }
-        let mapping = a.mapping.as_deref().map(Mapping::parse).transpose()?;
-        return Ok(Some((Lighting::from_envmap_file(p, mapping), p.display().to_string())));
-    }
-    if a.mapping.is_some() {
-        return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
-    }
-    match first.attributes.get("reflect:lighting") {
-        Some(text) => {
-            let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:lighting is not JSON: {e}")))?;
-            // The renderer writes absolute paths; a relative one is taken relative to the image.
-            let base = a.images[0].parent();
-            Ok(Some((Lighting::from_json_with(&v, base, false)?, "reflect:lighting header".to_string())))
-        }
-        None => Ok(None),
-    }
+    Ok((sphere, brdf))
 }
 
 pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
@@ -265,7 +217,8 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         )
     };
 
-    let lighting = lighting_of(&a, &images[0]).map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
+    let lighting = lighting_of(a.lighting.as_deref(), a.mapping.as_deref(), &images[0], &a.images[0])
+        .map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
     let l_coeffs = match &lighting {
         Some((l, _)) => Some(l.coefficients(a.lmax)?),
         None => None,

@@ -18,15 +18,16 @@
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::sh::{check_lmax, model_from_args};
 use super::Error;
+use super::header::{first_sphere, header_json, json_rgb, json_vec3, lighting_of};
 use analysis::image::{read_image, write_exr, Image};
 use analysis::inverse::brdf::{estimate_transfer, fit_model, Model};
 use analysis::inverse::lighting::{invert_lighting, Rule, DEFAULT_MAX_AMPLIFICATION};
 use analysis::lighting::Lighting;
-use analysis::projection::{fit_orthographic, project_normal_probe, Mapping, OrthoCamera, OrthoView, Param, Sphere};
+use analysis::projection::{fit_orthographic, project_normal_probe, OrthoCamera, OrthoView, Param};
 use analysis::sh::reconstruct_latlong;
 use analysis::transfer::TransferModel;
 use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(clap::Subcommand, Debug)]
@@ -130,37 +131,6 @@ struct Projected {
     first: Image,
 }
 
-fn header_json(img: &Image, key: &str) -> Result<Option<Value>, Error> {
-    img.attributes
-        .get(key)
-        .map(|t| serde_json::from_str(t).map_err(|e| Error::new(format!("header {key} is not JSON: {e}"))))
-        .transpose()
-}
-
-fn vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
-    let a = v.get(key).and_then(|a| a.as_array()).filter(|a| a.len() == 3);
-    let a = a.ok_or_else(|| Error::new(format!("header: '{key}' must be an array of 3 numbers")))?;
-    let mut o = [0.0; 3];
-    for (i, x) in a.iter().enumerate() {
-        o[i] = x.as_f64().ok_or_else(|| Error::new(format!("header: '{key}' must hold numbers")))?;
-    }
-    Ok(o)
-}
-
-/// The first sphere of `reflect:objects` and its BRDF table.
-fn header_sphere(img: &Image) -> Result<(Option<Sphere>, Option<Value>), Error> {
-    let Some(v) = header_json(img, "reflect:objects")? else { return Ok((None, None)) };
-    let objs = v.as_array().ok_or_else(|| Error::new("header reflect:objects is not an array"))?;
-    let Some(o) = objs.iter().find(|o| o.get("shape").and_then(|s| s.as_str()) == Some("sphere")) else {
-        return Ok((None, None));
-    };
-    let sphere = Sphere {
-        center: vec3(o, "center").unwrap_or([0.0; 3]),
-        radius: o.get("radius").and_then(|r| r.as_f64()).unwrap_or(1.0),
-    };
-    Ok((Some(sphere), o.get("brdf").cloned()))
-}
-
 fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Error> {
     check_lmax(lmax)?;
     let images: Vec<Image> = paths.iter().map(read_image).collect::<Result<_, _>>()?;
@@ -173,9 +143,9 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         match cam.get("type").and_then(|t| t.as_str()).unwrap_or("") {
             "normal-probe" => probe = Some(cam.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0)),
             "orthographic" => ortho.push(OrthoCamera {
-                from: vec3(&cam, "from").map_err(|e| e.in_file(p))?,
-                to: vec3(&cam, "to").map_err(|e| e.in_file(p))?,
-                up: vec3(&cam, "up").map_err(|e| e.in_file(p))?,
+                from: json_vec3(&cam, "from").map_err(|e| e.in_file(p))?,
+                to: json_vec3(&cam, "to").map_err(|e| e.in_file(p))?,
+                up: json_vec3(&cam, "up").map_err(|e| e.in_file(p))?,
                 extent: cam.get("extent").and_then(|e| e.as_f64()).ok_or_else(|| Error::file(p, "header camera has no 'extent'"))?,
             }),
             other => return Err(Error::file(p, format!("camera type '{other}' cannot be inverted (use orthographic or normal-probe)"))),
@@ -189,7 +159,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         let first = images.into_iter().next().unwrap_or_default();
         return Ok(Projected { b, stderr, method: format!("normal-probe quadrature (theta_o {theta_o_deg}°)"), theta_o: theta_o_deg.to_radians(), first });
     }
-    let (sphere, _) = header_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
+    let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
     let sphere = sphere.unwrap_or_default();
     let views: Vec<OrthoView> = images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
     let fit = fit_orthographic(&views, &sphere, param, lmax)?;
@@ -197,17 +167,6 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
     drop(views);
     let first = images.into_iter().next().unwrap_or_default();
     Ok(Projected { b: fit.coefficients, stderr: Some(fit.stderr), method, theta_o: 0.0, first })
-}
-
-fn rgb_of(v: Option<&Value>) -> Option<[f64; 3]> {
-    match v {
-        Some(Value::Number(n)) => n.as_f64().map(|x| [x; 3]),
-        Some(Value::Array(a)) if a.len() == 3 => {
-            let o = [0, 1, 2].map(|i| a[i].as_f64());
-            o.iter().all(|x| x.is_some()).then(|| o.map(|x| x.unwrap_or(0.0)))
-        }
-        _ => None,
-    }
 }
 
 /// BRDF model and albedo from the command line, else from the header's BRDF table.
@@ -229,7 +188,7 @@ fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(Tr
                 other => return Err(Error::new(format!("the header's BRDF '{other}' has no transfer model: pass --brdf"))),
             };
             let th = if ty == "lambert" || ty == "mirror" || ty == "phong" { None } else { theta_o_deg };
-            (model_from_args(&ty, s, sigma, th)?, ty, rgb_of(b.get(key)))
+            (model_from_args(&ty, s, sigma, th)?, ty, json_rgb(b.get(key)))
         }
         (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
     };
@@ -258,7 +217,7 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
     let named = a.brdf.as_deref();
     let first = read_image(&a.images[0])?;
-    let (_, header_brdf) = header_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
+    let (_, header_brdf, _) = first_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
     let ty = named.map(str::to_string).or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str().map(str::to_string)));
     let param = if ty.as_deref() == Some("lambert") { Param::Normal } else { Param::Reflection };
     let p = project(&a.images, a.lmax, param)?;
@@ -298,21 +257,8 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
 }
 
 fn lighting_for_brdf(a: &BrdfArgs, first: &Image) -> Result<(Lighting, String), Error> {
-    if let Some(p) = &a.lighting {
-        if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
-            return Ok((Lighting::from_scene_file(p)?, p.display().to_string()));
-        }
-        let mapping = a.mapping.as_deref().map(Mapping::parse).transpose()?;
-        return Ok((Lighting::from_envmap_file(p, mapping), p.display().to_string()));
-    }
-    if a.mapping.is_some() {
-        return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
-    }
-    let v = header_json(first, "reflect:lighting")
-        .map_err(|e| e.in_file(&a.images[0]))?
-        .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting"))?;
-    let base: Option<&Path> = a.images[0].parent();
-    Ok((Lighting::from_json_with(&v, base, false)?, "reflect:lighting header".to_string()))
+    lighting_of(a.lighting.as_deref(), a.mapping.as_deref(), first, &a.images[0])?
+        .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting"))
 }
 
 fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
@@ -395,6 +341,7 @@ fn print_text(doc: &Value) {
 mod tests {
     use super::*;
     use analysis::sh::{index, latlong_direction, num_coefficients, Reconstructor};
+    use std::path::Path;
 
     fn tmp(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("reflect-cli-invert-{}", std::process::id()));

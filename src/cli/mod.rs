@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand.
 
 pub mod analyze;
+pub mod header;
 pub mod invert;
 pub mod render;
 pub mod sh;
