@@ -23,10 +23,10 @@ impl PixelAccumulator {
         self.n += 1;
         let inv = 1.0 / self.n as f64;
         let v = [radiance.x as f64, radiance.y as f64, radiance.z as f64];
-        for c in 0..3 {
-            let d = v[c] - self.mean[c];
-            self.mean[c] += d * inv;
-            self.m2[c] += d * (v[c] - self.mean[c]);
+        for ((x, mean), m2) in v.iter().zip(&mut self.mean).zip(&mut self.m2) {
+            let d = x - *mean;
+            *mean += d * inv;
+            *m2 += d * (x - *mean);
         }
         if hit {
             self.hits += 1;

@@ -122,14 +122,12 @@ impl<'a> PathTracer<'a> {
             }
 
             // Next-event estimation: one direction from the light.
-            if !brdf.is_delta() {
-                if let Some(ls) = light.sample(u_light) {
-                    let wi = frame.to_local(ls.wi);
-                    let f = brdf.eval(wo, wi);
-                    if f != Rgb::ZERO && self.visible(p, ng, n, ls.wi, ignores, &mut out.rays) {
-                        let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, brdf.pdf(wo, wi)) };
-                        radiance += beta * f * ls.value * w;
-                    }
+            if let Some(ls) = light.sample(u_light).filter(|_| !brdf.is_delta()) {
+                let wi = frame.to_local(ls.wi);
+                let f = brdf.eval(wo, wi);
+                if f != Rgb::ZERO && self.visible(p, ng, n, ls.wi, ignores, &mut out.rays) {
+                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, brdf.pdf(wo, wi)) };
+                    radiance += beta * f * ls.value * w;
                 }
             }
 
@@ -138,10 +136,10 @@ impl<'a> PathTracer<'a> {
             let (Some(bs), Some(wi_world)) = (bs, wi_world) else { break };
             beta *= bs.weight;
 
-            // Below the horizon with horizon = "ignore": the lobe sees the distant light directly.
-            let escaped = if n.dot(wi_world) <= 0.0 && ignores {
-                None
-            } else if self.single_convex && ng.dot(wi_world) > 0.0 {
+            // Below the horizon with horizon = "ignore" the lobe sees the distant light directly;
+            // above a single sphere's horizon nothing can be in the way.
+            let unoccluded = (n.dot(wi_world) <= 0.0 && ignores) || (self.single_convex && ng.dot(wi_world) > 0.0);
+            let escaped = if unoccluded {
                 None
             } else {
                 out.rays += 1;
