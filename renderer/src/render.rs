@@ -2,7 +2,6 @@
 //! sampler so the image is bit-identical for any thread count, a progress bar on stderr when it is
 //! a terminal, and throughput statistics at the end.
 
-use crate::camera::Camera;
 use crate::film::{Film, Pixel, PixelAccumulator};
 use crate::integrator::PathTracer;
 use crate::math::Vec2;
@@ -125,9 +124,4 @@ fn render_tile(scene: &Scene, tracer: &PathTracer, x0: u32, y0: u32, x1: u32, y1
         }
     }
     (out, rays)
-}
-
-/// Whether a camera is the normal-probe camera (its images are lat-long maps of normals).
-pub fn is_normal_probe(c: &Camera) -> bool {
-    matches!(c, Camera::NormalProbe(_))
 }

@@ -220,20 +220,7 @@ pub fn invert(a: &[f64], p: usize) -> Option<Vec<f64>> {
 /// is band-limited to lmax_fit and the BRDF radial (no quadrature error).
 pub fn fit_filter_probe(ch: &Channel, light: &[f64], lmax_fit: usize) -> Option<Fit> {
     let (w, h) = (ch.width, ch.height);
-    let basis = ShBasis::new(lmax_fit);
-    let mut y = vec![0.0; num_coefficients(lmax_fit)];
-    let mut rows = Vec::with_capacity(w * h);
-    let mut weight = Vec::with_capacity(w * h);
-    for r in 0..h {
-        let om = latlong_omega(r, w, h);
-        for c in 0..w {
-            let mut s = vec![0.0; lmax_fit + 1];
-            order_parts(&basis, light, latlong_dir(r, c, w, h), &mut y, &mut s);
-            rows.push(s);
-            weight.push(om);
-        }
-    }
-    lsq(&rows, &ch.value, &ch.sigma, &weight)
+    fit_filter_at(ch, light, lmax_fit, |r, c| latlong_dir(r, c, w, h))
 }
 
 /// Like [`fit_filter_probe`], but the order parts are evaluated at `dir(r, c)` instead of the

@@ -176,7 +176,8 @@ fn project_angular_generic(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
     sum_parts(parts, n)
 }
 
-fn sum_parts(parts: Vec<Vec<[f64; 3]>>, n: usize) -> Vec<[f64; 3]> {
+/// Sums per-thread partial coefficient vectors (in a fixed order, so results are deterministic).
+pub(crate) fn sum_parts(parts: Vec<Vec<[f64; 3]>>, n: usize) -> Vec<[f64; 3]> {
     let mut out = vec![[0.0; 3]; n];
     for p in parts {
         for k in 0..n {

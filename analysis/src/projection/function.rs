@@ -43,15 +43,7 @@ where
             acc
         })
         .collect();
-    let mut out = vec![[0.0; 3]; n];
-    for p in parts {
-        for k in 0..n {
-            for ch in 0..3 {
-                out[k][ch] += p[k][ch];
-            }
-        }
-    }
-    out
+    super::envmap::sum_parts(parts, n)
 }
 
 /// Scalar version of [`project_function`].
