@@ -141,7 +141,14 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             .map_err(|e| e.in_file(p))?
             .ok_or_else(|| Error::file(p, "no reflect:camera in the header (invert needs a render of reflect, or use analyze)"))?;
         match cam.get("type").and_then(|t| t.as_str()).unwrap_or("") {
-            "normal-probe" => probe = Some(cam.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0)),
+            "normal-probe" => {
+                let theta_o_deg = cam.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
+                let phi_o_deg = cam.get("phi_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
+                if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
+                    return Err(Error::file(p, format!("a normal-probe render at phi_o_deg = {phi_o_deg} cannot be inverted (only phi_o_deg = 0)")));
+                }
+                probe = Some(theta_o_deg)
+            }
             "orthographic" => ortho.push(OrthoCamera {
                 from: json_vec3(&cam, "from").map_err(|e| e.in_file(p))?,
                 to: json_vec3(&cam, "to").map_err(|e| e.in_file(p))?,

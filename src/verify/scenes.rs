@@ -18,8 +18,8 @@ pub fn grace_path() -> String {
 /// Camera of a scene.
 #[derive(Clone, Debug)]
 pub enum Camera {
-    /// `normal-probe` at exitance angle θ_o (degrees), W = 2H.
-    Probe { theta_o_deg: f64 },
+    /// `normal-probe` at exitance angles θ_o and azimuth φ_o (degrees), W = 2H.
+    Probe { theta_o_deg: f64, phi_o_deg: f64 },
     /// `orthographic` looking from `from` at the origin.
     Ortho { from: [f64; 3], up: [f64; 3], extent: f64 },
 }
@@ -71,7 +71,7 @@ impl Spec {
             height: h,
             spp,
             seed: ctx.seed,
-            camera: Camera::Probe { theta_o_deg: 0.0 },
+            camera: Camera::Probe { theta_o_deg: 0.0, phi_o_deg: 0.0 },
             lighting,
             shape: Shape::Sphere,
             brdf: brdf.to_string(),
@@ -87,8 +87,8 @@ impl Spec {
             self.width, self.height, self.spp, self.seed
         );
         match &self.camera {
-            Camera::Probe { theta_o_deg } => {
-                let _ = writeln!(s, "[camera]\ntype = \"normal-probe\"\ntheta_o_deg = {theta_o_deg:?}\n");
+            Camera::Probe { theta_o_deg, phi_o_deg } => {
+                let _ = writeln!(s, "[camera]\ntype = \"normal-probe\"\ntheta_o_deg = {theta_o_deg:?}\nphi_o_deg = {phi_o_deg:?}\n");
             }
             Camera::Ortho { from, up, extent } => {
                 let _ = writeln!(

@@ -80,7 +80,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let mut oblique = vec![];
         for t in THETA_O_DEG {
             let mut spec = Spec::probe(ctx, ctx.spp(16, 128), Lighting::Uniform(1.0), &brdf);
-            spec.camera = Camera::Probe { theta_o_deg: t };
+            spec.camera = Camera::Probe { theta_o_deg: t, phi_o_deg: 0.0 };
             let film = render_spec(ctx, &spec)?;
             let (mean, sd) = probe_mean(&Channel::from_film(&film, 0));
             evaluate_oblique(&mut c, sigma, t, mean, sd, ctx.wrong);
@@ -117,7 +117,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                 eprintln!("  torrance-sparrow σ = {sigma}, θo = {t}°");
             }
             let mut spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(olight.clone()), &brdf);
-            spec.camera = Camera::Probe { theta_o_deg: t };
+            spec.camera = Camera::Probe { theta_o_deg: t, phi_o_deg: 0.0 };
             let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
             let (w, h) = (ch.width, ch.height);
             let th = t.to_radians();

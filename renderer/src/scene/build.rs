@@ -152,9 +152,9 @@ fn build_camera(c: &CameraSection, first_sphere: Option<Sphere>, w: u32, h: u32)
         CameraSection::Perspective { from, to, up, fov_deg } => {
             Camera::Perspective(Perspective::new(vec3(*from, "from")?, vec3(*to, "to")?, vec3(*up, "up")?, *fov_deg, w, h)?)
         }
-        CameraSection::NormalProbe { theta_o_deg, jitter } => {
+        CameraSection::NormalProbe { theta_o_deg, phi_o_deg, jitter } => {
             let s = first_sphere.ok_or("the normal-probe camera needs objects[0] to be a sphere")?;
-            Camera::NormalProbe(NormalProbe::new(*theta_o_deg, *jitter, s.center, s.radius, w, h)?)
+            Camera::NormalProbe(NormalProbe::new(*theta_o_deg, *phi_o_deg, *jitter, s.center, s.radius, w, h)?)
         }
     })
 }

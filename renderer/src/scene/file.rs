@@ -78,6 +78,9 @@ pub enum CameraSection {
     NormalProbe {
         #[serde(default)]
         theta_o_deg: f32,
+        /// Azimuth of ω_o about the normal, from the θ tangent (an extension of CONVENTIONS §6).
+        #[serde(default)]
+        phi_o_deg: f32,
         /// Average each pixel over its solid angle instead of sampling the pixel centre.
         #[serde(default)]
         jitter: bool,
