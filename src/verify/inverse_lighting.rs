@@ -30,7 +30,15 @@ pub const LMAX: usize = 6;
 /// Quadrature of the predicted Lambertian image on a W × H probe grid, B_k for l ≤ LMAX.
 pub fn predicted_quadrature(light: &[f64], w: usize, h: usize) -> Vec<f64> {
     let lmax_light = analysis::sh::lmax_of(light.len()).unwrap_or(0);
-    let f = analysis::transfer::lambert::lambert(lmax_light);
+    predicted_quadrature_with(light, &analysis::transfer::lambert::lambert(lmax_light), w, h, LMAX)
+}
+
+/// Lat-long quadrature (to order `lmax`) of the predicted image B(n) = Σ_k f_l L_k Y_k(n) of a
+/// radial filter `f` (Λ_l ρ̂_l, at least as many orders as `light`) sampled at the pixel centres of
+/// a W × H normal probe: what the measured projection equals when the theory holds, including
+/// the grid's own quadrature error.
+pub fn predicted_quadrature_with(light: &[f64], f: &[f64], w: usize, h: usize, lmax: usize) -> Vec<f64> {
+    let lmax_light = analysis::sh::lmax_of(light.len()).unwrap_or(0);
     let basis = ShBasis::new(lmax_light);
     let mut y = vec![0.0; light.len()];
     let mut ch = Channel { width: w, height: h, ..Default::default() };
@@ -45,7 +53,7 @@ pub fn predicted_quadrature(light: &[f64], w: usize, h: usize) -> Vec<f64> {
             ch.mask.push(1.0);
         }
     }
-    project_probe(&ch, LMAX).0
+    project_probe(&ch, lmax).0
 }
 
 /// The check from measured B_lm ± σ and the predicted quadrature `q` (scaled by `scale`, 1.05 for

@@ -22,6 +22,7 @@ pub mod grace;
 pub mod horizon;
 pub mod inverse_brdf;
 pub mod inverse_lighting;
+pub mod inverse_specular;
 pub mod irradiance9;
 pub mod lambert;
 pub mod mirror;
@@ -80,6 +81,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
+    Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.
