@@ -81,6 +81,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
+    Entry { name: inverse_brdf::NAME, equation: inverse_brdf::EQUATION, run: inverse_brdf::run },
     Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },
 ];
 
