@@ -18,7 +18,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 12] = [
+const NAMES: [&str; 14] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -31,6 +31,8 @@ const NAMES: [&str; 12] = [
     "convex-shape",
     "horizon",
     "inverse-lighting",
+    "inverse-brdf",
+    "inverse-lighting-specular",
 ];
 
 #[test]
@@ -62,6 +64,9 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "ts_sigma_0.1.svg",
         "ts_sigma_0.2.svg",
         "horizon.svg",
+        "inverse_lighting.svg",
+        "inverse_brdf_profile.svg",
+        "inverse_specular_error.svg",
     ] {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));
