@@ -413,6 +413,27 @@ mod tests {
         assert!(doc["coefficients"][index(3, 1)].is_null());
         let env = read_image(tmp("env.exr")).unwrap();
         assert_eq!((env.width, env.height), (64, 32));
+        // The written map is the regularised lighting: projected back into SH it returns the
+        // regularised coefficients. At 256 × 128 the midpoint rule's error is
+        // O((π l_max / H)² / 24) ≈ 9e-4 of the largest coefficient (l_max = 6); 2e-3 allows for
+        // the f32 pixels and aliasing of nothing (the map is band-limited to l_max).
+        a.width = 256;
+        lighting_doc(&a).unwrap();
+        let back = analysis::projection::project_envmap(
+            &analysis::image::read_rgb(tmp("env.exr")).unwrap(),
+            analysis::projection::Mapping::LatLong,
+            lmax,
+        )
+        .unwrap();
+        let reg = &doc["regularised"]["coefficients"];
+        let scale = reg[0][0].as_f64().unwrap().abs();
+        for (k, b) in back.iter().enumerate() {
+            for ch in 0..3 {
+                let r = reg[k][ch].as_f64().unwrap();
+                assert!((b[ch] - r).abs() < 2e-3 * scale, "k={k} ch={ch}: map {} vs regularised {r}", b[ch]);
+            }
+        }
+        a.width = 64;
         a.albedo = Some(vec![1.0]);
         a.output = None;
         let wrong = lighting_doc(&a).unwrap();
