@@ -92,6 +92,7 @@ pub fn run_entry(ctx: &Ctx, e: &Entry) -> Check {
         Ok(c) => c,
         Err(msg) => Check::failed_to_run(e.name, e.equation, msg),
     };
+    c.apply_family_k();
     c.seconds = t.elapsed().as_secs_f64();
     c
 }
