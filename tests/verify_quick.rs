@@ -18,7 +18,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 14] = [
+const NAMES: [&str; 15] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -31,8 +31,9 @@ const NAMES: [&str; 14] = [
     "convex-shape",
     "horizon",
     "inverse-lighting",
-    "inverse-brdf",
     "inverse-lighting-specular",
+    "inverse-brdf",
+    "ambiguity",
 ];
 
 #[test]

@@ -11,6 +11,7 @@
 //! Phong exponent off by 20 %: the integration tests assert that each check then fails on real
 //! renders), `seed`, `out` (report folder).
 
+pub mod ambiguity;
 pub mod associativity;
 pub mod axial;
 pub mod check;
@@ -81,8 +82,9 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
-    Entry { name: inverse_brdf::NAME, equation: inverse_brdf::EQUATION, run: inverse_brdf::run },
     Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },
+    Entry { name: inverse_brdf::NAME, equation: inverse_brdf::EQUATION, run: inverse_brdf::run },
+    Entry { name: ambiguity::NAME, equation: ambiguity::EQUATION, run: ambiguity::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.
