@@ -30,6 +30,7 @@ pub mod phong;
 pub mod plot;
 pub mod report;
 pub mod scenes;
+pub mod separation;
 pub mod torrance_sparrow;
 pub mod transfer;
 pub mod uniform;
@@ -80,6 +81,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
+    Entry { name: separation::NAME, equation: separation::EQUATION, run: separation::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.
