@@ -18,7 +18,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 15] = [
+const NAMES: [&str; 16] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -33,6 +33,7 @@ const NAMES: [&str; 15] = [
     "inverse-lighting",
     "inverse-lighting-specular",
     "inverse-brdf",
+    "separation",
     "ambiguity",
 ];
 

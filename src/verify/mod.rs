@@ -32,6 +32,7 @@ pub mod phong;
 pub mod plot;
 pub mod report;
 pub mod scenes;
+pub mod separation;
 pub mod torrance_sparrow;
 pub mod transfer;
 pub mod uniform;
@@ -84,6 +85,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
     Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },
     Entry { name: inverse_brdf::NAME, equation: inverse_brdf::EQUATION, run: inverse_brdf::run },
+    Entry { name: separation::NAME, equation: separation::EQUATION, run: separation::run },
     Entry { name: ambiguity::NAME, equation: ambiguity::EQUATION, run: ambiguity::run },
 ];
 

@@ -7,6 +7,10 @@
 //! - [`brdf`]: inverse BRDF (eq. 16), Λ_l ρ̂_l per order from B_lm and L_lm, and a weighted
 //!   least-squares fit of the Phong exponent s (eq. 43) or the Torrance–Sparrow σ (eq. 50) with a
 //!   confidence interval from the χ² profile (Δχ² = 1).
+//! - [`separation`]: diffuse + specular separation (sec. 3.5, reference [17]): subtract the 9-term
+//!   diffuse part, recover the high-frequency lighting from the specular part, and test the
+//!   consistency of the low orders of both sides (which also fixes the k_d : k_s split).
 
 pub mod brdf;
 pub mod lighting;
+pub mod separation;
