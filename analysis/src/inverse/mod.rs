@@ -7,6 +7,10 @@
 //! - [`brdf`]: inverse BRDF (eq. 16), Λ_l ρ̂_l per order from B_lm and L_lm, and a weighted
 //!   least-squares fit of the Phong exponent s (eq. 43) or the Torrance–Sparrow σ (eq. 50) with a
 //!   confidence interval from the χ² profile (Δχ² = 1).
+//! - [`factorization`]: factoring the 4D reflected light field into lighting and BRDF up to a
+//!   global scale (eq. 18, 23): L_lm / P = M_lm / (Λ_l κ_l) from the exitance map (B̃_lm00) and the
+//!   normal-averaged outgoing profile (B̃_00l0), ambiguous (0/0) orders where κ_l = 0.
 
 pub mod brdf;
+pub mod factorization;
 pub mod lighting;
