@@ -16,6 +16,7 @@ pub mod axial;
 pub mod check;
 pub mod convex_shape;
 pub mod directional;
+pub mod factorization;
 pub mod filter;
 pub mod fit;
 pub mod grace;
@@ -80,6 +81,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
+    Entry { name: factorization::NAME, equation: factorization::EQUATION, run: factorization::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.
