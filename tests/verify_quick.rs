@@ -18,7 +18,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 12] = [
+const NAMES: [&str; 13] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -31,6 +31,7 @@ const NAMES: [&str; 12] = [
     "convex-shape",
     "horizon",
     "inverse-lighting",
+    "factorization",
 ];
 
 #[test]
