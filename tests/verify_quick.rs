@@ -18,7 +18,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 16] = [
+const NAMES: [&str; 17] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -34,6 +34,7 @@ const NAMES: [&str; 16] = [
     "inverse-lighting-specular",
     "inverse-brdf",
     "separation",
+    "factorization",
     "ambiguity",
 ];
 

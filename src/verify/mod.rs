@@ -17,6 +17,7 @@ pub mod axial;
 pub mod check;
 pub mod convex_shape;
 pub mod directional;
+pub mod factorization;
 pub mod filter;
 pub mod fit;
 pub mod grace;
@@ -86,6 +87,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },
     Entry { name: inverse_brdf::NAME, equation: inverse_brdf::EQUATION, run: inverse_brdf::run },
     Entry { name: separation::NAME, equation: separation::EQUATION, run: separation::run },
+    Entry { name: factorization::NAME, equation: factorization::EQUATION, run: factorization::run },
     Entry { name: ambiguity::NAME, equation: ambiguity::EQUATION, run: ambiguity::run },
 ];
 
