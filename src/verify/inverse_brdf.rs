@@ -115,7 +115,7 @@ pub fn evaluate(f: &Fits, s_pred: f64) -> Check {
     c.note(format!(
         "linearised prediction of that ratio: {:.1} with the measured σ_l, {:.1} with equal σ_l",
         lin(&f.sigma),
-        lin(&vec![1.0; LMAX + 1])
+        lin(&[1.0; LMAX + 1])
     ));
     c.note(format!("same render, order 0 only (uniform lighting): interval {} (flat χ² profile: max Δχ² = {:.2e})", iv(&f.dir_l0), f.dir_l0.profile.iter().map(|p| p.1).fold(0.0, f64::max)));
     c.note(format!("9-term render: ŝ = {:.3}, interval {}, relative width {:.4} (its own, lower noise)", f.nine.parameter, iv(&f.nine), f.nine.relative_width()));
