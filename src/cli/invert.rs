@@ -36,6 +36,10 @@ pub enum InvertCommand {
     Lighting(LightingArgs),
     /// Estimate Λ_l ρ̂_l and fit Phong s or Torrance–Sparrow σ from renders under known lighting (eq. 16).
     Brdf(BrdfArgs),
+    /// Diffuse + specular separation (sec. 3.5, ref. [17]): lighting from a lambert + mirror sphere.
+    Separate(super::separate::SeparateArgs),
+    /// Factor a sphere's 4D reflected light field into lighting and BRDF up to global scale (eq. 18, 23).
+    Factor(super::factor::FactorArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -113,6 +117,8 @@ pub fn run(c: InvertCommand) -> Result<ExitCode, Error> {
             let j = a.json;
             (brdf_doc(&a)?, j)
         }
+        InvertCommand::Separate(a) => return super::separate::run(&a),
+        InvertCommand::Factor(a) => return super::factor::run(&a),
     };
     if json_out {
         println!("{doc}");

@@ -2,7 +2,9 @@
 
 pub mod analyze;
 pub mod header;
+pub mod factor;
 pub mod invert;
+pub mod separate;
 pub mod render;
 pub mod sh;
 pub mod verify;
