@@ -265,6 +265,21 @@ pub fn evaluate(glossy: (&Slice, &Slice), lambert: (&Slice, &Slice), p: &Predict
         c.push(Row::new(format!("lambert: gain |Λ_{0} κ_{0}|/|Λ_0 κ_0| = 0 (eq. 38: ambiguous)", o.l), 0.0, o.gain, 0.0).floor(F32_FLOOR));
         c.note(format!("lambert l = {}: {} (L_lm not returned)", o.l, o.status.name()));
     }
+    // Lambert's BRDF coefficients ρ̃_0l0 ∝ κ_l (the normal-averaged outgoing profile, B̃_00l0), which
+    // equal ρ̃_l00 ∝ k̂_l = Λ_l⁻¹ Λ_l ρ̂_l by reciprocity: κ_l/κ_0 = (Λ_0/Λ_l) (Λ_l ρ̂_l)/(Λ_0 ρ̂_0)
+    // with eq. 38 (2/√3, √5/4, …; the odd l ≥ 3 are the zero-gain rows above).
+    let a = analysis::transfer::lambert::lambert(LMAX);
+    let kappa_ratio = |s: &Slice, l: usize| s.factor.kappa[l] / s.factor.kappa[0];
+    let mid_ratio = |s: &Slice, l: usize| s.factor_mid.kappa[l] / s.factor_mid.kappa[0];
+    for l in (1..=LMAX).filter(|&l| l <= 2 || l % 2 == 0) {
+        let expected = analysis::sh::lambda(0) / analysis::sh::lambda(l) * a[l] / a[0];
+        let (f, q, m) = (kappa_ratio(lambert.1, l), kappa_ratio(lambert.0, l), mid_ratio(lambert.1, l));
+        c.push(
+            Row::new(format!("lambert: κ_{l}/κ_0 = ρ̃_0{l}0/ρ̃_000 vs eq. 38 (reciprocity)"), expected, f, 0.0)
+                .approx((f - q).abs() + (f - m).abs())
+                .floor(F32_FLOOR),
+        );
+    }
     for o in lambert.1.factor.orders.iter().filter(|o| o.status == Status::Ambiguous) {
         c.note(format!("lambert l = {} reported ambiguous: the factorization is ill-posed there (lighting or BRDF coefficient zero)", o.l));
     }
