@@ -125,6 +125,9 @@ pub struct Fit {
     pub coef: Vec<f64>,
     /// Standard errors from the propagated per-pixel σ (sandwich covariance).
     pub sigma: Vec<f64>,
+    /// The full sandwich covariance (p × p, row-major): non-uniform pixel noise correlates the
+    /// coefficients even when the regressors are orthogonal.
+    pub cov: Vec<f64>,
     /// Σ_p w_p (residual_p / σ_p)² / Σ_p w_p over pixels with σ_p > 0 (≈ 1 for a correct model
     /// with honest σ and unit weights); None when no pixel has σ > 0.
     pub reduced_chi2: Option<f64>,
@@ -153,17 +156,30 @@ pub fn lsq(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64]) -> O
     }
     let ginv = invert(&g, p)?;
     let coef: Vec<f64> = (0..p).map(|j| (0..p).map(|k| ginv[j * p + k] * rhs[k]).sum()).collect();
-    // cov = Ginv S Ginv; only the diagonal is needed.
-    let mut sig = vec![0.0; p];
-    for (j, sj) in sig.iter_mut().enumerate() {
-        let mut v = 0.0;
+    // cov = Ginv S Ginv (two p³ products).
+    let mut gs = vec![0.0; p * p];
+    for j in 0..p {
         for a in 0..p {
-            for b in 0..p {
-                v += ginv[j * p + a] * s[a * p + b] * ginv[b * p + j];
+            let g = ginv[j * p + a];
+            if g != 0.0 {
+                for b in 0..p {
+                    gs[j * p + b] += g * s[a * p + b];
+                }
             }
         }
-        *sj = v.max(0.0).sqrt();
     }
+    let mut cov = vec![0.0; p * p];
+    for j in 0..p {
+        for b in 0..p {
+            let g = gs[j * p + b];
+            if g != 0.0 {
+                for k in 0..p {
+                    cov[j * p + k] += g * ginv[b * p + k];
+                }
+            }
+        }
+    }
+    let sig: Vec<f64> = (0..p).map(|j| cov[j * p + j].max(0.0).sqrt()).collect();
     let (mut chi, mut wsum) = (0.0, 0.0);
     for (i, a) in rows.iter().enumerate() {
         if weight[i] == 0.0 {
@@ -175,7 +191,7 @@ pub fn lsq(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64]) -> O
             wsum += weight[i];
         }
     }
-    Some(Fit { coef, sigma: sig, reduced_chi2: (wsum > 0.0).then(|| chi / wsum) })
+    Some(Fit { coef, sigma: sig, cov, reduced_chi2: (wsum > 0.0).then(|| chi / wsum) })
 }
 
 /// Gauss–Jordan inverse with partial pivoting of a small p × p matrix; None if singular.
