@@ -146,6 +146,14 @@ fn node_degrees(n: &OutgoingNode) -> (f64, f64) {
     (n.theta_o.to_degrees(), n.phi_o.to_degrees())
 }
 
+/// A TOML float with 10 decimals (1e-10°, far below f32 headers and [`NODE_TOL_DEG`]), trailing
+/// zeros trimmed but one decimal kept, e.g. `77.7999959582`, `120.0`.
+fn toml_float(x: f64) -> String {
+    let s = format!("{x:.10}");
+    let s = s.trim_end_matches('0');
+    if s.ends_with('.') { format!("{s}0") } else { s.to_string() }
+}
+
 fn print_nodes(n_mu: usize, n_phi: usize, json_out: bool) -> Result<(), Error> {
     check_nodes(n_mu, n_phi)?;
     let nodes = hemisphere_nodes(n_mu, n_phi)?;
@@ -167,7 +175,7 @@ fn print_nodes(n_mu: usize, n_phi: usize, json_out: bool) -> Result<(), Error> {
     );
     for n in &nodes {
         let (t, p) = node_degrees(n);
-        println!("{t:?} {p:?}");
+        println!("{} {}", toml_float(t), toml_float(p));
     }
     Ok(())
 }
@@ -264,11 +272,14 @@ fn fmt_node(t: f64, p: f64) -> String {
     format!("θ_o = {t:.4}°, φ_o = {p:.4}°")
 }
 
+/// (n_μ, n_φ), the rule's nodes, and the node index of each image.
+type NodeMatch = ((usize, usize), Vec<OutgoingNode>, Vec<usize>);
+
 /// Assigns image i (angles in degrees, named `names[i]`) to node `out[i]` of
 /// `hemisphere_nodes(n_mu, n_phi)`. Without `given`, n_μ is the number of distinct θ_o (or, if
 /// those are not all Gauss–Legendre nodes of that count, the smallest larger count whose nodes they
-/// are: a whole missing ring) and n_φ the most distinct φ_o in one ring. Every node must be hit exactly once.
-fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, usize)>) -> Result<((usize, usize), Vec<OutgoingNode>, Vec<usize>), Error> {
+/// are: a whole missing ring) and n_φ the smallest count whose azimuth grid holds every φ_o seen. Every node must be hit exactly once.
+fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, usize)>) -> Result<NodeMatch, Error> {
     let thetas_of = |n_mu: usize| -> Result<Vec<f64>, Error> { Ok(hemisphere_nodes(n_mu, 1)?.iter().map(|n| n.theta_o.to_degrees()).collect()) };
     let (n_mu, n_phi) = match given {
         Some(g) => g,
@@ -283,7 +294,11 @@ fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, us
                     None => rings.push((t, vec![p])),
                 }
             }
-            let n_phi = rings.iter().map(|r| r.1.len()).max().unwrap_or(0);
+            // n_φ: the smallest count whose azimuths 360°k/n_φ hold every φ_o seen (so a ring
+            // with gaps is not mistaken for a coarser rule), at least the fullest ring.
+            let fullest = rings.iter().map(|r| r.1.len()).max().unwrap_or(0);
+            let on_grid = |n: usize| rings.iter().flat_map(|r| &r.1).all(|&p| circular_deg(p, (p / (360.0 / n as f64)).round() * 360.0 / n as f64) <= NODE_TOL_DEG);
+            let n_phi = (fullest.max(1)..=MAX_PHI).find(|&n| on_grid(n)).unwrap_or(fullest);
             let fits = |n: usize| thetas_of(n).map(|ts| rings.iter().all(|r| ts.iter().any(|t| (t - r.0).abs() <= NODE_TOL_DEG)));
             let mut n_mu = rings.len();
             while n_mu < MAX_MU && !fits(n_mu)? {
@@ -730,6 +745,9 @@ mod tests {
         // A whole ring missing: 3 images at one θ are not the 1-node rule, but a node ring of 2.
         let e = err(paths[3..].to_vec());
         assert!(e.contains("missing node") && e.contains("2x3"), "{e}");
+        // Two azimuths 120° apart in one ring imply n_φ ≥ 3, not 2: the missing node is named.
+        let e = err(vec![paths[0].clone(), paths[1].clone()]);
+        assert!(e.contains("missing node") && e.contains("2x3"), "{e}");
         // A duplicate.
         let mut dup = paths.clone();
         dup.push(paths[2].clone());
@@ -776,11 +794,15 @@ mod tests {
 
     #[test]
     fn printed_nodes_survive_f32_headers() {
+        assert_eq!(toml_float(120.0 - 1e-14), "120.0");
+        assert_eq!(toml_float(77.79999595818678), "77.7999959582");
         // --print-nodes prints f64 degrees; the renderer stores f32 (relative 6e-8, ≤ 5e-6° below
         // 90°), well inside NODE_TOL_DEG, so the f32 angles still match the rule exactly once.
         for (n_mu, n_phi) in [(8, 16), (16, 48), (64, 64)] {
             let nodes = hemisphere_nodes(n_mu, n_phi).unwrap();
-            let angles: Vec<(f64, f64)> = nodes.iter().map(|n| node_degrees(n)).map(|(t, p)| (t as f32 as f64, p as f32 as f64)).collect();
+            // As printed, then parsed as f32 by the scene file.
+            let f32_of = |x: f64| toml_float(x).parse::<f32>().unwrap() as f64;
+            let angles: Vec<(f64, f64)> = nodes.iter().map(node_degrees).map(|(t, p)| (f32_of(t), f32_of(p))).collect();
             let names: Vec<String> = (0..angles.len()).map(|i| format!("n{i}")).collect();
             let (got, _, idx) = match_nodes(&angles, &names, None).unwrap();
             assert_eq!(got, (n_mu, n_phi));
@@ -842,7 +864,7 @@ radius = 1.0
         for (j, node) in hemisphere_nodes(2, 4).unwrap().iter().enumerate() {
             let (t, p) = node_degrees(node);
             let text = glossy
-                .replace("type = \"orthographic\"", &format!("type = \"normal-probe\"\ntheta_o_deg = {t:?}\nphi_o_deg = {p:?}"))
+                .replace("type = \"orthographic\"", &format!("type = \"normal-probe\"\ntheta_o_deg = {}\nphi_o_deg = {}", toml_float(t), toml_float(p)))
                 .replace("from = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nextent = 1.1\n", "")
                 .replace("width = 8\nheight = 8", "width = 24\nheight = 12");
             let sc = Scene::build(SceneFile::parse(&text).unwrap(), Path::new(".")).unwrap();
