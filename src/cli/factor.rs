@@ -13,7 +13,9 @@
 //!   renders (header `reflect:camera`, `theta_o_deg` / `phi_o_deg`, absent = 0, `jitter` false).
 //!   n_μ × n_φ is inferred from the set (or given with `--nodes`), and the set must be exactly the
 //!   product rule: every node once, θ'_o and φ'_o within [`NODE_TOL_DEG`] (headers carry f32
-//!   degrees, ~1e-5° at 90°). `--normal` is a θ_o = 0 render: it adds the normal-exitance filter.
+//!   degrees, ~1e-5° at 90°). All images share one W × H grid and one scene (their
+//!   `reflect:lighting` / `reflect:objects` headers agree). `--normal` is a θ_o = 0 render: it adds
+//!   the normal-exitance filter.
 //! - `reflect invert factor --scene SCENE.toml --nodes N_MUxN_PHI --lmax L [--size 96x48]`: renders
 //!   the light field in memory: the scene's camera is replaced by a `normal-probe` at every node and
 //!   once at θ_o = 0 (objects[0] must be a sphere; `jitter` off; `[render]` spp, seed, sampler and
@@ -344,11 +346,28 @@ fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, us
     Ok(((n_mu, n_phi), nodes, out))
 }
 
+const SCENE_KEYS: [&str; 2] = ["reflect:lighting", "reflect:objects"];
+
+/// The headers that identify the scene of a render (absent when not written by reflect).
+fn scene_of(img: &Image) -> [Option<String>; 2] {
+    SCENE_KEYS.map(|k| img.attributes.get(k).cloned())
+}
+
+/// All renders must be of one scene: the lighting and objects headers agree with the first image's.
+fn same_scene(first: &[Option<String>; 2], first_path: &Path, img: &Image, p: &Path) -> Result<(), Error> {
+    let s = scene_of(img);
+    match (0..2).find(|&k| first[k] != s[k]) {
+        Some(k) => Err(Error::file(p, format!("header {} differs from {}'s (all renders must be of one scene)", SCENE_KEYS[k], first_path.display()))),
+        None => Ok(()),
+    }
+}
+
 fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, usize)>, ch: usize, rule: NormalRule, lmax: usize) -> Result<Measured, Error> {
     let mut angles = Vec::with_capacity(paths.len());
     let mut data = Vec::with_capacity(paths.len());
     let mut size = None;
     let mut max_se: Option<f64> = None;
+    let mut first_scene = None;
     for p in paths {
         let img = read_image(p)?;
         let (t, ph) = probe_angles(&img, p)?;
@@ -361,6 +380,10 @@ fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, u
                 return Err(Error::file(p, format!("image is {}×{}, but {} is {w}×{h} (all node images must share one grid)", img.width, img.height, first.display())));
             }
             _ => {}
+        }
+        match &first_scene {
+            None => first_scene = Some((scene_of(&img), p)),
+            Some((s0, p0)) => same_scene(s0, p0, &img, p)?,
         }
         let (v, se) = channel_of(&img, ch, p)?;
         if let Some(s) = se {
@@ -386,6 +409,9 @@ fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, u
         Some(p) => {
             let img = read_image(p)?;
             let (t, _) = probe_angles(&img, p)?;
+            if let Some((s0, p0)) = &first_scene {
+                same_scene(s0, p0, &img, p)?;
+            }
             if t.abs() > NODE_TOL_DEG {
                 return Err(Error::file(p, format!("--normal needs a θ_o = 0 normal-probe render, this one is at θ_o = {t}°")));
             }
@@ -555,6 +581,9 @@ fn print_text(doc: &Value) {
             doc["input"]["max_depth"],
             doc["input"]["objects"]
         );
+        if doc["input"]["objects"].as_u64().unwrap_or(1) > 1 {
+            println!("# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections");
+        }
     }
     if let Some(r) = doc["renders"].as_object() {
         println!("# renders: {} ({} nodes + 1 at θ_o = 0), wall time {:.2} s", r["count"], r["count"].as_u64().unwrap_or(1).saturating_sub(1), r["wall_seconds"].as_f64().unwrap_or(0.0));
@@ -776,6 +805,14 @@ mod tests {
         let mut p = paths.clone();
         p[1] = tmp("sets/nope.exr");
         assert!(err(p).contains("nope.exr"));
+        let other = tmp("sets/other.exr");
+        let mut img = read_image(&paths[1]).unwrap();
+        img.attributes.insert("reflect:lighting".into(), r#"{"type":"uniform","radiance":1}"#.into());
+        write_exr(&other, &img).unwrap();
+        let mut p = paths.clone();
+        p[1] = other;
+        let e = err(p);
+        assert!(e.contains("other.exr") && e.contains("one scene"), "{e}");
         let small = tmp("sets/small.exr");
         probe_exr(&small, 16, 8, 50.0, 0.0, &|_| 1.0);
         let mut p = paths.clone();
