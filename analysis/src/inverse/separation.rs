@@ -195,6 +195,23 @@ pub struct Separated {
     pub consistency: Vec<f64>,
     pub consistency_se: Vec<f64>,
     pub chi2: Option<f64>,
+    /// Cov(d) (9 × 9, row-major).
+    pub consistency_cov: Vec<f64>,
+}
+
+impl Separated {
+    /// χ² = xᵀ Cov(d)⁻¹ x of a 9-vector x against the consistency covariance (e.g. d minus a
+    /// predicted bias); None when the covariance is singular.
+    pub fn chi2_of(&self, x: &[f64]) -> Option<f64> {
+        if x.len() != LOW {
+            return None;
+        }
+        Cholesky::new(&self.consistency_cov, LOW, 1e-12).ok().map(|c| {
+            let mut y = x.to_vec();
+            c.solve(&mut y);
+            y.iter().zip(x).map(|(a, b)| a * b).sum::<f64>()
+        })
+    }
 }
 
 impl Separation {
@@ -346,13 +363,10 @@ impl Separation {
         };
         let cov_d: Vec<f64> = (0..LOW * LOW).map(|ij| tst[ij] + self.mb_cov[(ij / LOW) * nfit + ij % LOW] / (ks * ks)).collect();
         let consistency_se: Vec<f64> = (0..LOW).map(|j| cov_d[j * LOW + j].max(0.0).sqrt()).collect();
-        let chi2 = Cholesky::new(&cov_d, LOW, 1e-12).ok().map(|c| {
-            let mut x = consistency.clone();
-            c.solve(&mut x);
-            x.iter().zip(&consistency).map(|(a, b)| a * b).sum::<f64>()
-        });
         let diffuse_se = (0..LOW).map(|j| cov_l[j * LOW + j].max(0.0).sqrt()).collect();
-        Ok(Separated { kd, ks, diffuse, diffuse_se, specular, specular_se, consistency, consistency_se, chi2 })
+        let mut out = Separated { kd, ks, diffuse, diffuse_se, specular, specular_se, consistency, consistency_se, chi2: None, consistency_cov: cov_d };
+        out.chi2 = out.chi2_of(&out.consistency);
+        Ok(out)
     }
 
     /// The consistency χ² as a function of the diffuse fraction x = k_d / (k_d + k_s) at fixed
