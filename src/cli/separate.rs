@@ -1,16 +1,737 @@
-//! `reflect invert separate`: diffuse + specular separation (sec. 3.5, ref. [17]).
-//! NOT BUILT YET: the subcommand is wired but refuses to run (exit 2).
+//! `reflect invert separate DIFFUSE.exr SPECULAR.exr… [--kd X --ks Y] [--lmax L] [--channel r|g|b]
+//! [--scan] [--output ENV.exr --width W] [--json]`: diffuse + specular separation (sec. 3.5, the
+//! algorithm of reference [17]; library `analysis::inverse::separation`).
+//!
+//! The surface is ρ̂ = k_d · lambert (unit albedo) + k_s · mirror (unit k_r). The inputs are
+//! `normal-probe` renders of it (CONVENTIONS §6, with the `reflect:camera` header): the *diffuse
+//! view* first, at normal exitance θ_o = 0 (R = n), which gives the 9 low-order lighting
+//! coefficients L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2; then one or more *specular views* at
+//! θ_o > 0 and φ_o ∈ {0°, 180°} (R ≠ n; the two azimuths together cover the sphere of R), from
+//! which the 9-term diffuse part (eq. 38–39) is subtracted and the rest fitted as a gazing sphere:
+//! the lighting L_lm, l ≤ `lmax`, by least squares weighted by the pixels' exact solid angles about
+//! R (`probe_samples`). The consistency d_lm = L̂_lm − c_lm (l ≤ 2) with its χ² (9 dof) tests the
+//! split and the 9-term approximation; `--scan` scans the diffuse fraction k_d / (k_d + k_s) at
+//! fixed k_d + k_s for the χ² minimum (how [17] fixes the split).
+//!
+//! Parameters: `--kd`, `--ks` (one number or r,g,b; default: the header's BRDF when it is a `mix`
+//! of one `lambert` and one `mirror` layer, k_d = weight × albedo, k_s = weight × k_r), `--lmax`
+//! (default 8, at most [`MAX_LMAX`] and 2(lmax + 1) ≤ H), `--channel` (default all three; JSON
+//! coefficients are then `[r, g, b]` triples, else numbers of the one channel), `--scan`,
+//! `--output` (the recovered lighting as a W × W/2 lat-long EXR, reconstructed from its SH, one
+//! channel replicated to R, G, B) and `--width`, `--json`.
+//! Standard errors come from the renders' `stderr.R/G/B` layers; without them every pixel gets
+//! σ = 1 (stated in the output): σ and χ² are then relative, and only the scan's minimum means
+//! something. The output also predicts the 9-term residual's share of d from the recovered
+//! lighting's orders 3…lmax (fitted at R as in the algorithm) and gives the χ² with it removed,
+//! so that a large χ² at the right split can be told apart from a wrong split.
 
 use super::Error;
+use super::header::{first_sphere, header_json, json_rgb};
+use analysis::image::{Image, RgbImage, read_image, write_exr};
+use analysis::inverse::separation::{LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples};
+use analysis::sh::{ShBasis, lm, num_coefficients, reconstruct_latlong};
+use renderer::sampling::chi2::chi2_survival;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+/// Highest order of the recovered lighting: the least squares costs O(pixels · (lmax+1)⁴).
+pub const MAX_LMAX: usize = 32;
+/// P(χ²_9 ≥ χ²) below which the two sides are called inconsistent.
+pub const P_CONSISTENT: f64 = 1e-3;
+const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 #[derive(clap::Args, Debug)]
 pub struct SeparateArgs {
+    /// normal-probe renders (OpenEXR): the diffuse view at θ_o = 0 first, then specular views at
+    /// θ_o > 0 and φ_o = 0 or 180 (both azimuths together cover the sphere).
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// Weight k_d of the unit-albedo lambert part (one number, or r,g,b; default: the header's mix).
+    #[arg(long, value_delimiter = ',', num_args = 1)]
+    pub kd: Option<Vec<f64>>,
+    /// Weight k_s of the unit mirror part (one number, or r,g,b; default: the header's mix).
+    #[arg(long, value_delimiter = ',', num_args = 1)]
+    pub ks: Option<Vec<f64>>,
+    /// Highest SH order of the recovered lighting.
+    #[arg(long, default_value_t = 8)]
+    pub lmax: usize,
+    /// r | g | b: analyse one channel (default: all three).
+    #[arg(long)]
+    pub channel: Option<String>,
+    /// Scan the diffuse fraction k_d/(k_d+k_s) at fixed k_d + k_s for the consistency χ² minimum.
+    #[arg(long)]
+    pub scan: bool,
+    /// Write the recovered lighting as a lat-long EXR.
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+    /// Width of the --output map (height = width / 2).
+    #[arg(long, default_value_t = 256)]
+    pub width: usize,
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
 }
 
-pub fn run(_a: &SeparateArgs) -> Result<ExitCode, Error> {
-    Err(Error::new("reflect invert separate is not built yet"))
+pub fn run(a: &SeparateArgs) -> Result<ExitCode, Error> {
+    let doc = separate_doc(a)?;
+    if a.json {
+        println!("{doc}");
+    } else {
+        print_text(&doc);
+    }
+    Ok(ExitCode::SUCCESS)
 }
+
+/// One normal-probe render.
+struct View {
+    path: PathBuf,
+    theta_o_deg: f64,
+    phi_o_deg: f64,
+    rgb: RgbImage,
+    stderr: Option<RgbImage>,
+}
+
+fn read_view(p: &Path) -> Result<(View, Image), Error> {
+    let img = read_image(p)?;
+    let cam = header_json(&img, "reflect:camera")
+        .map_err(|e| e.in_file(p))?
+        .ok_or_else(|| Error::file(p, "no reflect:camera in the header: not a normal-probe render of reflect"))?;
+    let ty = cam.get("type").and_then(|t| t.as_str()).unwrap_or("");
+    if ty != "normal-probe" {
+        return Err(Error::file(p, format!("not a normal-probe render (camera type '{ty}'): separation needs normal-probe views")));
+    }
+    let theta_o_deg = cam.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
+    let phi_o_deg = cam.get("phi_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
+    if !(0.0..90.0).contains(&theta_o_deg) || !phi_o_deg.is_finite() {
+        return Err(Error::file(p, format!("header camera has theta_o_deg = {theta_o_deg}, phi_o_deg = {phi_o_deg} (need 0 ≤ θ_o < 90)")));
+    }
+    let rgb = img.rgb().ok_or_else(|| Error::file(p, "no R, G, B channels"))?;
+    if rgb.width != 2 * rgb.height || rgb.height < 4 {
+        return Err(Error::file(p, format!("a normal-probe image is a lat-long map with W = 2H ≥ 8, this one is {}×{}", rgb.width, rgb.height)));
+    }
+    let stderr = img.rgb_layer("stderr.");
+    Ok((View { path: p.to_path_buf(), theta_o_deg, phi_o_deg, rgb, stderr }, img))
+}
+
+/// (k_d, k_s) of a header BRDF that is a `mix` of exactly one lambert and one mirror layer.
+fn header_split(brdf: &Value) -> Option<([f64; 3], [f64; 3])> {
+    if brdf.get("type")?.as_str()? != "mix" {
+        return None;
+    }
+    let layers = brdf.get("layers")?.as_array()?;
+    if layers.len() != 2 {
+        return None;
+    }
+    let (mut kd, mut ks) = (None, None);
+    for layer in layers {
+        let w = layer.get("weight")?.as_f64()?;
+        let b = layer.get("brdf")?;
+        match b.get("type")?.as_str()? {
+            "lambert" if kd.is_none() => kd = Some(json_rgb(b.get("albedo"))?.map(|a| w * a)),
+            // k_r defaults to 1 (CONVENTIONS §4).
+            "mirror" if ks.is_none() => ks = Some(json_rgb(b.get("kr")).unwrap_or([1.0; 3]).map(|k| w * k)),
+            _ => return None,
+        }
+    }
+    Some((kd?, ks?))
+}
+
+/// A per-channel weight from `--kd` / `--ks` (one number or r,g,b), else the header's.
+fn weight_arg(arg: Option<&[f64]>, header: Option<[f64; 3]>, flag: &str) -> Result<([f64; 3], bool), Error> {
+    match arg {
+        Some([x]) => Ok(([*x; 3], true)),
+        Some([r, g, b]) => Ok(([*r, *g, *b], true)),
+        Some(_) => Err(Error::new(format!("--{flag} takes one number or r,g,b"))),
+        None => header.map(|h| (h, false)).ok_or_else(|| {
+            Error::new(format!(
+                "--{flag} is required: the first image's header BRDF is not a mix of one lambert and one mirror layer (pass --kd and --ks)"
+            ))
+        }),
+    }
+}
+
+/// The split scan of one channel: (fraction, χ²) on the coarse grid, and the refined minimum.
+type Scan = (Vec<(f64, f64)>, Option<(f64, f64)>);
+
+/// Separation of one channel.
+struct ChannelResult {
+    sep: Separated,
+    scan: Option<Scan>,
+    /// The 9-term residual's predicted share of d (eq. 38–39), estimated from the recovered
+    /// lighting's orders 3…lmax, and the χ² of d minus it.
+    residual_d: Vec<f64>,
+    chi2_residual_removed: Option<f64>,
+}
+
+fn validate(a: &SeparateArgs) -> Result<Vec<usize>, Error> {
+    if a.images.len() < 2 {
+        return Err(Error::new("separation needs the diffuse view (θ_o = 0) and at least one specular view (θ_o > 0)"));
+    }
+    if a.lmax > MAX_LMAX {
+        return Err(Error::new(format!("--lmax {} is above the supported maximum {MAX_LMAX} for separation", a.lmax)));
+    }
+    if a.output.is_some() && !(a.width >= 4 && a.width.is_multiple_of(2) && a.width <= 16384) {
+        return Err(Error::new(format!("--width must be even and in [4, 16384], got {}", a.width)));
+    }
+    match a.channel.as_deref().map(str::to_ascii_lowercase).as_deref() {
+        None => Ok(vec![0, 1, 2]),
+        Some("r") => Ok(vec![0]),
+        Some("g") => Ok(vec![1]),
+        Some("b") => Ok(vec![2]),
+        Some(o) => Err(Error::new(format!("unknown --channel '{o}' (expected r, g or b)"))),
+    }
+}
+
+fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
+    let channels = validate(a)?;
+    let mut views = Vec::with_capacity(a.images.len());
+    let mut header_brdf = None;
+    for (i, p) in a.images.iter().enumerate() {
+        let (v, img) = read_view(p)?;
+        if i == 0 {
+            header_brdf = first_sphere(&img).map_err(|e| e.in_file(p))?.1;
+            if v.theta_o_deg != 0.0 {
+                return Err(Error::file(
+                    p,
+                    format!("the diffuse view (the first image) must be at normal exitance θ_o = 0, this render is at θ_o = {}° (give the θ_o = 0 render first)", v.theta_o_deg),
+                ));
+            }
+        } else {
+            if v.theta_o_deg == 0.0 {
+                return Err(Error::file(p, "a specular view must be at θ_o > 0 (at θ_o = 0 R = n and the consistency holds for any split)"));
+            }
+            let phi = v.phi_o_deg.rem_euclid(360.0);
+            if phi != 0.0 && phi != 180.0 {
+                return Err(Error::file(p, format!("a specular view must be at φ_o = 0° or 180° (R on the normal's meridian), this render is at φ_o = {}°", v.phi_o_deg)));
+            }
+            let first: &View = &views[0];
+            if (v.rgb.width, v.rgb.height) != (first.rgb.width, first.rgb.height) {
+                return Err(Error::file(
+                    p,
+                    format!("image size {}×{} differs from the diffuse view's {}×{}", v.rgb.width, v.rgb.height, first.rgb.width, first.rgb.height),
+                ));
+            }
+        }
+        views.push(v);
+    }
+    let (w, h) = (views[0].rgb.width, views[0].rgb.height);
+    if 2 * (a.lmax + 1) > h {
+        return Err(Error::file(&a.images[0], format!("--lmax {} needs at least 2(lmax + 1) = {} pixel rows, the images have {h}", a.lmax, 2 * (a.lmax + 1))));
+    }
+    let hs = header_brdf.as_ref().and_then(header_split);
+    let (kd, kd_arg) = weight_arg(a.kd.as_deref(), hs.map(|s| s.0), "kd")?;
+    let (ks, ks_arg) = weight_arg(a.ks.as_deref(), hs.map(|s| s.1), "ks")?;
+    for &c in &channels {
+        if !(kd[c].is_finite() && kd[c] > 0.0 && ks[c].is_finite() && ks[c] > 0.0) {
+            return Err(Error::new(format!("k_d and k_s must be > 0, got k_d = {}, k_s = {} in channel {}", kd[c], ks[c], CHANNELS[c])));
+        }
+    }
+    let split_source = match (kd_arg, ks_arg) {
+        (true, true) => "command line".to_string(),
+        (false, false) => "the first image's header (mix of lambert and mirror)".to_string(),
+        (true, false) => "k_d from the command line, k_s from the header".to_string(),
+        (false, true) => "k_s from the command line, k_d from the header".to_string(),
+    };
+    let missing_stderr: Vec<String> = views.iter().filter(|v| v.stderr.is_none()).map(|v| v.path.display().to_string()).collect();
+    let with_stderr = missing_stderr.is_empty();
+    let sigma_source = if with_stderr {
+        "the renders' stderr layers".to_string()
+    } else {
+        format!("none: no stderr layer in {} — every pixel gets σ = 1, so σ and χ² are relative and only the scan's minimum means something", missing_stderr.join(", "))
+    };
+
+    // Separate each channel.
+    let mut results = Vec::with_capacity(channels.len());
+    for &c in &channels {
+        let samples = |v: &View| {
+            let value: Vec<f64> = v.rgb.pixels.iter().map(|p| p[c] as f64).collect();
+            let sigma: Vec<f64> = match (&v.stderr, with_stderr) {
+                (Some(s), true) => s.pixels.iter().map(|p| p[c] as f64).collect(),
+                _ => vec![1.0; value.len()],
+            };
+            let flip = v.phi_o_deg.rem_euclid(360.0) == 180.0;
+            probe_samples(&value, &sigma, w, h, v.theta_o_deg.to_radians(), flip)
+        };
+        let dif = samples(&views[0]);
+        let mut spec = Samples::default();
+        for v in &views[1..] {
+            spec.append(samples(v));
+        }
+        let sep = Separation::new(&dif, &spec, a.lmax).map_err(|e| Error::new(format!("channel {}: {}", CHANNELS[c], e.message)))?;
+        let solved = sep.solve(kd[c], ks[c])?;
+        let scan = a.scan.then(|| {
+            let total = kd[c] + ks[c];
+            let coarse: Vec<f64> = (1..100).map(|i| i as f64 / 100.0).collect();
+            let pts = sep.scan_split(total, &coarse);
+            // Refine around the grid minimum (step 5e-4): the scan is cheap once the operators exist.
+            let best = best_split(&pts).map(|(x0, _)| {
+                let fine: Vec<f64> = (-20..=20).map(|i| x0 + 5e-4 * i as f64).filter(|x| *x > 0.0 && *x < 1.0).collect();
+                best_split(&sep.scan_split(total, &fine)).unwrap_or((x0, f64::NAN))
+            });
+            (pts, best)
+        });
+        // What the 9-term subtraction leaves (eq. 38–39): r(n) = (k_d/k_s) Σ_{l≥3} Λ_l ρ̂_l L_lm Y_lm(n),
+        // with L_lm the recovered lighting, fitted at R by the same least squares (nothing
+        // subtracted: k_d = 0, k_s = 1). By linearity it shifts d by −(its fit)_j, j < 9.
+        let basis = ShBasis::new(a.lmax);
+        let mut y = vec![0.0; num_coefficients(a.lmax)];
+        let res = Samples {
+            value: spec.normal.iter().map(|&nn| nine_term_residual(&solved.specular, kd[c], ks[c], &basis, nn, &mut y)).collect(),
+            sigma: vec![0.0; spec.len()],
+            ..spec
+        };
+        let zero = Samples { value: vec![0.0; dif.len()], sigma: vec![0.0; dif.len()], ..dif };
+        let r_fit = Separation::new(&zero, &res, a.lmax)?.solve(0.0, 1.0)?.specular;
+        let residual_d: Vec<f64> = r_fit[..LOW].iter().map(|r| -r).collect();
+        let removed: Vec<f64> = (0..LOW).map(|j| solved.consistency[j] - residual_d[j]).collect();
+        let chi2_residual_removed = solved.chi2_of(&removed);
+        results.push(ChannelResult { sep: solved, scan, residual_d, chi2_residual_removed });
+    }
+
+    // Everything is computed: write the map last, so a failure leaves no partial output.
+    let n = num_coefficients(a.lmax);
+    if let Some(out) = &a.output {
+        let coeffs: Vec<[f64; 3]> =
+            (0..n).map(|k| if results.len() == 3 { [0, 1, 2].map(|c| results[c].sep.specular[k]) } else { [results[0].sep.specular[k]; 3] }).collect();
+        let (ow, oh) = (a.width, a.width / 2);
+        let px = reconstruct_latlong(&coeffs, ow, oh);
+        let mut img = Image { width: ow, height: oh, ..Default::default() };
+        for (ch, name) in CHANNELS.iter().enumerate() {
+            img.channels.insert(name.to_string(), px.iter().map(|p| p[ch] as f32).collect());
+        }
+        let what = if results.len() == 3 { "R, G, B".to_string() } else { format!("channel {} replicated to R, G, B", CHANNELS[channels[0]]) };
+        img.attributes.insert("reflect:lighting-source".into(), format!("invert separate (sec. 3.5), l <= {}, {what}", a.lmax));
+        write_exr(out, &img)?;
+    }
+
+    // Coefficient lists: [r, g, b] triples with three channels, numbers with one.
+    let per = |len: usize, f: &dyn Fn(&ChannelResult, usize) -> Option<f64>| -> Value {
+        Value::Array(
+            (0..len)
+                .map(|k| if results.len() == 1 { json!(f(&results[0], k)) } else { json!(results.iter().map(|r| f(r, k)).collect::<Vec<_>>()) })
+                .collect(),
+        )
+    };
+    let one = |f: &dyn Fn(&ChannelResult) -> Value| -> Value {
+        if results.len() == 1 { f(&results[0]) } else { Value::Array(results.iter().map(f).collect()) }
+    };
+    let pick = |v: [f64; 3]| -> Value { if channels.len() == 1 { json!(v[channels[0]]) } else { json!(v) } };
+    let chi2 = one(&|r| json!(r.sep.chi2));
+    let p_value = one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64))));
+    let consistent = one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64) >= P_CONSISTENT)));
+    let meaning = one(&|r| json!(meaning(r.sep.chi2, with_stderr, a.lmax)));
+    let scan = a.scan.then(|| {
+        Value::Array(
+            channels
+                .iter()
+                .zip(&results)
+                .map(|(&c, r)| {
+                    let (pts, best) = r.scan.as_ref().map(|(p, b)| (p.clone(), *b)).unwrap_or_default();
+                    json!({
+                        "channel": CHANNELS[c],
+                        "total": kd[c] + ks[c],
+                        "points": pts.iter().map(|(x, c)| [*x, *c]).collect::<Vec<_>>(),
+                        "best_fraction": best.map(|b| b.0),
+                        "best_chi2": best.map(|b| b.1),
+                        "assumed_fraction": kd[c] / (kd[c] + ks[c]),
+                    })
+                })
+                .collect(),
+        )
+    });
+    Ok(json!({
+        "command": "invert separate",
+        "lmax": a.lmax,
+        "channels": channels.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>(),
+        "layout": if channels.len() == 3 { "per coefficient an [r, g, b] triple, index order k = l(l+1)+m".to_string() } else { format!("per coefficient a number of channel {}, index order k = l(l+1)+m", CHANNELS[channels[0]]) },
+        "diffuse_view": {"file": views[0].path.display().to_string(), "theta_o_deg": 0.0},
+        "specular_views": views[1..].iter().map(|v| json!({"file": v.path.display().to_string(), "theta_o_deg": v.theta_o_deg, "phi_o_deg": v.phi_o_deg})).collect::<Vec<_>>(),
+        "width": w,
+        "height": h,
+        "kd": pick(kd),
+        "ks": pick(ks),
+        "split_source": split_source,
+        "sigma_source": sigma_source,
+        "weighted_by_stderr": with_stderr,
+        "diffuse": {
+            "description": "L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2, from the diffuse view",
+            "coefficients": per(LOW, &|r, k| Some(r.sep.diffuse[k])),
+            "stderr": per(LOW, &|r, k| Some(r.sep.diffuse_se[k])),
+        },
+        "coefficients": per(n, &|r, k| Some(r.sep.specular[k])),
+        "stderr": per(n, &|r, k| Some(r.sep.specular_se[k])),
+        "consistency": {
+            "description": "d_lm = L̂_lm − c_lm, l ≤ 2 (diffuse side minus recovered lighting)",
+            "d": per(LOW, &|r, k| Some(r.sep.consistency[k])),
+            "stderr": per(LOW, &|r, k| Some(r.sep.consistency_se[k])),
+            "chi2": chi2,
+            "dof": LOW,
+            "p_value": p_value,
+            "consistent": consistent,
+            "threshold_p": P_CONSISTENT,
+            "meaning": meaning,
+            "nine_term_residual": {
+                "description": "the share of d predicted from the 9-term subtraction's residual (eq. 38–39), estimated from the recovered lighting's orders 3..lmax, and the χ² of d minus it",
+                "d": per(LOW, &|r, k| Some(r.residual_d[k])),
+                "chi2_removed": one(&|r| json!(r.chi2_residual_removed)),
+                "p_value_removed": one(&|r| json!(r.chi2_residual_removed.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64)))),
+            },
+        },
+        "scan": scan,
+        "output": a.output.as_ref().map(|p| p.display().to_string()),
+    }))
+}
+
+/// A plain statement of what the consistency χ² says.
+fn meaning(chi2: Option<f64>, with_stderr: bool, lmax: usize) -> String {
+    let Some(c) = chi2 else { return "χ² undefined (the consistency covariance is singular: noise-free data?)".into() };
+    if !with_stderr {
+        return format!("χ² = {c:.3} is in units of an unknown per-pixel noise variance (no stderr layers) and cannot be judged; only the scan's minimum is meaningful");
+    }
+    let p = chi2_survival(c, LOW as f64);
+    if p >= P_CONSISTENT {
+        format!("consistent: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise at this split (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.2})")
+    } else {
+        format!(
+            "inconsistent: the two sides differ beyond the noise (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.1e}); the split k_d : k_s is wrong, or the 9-term diffuse subtraction's residual (eq. 38–39) or the aliasing of lighting above l = {lmax} exceeds the noise (--scan shows which split fits best)"
+        )
+    }
+}
+
+fn num(v: &Value) -> String {
+    v.as_f64().map_or("—".to_string(), |x| format!("{x:+.4e}"))
+}
+
+/// `v[k]` as one cell per channel.
+fn cells(v: &Value, k: usize) -> Vec<Value> {
+    match &v[k] {
+        Value::Array(a) => a.clone(),
+        x => vec![x.clone()],
+    }
+}
+
+fn table(title: &str, doc: &Value, val: &Value, se: &Value, len: usize) {
+    let ch: Vec<&str> = doc["channels"].as_array().into_iter().flatten().filter_map(|c| c.as_str()).collect();
+    println!("\n## {title}");
+    print!("{:>4} {:>3} {:>3}", "k", "l", "m");
+    for c in &ch {
+        print!(" {:>26}", format!("{c} ± σ"));
+    }
+    println!();
+    for k in 0..len {
+        let (l, m) = lm(k);
+        print!("{k:>4} {l:>3} {m:>3}");
+        for (v, s) in cells(val, k).iter().zip(cells(se, k)) {
+            print!(" {:>26}", format!("{} ± {}", num(v), num(&s).trim_start_matches('+')));
+        }
+        println!();
+    }
+}
+
+fn print_text(doc: &Value) {
+    let lmax = doc["lmax"].as_u64().unwrap_or(0) as usize;
+    println!("# invert separate — diffuse + specular separation (sec. 3.5, ref. [17]), {}", doc["layout"].as_str().unwrap_or(""));
+    println!("# diffuse view: {} (θ_o = 0)", doc["diffuse_view"]["file"].as_str().unwrap_or(""));
+    for v in doc["specular_views"].as_array().into_iter().flatten() {
+        println!("# specular view: {} (θ_o = {}°, φ_o = {}°)", v["file"].as_str().unwrap_or(""), v["theta_o_deg"], v["phi_o_deg"]);
+    }
+    println!("# {}×{} pixels; k_d = {}, k_s = {} ({}); σ from {}", doc["width"], doc["height"], doc["kd"], doc["ks"], doc["split_source"].as_str().unwrap_or(""), doc["sigma_source"].as_str().unwrap_or(""));
+    table("diffuse side L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2", doc, &doc["diffuse"]["coefficients"], &doc["diffuse"]["stderr"], LOW);
+    table(&format!("recovered lighting L_lm (specular side), l ≤ {lmax}"), doc, &doc["coefficients"], &doc["stderr"], num_coefficients(lmax));
+    table("consistency d_lm = L̂_lm − c_lm, l ≤ 2", doc, &doc["consistency"]["d"], &doc["consistency"]["stderr"], LOW);
+    let cons = &doc["consistency"];
+    let ch: Vec<&str> = doc["channels"].as_array().into_iter().flatten().filter_map(|c| c.as_str()).collect();
+    let per_channel = |v: &Value| match v {
+        Value::Array(a) => a.clone(),
+        x => vec![x.clone()],
+    };
+    table("9-term residual's predicted share of d (eq. 38–39, from the recovered orders 3…lmax; σ is d's)", doc, &cons["nine_term_residual"]["d"], &cons["stderr"], LOW);
+    println!();
+    let nr = &cons["nine_term_residual"];
+    for (((c, m), x), p) in ch.iter().zip(per_channel(&cons["meaning"])).zip(per_channel(&nr["chi2_removed"])).zip(per_channel(&nr["p_value_removed"])) {
+        println!("# consistency, {c}: {}", m.as_str().unwrap_or(""));
+        let x = x.as_f64().map_or("—".into(), |x| format!("{x:.1}"));
+        let p = p.as_f64().map_or("—".into(), |p| format!(", P(χ²_9 ≥ χ²) = {p:.2e}"));
+        println!("#   with the predicted 9-term residual removed from d: χ² = {x}{p}");
+    }
+    for s in doc["scan"].as_array().into_iter().flatten() {
+        println!("\n## split scan, channel {}: consistency χ² vs k_d/(k_d+k_s) at k_d + k_s = {}", s["channel"].as_str().unwrap_or(""), s["total"]);
+        let pts: Vec<(f64, f64)> = s["points"].as_array().into_iter().flatten().filter_map(|p| Some((p[0].as_f64()?, p[1].as_f64()?))).collect();
+        // Every 0.05, and the grid points next to the minimum.
+        let bx = s["best_fraction"].as_f64().unwrap_or(f64::NAN);
+        for (x, c) in &pts {
+            let i = (x * 100.0).round() as i64;
+            if i % 5 == 0 || (x - bx).abs() <= 0.0151 {
+                println!("{x:>8.2} {c:>14.4}");
+            }
+        }
+        println!(
+            "# minimum χ² = {} at k_d/(k_d+k_s) = {} (refined on a 5e-4 grid); assumed {:.4}",
+            s["best_chi2"].as_f64().map_or("—".into(), |c| format!("{c:.2}")),
+            s["best_fraction"].as_f64().map_or("—".into(), |x| format!("{x:.4}")),
+            s["assumed_fraction"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    if let Some(o) = doc["output"].as_str() {
+        println!("# wrote the recovered lighting (l ≤ {lmax}) to {o}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use analysis::sh::ShBasis;
+    use renderer::sampling::chi2::TestRng;
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("reflect-cli-separate-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    const MIX: &str = r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1.0}},{"weight":0.5,"brdf":{"type":"mirror"}}]}"#;
+    /// Per-channel scale of the synthetic lighting (so R, G, B differ).
+    const TINT: [f64; 3] = [1.0, 0.8, 0.5];
+
+    /// A lighting with orders 0–3 and 5 only: Lambert's Λ_l ρ̂_l vanishes at odd l ≥ 3 (eq. 38),
+    /// so the 9-term diffuse part is the whole diffuse part and the separation has no 9-term bias.
+    /// Orders 1–2 get a lighting-like strength (up to ≈ 0.5 L_00) so that the split shows.
+    fn light() -> Vec<f64> {
+        (0..num_coefficients(5))
+            .map(|k| {
+                let (l, m) = lm(k);
+                let v = (((7 * k + 3 * (m + 8) as usize) % 13) as f64 / 13.0 - 0.4) / (1.0 + l as f64);
+                match l {
+                    0 => 2.0,
+                    1 | 2 => 4.0 * v,
+                    3 | 5 => 0.4 * v,
+                    _ => 0.0,
+                }
+            })
+            .collect()
+    }
+
+    /// A synthetic normal-probe render (W × H, pixel centres) of k_d·lambert + k_s·mirror under
+    /// `light` × TINT at exitance (θ_o, φ_o ∈ {0°, 180°}), Gaussian noise σ per pixel (seeded) and
+    /// a stderr layer σ unless `stderr` is false.
+    #[allow(clippy::too_many_arguments)]
+    fn render(path: &Path, light: &[f64], kd: f64, ks: f64, theta_o_deg: f64, phi_o_deg: f64, (w, h): (usize, usize), sigma: f64, seed: u64, stderr: bool, brdf: &str) {
+        let lmax = analysis::sh::lmax_of(light.len()).unwrap();
+        let basis = ShBasis::new(lmax);
+        let f = analysis::transfer::lambert::lambert(lmax);
+        let geo = probe_samples(&vec![0.0; w * h], &vec![0.0; w * h], w, h, theta_o_deg.to_radians(), phi_o_deg == 180.0);
+        let mut y = vec![0.0; light.len()];
+        let mut rng = TestRng::new(seed);
+        let mut gauss = || {
+            // Box–Muller.
+            let mut u = || (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+            let (u1, u2) = (u().max(1e-300), u());
+            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+        };
+        let mut img = Image { width: w, height: h, ..Default::default() };
+        let mut px = vec![[0f32; 3]; w * h];
+        for (i, p) in px.iter_mut().enumerate() {
+            basis.eval_into(geo.normal[i], &mut y);
+            let d: f64 = (0..light.len()).map(|k| f[lm(k).0] * light[k] * y[k]).sum();
+            basis.eval_into(geo.reflected[i], &mut y);
+            let g: f64 = (0..light.len()).map(|k| light[k] * y[k]).sum();
+            for ch in 0..3 {
+                p[ch] = (TINT[ch] * (kd * d + ks * g) + sigma * gauss()) as f32;
+            }
+        }
+        for (ch, n) in CHANNELS.iter().enumerate() {
+            img.channels.insert(n.to_string(), px.iter().map(|p| p[ch]).collect());
+            if stderr {
+                img.channels.insert(format!("stderr.{n}"), vec![sigma as f32; w * h]);
+            }
+        }
+        img.attributes.insert("reflect:camera".into(), json!({"type": "normal-probe", "theta_o_deg": theta_o_deg, "phi_o_deg": phi_o_deg}).to_string());
+        img.attributes.insert("reflect:objects".into(), format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{brdf}}}]"#));
+        write_exr(path, &img).unwrap();
+    }
+
+    const SIZE: (usize, usize) = (256, 128);
+    const SIGMA: f64 = 0.05;
+
+    /// The three views of the example scenes (0°; 50° at φ_o 0° and 180°), true split 0.5 : 0.5.
+    fn views(tag: &str) -> Vec<PathBuf> {
+        let lt = light();
+        [(0.0, 0.0), (50.0, 0.0), (50.0, 180.0)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(t, p))| {
+                let path = tmp(&format!("{tag}-{i}.exr"));
+                render(&path, &lt, 0.5, 0.5, t, p, SIZE, SIGMA, 11 + i as u64, true, MIX);
+                path
+            })
+            .collect()
+    }
+
+    fn args(images: Vec<PathBuf>) -> SeparateArgs {
+        SeparateArgs { images, kd: None, ks: None, lmax: 5, channel: None, scan: false, output: None, width: 64, json: true }
+    }
+
+    fn f(v: &Value) -> f64 {
+        v.as_f64().unwrap_or(f64::NAN)
+    }
+
+    #[test]
+    fn recovers_band_limited_lighting_and_flags_a_wrong_split() {
+        let lt = light();
+        let mut a = args(views("known"));
+        a.scan = true;
+        a.output = Some(tmp("known-env.exr"));
+        let doc = separate_doc(&a).unwrap();
+        assert_eq!(doc["split_source"], "the first image's header (mix of lambert and mirror)");
+        assert_eq!(doc["weighted_by_stderr"], true);
+        // Tolerance: 4σ (σ propagated from the stderr layers, validated against the spread of
+        // repeated draws in analysis::inverse::separation's tests) + the bias of the diffuse view's
+        // lat-long midpoint quadrature. The lighting has no 9-term residual (no even order ≥ 4) and
+        // the least squares at R is exact for a lighting inside its span (l ≤ 5), so that
+        // quadrature is the only bias: O((π (L+2)/H)²/24) ≈ 1.2e-4 (L + 2 = 7: the degree of
+        // Y_lm × B, l ≤ 2; H = 128) of the largest coefficient (≈ 2 × tint), amplified by at most
+        // 1 + k_d/k_s · |H F| ≈ 2 in c: bias allowance 2.5e-4 × |L_00|. Measured on noise-free
+        // images: worst 2.1e-5 (at (1, 0), R); with noise the worst error is 0.7σ.
+        // Able to fail: the wrong split below moves c_lm by ≫ this.
+        for ch in 0..3 {
+            let bias = 2.5e-4 * TINT[ch] * lt[0];
+            for k in 0..lt.len() {
+                let (got, se) = (f(&doc["coefficients"][k][ch]), f(&doc["stderr"][k][ch]));
+                let want = TINT[ch] * lt[k];
+                assert!((got - want).abs() <= 4.0 * se + bias, "ch {ch} k {k}: {got} vs {want} (σ {se})");
+                assert!(se > 0.0 && se < 0.01, "σ {se}");
+            }
+            for k in 0..LOW {
+                let (got, se) = (f(&doc["diffuse"]["coefficients"][k][ch]), f(&doc["diffuse"]["stderr"][k][ch]));
+                assert!((got - TINT[ch] * lt[k]).abs() <= 4.0 * se + bias, "diffuse ch {ch} k {k}");
+            }
+            // At the true split the consistency χ² follows χ²_9: P(χ²_9 > 33.7) = 1e-4.
+            let chi2 = f(&doc["consistency"]["chi2"][ch]);
+            assert!(chi2 < 33.7, "ch {ch}: χ² {chi2}");
+            assert_eq!(doc["consistency"]["consistent"][ch], true);
+            // No even order ≥ 4 in the lighting: the predicted 9-term share of d is only what the
+            // noise in the recovered l = 4 coefficients (σ ≈ 1e-3, × |Λ_4 ρ̂_4| = 1/24) makes of it.
+            for k in 0..LOW {
+                let r = f(&doc["consistency"]["nine_term_residual"]["d"][k][ch]);
+                assert!(r.abs() < 0.25 * f(&doc["consistency"]["stderr"][k][ch]), "ch {ch} k {k}: {r}");
+            }
+            // The scan's minimum is at the true fraction (one coarse step).
+            let best = f(&doc["scan"][ch]["best_fraction"]);
+            assert!((best - 0.5).abs() <= 0.01, "ch {ch}: scan minimum {best}");
+        }
+        // The map is the recovered lighting reconstructed from SH: check a few pixels (f32 rounding).
+        let env = read_image(tmp("known-env.exr")).unwrap();
+        assert_eq!((env.width, env.height), (64, 32));
+        let mut rec = analysis::sh::Reconstructor::new(5);
+        let c: Vec<[f64; 3]> = (0..lt.len()).map(|k| [0, 1, 2].map(|ch| f(&doc["coefficients"][k][ch]))).collect();
+        for (r, col) in [(0, 0), (7, 40), (31, 63)] {
+            let want = rec.eval(&c, analysis::sh::latlong_direction(r, col, 64, 32));
+            for (ch, n) in CHANNELS.iter().enumerate() {
+                let got = env.channel(n).unwrap()[r * 64 + col] as f64;
+                assert!((got - want[ch]).abs() < 1e-5 * (1.0 + want[ch].abs()), "{n} ({r},{col})");
+            }
+        }
+        // A wrong split (0.6 : 0.4 instead of 0.5 : 0.5): χ²_9 > 100 has probability ≈ 1e-16 for a
+        // consistent split. One channel: the coefficients are then numbers.
+        let mut wrong = args(a.images.clone());
+        wrong.kd = Some(vec![0.6]);
+        wrong.ks = Some(vec![0.4]);
+        wrong.channel = Some("g".into());
+        let w = separate_doc(&wrong).unwrap();
+        assert_eq!(w["split_source"], "command line");
+        assert!(w["coefficients"][0].is_number() && w["channels"] == json!(["G"]));
+        let chi2 = f(&w["consistency"]["chi2"]);
+        assert!(chi2 > 100.0, "wrong split: χ² {chi2}");
+        assert_eq!(w["consistency"]["consistent"], false);
+        assert!(w["consistency"]["meaning"].as_str().unwrap().starts_with("inconsistent"));
+    }
+
+    #[test]
+    fn without_stderr_layers_sigma_is_relative_and_said_so() {
+        let lt = light();
+        let mut images = vec![];
+        for (i, (t, p)) in [(0.0, 0.0), (40.0, 0.0), (40.0, 180.0)].into_iter().enumerate() {
+            let path = tmp(&format!("nostderr-{i}.exr"));
+            render(&path, &lt, 0.5, 0.5, t, p, (64, 32), 0.0, 1, i != 1, MIX);
+            images.push(path);
+        }
+        let mut a = args(images.clone());
+        a.lmax = 3;
+        a.channel = Some("r".into());
+        let doc = separate_doc(&a).unwrap();
+        assert_eq!(doc["weighted_by_stderr"], false);
+        assert!(doc["sigma_source"].as_str().unwrap().contains(&images[1].display().to_string()));
+        assert!(doc["consistency"]["p_value"].is_null() && doc["consistency"]["consistent"].is_null());
+        assert!(doc["consistency"]["meaning"].as_str().unwrap().contains("cannot be judged"));
+    }
+
+    #[test]
+    fn bad_input_is_a_one_line_error_naming_the_file() {
+        let lt = light();
+        let small = (32, 16);
+        let mk = |name: &str, t: f64, p: f64, size: (usize, usize), brdf: &str| {
+            let path = tmp(name);
+            render(&path, &lt, 0.5, 0.5, t, p, size, 0.01, 3, true, brdf);
+            path
+        };
+        let d0 = mk("bad-d0.exr", 0.0, 0.0, small, MIX);
+        let s1 = mk("bad-s1.exr", 40.0, 0.0, small, MIX);
+        let s2 = mk("bad-s2.exr", 40.0, 180.0, small, MIX);
+        let s90 = mk("bad-s90.exr", 40.0, 90.0, small, MIX);
+        let big = mk("bad-big.exr", 40.0, 180.0, (64, 32), MIX);
+        let lam = mk("bad-lambert.exr", 0.0, 0.0, small, r#"{"type":"lambert","albedo":0.5}"#);
+        let mut ortho = read_image(&d0).unwrap();
+        ortho.attributes.insert("reflect:camera".into(), r#"{"type":"orthographic","from":[3,0,1],"to":[0,0,0],"up":[0,0,1],"extent":1.05}"#.into());
+        let ortho_path = tmp("bad-ortho.exr");
+        write_exr(&ortho_path, &ortho).unwrap();
+        let missing = tmp("bad-missing.exr");
+        let out = tmp("bad-out.exr");
+        let ok = args(vec![d0.clone(), s1.clone(), s2.clone()]);
+        assert!(separate_doc(&SeparateArgs { lmax: 3, ..args(ok.images.clone()) }).is_ok());
+        let cases: Vec<(SeparateArgs, Option<&PathBuf>, &str)> = vec![
+            (args(vec![d0.clone(), missing.clone()]), Some(&missing), "cannot read"),
+            (args(vec![ortho_path.clone(), s1.clone()]), Some(&ortho_path), "not a normal-probe render"),
+            (args(vec![s1.clone(), s2.clone()]), Some(&s1), "θ_o = 0"),
+            (args(vec![d0.clone(), d0.clone()]), Some(&d0), "θ_o > 0"),
+            (args(vec![d0.clone(), s1.clone(), big.clone()]), Some(&big), "differs"),
+            (args(vec![d0.clone(), s90.clone()]), Some(&s90), "φ_o"),
+            (args(vec![d0.clone()]), None, "at least one specular view"),
+            (args(vec![lam.clone(), s1.clone(), s2.clone()]), None, "--kd is required"),
+            (SeparateArgs { kd: Some(vec![0.5]), ..args(vec![lam.clone(), s1.clone(), s2.clone()]) }, None, "--ks is required"),
+            (SeparateArgs { kd: Some(vec![0.0]), ..args(ok.images.clone()) }, None, "must be > 0"),
+            (SeparateArgs { ks: Some(vec![0.5, -1.0, 0.5]), channel: Some("g".into()), ..args(ok.images.clone()) }, None, "must be > 0"),
+            (SeparateArgs { kd: Some(vec![0.5, 0.5]), ..args(ok.images.clone()) }, None, "one number or r,g,b"),
+            (SeparateArgs { lmax: 1000, ..args(ok.images.clone()) }, None, "maximum"),
+            // 16 rows cannot carry l = 8.
+            (SeparateArgs { lmax: 8, ..args(ok.images.clone()) }, Some(&d0), "pixel rows"),
+            (SeparateArgs { output: Some(out.clone()), width: 3, ..args(ok.images.clone()) }, None, "--width"),
+            (SeparateArgs { channel: Some("a".into()), ..args(ok.images.clone()) }, None, "--channel"),
+        ];
+        for (a, file, what) in cases {
+            let e = separate_doc(&a).expect_err(what);
+            let line = e.to_string();
+            assert!(!line.contains('\n') && line.contains(what), "{line} (expected '{what}')");
+            if let Some(fp) = file {
+                assert_eq!(e.path.as_ref(), Some(fp), "{line}");
+            }
+        }
+        assert!(!out.exists(), "no partial output");
+    }
+
+    #[test]
+    fn header_split_reads_a_lambert_mirror_mix_only() {
+        let v: Value = serde_json::from_str(r#"{"type":"mix","layers":[{"weight":0.25,"brdf":{"type":"mirror","kr":[1,0.5,1]}},{"weight":0.75,"brdf":{"type":"lambert","albedo":[0.8,0.4,0.2]}}]}"#).unwrap();
+        let (kd, ks) = header_split(&v).unwrap();
+        assert_eq!(kd, [0.75 * 0.8, 0.75 * 0.4, 0.75 * 0.2]);
+        assert_eq!(ks, [0.25, 0.125, 0.25]);
+        for bad in [
+            r#"{"type":"lambert","albedo":1}"#,
+            r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1}},{"weight":0.5,"brdf":{"type":"phong","s":10}}]}"#,
+            r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1}},{"weight":0.5,"brdf":{"type":"lambert","albedo":1}}]}"#,
+        ] {
+            assert!(header_split(&serde_json::from_str(bad).unwrap()).is_none(), "{bad}");
+        }
+    }
+}
+

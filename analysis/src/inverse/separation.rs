@@ -30,14 +30,19 @@
 //! χ² = dᵀ Cov(d)⁻¹ d follows χ²_9 for a correct split when the bias (9-term residual, grid
 //! aliasing) is below the noise.
 //!
+//! Sampling: [`probe_samples`] turns a `normal-probe` image (CONVENTIONS §6) at θ_o and φ_o ∈ {0°,
+//! 180°} into [`Samples`] with exact R-space pixel solid angles; the views at φ_o = 0° and 180°
+//! each miss a polar cap of R of radius θ_o, and together ([`Samples::append`]) cover the sphere.
+//!
 //! Parameters: `lmax` (order of the recovered lighting), `k_d`, `k_s` (> 0; unit-albedo lambert
 //! and unit-k_r mirror weights, CONVENTIONS §4).
 
 use crate::error::{Error, Result};
 use crate::lsq::Cholesky;
-use crate::sh::{ShBasis, lm, num_coefficients};
+use crate::sh::{ShBasis, latlong_direction, lm, num_coefficients};
 use crate::transfer::lambert::lambert;
 use rayon::prelude::*;
+use std::f64::consts::PI;
 
 /// Number of low-order coefficients (l ≤ 2) of the 9-term approximation.
 pub const LOW: usize = 9;
@@ -79,6 +84,59 @@ impl Samples {
         }
         Ok(())
     }
+}
+
+impl Samples {
+    /// Appends the samples of another view (e.g. the specular views at φ_o = 0° and 180°, which
+    /// together cover the sphere of reflection directions).
+    pub fn append(&mut self, other: Samples) {
+        self.value.extend(other.value);
+        self.sigma.extend(other.sigma);
+        self.normal.extend(other.normal);
+        self.reflected.extend(other.reflected);
+        self.weight.extend(other.weight);
+    }
+}
+
+/// ∫_0^x |sin t| dt for x ∈ [−π, 2π]: the R-space solid angle per unit azimuth of a band of polar
+/// angle x (crossing a pole folds the band onto the opposite azimuth, |sin| takes care of it).
+pub fn abs_sin_integral(x: f64) -> f64 {
+    let k = (x / PI).floor();
+    2.0 * k + 1.0 - (x - k * PI).cos()
+}
+
+/// Samples of a W × H `normal-probe` image (CONVENTIONS §6, row-major values and standard errors)
+/// at exitance θ_o (radians) and azimuth φ_o ∈ {0, π} (`flip` = φ_o = π): normals (the lat-long
+/// pixel centres), reflection vectors and the pixels' solid angles about R (about n at θ_o = 0).
+/// At φ_o ∈ {0, π} ω_o lies in the meridian plane of n, so R = cos θ_o n − sin θ_o (±t) stays on
+/// the pixel's meridian at polar angle θ ∓ θ_o: a pixel row maps onto a band of R whose solid
+/// angle is exact ([`abs_sin_integral`]). Other azimuths move R off the meridian and have no such
+/// closed form, hence the restriction.
+pub fn probe_samples(value: &[f64], sigma: &[f64], w: usize, h: usize, theta_o: f64, flip: bool) -> Samples {
+    let sign = if flip { -1.0 } else { 1.0 };
+    let mut s = Samples::default();
+    for r in 0..h {
+        let (t0, t1) = (PI * r as f64 / h as f64, PI * (r + 1) as f64 / h as f64);
+        let om = if theta_o == 0.0 {
+            2.0 * PI / w as f64 * (t0.cos() - t1.cos())
+        } else {
+            2.0 * PI / w as f64 * (abs_sin_integral(t1 - sign * theta_o) - abs_sin_integral(t0 - sign * theta_o)).abs()
+        };
+        let theta = PI * (r as f64 + 0.5) / h as f64;
+        for c in 0..w {
+            let n = latlong_direction(r, c, w, h);
+            let phi = 2.0 * PI * (c as f64 + 0.5) / w as f64;
+            let t = [theta.cos() * phi.cos(), theta.cos() * phi.sin(), -theta.sin()];
+            let wo = [0, 1, 2].map(|i| theta_o.cos() * n[i] + sign * theta_o.sin() * t[i]);
+            let i = r * w + c;
+            s.value.push(value[i]);
+            s.sigma.push(sigma[i]);
+            s.normal.push(n);
+            s.reflected.push(if theta_o == 0.0 { n } else { reflect(n, wo) });
+            s.weight.push(om);
+        }
+    }
+    s
 }
 
 /// The reflection vector R = 2(n·ω_o)n − ω_o (CONVENTIONS §1).
@@ -137,6 +195,23 @@ pub struct Separated {
     pub consistency: Vec<f64>,
     pub consistency_se: Vec<f64>,
     pub chi2: Option<f64>,
+    /// Cov(d) (9 × 9, row-major).
+    pub consistency_cov: Vec<f64>,
+}
+
+impl Separated {
+    /// χ² = xᵀ Cov(d)⁻¹ x of a 9-vector x against the consistency covariance (e.g. d minus a
+    /// predicted bias); None when the covariance is singular.
+    pub fn chi2_of(&self, x: &[f64]) -> Option<f64> {
+        if x.len() != LOW {
+            return None;
+        }
+        Cholesky::new(&self.consistency_cov, LOW, 1e-12).ok().map(|c| {
+            let mut y = x.to_vec();
+            c.solve(&mut y);
+            y.iter().zip(x).map(|(a, b)| a * b).sum::<f64>()
+        })
+    }
 }
 
 impl Separation {
@@ -288,13 +363,10 @@ impl Separation {
         };
         let cov_d: Vec<f64> = (0..LOW * LOW).map(|ij| tst[ij] + self.mb_cov[(ij / LOW) * nfit + ij % LOW] / (ks * ks)).collect();
         let consistency_se: Vec<f64> = (0..LOW).map(|j| cov_d[j * LOW + j].max(0.0).sqrt()).collect();
-        let chi2 = Cholesky::new(&cov_d, LOW, 1e-12).ok().map(|c| {
-            let mut x = consistency.clone();
-            c.solve(&mut x);
-            x.iter().zip(&consistency).map(|(a, b)| a * b).sum::<f64>()
-        });
         let diffuse_se = (0..LOW).map(|j| cov_l[j * LOW + j].max(0.0).sqrt()).collect();
-        Ok(Separated { kd, ks, diffuse, diffuse_se, specular, specular_se, consistency, consistency_se, chi2 })
+        let mut out = Separated { kd, ks, diffuse, diffuse_se, specular, specular_se, consistency, consistency_se, chi2: None, consistency_cov: cov_d };
+        out.chi2 = out.chi2_of(&out.consistency);
+        Ok(out)
     }
 
     /// The consistency χ² as a function of the diffuse fraction x = k_d / (k_d + k_s) at fixed
@@ -338,7 +410,6 @@ mod tests {
     use super::*;
     use crate::quadrature::gauss_legendre;
     use crate::sh::index;
-    use std::f64::consts::PI;
 
     /// Gauss–Legendre (in cos θ) × uniform (in φ) directions: exact quadrature of every SH product
     /// of total order < 2·nt (the diffuse view's projection is then exact for band-limited data).
@@ -531,6 +602,26 @@ mod tests {
         let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len() - 1) as f64).sqrt();
         assert!((sd / se - 1.0).abs() < 0.3, "spread {sd} vs propagated {se}");
         assert!((mean - light[k]).abs() < 4.0 * se / 40f64.sqrt(), "mean {mean} vs {}", light[k]);
+    }
+
+    #[test]
+    fn r_space_weights_cover_the_sphere() {
+        // Each specular view's R-space solid angles sum to 2π ∫_{−θ_o}^{π−θ_o} |sin x| dx
+        // = 2π ((1 − cos θ_o) + (1 + cos θ_o)) = 4π: the cap folded over the pole is counted twice
+        // and the opposite cap of the same size is missed. At θ_o = 0 they are the lat-long
+        // pixels' own solid angles, also summing to 4π.
+        let (w, h) = (64, 32);
+        for (t, flip) in [(0.7, false), (0.7, true), (0.0, false)] {
+            let s = probe_samples(&vec![0.0; w * h], &vec![0.0; w * h], w, h, t, flip);
+            let total: f64 = s.weight.iter().sum();
+            assert!((total - 4.0 * PI).abs() < 1e-12, "{total}");
+            // R really is at polar angle θ ∓ θ_o on the pixel's meridian.
+            let i = 20 * w + 5;
+            let theta = PI * 20.5 / h as f64;
+            let want = if flip { theta + t } else { theta - t };
+            assert!((s.reflected[i][2] - want.cos()).abs() < 1e-12);
+        }
+        assert!((abs_sin_integral(-PI) + 2.0).abs() < 1e-12 && (abs_sin_integral(2.0 * PI) - 4.0).abs() < 1e-12);
     }
 
     #[test]
