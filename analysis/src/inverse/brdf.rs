@@ -16,6 +16,11 @@
 //! (68 % for one parameter). A side on which χ² never rises by 1 inside the search range is
 //! reported as unbounded (`None`): the data cannot tell p from larger (or smaller) values — the
 //! ill-conditioning of sec. 3.3 and 3.6 under uniform or low-frequency lighting.
+//!
+//! Estimates from one image are correlated (non-uniform pixel noise; and the three channels share
+//! their paths), which the weighted fit above ignores. [`fit_model_gls`] fits one channel with the
+//! full covariance of its per-order estimates, e.g. [`transfer_covariance_probe`] for a
+//! `normal-probe` image; `reflect invert brdf` uses it whenever the image has a `stderr` layer.
 
 use crate::error::{Error, Result};
 use crate::filter::{measured_filter, OrderEstimate};
@@ -249,27 +254,29 @@ fn profile_search(chi2: &dyn Fn(f64) -> f64, lo: f64, hi: f64, factor: &dyn Fn(f
     Search { p_hat, chi2_min: chi2_raw * factor, interval: (lower, upper), profile }
 }
 
-/// Generalised least squares for one channel whose per-order estimates f̂_0 … f̂_L are
-/// *correlated*, with covariance `cov` ((L+1)², row-major): χ²(p) = min_k (f̂ − k g(p))ᵀ C⁻¹
-/// (f̂ − k g(p)) = f̂ᵀC⁻¹f̂ − (gᵀC⁻¹f̂)² / gᵀC⁻¹g. Estimates fitted jointly in pixel space (one
-/// least-squares fit of all orders) are correlated wherever the pixel noise is not uniform — for a
-/// sphere under a directional source adjacent orders correlate at ≈ 0.85 — and ignoring that makes
-/// the Δχ² = 1 interval wrong. Otherwise as [`fit_model`] (same search, interval and profile).
-pub fn fit_model_gls(f: &[f64], cov: &[f64], model: Model, range: Option<(f64, f64)>) -> Result<BrdfFit> {
+/// Generalised least squares for one channel whose per-order estimates f̂_l (at the orders
+/// `orders`, e.g. the observable ones) are *correlated*, with covariance `cov` (n × n row-major,
+/// n = orders.len()): χ²(p) = min_k (f̂ − k g(p))ᵀ C⁻¹ (f̂ − k g(p)) = f̂ᵀC⁻¹f̂ − (gᵀC⁻¹f̂)² / gᵀC⁻¹g.
+/// Estimates from one image are correlated wherever its pixel noise is not uniform — for a sphere
+/// under a directional source adjacent orders correlate at ≈ 0.85, because the noise concentrates
+/// near the source — and ignoring that makes the Δχ² = 1 interval wrong (half as wide there).
+/// Otherwise as [`fit_model`] (same search, interval and profile).
+pub fn fit_model_gls(orders: &[usize], f: &[f64], cov: &[f64], model: Model, range: Option<(f64, f64)>) -> Result<BrdfFit> {
     let (lo, hi) = range.unwrap_or(model.default_range());
     if !(lo > 0.0 && hi > lo && hi.is_finite()) {
         return Err(Error::new(format!("the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]", model.parameter_name())));
     }
     let n = f.len();
-    if n == 0 || cov.len() != n * n || f.iter().chain(cov).any(|v| !v.is_finite()) {
-        return Err(Error::new(format!("GLS fit needs n finite estimates and an n × n covariance (n = {n}, got {} entries)", cov.len())));
+    if n == 0 || orders.len() != n || cov.len() != n * n || f.iter().chain(cov).any(|v| !v.is_finite()) {
+        return Err(Error::new(format!("GLS fit needs n orders, n finite estimates and an n × n covariance (n = {n}, {} orders, {} entries)", orders.len(), cov.len())));
     }
     let cinv = crate::lsq::Cholesky::new(cov, n, 1e-14)?.inverse();
-    let lmax = n - 1;
+    let lmax = orders.iter().copied().max().unwrap_or(0);
     let quad = |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
     let ff = quad(f, f);
     let fit_at = |p: f64| {
-        let g = model.transfer(p).lambda_rho(lmax);
+        let all = model.transfer(p).lambda_rho(lmax);
+        let g: Vec<f64> = orders.iter().map(|&l| all[l]).collect();
         let (gf, gg) = (quad(&g, f), quad(&g, &g));
         if gg > 0.0 { (ff - gf * gf / gg, Some(gf / gg)) } else { (ff, None) }
     };
@@ -287,6 +294,61 @@ pub fn fit_model_gls(f: &[f64], cov: &[f64], model: Model, range: Option<(f64, f
         points: n,
         profile: sr.profile,
     })
+}
+
+/// Covariance, per channel, of the per-order estimates f̂_l = Σ_m L_lm B_lm / Σ_m L_lm² of
+/// [`estimate_transfer`] when B_lm is the lat-long quadrature of a `normal-probe` image with a
+/// `stderr` layer (as [`crate::projection::project_normal_probe`]): f̂_l = Σ_p u_l(p) B_p with
+/// u_l(p) = ΔΩ_p Σ_m L_lm Y_lm(n_p) / E_l, so Cov(f̂_l, f̂_l') = Σ_p u_l(p) u_l'(p) σ_p² (pixels
+/// are independent). Returns (lmax+1)² per channel (rows/columns of orders without lighting energy
+/// are 0), or None without a `stderr` layer.
+pub fn transfer_covariance_probe(img: &crate::image::Image, lighting: &[[f64; 3]], lmax: usize) -> Result<Option<[Vec<f64>; 3]>> {
+    let Some(se) = img.rgb_layer("stderr.") else { return Ok(None) };
+    let (w, h) = (se.width, se.height);
+    let nk = crate::sh::num_coefficients(lmax);
+    if lighting.len() < nk || w != 2 * h || h == 0 {
+        return Err(Error::new(format!("covariance needs a W = 2H probe and {nk} lighting coefficients")));
+    }
+    let no = lmax + 1;
+    let energy: Vec<[f64; 3]> = (0..no)
+        .map(|l| {
+            let mut e = [0.0; 3];
+            for k in l * l..(l + 1) * (l + 1) {
+                for ch in 0..3 {
+                    e[ch] += lighting[k][ch] * lighting[k][ch];
+                }
+            }
+            e
+        })
+        .collect();
+    let basis = crate::sh::ShBasis::new(lmax);
+    let mut y = vec![0.0; nk];
+    let mut cov = [vec![0.0; no * no], vec![0.0; no * no], vec![0.0; no * no]];
+    let mut u = vec![0.0; no];
+    for r in 0..h {
+        let (t0, t1) = (std::f64::consts::PI * r as f64 / h as f64, std::f64::consts::PI * (r + 1) as f64 / h as f64);
+        let d_omega = 2.0 * std::f64::consts::PI / w as f64 * (t0.cos() - t1.cos());
+        for c in 0..w {
+            basis.eval_into(crate::sh::latlong_direction(r, c, w, h), &mut y);
+            let sig = se.pixels[r * w + c];
+            for ch in 0..3 {
+                let v = sig[ch] as f64 * sig[ch] as f64;
+                if v == 0.0 {
+                    continue;
+                }
+                for l in 0..no {
+                    let e = energy[l][ch];
+                    u[l] = if e > 0.0 { d_omega * (l * l..(l + 1) * (l + 1)).map(|k| lighting[k][ch] * y[k]).sum::<f64>() / e } else { 0.0 };
+                }
+                for i in 0..no {
+                    for j in 0..no {
+                        cov[ch][i * no + j] += u[i] * u[j] * v;
+                    }
+                }
+            }
+        }
+    }
+    Ok(Some(cov))
 }
 
 #[cfg(test)]
@@ -409,7 +471,8 @@ mod tests {
             (0..13).map(|l| OrderEstimate { l, energy: [1.0; 3], estimate: [Some(f[l]), None, None], stderr: [Some(sig[l]), None, None] }).collect();
         let diag: Vec<f64> = (0..169).map(|k| if k / 13 == k % 13 { sig[k / 13].powi(2) } else { 0.0 }).collect();
         let a = fit_model(&est, Model::Phong, None).unwrap();
-        let b = fit_model_gls(&f, &diag, Model::Phong, None).unwrap();
+        let orders: Vec<usize> = (0..13).collect();
+        let b = fit_model_gls(&orders, &f, &diag, Model::Phong, None).unwrap();
         // Same χ² up to rounding; the minimum is flat, so p̂ agrees to the search's precision.
         assert!((a.parameter / b.parameter - 1.0).abs() < 1e-6, "{} vs {}", a.parameter, b.parameter);
         let (ai, bi) = (a.interval, b.interval);
@@ -417,8 +480,42 @@ mod tests {
         assert!((b.scale[0].unwrap() / a.scale[0].unwrap() - 1.0).abs() < 1e-6);
         // Strongly correlated errors (ρ = 0.9 between all orders) move the interval.
         let corr: Vec<f64> = (0..169).map(|k| { let (i, j) = (k / 13, k % 13); sig[i] * sig[j] * if i == j { 1.0 } else { 0.9 } }).collect();
-        let c = fit_model_gls(&f, &corr, Model::Phong, None).unwrap();
+        let c = fit_model_gls(&orders, &f, &corr, Model::Phong, None).unwrap();
         assert!((c.relative_width() / b.relative_width() - 1.0).abs() > 0.1, "{} vs {}", c.relative_width(), b.relative_width());
-        assert!(fit_model_gls(&f, &corr[..168], Model::Phong, None).is_err());
+        assert!(fit_model_gls(&orders, &f, &corr[..168], Model::Phong, None).is_err());
+        assert!(fit_model_gls(&orders[..12], &f, &corr, Model::Phong, None).is_err());
+    }
+
+    #[test]
+    fn probe_covariance_diagonal_is_the_per_order_variance() {
+        // The diagonal of the covariance must be the squared standard errors estimate_transfer
+        // propagates independently (same quadrature weights), for every channel.
+        let lmax = 6;
+        let (w, h) = (64, 32);
+        let mut img = crate::image::Image { width: w, height: h, ..Default::default() };
+        for (c, n) in ["R", "G", "B"].iter().enumerate() {
+            img.channels.insert(n.to_string(), (0..w * h).map(|i| 1.0 + 0.1 * ((i * (c + 3)) % 7) as f32).collect());
+            img.channels.insert(format!("stderr.{n}"), (0..w * h).map(|i| 0.01 + 0.02 * ((i / w) as f32 / h as f32).powi(2) * (c + 1) as f32).collect());
+        }
+        let light: Vec<[f64; 3]> = (0..num_coefficients(lmax)).map(|k| [1.0 / (1.0 + k as f64), 0.5 - 0.05 * k as f64, if k % 3 == 0 { 0.3 } else { 0.0 }]).collect();
+        let (b, se) = crate::projection::project_normal_probe(&img, lmax).unwrap();
+        let est = estimate_transfer(&b, se.as_deref(), &light, lmax).unwrap();
+        let cov = transfer_covariance_probe(&img, &light, lmax).unwrap().unwrap();
+        let n = lmax + 1;
+        for o in &est {
+            for ch in 0..3 {
+                let v = cov[ch][o.l * n + o.l];
+                match o.stderr[ch] {
+                    Some(s) => assert!((v.sqrt() / s - 1.0).abs() < 1e-6, "l {} ch {ch}: {} vs {s}", o.l, v.sqrt()),
+                    None => assert_eq!(v, 0.0),
+                }
+            }
+        }
+        // Non-uniform noise correlates the orders.
+        let r01 = cov[0][1] / (cov[0][0] * cov[0][n + 1]).sqrt();
+        assert!(r01.abs() > 1e-3, "{r01}");
+        let mut plain = img.clone();
+        plain.channels.retain(|k, _| !k.starts_with("stderr"));
+        assert!(transfer_covariance_probe(&plain, &light, lmax).unwrap().is_none());
     }
 }
