@@ -89,3 +89,37 @@ fn write_nan_exr(path: &Path) {
     ]);
     Image::from_channels((8, 4), chans).write().to_file(path).unwrap();
 }
+
+/// `reflect invert separate` / `invert factor` refuse what they cannot use, through the binary.
+#[test]
+fn invert_separate_and_factor_refuse_bad_input() {
+    let d = temp_dir("cli-errors-invert");
+    let w = |name: &str, text: &str| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let render = |toml: &str, exr: &str| {
+        let out = d.join(exr);
+        let (code, err) = reflect(&["render", &w(&format!("{exr}.toml"), toml), "--out", out.to_str().unwrap(), "--quiet"]);
+        assert_eq!(code, 0, "{err}");
+        out.to_str().unwrap().to_string()
+    };
+    let ortho = render(GOOD, "ortho.exr");
+    // Normal-probe views at θ_o = 60° (the one ring of a 1 × 4 rule: μ = 1/2), φ_o = 0, 90, 180.
+    let probe = |phi: u32| {
+        let toml = GOOD
+            .replace("width = 8", "width = 16")
+            .replace("type = \"orthographic\"", &format!("type = \"normal-probe\"\ntheta_o_deg = 60.0\nphi_o_deg = {phi}.0"))
+            .replace("from = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05\n", "");
+        render(&toml, &format!("p{phi}.exr"))
+    };
+    let (p0, p90, p180) = (probe(0), probe(90), probe(180));
+    let env = d.join("env.exr");
+    let e = env.to_str().unwrap();
+    assert_bad_input(&["invert", "separate", &ortho, &p0, "--output", e], "ortho.exr", "normal-probe", &env);
+    assert_bad_input(&["invert", "separate", d.join("gone.exr").to_str().unwrap(), &p0, "--output", e], "gone.exr", "cannot read", &env);
+    assert_bad_input(&["invert", "factor", &ortho, "--lmax", "1"], "ortho.exr", "normal-probe", &env);
+    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, "--nodes", "1x4", "--lmax", "1"], "270", "missing node", &env);
+    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "", &env);
+}
