@@ -27,6 +27,7 @@ pub mod predict;
 pub mod projection;
 pub mod quadrature;
 pub mod sh;
+pub mod special;
 pub mod transfer;
 
 pub use error::Error;

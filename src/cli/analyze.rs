@@ -96,15 +96,7 @@ fn camera_of(img: &Image, a: &AnalyzeArgs) -> Result<Camera, Error> {
                 up: json_vec3(&v, "up")?,
                 extent: v.get("extent").and_then(|e| e.as_f64()).ok_or_else(|| Error::new("header camera has no 'extent'"))?,
             })),
-            "normal-probe" => {
-                let theta_o_deg = v.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
-                let phi_o_deg = v.get("phi_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
-                if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
-                    // The per-order analysis reads the q = 0 term at (θ_o, φ_o = 0) (eq. 10).
-                    return Err(Error::new(format!("a normal-probe render at phi_o_deg = {phi_o_deg} cannot be analysed (only phi_o_deg = 0)")));
-                }
-                Ok(Camera::NormalProbe { theta_o_deg })
-            }
+            "normal-probe" => Ok(Camera::NormalProbe { theta_o_deg: super::header::probe_theta_o_deg(&v, "analysed")? }),
             other => Err(Error::new(format!(
                 "camera type '{other}' cannot be analysed (use an orthographic or normal-probe render)"
             ))),

@@ -36,7 +36,7 @@
 //! `--json` prints one JSON document (CONVENTIONS §7) instead of the text tables.
 
 use super::Error;
-use super::header::header_json;
+use super::header::{header_json, probe_exitance_deg};
 use super::sh::check_lmax;
 use analysis::image::{read_image, Image};
 use analysis::inverse::factorization::{
@@ -248,13 +248,7 @@ fn probe_angles(img: &Image, p: &Path) -> Result<(f64, f64), Error> {
     if cam.get("jitter").and_then(|j| j.as_bool()) == Some(true) {
         return Err(Error::file(p, "a jittered normal-probe render holds pixel averages, not the pixel-centre samples the quadrature needs (render with jitter = false)"));
     }
-    let num = |k: &str| -> Result<f64, Error> {
-        match cam.get(k) {
-            None => Ok(0.0),
-            Some(v) => v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| Error::file(p, format!("header camera '{k}' is not a number"))),
-        }
-    };
-    Ok((num("theta_o_deg")?, num("phi_o_deg")?))
+    probe_exitance_deg(&cam).map_err(|e| e.in_file(p))
 }
 
 /// The factored channel of an image as f64, and its largest standard error (if the layer exists).
@@ -641,9 +635,7 @@ mod tests {
     use analysis::sh::{index, lambda, latlong_direction, num_coefficients, ShBasis};
 
     fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("reflect-cli-factor-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
+        crate::cli::test_path("factor", name)
     }
 
     /// A W × H normal-probe EXR of B(n) = f(n) (grey) with its camera header.

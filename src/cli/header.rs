@@ -1,6 +1,6 @@
 //! Reading what a render's EXR header says about how it was made (`reflect:camera`,
 //! `reflect:objects`, `reflect:lighting`, written by `renderer::output`), and the lighting given on
-//! the command line instead. Shared by `reflect analyze` and `reflect invert`.
+//! the command line instead. Shared by `reflect analyze` and the `reflect invert` subcommands.
 
 use super::Error;
 use analysis::image::Image;
@@ -26,6 +26,28 @@ pub fn json_vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
         o[i] = x.as_f64().ok_or_else(|| Error::new(format!("header: '{key}' must hold numbers")))?;
     }
     Ok(o)
+}
+
+/// (θ_o, φ_o) in degrees of a `normal-probe` camera header (`theta_o_deg`, `phi_o_deg`; absent
+/// = 0, CONVENTIONS §6 and our φ_o extension); a present value that is not a finite number is an
+/// error.
+pub fn probe_exitance_deg(cam: &Value) -> Result<(f64, f64), Error> {
+    let num = |k: &str| match cam.get(k) {
+        None => Ok(0.0),
+        Some(v) => v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| Error::new(format!("header camera '{k}' is not a number"))),
+    };
+    Ok((num("theta_o_deg")?, num("phi_o_deg")?))
+}
+
+/// θ_o (degrees) of a `normal-probe` render for the per-order analysis of `analyze` and
+/// `invert lighting | brdf`, which reads the q = 0 term at (θ_o, φ_o = 0) (eq. 10): another
+/// azimuth at oblique exitance is refused (`what` names the command's verb in the message).
+pub fn probe_theta_o_deg(cam: &Value, what: &str) -> Result<f64, Error> {
+    let (theta_o_deg, phi_o_deg) = probe_exitance_deg(cam)?;
+    if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
+        return Err(Error::new(format!("a normal-probe render at phi_o_deg = {phi_o_deg} cannot be {what} (only phi_o_deg = 0)")));
+    }
+    Ok(theta_o_deg)
 }
 
 /// A colour as the scene format writes it: one number (grey) or `[r, g, b]`.

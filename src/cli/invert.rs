@@ -18,7 +18,7 @@
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::sh::{check_lmax, model_from_args};
 use super::Error;
-use super::header::{first_sphere, header_json, json_rgb, json_vec3, lighting_of};
+use super::header::{first_sphere, header_json, json_rgb, json_vec3, lighting_of, probe_theta_o_deg};
 use analysis::image::{read_image, write_exr, Image};
 use analysis::inverse::brdf::{estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe, Model};
 use analysis::inverse::lighting::{invert_lighting, Rule, DEFAULT_MAX_AMPLIFICATION};
@@ -149,14 +149,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             .map_err(|e| e.in_file(p))?
             .ok_or_else(|| Error::file(p, "no reflect:camera in the header (invert needs a render of reflect, or use analyze)"))?;
         match cam.get("type").and_then(|t| t.as_str()).unwrap_or("") {
-            "normal-probe" => {
-                let theta_o_deg = cam.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
-                let phi_o_deg = cam.get("phi_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
-                if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
-                    return Err(Error::file(p, format!("a normal-probe render at phi_o_deg = {phi_o_deg} cannot be inverted (only phi_o_deg = 0)")));
-                }
-                probe = Some(theta_o_deg)
-            }
+            "normal-probe" => probe = Some(probe_theta_o_deg(&cam, "inverted").map_err(|e| e.in_file(p))?),
             "orthographic" => ortho.push(OrthoCamera {
                 from: json_vec3(&cam, "from").map_err(|e| e.in_file(p))?,
                 to: json_vec3(&cam, "to").map_err(|e| e.in_file(p))?,
@@ -405,9 +398,7 @@ mod tests {
     use std::path::Path;
 
     fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("reflect-cli-invert-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
+        crate::cli::test_path("invert", name)
     }
 
     /// A normal-probe image (θ_o = 0) of B = k Λ_l ρ̂_l L_lm, exactly band-limited.

@@ -46,3 +46,11 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Verify(a) => verify::run(a),
     }
 }
+
+/// A path in this process's scratch folder for a CLI module's unit tests (created on demand).
+#[cfg(test)]
+pub fn test_path(module: &str, name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("reflect-cli-{module}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}

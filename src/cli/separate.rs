@@ -26,7 +26,7 @@
 //! so that a large χ² at the right split can be told apart from a wrong split.
 
 use super::Error;
-use super::header::{first_sphere, header_json, json_rgb};
+use super::header::{first_sphere, header_json, json_rgb, probe_exitance_deg};
 use analysis::image::{Image, RgbImage, read_image, write_exr};
 use analysis::inverse::separation::{LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples};
 use analysis::sh::{ShBasis, lm, num_coefficients, reconstruct_latlong};
@@ -101,9 +101,8 @@ fn read_view(p: &Path) -> Result<(View, Image), Error> {
     if ty != "normal-probe" {
         return Err(Error::file(p, format!("not a normal-probe render (camera type '{ty}'): separation needs normal-probe views")));
     }
-    let theta_o_deg = cam.get("theta_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
-    let phi_o_deg = cam.get("phi_o_deg").and_then(|t| t.as_f64()).unwrap_or(0.0);
-    if !(0.0..90.0).contains(&theta_o_deg) || !phi_o_deg.is_finite() {
+    let (theta_o_deg, phi_o_deg) = probe_exitance_deg(&cam).map_err(|e| e.in_file(p))?;
+    if !(0.0..90.0).contains(&theta_o_deg) {
         return Err(Error::file(p, format!("header camera has theta_o_deg = {theta_o_deg}, phi_o_deg = {phi_o_deg} (need 0 ≤ θ_o < 90)")));
     }
     let rgb = img.rgb().ok_or_else(|| Error::file(p, "no R, G, B channels"))?;
@@ -485,9 +484,7 @@ mod tests {
     use renderer::sampling::chi2::TestRng;
 
     fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("reflect-cli-separate-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
+        crate::cli::test_path("separate", name)
     }
 
     const MIX: &str = r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1.0}},{"weight":0.5,"brdf":{"type":"mirror"}}]}"#;

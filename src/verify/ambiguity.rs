@@ -41,11 +41,11 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
-use super::fit::{Channel, Fit, fit_filter_at};
+use super::fit::{Channel, Fit, fit_filter_at, order_rms};
 use super::oblique::probe_geometry;
 use super::scenes::{Camera, Lighting, Spec, render_spec, sh_lighting};
 use super::transfer;
-use analysis::sh::{index, lm};
+use analysis::sh::lm;
 
 pub const NAME: &str = "ambiguity";
 pub const EQUATION: &str = "eq. 32, 47";
@@ -82,11 +82,6 @@ pub fn lightings(light: Vec<f64>, s_blur: f64) -> Lightings {
     let blurred = light.iter().enumerate().map(|(k, v)| v * fb[lm(k).0]).collect();
     let rescaled = light.iter().enumerate().map(|(k, v)| v * f8[lm(k).0] / f16[lm(k).0]).collect();
     Lightings { l: light, blurred, rescaled }
-}
-
-/// RMS over m of the order-l coefficients.
-pub fn order_rms(c: &[f64], l: usize) -> f64 {
-    ((-(l as i64)..=(l as i64)).map(|m| c[index(l, m)].powi(2)).sum::<f64>() / (2 * l + 1) as f64).sqrt()
 }
 
 /// E[t²] and Var[t²] of a Student t with ν degrees of freedom (ν = ∞: the normal, 1 and 2).
@@ -197,9 +192,9 @@ pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Ima
     );
     // The lightings differ (informative: "expected" = the reference lighting's RMS).
     for l in [2, 4, 8] {
-        let r0 = order_rms(&lights.l, l);
-        c.push(Row::new(format!("RMS_m L'_lm / L_lm, l={l} (lightings differ)"), 1.0, order_rms(&lights.blurred, l) / r0, 0.0).informative());
-        c.push(Row::new(format!("RMS_m L''_lm / L_lm, l={l} (lightings differ)"), 1.0, order_rms(&lights.rescaled, l) / r0, 0.0).informative());
+        let r0 = order_rms(l, |k| lights.l[k]);
+        c.push(Row::new(format!("RMS_m L'_lm / L_lm, l={l} (lightings differ)"), 1.0, order_rms(l, |k| lights.blurred[k]) / r0, 0.0).informative());
+        c.push(Row::new(format!("RMS_m L''_lm / L_lm, l={l} (lightings differ)"), 1.0, order_rms(l, |k| lights.rescaled[k]) / r0, 0.0).informative());
     }
     let mut chi_series: Vec<Series> = vec![];
     let (mut exp_x, mut exp_y, mut band_lo, mut band_hi) = (vec![], vec![], vec![], vec![]);
@@ -233,7 +228,7 @@ pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Ima
     }
     // Plot 1: the lightings differ, order by order (l ≥ 1: L_00 is common and dominates).
     let ls: Vec<f64> = (1..=LMAX).map(|l| l as f64).collect();
-    let rms = |v: &[f64]| (1..=LMAX).map(|l| order_rms(v, l)).collect::<Vec<_>>();
+    let rms = |v: &[f64]| (1..=LMAX).map(|l| order_rms(l, |k| v[k])).collect::<Vec<_>>();
     c.plots.push(Plot {
         legend: Legend::UpperRight,
         file: "ambiguity_lightings.svg".into(),

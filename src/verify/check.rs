@@ -13,6 +13,7 @@
 //! when all its rows pass. Rows marked `informative` are reported but do not decide the verdict
 //! (e.g. the Gaussian approximation eq. 46 where it is known not to hold).
 
+use analysis::special::erfc;
 use serde_json::{Value, json};
 
 /// k of the k·σ rule for a check with at most [`FAMILY_ROWS`] noisy deciding rows: a two-sided 4σ
@@ -25,18 +26,6 @@ pub const K_SIGMA: f64 = 4.0;
 /// 1 − (1 − α)^{1/N}, α = 1 − (1 − 6.3e-5)^30 — the rule pbrt-v4 and Mitsuba 3 apply to their
 /// χ² tests. k(81) ≈ 4.2, k(289) ≈ 4.5. Rows with σ = 0 (deterministic renders) are not counted.
 pub const FAMILY_ROWS: usize = 30;
-
-/// erfc(x) for x ≥ 0 (Numerical Recipes' Chebyshev fit, relative error < 1.2e-7).
-fn erfc(x: f64) -> f64 {
-    let t = 1.0 / (1.0 + 0.5 * x.abs());
-    let y = t * (-x * x - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06 + t * (0.278_868_07 + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-        .exp();
-    if x >= 0.0 { y } else { 2.0 - y }
-}
 
 /// k of the k·σ rule for a check with `n` noisy deciding rows (see [`FAMILY_ROWS`]).
 pub fn k_sigma_for(n: usize) -> f64 {

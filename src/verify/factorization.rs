@@ -46,6 +46,7 @@ use analysis::inverse::factorization::{
     hemisphere_nodes, project,
 };
 use analysis::sh::index;
+use analysis::special::erfc;
 use std::f64::consts::PI;
 
 pub const NAME: &str = "factorization";
@@ -113,29 +114,6 @@ pub fn measure(plan: Plan, nodes: (usize, usize), image: &mut dyn FnMut(f64, f64
     let normal_b = project(&img0, w, h, NormalRule::Fejer, LMAX_FILTER).map_err(e)?;
     let normal_b_mid = project(&img0, w, h, NormalRule::PixelSolidAngle, LMAX_FILTER).map_err(e)?;
     Ok(Slice { factor, normal_b, factor_mid, normal_b_mid, renders: renders + 1 })
-}
-
-/// erfc(x), x ≥ 0, in f64: the erf series below 2.5 (cancellation costs < 4 digits there), the
-/// Laplace continued fraction above (bottom-up, 80 terms).
-pub fn erfc(x: f64) -> f64 {
-    if x < 2.5 {
-        let (mut term, mut sum) = (x, x);
-        for n in 1..200 {
-            term *= -x * x / n as f64;
-            let t = term / (2 * n + 1) as f64;
-            sum += t;
-            if t.abs() < 1e-17 {
-                break;
-            }
-        }
-        1.0 - 2.0 / PI.sqrt() * sum
-    } else {
-        let mut f = x;
-        for k in (1..80).rev() {
-            f = x + (k as f64 / 2.0) / f;
-        }
-        (-x * x).exp() / PI.sqrt() / f
-    }
 }
 
 /// Beckmann's Smith Λ at polar angle θ: (e^{−a²}/(a√π) − erfc(a)) / 2, a = cot θ / α.
@@ -427,16 +405,6 @@ mod tests {
     use super::*;
     use super::super::fit::latlong_dir;
 
-    /// ω_o of the normal-probe camera at normal n (CONVENTIONS §6 with φ_o).
-    fn outgoing(n: [f64; 3], theta_o: f64, phi_o: f64) -> [f64; 3] {
-        let th = n[2].clamp(-1.0, 1.0).acos();
-        let ph = n[1].atan2(n[0]);
-        let t = [th.cos() * ph.cos(), th.cos() * ph.sin(), -th.sin()];
-        let b = [-ph.sin(), ph.cos(), 0.0];
-        let (so, co) = theta_o.sin_cos();
-        let (sp, cp) = phi_o.sin_cos();
-        std::array::from_fn(|i| co * n[i] + so * (cp * t[i] + sp * b[i]))
-    }
 
     /// Closed-form images of a unit directional source: B = ρ̂ (Beckmann α, F = 1, or Lambert).
     fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f64>, String> {
@@ -453,7 +421,7 @@ mod tests {
                     if lambert {
                         return ci / PI;
                     }
-                    let wo = outgoing(n, to.to_radians(), po.to_radians());
+                    let wo = analysis::projection::normal_probe_outgoing(n, to.to_radians(), po.to_radians());
                     let hv = normalize([s[0] + wo[0], s[1] + wo[1], s[2] + wo[2]]);
                     let ch = dot(n, hv);
                     let d = (-(1.0 - ch * ch) / (ch * ch) / (ALPHA * ALPHA)).exp() / (PI * ALPHA * ALPHA * ch.powi(4));
@@ -466,11 +434,7 @@ mod tests {
     }
 
     #[test]
-    fn erfc_and_the_normal_exitance_lobe() {
-        // Reference values of erfc (Python math.erfc).
-        assert!((erfc(0.5) - 0.479_500_122_186_953_5).abs() < 1e-14);
-        assert!((erfc(2.4) - 6.885_138_966_450_789e-4).abs() < 1e-15);
-        assert!((erfc(2.6) - 2.360_344_165_293_490_8e-4).abs() < 1e-15);
+    fn the_normal_exitance_lobe() {
         // Λ_0 ρ̂_0 is the albedo at normal exitance: 1 for small α (D is normalised, G ≈ 1 where D
         // lives), below 1 for a rough surface (single-scattering energy lost to G).
         let (a, b) = (beckmann_normal_exitance(0.05, 2)[0], beckmann_normal_exitance(0.4, 2)[0]);

@@ -104,6 +104,27 @@ pub fn project_probe(ch: &Channel, lmax: usize) -> (Vec<f64>, Vec<f64>) {
     (b, var.into_iter().map(f64::sqrt).collect())
 }
 
+/// The pixel-space design of an SH fit of a W × H normal-probe image: rows Y_k(n_p),
+/// k < (lmax+1)², and the pixels' solid angles as weights (for [`lsq`]).
+pub fn sh_design(w: usize, h: usize, lmax: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let basis = ShBasis::new(lmax);
+    let mut rows = Vec::with_capacity(w * h);
+    let mut weight = Vec::with_capacity(w * h);
+    for r in 0..h {
+        let om = latlong_omega(r, w, h);
+        for c in 0..w {
+            rows.push(basis.eval(latlong_dir(r, c, w, h)));
+            weight.push(om);
+        }
+    }
+    (rows, weight)
+}
+
+/// RMS over m of g(index(l, m)) at order l.
+pub fn order_rms(l: usize, g: impl Fn(usize) -> f64) -> f64 {
+    ((-(l as i64)..=(l as i64)).map(|m| g(index(l, m)).powi(2)).sum::<f64>() / (2 * l + 1) as f64).sqrt()
+}
+
 /// Order-l parts of a (scalar) SH lighting at `dir`: S_l = Σ_m L_lm Y_lm(dir), l ≤ lmax.
 pub fn order_parts(basis: &ShBasis, light: &[f64], dir: [f64; 3], y: &mut [f64], out: &mut [f64]) {
     basis.eval_into(dir, y);

@@ -16,7 +16,7 @@
 
 use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
-use super::fit::{Channel, latlong_dir, project_probe};
+use super::fit::{Channel, latlong_dir, order_rms, project_probe};
 use super::grace;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Status, invert_lighting};
@@ -109,7 +109,6 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
         points: vec![rec],
     });
     let orders: Vec<usize> = inv.orders.iter().filter(|o| o.amplification.is_some()).map(|o| o.l).collect();
-    let rms = |l: usize, g: &dyn Fn(usize) -> f64| ((-(l as i64)..=(l as i64)).map(|m| g(index(l, m)).powi(2)).sum::<f64>() / (2 * l + 1) as f64).sqrt();
     c.plots.push(Plot {
         legend: Legend::UpperRight,
         file: "inverse_lighting_error.svg".into(),
@@ -119,14 +118,14 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
         curves: vec![Series {
             name: "predicted σ".into(),
             x: orders.iter().map(|&l| l as f64).collect(),
-            y: orders.iter().map(|&l| rms(l, &|k| inv.stderr[k].map_or(0.0, |v| v[0]))).collect(),
+            y: orders.iter().map(|&l| order_rms(l, |k| inv.stderr[k].map_or(0.0, |v| v[0]))).collect(),
             err: None,
             dashed: false,
         }],
         points: vec![Series {
             name: "measured".into(),
             x: orders.iter().map(|&l| l as f64).collect(),
-            y: orders.iter().map(|&l| rms(l, &|k| inv.coefficients[k].map_or(0.0, |v| v[0]) - scale * q[k] / f[l])).collect(),
+            y: orders.iter().map(|&l| order_rms(l, |k| inv.coefficients[k].map_or(0.0, |v| v[0]) - scale * q[k] / f[l])).collect(),
             err: None,
             dashed: false,
         }],

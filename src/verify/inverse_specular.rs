@@ -23,12 +23,12 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
-use super::fit::{Channel, latlong_dir, latlong_omega, lsq, project_probe};
+use super::fit::{Channel, lsq, order_rms, project_probe, sh_design};
 use super::grace;
 use super::inverse_lighting::predicted_quadrature_with;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, InverseLighting, Status, invert_lighting};
-use analysis::sh::{ShBasis, index, lm, num_coefficients};
+use analysis::sh::{index, lm, num_coefficients};
 
 pub const NAME: &str = "inverse-lighting-specular";
 pub const EQUATION: &str = "eq. 17, 30, 33, 43, 46";
@@ -42,21 +42,9 @@ pub const S: f64 = 16.0;
 /// Pixel-space least squares of a probe image on the Y_lm, l ≤ lmax: (B_k, σ_k, floor_k), with the
 /// f32 floor 1e-5 · Σ_k |L_k Y_k(n)| per pixel propagated like a standard error.
 pub fn fit_sh(ch: &Channel, light: &[f64], lmax: usize) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-    let (w, h) = (ch.width, ch.height);
-    let basis = ShBasis::new(lmax);
     let n = num_coefficients(lmax);
-    let mut rows = Vec::with_capacity(w * h);
-    let mut weight = Vec::with_capacity(w * h);
-    let mut floor = Vec::with_capacity(w * h);
-    for r in 0..h {
-        let om = latlong_omega(r, w, h);
-        for c in 0..w {
-            let y = basis.eval(latlong_dir(r, c, w, h));
-            floor.push(F32_FLOOR * (0..n.min(light.len())).map(|k| (light[k] * y[k]).abs()).sum::<f64>());
-            rows.push(y);
-            weight.push(om);
-        }
-    }
+    let (rows, weight) = sh_design(ch.width, ch.height, lmax);
+    let floor: Vec<f64> = rows.iter().map(|y| F32_FLOOR * (0..n.min(light.len())).map(|k| (light[k] * y[k]).abs()).sum::<f64>()).collect();
     let fit = lsq(&rows, &ch.value, &ch.sigma, &weight)?;
     let fl = lsq(&rows, &ch.value, &floor, &weight)?;
     Some((fit.coef, fit.sigma, fl.sigma))
@@ -113,20 +101,14 @@ pub fn evaluate_phong(c: &mut Check, b: &[f64], se: &[f64], q: &[f64], scale: f6
     Ok(inv)
 }
 
-/// RMS over m of g(k) at order l.
-fn rms(l: usize, g: &dyn Fn(usize) -> f64) -> f64 {
-    ((-(l as i64)..=(l as i64)).map(|m| g(index(l, m)).powi(2)).sum::<f64>() / (2 * l + 1) as f64).sqrt()
-}
-
 /// Plots: error per order against the predicted standard error for both spheres, and the recovered
 /// Phong coefficients against Grace.
 fn plots(c: &mut Check, mirror: (&InverseLighting, &[f64]), phong: (&InverseLighting, &[f64])) {
-    let f = analysis::transfer::phong::phong(S, LMAX_PHONG);
     let ls = |lmax: usize| (0..=lmax).map(|l| l as f64).collect::<Vec<_>>();
     let (im, lm_true) = mirror;
     let (ip, lp_true) = phong;
-    let err = |inv: &InverseLighting, truth: &[f64], l: usize| rms(l, &|k| inv.coefficients[k].map_or(0.0, |v| v[0]) - truth[k]);
-    let se = |inv: &InverseLighting, l: usize| rms(l, &|k| inv.stderr[k].map_or(0.0, |v| v[0]));
+    let err = |inv: &InverseLighting, truth: &[f64], l: usize| order_rms(l, |k| inv.coefficients[k].map_or(0.0, |v| v[0]) - truth[k]);
+    let se = |inv: &InverseLighting, l: usize| order_rms(l, |k| inv.stderr[k].map_or(0.0, |v| v[0]));
     c.plots.push(Plot {
         legend: Legend::UpperRight,
         file: "inverse_specular_error.svg".into(),
@@ -165,7 +147,6 @@ fn plots(c: &mut Check, mirror: (&InverseLighting, &[f64]), phong: (&InverseLigh
             dashed: false,
         }],
     });
-    let _ = f;
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
@@ -204,6 +185,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use analysis::sh::ShBasis;
 
     #[test]
     fn mirror_rows_pass_exact_data_and_fail_a_wrong_scale() {

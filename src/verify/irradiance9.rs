@@ -16,7 +16,7 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
-use super::fit::{Channel, latlong_dir, latlong_omega, lsq, order_parts, project_probe};
+use super::fit::{Channel, latlong_dir, latlong_omega, lsq, order_parts, project_probe, sh_design};
 use super::scenes::{Lighting, Spec, render_spec};
 use super::{grace, transfer};
 use analysis::sh::{ShBasis, index, num_coefficients};
@@ -48,15 +48,7 @@ impl NineTerm {
 
 pub fn nine_term_error(ch: &Channel) -> Option<NineTerm> {
     let (w, h) = (ch.width, ch.height);
-    let basis = ShBasis::new(2);
-    let mut rows = vec![];
-    let mut weight = vec![];
-    for r in 0..h {
-        for c in 0..w {
-            rows.push(basis.eval(latlong_dir(r, c, w, h)));
-            weight.push(latlong_omega(r, w, h));
-        }
-    }
+    let (rows, weight) = sh_design(w, h, 2);
     let fit = lsq(&rows, &ch.value, &ch.sigma, &weight)?;
     let (mut ms, mut var, mut tot, mut mabs, mut max) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
     for i in 0..w * h {

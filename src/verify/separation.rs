@@ -35,11 +35,11 @@
 
 use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
-use super::fit::Channel;
+use super::fit::{Channel, order_rms};
 use super::grace;
 use super::scenes::{Camera, Lighting, Spec, grace_path, render_spec};
 use analysis::inverse::separation::{LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples};
-use analysis::sh::{ShBasis, index, lm, num_coefficients};
+use analysis::sh::{ShBasis, lm, num_coefficients};
 use std::f64::consts::PI;
 
 pub const NAME: &str = "separation";
@@ -138,14 +138,13 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
         let r = inp.residual_lsq[k];
         c.push(Row::new(format!("recovered L_{l},{mm}"), p.specular[k] - r, m.specular[k], m.specular_se[k]).approx(r));
     }
-    let rms = |l: usize, g: &dyn Fn(usize) -> f64| ((-(l as i64)..=(l as i64)).map(|mm| g(index(l, mm)).powi(2)).sum::<f64>() / (2 * l + 1) as f64).sqrt();
     for l in 0..=inp.lmax {
         c.push(
             Row::new(
                 format!("order {l}: RMS |c − c_G| vs the 9-term residual (eq. 38)"),
-                rms(l, &|k| inp.residual_lsq[k]),
-                rms(l, &|k| m.specular[k] - inp.lighting_lsq[k]),
-                rms(l, &|k| m.specular_se[k]),
+                order_rms(l, |k| inp.residual_lsq[k]),
+                order_rms(l, |k| m.specular[k] - inp.lighting_lsq[k]),
+                order_rms(l, |k| m.specular_se[k]),
             )
             .informative(),
         );
@@ -163,7 +162,7 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
     if let Some(chi) = m.chi2 {
         c.note(format!("consistency χ² = {chi:.1} for 9 coefficients at the assumed split k_d = {:.2}, k_s = {:.2} (includes the stated bias)", m.kd, m.ks));
     }
-    let alias: Vec<f64> = (0..=inp.lmax).map(|l| rms(l, &|k| inp.lighting_lsq[k] - truth.get(k).copied().unwrap_or(0.0))).collect();
+    let alias: Vec<f64> = (0..=inp.lmax).map(|l| order_rms(l, |k| inp.lighting_lsq[k] - truth.get(k).copied().unwrap_or(0.0))).collect();
     c.note(format!(
         "least squares of the lighting at the R directions vs its full-resolution L_lm (aliasing of orders > {}), RMS per order: {}",
         inp.lmax,
@@ -194,13 +193,13 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
         x_label: "l".into(),
         y_label: "RMS over m".into(),
         curves: vec![
-            Series { name: "9-term residual at R".into(), x: ls.clone(), y: (0..=inp.lmax).map(|l| rms(l, &|k| inp.residual_lsq[k])).collect(), err: None, dashed: false },
-            Series { name: "σ (propagated)".into(), x: ls.clone(), y: (0..=inp.lmax).map(|l| rms(l, &|k| m.specular_se[k])).collect(), err: None, dashed: true },
+            Series { name: "9-term residual at R".into(), x: ls.clone(), y: (0..=inp.lmax).map(|l| order_rms(l, |k| inp.residual_lsq[k])).collect(), err: None, dashed: false },
+            Series { name: "σ (propagated)".into(), x: ls.clone(), y: (0..=inp.lmax).map(|l| order_rms(l, |k| m.specular_se[k])).collect(), err: None, dashed: true },
         ],
         points: vec![Series {
             name: "measured |c − c_G|".into(),
             x: ls,
-            y: (0..=inp.lmax).map(|l| rms(l, &|k| m.specular[k] - inp.lighting_lsq[k])).collect(),
+            y: (0..=inp.lmax).map(|l| order_rms(l, |k| m.specular[k] - inp.lighting_lsq[k])).collect(),
             err: None,
             dashed: false,
         }],

@@ -11,9 +11,9 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
-use super::fit::{Channel, latlong_dir, latlong_omega, lsq};
+use super::fit::{Channel, lsq, sh_design};
 use super::scenes::{Lighting, Spec, render_spec};
-use analysis::sh::{ShBasis, lm, num_coefficients};
+use analysis::sh::{lm, num_coefficients};
 
 pub const NAME: &str = "uniform";
 pub const EQUATION: &str = "eq. 25-28";
@@ -24,15 +24,7 @@ const LFIT: usize = 4;
 /// Fit of a probe image on Y_k, k < (LFIT+1)²: (coefficients, σ).
 pub fn fit_sh(ch: &Channel) -> Option<(Vec<f64>, Vec<f64>)> {
     let (w, h) = (ch.width, ch.height);
-    let basis = ShBasis::new(LFIT);
-    let mut rows = vec![];
-    let mut weight = vec![];
-    for r in 0..h {
-        for c in 0..w {
-            rows.push(basis.eval(latlong_dir(r, c, w, h)));
-            weight.push(latlong_omega(r, w, h));
-        }
-    }
+    let (rows, weight) = sh_design(w, h, LFIT);
     let sig: Vec<f64> = (0..w * h).map(|i| ch.sigma[i].hypot(F32_FLOOR * ch.value[i].abs())).collect();
     lsq(&rows, &ch.value, &sig, &weight).map(|f| (f.coef, f.sigma))
 }

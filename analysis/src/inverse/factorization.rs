@@ -367,16 +367,6 @@ mod tests {
         [a[0] / n, a[1] / n, a[2] / n]
     }
 
-    /// ω_o of the `normal-probe` camera at normal n (CONVENTIONS §6 with φ_o).
-    fn outgoing(n: [f64; 3], theta_o: f64, phi_o: f64) -> [f64; 3] {
-        let th = n[2].clamp(-1.0, 1.0).acos();
-        let ph = n[1].atan2(n[0]);
-        let t = [th.cos() * ph.cos(), th.cos() * ph.sin(), -th.sin()];
-        let b = [-ph.sin(), ph.cos(), 0.0];
-        let (so, co) = theta_o.sin_cos();
-        let (sp, cp) = phi_o.sin_cos();
-        std::array::from_fn(|i| co * n[i] + so * (cp * t[i] + sp * b[i]))
-    }
 
     /// A BRDF as ρ̂ = ρ cos θ_i for (n, ω_i, ω_o), zero below either horizon.
     type Rho = fn([f64; 3], [f64; 3], [f64; 3]) -> f64;
@@ -405,7 +395,7 @@ mod tests {
         for node in hemisphere_nodes(n_mu, n_phi).unwrap() {
             let img: Vec<f64> = normals
                 .iter()
-                .map(|&n| if dot(n, s) > 0.0 { rho(n, s, outgoing(n, node.theta_o, node.phi_o)) } else { 0.0 })
+                .map(|&n| if dot(n, s) > 0.0 { rho(n, s, crate::projection::normal_probe_outgoing(n, node.theta_o, node.phi_o)) } else { 0.0 })
                 .collect();
             lf.add(node, &img).unwrap();
         }

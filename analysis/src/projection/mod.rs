@@ -9,5 +9,5 @@ pub mod orthographic;
 
 pub use envmap::{project_envmap, project_latlong, Mapping};
 pub use function::{project_function, project_function_scalar};
-pub use normal_probe::project_normal_probe;
+pub use normal_probe::{normal_probe_outgoing, project_normal_probe};
 pub use orthographic::{fit_orthographic, Fit, OrthoCamera, OrthoView, Param, Sphere};

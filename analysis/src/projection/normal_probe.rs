@@ -8,6 +8,19 @@ use crate::error::{Error, Result};
 use crate::image::{Image, RgbImage};
 use crate::sh::RgbCoeffs;
 
+/// The outgoing direction ω_o of the `normal-probe` camera at normal n (CONVENTIONS §6, with the
+/// azimuth `phi_o_deg` of our extension): cos θ_o n + sin θ_o (cos φ_o t + sin φ_o b), t the unit
+/// tangent of increasing θ and b = n × t. Angles in radians.
+pub fn normal_probe_outgoing(n: [f64; 3], theta_o: f64, phi_o: f64) -> [f64; 3] {
+    let th = n[2].clamp(-1.0, 1.0).acos();
+    let ph = n[1].atan2(n[0]);
+    let t = [th.cos() * ph.cos(), th.cos() * ph.sin(), -th.sin()];
+    let b = [-ph.sin(), ph.cos(), 0.0];
+    let (so, co) = theta_o.sin_cos();
+    let (sp, cp) = phi_o.sin_cos();
+    std::array::from_fn(|i| co * n[i] + so * (cp * t[i] + sp * b[i]))
+}
+
 /// B_lm (RGB) and, when the image has a `stderr` layer, their standard errors.
 pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Option<RgbCoeffs>)> {
     let rgb = img.rgb().ok_or_else(|| Error::new("normal-probe image has no R, G, B channels"))?;

@@ -19,6 +19,8 @@ use crate::math::{PI, Vec2, Vec3};
 pub struct NormalProbe {
     pub theta_o: f32,
     pub phi_o: f32,
+    /// (sin θ_o, cos θ_o, sin φ_o, cos φ_o), computed once rather than per sample.
+    trig: [f32; 4],
     pub jitter: bool,
     pub center: Vec3,
     pub radius: f32,
@@ -34,7 +36,9 @@ impl NormalProbe {
         if !phi_o_deg.is_finite() || phi_o_deg.abs() > 360.0 {
             return Err(format!("normal-probe phi_o_deg must be in [-360, 360], got {phi_o_deg}"));
         }
-        Ok(NormalProbe { theta_o: theta_o_deg.to_radians(), phi_o: phi_o_deg.to_radians(), jitter, center, radius, width, height })
+        let (theta_o, phi_o) = (theta_o_deg.to_radians(), phi_o_deg.to_radians());
+        let ((so, co), (sp, cp)) = (theta_o.sin_cos(), phi_o.sin_cos());
+        Ok(NormalProbe { theta_o, phi_o, trig: [so, co, sp, cp], jitter, center, radius, width, height })
     }
 
     /// (θ, φ) of film point `u` of pixel (row, col); `u = (½, ½)` is the pixel centre.
@@ -60,8 +64,7 @@ impl NormalProbe {
         let n = Vec3::new(st * cp, st * sp, ct);
         let t = Vec3::new(ct * cp, ct * sp, -st);
         let b = Vec3::new(-sp, cp, 0.0);
-        let (so, co) = self.theta_o.sin_cos();
-        let (spo, cpo) = self.phi_o.sin_cos();
+        let [so, co, spo, cpo] = self.trig;
         let wo = (co * n + so * (cpo * t + spo * b)).normalize();
         PrimarySample::Surface { p: self.center + self.radius * n, n, wo }
     }
