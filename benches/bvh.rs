@@ -96,7 +96,9 @@ fn bench(c: &mut Criterion) {
             let (cpu, wall) = (process_cpu_seconds().map(|c| c - c0.unwrap_or(0.0)), t0.elapsed().as_secs_f64());
             // On a machine shared with other jobs the wall-clock rate understates the code's speed;
             // rays per CPU-second × THREADS removes the time-sharing (not the cache sharing).
-            let cpu_rate = cpu.map_or(String::from("n/a"), |c| format!("{:.2} M rays/s", N_RAYS as f64 / (c / THREADS as f64) * 1e-6));
+            let cpu_rate = cpu.map_or(String::from("n/a"), |c| {
+                format!("{:.2} M rays/s", N_RAYS as f64 / (c / THREADS as f64) * 1e-6)
+            });
             println!(
                 "  {kind}: hit fraction {:.4}; one pass {:.2} M rays/s wall, {cpu_rate} CPU-time-normalised to {THREADS} cores",
                 hits as f64 / rs.len() as f64,

@@ -7,10 +7,10 @@
 //! Run: `cargo bench --bench sh`.
 
 use analysis::image::RgbImage;
-use analysis::projection::{project_envmap, Mapping};
+use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::ShBasis;
 use analysis::transfer::{phong, torrance_sparrow};
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
 fn test_image(w: usize, h: usize) -> RgbImage {

@@ -56,17 +56,46 @@ fn bad_scene_files_exit_2_with_one_line() {
     assert_bad_input(&["render", &p, "--out", o], "unknown.toml", "unknown field", &out);
     let p = w("absurd.toml", &GOOD.replace("width = 8", "width = 1000000"));
     assert_bad_input(&["render", &p, "--out", o], "absurd.toml", "resolution", &out);
-    assert_bad_input(&["render", d.join("missing.toml").to_str().unwrap(), "--out", o], "missing.toml", "cannot read", &out);
-    let p = w("missing-env.toml", &GOOD.replace("type = \"uniform\"\nradiance = 1.0", "type = \"envmap\"\nfile = \"nowhere.hdr\"\nmapping = \"latlong\""));
+    assert_bad_input(
+        &["render", d.join("missing.toml").to_str().unwrap(), "--out", o],
+        "missing.toml",
+        "cannot read",
+        &out,
+    );
+    let p = w(
+        "missing-env.toml",
+        &GOOD.replace(
+            "type = \"uniform\"\nradiance = 1.0",
+            "type = \"envmap\"\nfile = \"nowhere.hdr\"\nmapping = \"latlong\"",
+        ),
+    );
     assert_bad_input(&["render", &p, "--out", o], "nowhere.hdr", "cannot read", &out);
     std::fs::write(d.join("corrupt.hdr"), b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 64 +X 64\n\x02\x02\x00").unwrap();
-    let p = w("corrupt-env.toml", &GOOD.replace("type = \"uniform\"\nradiance = 1.0", "type = \"envmap\"\nfile = \"corrupt.hdr\"\nmapping = \"latlong\""));
+    let p = w(
+        "corrupt-env.toml",
+        &GOOD.replace(
+            "type = \"uniform\"\nradiance = 1.0",
+            "type = \"envmap\"\nfile = \"corrupt.hdr\"\nmapping = \"latlong\"",
+        ),
+    );
     assert_bad_input(&["render", &p, "--out", o], "corrupt.hdr", "corrupt", &out);
     std::fs::write(d.join("corrupt.exr"), b"v/1\x01 garbage that is not an exr").unwrap();
-    let p = w("corrupt-exr.toml", &GOOD.replace("type = \"uniform\"\nradiance = 1.0", "type = \"envmap\"\nfile = \"corrupt.exr\"\nmapping = \"latlong\""));
+    let p = w(
+        "corrupt-exr.toml",
+        &GOOD.replace(
+            "type = \"uniform\"\nradiance = 1.0",
+            "type = \"envmap\"\nfile = \"corrupt.exr\"\nmapping = \"latlong\"",
+        ),
+    );
     assert_bad_input(&["render", &p, "--out", o], "corrupt.exr", "", &out);
     write_nan_exr(&d.join("nan.exr"));
-    let p = w("nan-env.toml", &GOOD.replace("type = \"uniform\"\nradiance = 1.0", "type = \"envmap\"\nfile = \"nan.exr\"\nmapping = \"latlong\""));
+    let p = w(
+        "nan-env.toml",
+        &GOOD.replace(
+            "type = \"uniform\"\nradiance = 1.0",
+            "type = \"envmap\"\nfile = \"nan.exr\"\nmapping = \"latlong\"",
+        ),
+    );
     assert_bad_input(&["render", &p, "--out", o], "nan.exr", "non-finite", &out);
     let p = w("neg.toml", &GOOD.replace("albedo = 0.5", "albedo = -0.5"));
     assert_bad_input(&["render", &p, "--out", o], "neg.toml", "albedo", &out);
@@ -101,7 +130,8 @@ fn invert_separate_and_factor_refuse_bad_input() {
     };
     let render = |toml: &str, exr: &str| {
         let out = d.join(exr);
-        let (code, err) = reflect(&["render", &w(&format!("{exr}.toml"), toml), "--out", out.to_str().unwrap(), "--quiet"]);
+        let (code, err) =
+            reflect(&["render", &w(&format!("{exr}.toml"), toml), "--out", out.to_str().unwrap(), "--quiet"]);
         assert_eq!(code, 0, "{err}");
         out.to_str().unwrap().to_string()
     };
@@ -110,7 +140,10 @@ fn invert_separate_and_factor_refuse_bad_input() {
     let probe = |phi: u32| {
         let toml = GOOD
             .replace("width = 8", "width = 16")
-            .replace("type = \"orthographic\"", &format!("type = \"normal-probe\"\ntheta_o_deg = 60.0\nphi_o_deg = {phi}.0"))
+            .replace(
+                "type = \"orthographic\"",
+                &format!("type = \"normal-probe\"\ntheta_o_deg = 60.0\nphi_o_deg = {phi}.0"),
+            )
             .replace("from = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05\n", "");
         render(&toml, &format!("p{phi}.exr"))
     };
@@ -118,8 +151,18 @@ fn invert_separate_and_factor_refuse_bad_input() {
     let env = d.join("env.exr");
     let e = env.to_str().unwrap();
     assert_bad_input(&["invert", "separate", &ortho, &p0, "--output", e], "ortho.exr", "normal-probe", &env);
-    assert_bad_input(&["invert", "separate", d.join("gone.exr").to_str().unwrap(), &p0, "--output", e], "gone.exr", "cannot read", &env);
+    assert_bad_input(
+        &["invert", "separate", d.join("gone.exr").to_str().unwrap(), &p0, "--output", e],
+        "gone.exr",
+        "cannot read",
+        &env,
+    );
     assert_bad_input(&["invert", "factor", &ortho, "--lmax", "1"], "ortho.exr", "normal-probe", &env);
-    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, "--nodes", "1x4", "--lmax", "1"], "270", "missing node", &env);
+    assert_bad_input(
+        &["invert", "factor", &p0, &p90, &p180, "--nodes", "1x4", "--lmax", "1"],
+        "270",
+        "missing node",
+        &env,
+    );
     assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "", &env);
 }

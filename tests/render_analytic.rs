@@ -33,7 +33,8 @@ brdf = {brdf}
     )
 }
 
-const ORTHO: &str = "type = \"orthographic\"\nfrom = [3.0, 0.0, 1.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05";
+const ORTHO: &str =
+    "type = \"orthographic\"\nfrom = [3.0, 0.0, 1.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05";
 const PROBE: &str = "type = \"normal-probe\"";
 
 /// White furnace: under uniform radiance 1, a Lambertian sphere of albedo 1 and a mirror of kr 1
@@ -42,7 +43,13 @@ const PROBE: &str = "type = \"normal-probe\"";
 /// no variance at all.
 #[test]
 fn white_furnace_lambert_and_mirror() {
-    let s = scene(&sphere_scene(ORTHO, "type = \"uniform\"\nradiance = 1.0", "{ type = \"lambert\", albedo = 1.0 }", 64, "independent"));
+    let s = scene(&sphere_scene(
+        ORTHO,
+        "type = \"uniform\"\nradiance = 1.0",
+        "{ type = \"lambert\", albedo = 1.0 }",
+        64,
+        "independent",
+    ));
     let film = render_scene(&s);
     let mut covered = 0;
     for p in &film.pixels {
@@ -118,7 +125,12 @@ fn lambert_under_directional_light_is_the_clamped_cosine() {
             let expect = [0.8 * 3.0, 0.5 * 2.0, 0.25 * 1.0].map(|a| a / std::f32::consts::PI * cos);
             let got = film.get(r, c).rgb;
             for k in 0..3 {
-                assert!((got[k] - expect[k]).abs() < 1e-5 * (1.0 + expect[k]), "({r},{c}) ch{k}: {} vs {}", got[k], expect[k]);
+                assert!(
+                    (got[k] - expect[k]).abs() < 1e-5 * (1.0 + expect[k]),
+                    "({r},{c}) ch{k}: {} vs {}",
+                    got[k],
+                    expect[k]
+                );
             }
         }
     }
@@ -150,12 +162,15 @@ fn lambert_under_directional_light_orthographic() {
             let mut all_hit = true;
             for i in 0..16 {
                 for j in 0..16 {
-                    let ray = cam.generate(r, c, renderer::math::Vec2::new((j as f32 + 0.5) / 16.0, (i as f32 + 0.5) / 16.0));
+                    let ray =
+                        cam.generate(r, c, renderer::math::Vec2::new((j as f32 + 0.5) / 16.0, (i as f32 + 0.5) / 16.0));
                     let hit = s.geometry.intersect(&ray);
                     match hit {
                         // Pixels straddling the terminator are skipped: with a few lit samples out of
                         // 64 the sample variance is not a reliable standard error.
-                        Some(hh) if hh.n.dot(ws) > 0.0 => sum += (0.5 / std::f32::consts::PI * 2.0 * hh.n.dot(ws)) as f64,
+                        Some(hh) if hh.n.dot(ws) > 0.0 => {
+                            sum += (0.5 / std::f32::consts::PI * 2.0 * hh.n.dot(ws)) as f64
+                        }
                         Some(_) => all_hit = false,
                         None => all_hit = false,
                     }
@@ -165,7 +180,12 @@ fn lambert_under_directional_light_orthographic() {
                 continue;
             }
             let expect = (sum / 256.0) as f32;
-            assert!((p.rgb[0] - expect).abs() <= 4.0 * p.stderr[0] + 2e-3 * expect + 1e-5, "({r},{c}): {} ± {} vs {expect}", p.rgb[0], p.stderr[0]);
+            assert!(
+                (p.rgb[0] - expect).abs() <= 4.0 * p.stderr[0] + 2e-3 * expect + 1e-5,
+                "({r},{c}): {} ± {} vs {expect}",
+                p.rgb[0],
+                p.stderr[0]
+            );
             checked += 1;
         }
     }
@@ -189,14 +209,21 @@ fn mirror_sphere_reflects_the_environment() {
         let renderer::camera::Camera::NormalProbe(cam) = &s.camera else { unreachable!() };
         for r in 0..film.height {
             for c in 0..film.width {
-                let renderer::camera::PrimarySample::Surface { n, wo, .. } = cam.generate(r, c, renderer::math::Vec2::splat(0.5)) else {
+                let renderer::camera::PrimarySample::Surface { n, wo, .. } =
+                    cam.generate(r, c, renderer::math::Vec2::splat(0.5))
+                else {
                     unreachable!()
                 };
                 let refl = renderer::math::reflect(wo, n);
                 let expect = s.light.eval(refl.normalize());
                 let got = film.get(r, c).rgb;
                 for k in 0..3 {
-                    assert!((got[k] - expect[k]).abs() <= 1e-4 * (1.0 + expect[k]), "θo={theta_o} ({r},{c}): {} vs {}", got[k], expect[k]);
+                    assert!(
+                        (got[k] - expect[k]).abs() <= 1e-4 * (1.0 + expect[k]),
+                        "θo={theta_o} ({r},{c}): {} vs {}",
+                        got[k],
+                        expect[k]
+                    );
                 }
             }
         }
@@ -237,7 +264,8 @@ fn example_scenes_build_and_render() {
         file.render.width = 8;
         file.render.height = 8;
         file.render.spp = 1;
-        let s = renderer::scene::Scene::build(file, p.parent().unwrap()).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        let s =
+            renderer::scene::Scene::build(file, p.parent().unwrap()).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
         let film = render_scene(&s);
         assert!(film.pixels.iter().all(|px| px.rgb.iter().all(|v| v.is_finite())), "{}", p.display());
         n += 1;

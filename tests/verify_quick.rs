@@ -10,7 +10,8 @@ use serde_json::Value;
 use std::process::Command;
 
 fn verify(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).arg("verify").args(args).output().expect("run reflect verify");
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_reflect")).arg("verify").args(args).output().expect("run reflect verify");
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -53,7 +54,8 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         }
         assert!(!c["measured"].as_array().unwrap().is_empty(), "{} compared nothing", c["name"]);
     }
-    let failed: Vec<&str> = checks.iter().filter(|c| c["passed"] != true).map(|c| c["name"].as_str().unwrap()).collect();
+    let failed: Vec<&str> =
+        checks.iter().filter(|c| c["passed"] != true).map(|c| c["name"].as_str().unwrap()).collect();
     assert!(failed.is_empty(), "failed checks {failed:?}\n{stderr}");
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("lambert") && stderr.contains("PASS"), "progress and table on stderr with --json");

@@ -8,10 +8,10 @@
 //!
 //! Usage: `cargo run -p reflect-analysis --release --example synth_renders -- OUTDIR`
 
-use analysis::image::{read_rgb, write_exr, Image};
+use analysis::image::{Image, read_rgb, write_exr};
 use analysis::predict::predict;
-use analysis::projection::{project_envmap, Mapping};
-use analysis::sh::{latlong_direction, Reconstructor};
+use analysis::projection::{Mapping, project_envmap};
+use analysis::sh::{Reconstructor, latlong_direction};
 use analysis::transfer::{lambert::lambert, phong::phong};
 
 fn main() {
@@ -30,7 +30,8 @@ fn main() {
         let s = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
         [a[0] / s, a[1] / s, a[2] / s]
     };
-    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
     let f = norm([to[0] - from[0], to[1] - from[1], to[2] - from[2]]);
     let right = norm(cross(f, up));
     let upp = cross(right, f);
@@ -41,7 +42,11 @@ fn main() {
         for c in 0..n {
             let x = extent * (2.0 * (c as f64 + 0.5) / n as f64 - 1.0);
             let y = extent * (1.0 - 2.0 * (r as f64 + 0.5) / n as f64);
-            let o = [from[0] + x * right[0] + y * upp[0], from[1] + x * right[1] + y * upp[1], from[2] + x * right[2] + y * upp[2]];
+            let o = [
+                from[0] + x * right[0] + y * upp[0],
+                from[1] + x * right[1] + y * upp[1],
+                from[2] + x * right[2] + y * upp[2],
+            ];
             let t0 = -(o[0] * f[0] + o[1] * f[1] + o[2] * f[2]);
             let d2 = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - t0 * t0;
             if d2 >= 1.0 {

@@ -79,7 +79,12 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
         if let Some(i) = data.iter().position(|v| !v.is_finite()) {
             return Err(Error::file(
                 path,
-                format!("channel {name} has a non-finite value ({}) at row {}, column {}", data[i], i / img.width, i % img.width),
+                format!(
+                    "channel {name} has a non-finite value ({}) at row {}, column {}",
+                    data[i],
+                    i / img.width,
+                    i % img.width
+                ),
             ));
         }
     }
@@ -161,14 +166,20 @@ fn check_size(w: usize, h: usize) -> Result<()> {
 /// Writes `img` as a 32-bit float OpenEXR with all its channels and its string attributes
 /// (for tests, tools and the renderer's conventions of §5; attribute text must be ASCII/Latin-1).
 pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
-    use exr::prelude::{AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Layer, LayerAttributes, Text, WritableImage};
+    use exr::prelude::{
+        AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Layer, LayerAttributes, Text, WritableImage,
+    };
     let path = path.as_ref();
     let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
     for (name, data) in &img.channels {
         if data.len() != img.width * img.height {
-            return Err(Error::file(path, format!("channel {name} has {} samples, expected {}", data.len(), img.width * img.height)));
+            return Err(Error::file(
+                path,
+                format!("channel {name} has {} samples, expected {}", data.len(), img.width * img.height),
+            ));
         }
-        let text = Text::new_or_none(name.as_str()).ok_or_else(|| Error::file(path, format!("channel name {name} is not representable")))?;
+        let text = Text::new_or_none(name.as_str())
+            .ok_or_else(|| Error::file(path, format!("channel name {name} is not representable")))?;
         channels.push(AnyChannel::new(text, FlatSamples::F32(data.clone())));
     }
     let mut attrs = LayerAttributes::default();

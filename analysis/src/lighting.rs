@@ -9,8 +9,8 @@
 
 use crate::error::{Error, Result};
 use crate::image::read_rgb;
-use crate::projection::{project_envmap, Mapping};
-use crate::sh::{num_coefficients, rotate_coefficients, Rotation, ShBasis};
+use crate::projection::{Mapping, project_envmap};
+use crate::sh::{Rotation, ShBasis, num_coefficients, rotate_coefficients};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -97,7 +97,9 @@ impl Lighting {
                     _ => PathBuf::from(file),
                 };
                 let mapping = match t.get("mapping") {
-                    Some(m) => Some(Mapping::parse(m.as_str().ok_or_else(|| Error::new("lighting.mapping: expected a string"))?)?),
+                    Some(m) => Some(Mapping::parse(
+                        m.as_str().ok_or_else(|| Error::new("lighting.mapping: expected a string"))?,
+                    )?),
                     None => None,
                 };
                 let scale = match t.get("scale") {
@@ -117,7 +119,8 @@ impl Lighting {
     /// The `[lighting]` table of a scene TOML file (other tables are not read).
     pub fn from_scene_file(path: &Path) -> Result<Lighting> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read file: {e}")))?;
-        let table: toml::Table = text.parse().map_err(|e: toml::de::Error| Error::file(path, format!("invalid TOML: {e}")))?;
+        let table: toml::Table =
+            text.parse().map_err(|e: toml::de::Error| Error::file(path, format!("invalid TOML: {e}")))?;
         let lt = table.get("lighting").ok_or_else(|| Error::file(path, "scene has no [lighting] table"))?;
         let v = serde_json::to_value(lt).map_err(|e| Error::file(path, format!("lighting: {e}")))?;
         Lighting::from_json(&v, path.parent()).map_err(|e| e.in_file(path))

@@ -92,7 +92,8 @@ mod tests {
         let mut g = vec![0.0; p * p];
         for i in 0..p {
             for j in 0..p {
-                g[i * p + j] = (0..p).map(|k| a[k * p + i] * a[k * p + j]).sum::<f64>() + if i == j { 1.0 } else { 0.0 };
+                g[i * p + j] =
+                    (0..p).map(|k| a[k * p + i] * a[k * p + j]).sum::<f64>() + if i == j { 1.0 } else { 0.0 };
             }
         }
         let ch = Cholesky::new(&g, p, 1e-14).unwrap();

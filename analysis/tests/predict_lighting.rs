@@ -3,11 +3,11 @@
 //! measured filter recovering Λ_l ρ̂_l from a synthetic normal-probe render.
 
 use analysis::filter::measured_filter;
-use analysis::image::{read_rgb, write_exr, Image};
+use analysis::image::{Image, read_rgb, write_exr};
 use analysis::lighting::Lighting;
 use analysis::predict::{predict, truncation_error};
-use analysis::projection::{project_envmap, project_function, project_normal_probe, Mapping};
-use analysis::sh::{latlong_direction, rotate_coefficients, Reconstructor, Rotation, ShBasis};
+use analysis::projection::{Mapping, project_envmap, project_function, project_normal_probe};
+use analysis::sh::{Reconstructor, Rotation, ShBasis, latlong_direction, rotate_coefficients};
 use analysis::transfer::lambert::lambert;
 use std::f64::consts::PI;
 
@@ -82,7 +82,8 @@ fn envmap_lighting_with_rotation_and_scale_from_a_scene_file() {
     .unwrap();
     let got = Lighting::from_scene_file(&scene).unwrap().coefficients(lmax).unwrap();
     let r = Rotation::from_xyz_deg([0.0, 30.0, 60.0]);
-    let expect: Vec<[f64; 3]> = rotate_coefficients(&c, &r).iter().map(|v| [2.0 * v[0], 2.0 * v[1], 2.0 * v[2]]).collect();
+    let expect: Vec<[f64; 3]> =
+        rotate_coefficients(&c, &r).iter().map(|v| [2.0 * v[0], 2.0 * v[1], 2.0 * v[2]]).collect();
     for k in 0..16 {
         for ch in 0..3 {
             // Lat-long quadrature at H = 256: O((π/H)²) ≈ 1e-4 relative.

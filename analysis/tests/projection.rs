@@ -6,10 +6,10 @@
 use analysis::image::{Image, RgbImage};
 use analysis::projection::envmap::angular_pixel;
 use analysis::projection::{
-    fit_orthographic, project_envmap, project_function, project_normal_probe, Mapping, OrthoCamera, OrthoView, Param,
-    Sphere,
+    Mapping, OrthoCamera, OrthoView, Param, Sphere, fit_orthographic, project_envmap, project_function,
+    project_normal_probe,
 };
-use analysis::sh::{latlong_direction, num_coefficients, reconstruct_latlong, Reconstructor};
+use analysis::sh::{Reconstructor, latlong_direction, num_coefficients, reconstruct_latlong};
 use std::f64::consts::PI;
 
 struct Rng(u64);
@@ -31,8 +31,9 @@ impl Rng {
 /// A positive SH-defined lighting: a constant plus random low orders.
 fn sh_lighting(lmax: usize, seed: u64) -> Vec<[f64; 3]> {
     let mut rng = Rng(seed);
-    let mut c: Vec<[f64; 3]> =
-        (0..num_coefficients(lmax)).map(|_| [0.3 * (rng.next() - 0.5), 0.3 * (rng.next() - 0.5), 0.3 * (rng.next() - 0.5)]).collect();
+    let mut c: Vec<[f64; 3]> = (0..num_coefficients(lmax))
+        .map(|_| [0.3 * (rng.next() - 0.5), 0.3 * (rng.next() - 0.5), 0.3 * (rng.next() - 0.5)])
+        .collect();
     c[0] = [3.0, 2.5, 2.0];
     c
 }
@@ -135,7 +136,8 @@ fn normal_probe_projection_with_standard_errors() {
     let mut rng = Rng(99);
     let mut img = Image { width: w, height: h, ..Default::default() };
     for (ch, name) in ["R", "G", "B"].iter().enumerate() {
-        img.channels.insert(name.to_string(), clean.pixels.iter().map(|p| p[ch] + sigma * rng.normal() as f32).collect());
+        img.channels
+            .insert(name.to_string(), clean.pixels.iter().map(|p| p[ch] + sigma * rng.normal() as f32).collect());
         img.channels.insert(format!("stderr.{name}"), vec![sigma; w * h]);
     }
     let (got, se) = project_normal_probe(&img, lmax).unwrap();
@@ -158,7 +160,14 @@ fn normal_probe_projection_with_standard_errors() {
 
 /// Renders B (given by SH coefficients of the fit direction) onto an orthographic view of a sphere,
 /// with only R, G, B channels (like an EXR from another renderer), plus optional noise/stderr.
-fn ortho_image(c: &[[f64; 3]], cam: &OrthoCamera, sphere: &Sphere, param: Param, size: usize, noise: Option<(f32, u64)>) -> Image {
+fn ortho_image(
+    c: &[[f64; 3]],
+    cam: &OrthoCamera,
+    sphere: &Sphere,
+    param: Param,
+    size: usize,
+    noise: Option<(f32, u64)>,
+) -> Image {
     let lmax = analysis::sh::lmax_of(c.len()).unwrap();
     let mut rec = Reconstructor::new(lmax);
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
@@ -168,7 +177,11 @@ fn ortho_image(c: &[[f64; 3]], cam: &OrthoCamera, sphere: &Sphere, param: Param,
         [a[0] / n, a[1] / n, a[2] / n]
     };
     let f = norm(sub(cam.to, cam.from));
-    let right = norm([f[1] * cam.up[2] - f[2] * cam.up[1], f[2] * cam.up[0] - f[0] * cam.up[2], f[0] * cam.up[1] - f[1] * cam.up[0]]);
+    let right = norm([
+        f[1] * cam.up[2] - f[2] * cam.up[1],
+        f[2] * cam.up[0] - f[0] * cam.up[2],
+        f[0] * cam.up[1] - f[1] * cam.up[0],
+    ]);
     let up = [right[1] * f[2] - right[2] * f[1], right[2] * f[0] - right[0] * f[2], right[0] * f[1] - right[1] * f[0]];
     let mut chans = vec![vec![0.0f32; size * size]; 3];
     let mut rng = noise.map(|(_, s)| Rng(s));
@@ -222,7 +235,11 @@ fn add_normal_layer(img: &mut Image, cam: &OrthoCamera, sphere: &Sphere) {
         [a[0] / n, a[1] / n, a[2] / n]
     };
     let f = norm([cam.to[0] - cam.from[0], cam.to[1] - cam.from[1], cam.to[2] - cam.from[2]]);
-    let right = norm([f[1] * cam.up[2] - f[2] * cam.up[1], f[2] * cam.up[0] - f[0] * cam.up[2], f[0] * cam.up[1] - f[1] * cam.up[0]]);
+    let right = norm([
+        f[1] * cam.up[2] - f[2] * cam.up[1],
+        f[2] * cam.up[0] - f[0] * cam.up[2],
+        f[0] * cam.up[1] - f[1] * cam.up[0],
+    ]);
     let up = [right[1] * f[2] - right[2] * f[1], right[2] * f[0] - right[0] * f[2], right[0] * f[1] - right[1] * f[0]];
     let mut ch = vec![vec![0.0f32; size * size]; 3];
     for r in 0..size {
@@ -257,7 +274,8 @@ fn least_squares_recovers_sh_function_from_orthographic_views() {
         OrthoCamera { from: [-2.8, -0.1, 0.3], to: [0.2, -0.1, 0.3], up: [0.0, 0.0, 1.0], extent: 0.85 },
     ];
     let imgs: Vec<Image> = cams.iter().map(|cam| ortho_image(&c, cam, &sphere, Param::Normal, 200, None)).collect();
-    let views: Vec<OrthoView> = imgs.iter().zip(&cams).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
+    let views: Vec<OrthoView> =
+        imgs.iter().zip(&cams).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
     let fit = fit_orthographic(&views, &sphere, Param::Normal, lmax).unwrap();
     let e = max_err(&fit.coefficients, &c);
     assert!(e < 1e-5, "normal fit error {e}");
@@ -278,7 +296,8 @@ fn least_squares_recovers_sh_function_from_orthographic_views() {
     assert!(max_err(&fit_n.coefficients, &c4) < 1e-4, "{}", max_err(&fit_n.coefficients, &c4));
     // Reflection parameterization: one view covers almost every reflection direction.
     let img_r = ortho_image(&c, &cams[0], &sphere, Param::Reflection, 200, None);
-    let fit_r = fit_orthographic(&[OrthoView { image: &img_r, camera: cams[0] }], &sphere, Param::Reflection, lmax).unwrap();
+    let fit_r =
+        fit_orthographic(&[OrthoView { image: &img_r, camera: cams[0] }], &sphere, Param::Reflection, lmax).unwrap();
     assert!(max_err(&fit_r.coefficients, &c) < 1e-5, "reflection fit error {}", max_err(&fit_r.coefficients, &c));
 }
 
@@ -321,7 +340,8 @@ fn angular_symmetric_and_generic_paths_agree() {
     // compare each, on random (non-symmetric) content, with the plain per-pixel sum.
     for w in [64usize, 65] {
         let mut rng = Rng(w as u64);
-        let pixels: Vec<[f32; 3]> = (0..w * w).map(|_| [rng.next() as f32, rng.next() as f32, rng.next() as f32]).collect();
+        let pixels: Vec<[f32; 3]> =
+            (0..w * w).map(|_| [rng.next() as f32, rng.next() as f32, rng.next() as f32]).collect();
         let img = RgbImage { width: w, height: w, pixels };
         let got = project_envmap(&img, Mapping::Angular, 6).unwrap();
         let basis = analysis::sh::ShBasis::new(6);

@@ -3,7 +3,7 @@
 
 use analysis::projection::project_function;
 use analysis::quadrature::{gauss_legendre, legendre_all};
-use analysis::sh::{index, lambda, num_coefficients, rotate_coefficients, Reconstructor, Rotation, ShBasis};
+use analysis::sh::{Reconstructor, Rotation, ShBasis, index, lambda, num_coefficients, rotate_coefficients};
 use std::f64::consts::PI;
 
 /// SplitMix64, for deterministic test inputs (no dependency on the renderer).

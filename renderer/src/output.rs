@@ -111,6 +111,9 @@ pub fn write_png(path: &Path, film: &Film, exposure: f32) -> Result<()> {
             buf.push((srgb((c * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8);
         }
     }
-    let img = image::RgbImage::from_raw(film.width, film.height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
-    atomically(path, |tmp| img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}")))
+    let img =
+        image::RgbImage::from_raw(film.width, film.height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
+    atomically(path, |tmp| {
+        img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}"))
+    })
 }

@@ -77,7 +77,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> (Film, RenderStats) {
         .into_par_iter()
         .map(|t| {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-            let r = render_tile(scene, &tracer, tx * TILE, ty * TILE, (tx * TILE + TILE).min(w), (ty * TILE + TILE).min(h));
+            let r =
+                render_tile(scene, &tracer, tx * TILE, ty * TILE, (tx * TILE + TILE).min(w), (ty * TILE + TILE).min(h));
             bar.inc(1);
             r
         })
@@ -97,7 +98,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> (Film, RenderStats) {
             film.pixels[(row * w + col) as usize] = px;
         }
     }
-    let stats = RenderStats { wall, samples: w as u64 * h as u64 * s.spp as u64, rays, threads: rayon::current_num_threads() };
+    let stats =
+        RenderStats { wall, samples: w as u64 * h as u64 * s.spp as u64, rays, threads: rayon::current_num_threads() };
     (film, stats)
 }
 

@@ -19,15 +19,15 @@
 //! Output: B_lm ± standard error, L_lm, the measured filter (per-order least-squares estimate of
 //! albedo · Λ_l ρ̂_l with its standard error; orders where L has no energy are unobservable) and,
 //! with a known BRDF, its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo.
-use super::sh::check_lmax;
 use super::Error;
 use super::header::{first_sphere, json_rgb, json_vec3, lighting_of};
-use analysis::filter::{measured_filter, OrderEstimate};
-use analysis::image::{read_image, Image};
-use analysis::projection::{fit_orthographic, project_normal_probe, OrthoCamera, OrthoView, Param, Sphere};
+use super::sh::check_lmax;
+use analysis::filter::{OrderEstimate, measured_filter};
+use analysis::image::{Image, read_image};
+use analysis::projection::{OrthoCamera, OrthoView, Param, Sphere, fit_orthographic, project_normal_probe};
 use analysis::sh::lm;
 use analysis::transfer::TransferModel;
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -87,16 +87,22 @@ enum Camera {
 
 fn camera_of(img: &Image, a: &AnalyzeArgs) -> Result<Camera, Error> {
     if let Some(text) = img.attributes.get("reflect:camera") {
-        let v: Value = serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:camera is not JSON: {e}")))?;
+        let v: Value =
+            serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:camera is not JSON: {e}")))?;
         let ty = v.get("type").and_then(|t| t.as_str()).unwrap_or("");
         return match ty {
             "orthographic" => Ok(Camera::Ortho(OrthoCamera {
                 from: json_vec3(&v, "from")?,
                 to: json_vec3(&v, "to")?,
                 up: json_vec3(&v, "up")?,
-                extent: v.get("extent").and_then(|e| e.as_f64()).ok_or_else(|| Error::new("header camera has no 'extent'"))?,
+                extent: v
+                    .get("extent")
+                    .and_then(|e| e.as_f64())
+                    .ok_or_else(|| Error::new("header camera has no 'extent'"))?,
             })),
-            "normal-probe" => Ok(Camera::NormalProbe { theta_o_deg: super::header::probe_theta_o_deg(&v, "analysed")? }),
+            "normal-probe" => {
+                Ok(Camera::NormalProbe { theta_o_deg: super::header::probe_theta_o_deg(&v, "analysed")? })
+            }
             other => Err(Error::new(format!(
                 "camera type '{other}' cannot be analysed (use an orthographic or normal-probe render)"
             ))),
@@ -186,7 +192,14 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         }
         let (c, se) = project_normal_probe(&images[0], a.lmax).map_err(|e| e.in_file(&a.images[0]))?;
         let src = if se.is_some() { "stderr-layer" } else { "none" };
-        (c, se, format!("normal-probe quadrature (theta_o {theta_o_deg}°)"), images[0].width * images[0].height, src, None)
+        (
+            c,
+            se,
+            format!("normal-probe quadrature (theta_o {theta_o_deg}°)"),
+            images[0].width * images[0].height,
+            src,
+            None,
+        )
     } else {
         let views: Vec<OrthoView> = images
             .iter()
@@ -202,13 +215,16 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
                  (raise --lmax, add the opposite view, or render a normal-probe)"
             );
         }
-        let fit = fit_orthographic(&views, &sphere, param, a.lmax).map_err(|e| {
-            if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e }
-        })?;
+        let fit = fit_orthographic(&views, &sphere, param, a.lmax)
+            .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
         (
             fit.coefficients,
             Some(fit.stderr),
-            format!("weighted least squares over {} orthographic view(s), {} parameterization", images.len(), param.name()),
+            format!(
+                "weighted least squares over {} orthographic view(s), {} parameterization",
+                images.len(),
+                param.name()
+            ),
             fit.pixels_used,
             fit.stderr_source,
             Some(fit.rms_residual),
@@ -224,7 +240,9 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
     let filter: Option<Vec<OrderEstimate>> =
         l_coeffs.as_ref().map(|l| measured_filter(&b, b_se.as_deref(), l, a.lmax, 1e-8));
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
-        br.model.map(|m| m.lambda_rho(a.lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect())
+        br.model.map(|m| {
+            m.lambda_rho(a.lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect()
+        })
     });
 
     if a.json {
@@ -274,7 +292,9 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         println!("# brdf: {}", br.table);
         let horizon = br.table.get("horizon").and_then(|h| h.as_str()).unwrap_or("clamp");
         if matches!(br.ty.as_str(), "phong" | "torrance-sparrow") && horizon != "ignore" {
-            println!("# note: horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences");
+            println!(
+                "# note: horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences"
+            );
         }
     }
     println!("{:>4} {:>4} {:>26} {:>26} {:>26}", "l", "m", "B_lm R ± se", "G ± se", "B ± se");
@@ -288,7 +308,9 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         println!("{l:>4} {m:>4} {:>26} {:>26} {:>26}", cell(0), cell(1), cell(2));
     }
     if let Some(f) = &filter {
-        println!("\n# measured filter (albedo · Λ_l ρ̂_l per order, least squares over m weighted by the lighting's energy)");
+        println!(
+            "\n# measured filter (albedo · Λ_l ρ̂_l per order, least squares over m weighted by the lighting's energy)"
+        );
         println!(
             "{:>4} {:>26} {:>26} {:>26} {:>14}",
             "l",
@@ -314,7 +336,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
 mod tests {
     use super::*;
     use analysis::image::write_exr;
-    use analysis::sh::{latlong_direction, Reconstructor};
+    use analysis::sh::{Reconstructor, latlong_direction};
 
     fn args(images: Vec<PathBuf>, lmax: usize) -> AnalyzeArgs {
         AnalyzeArgs {
@@ -355,7 +377,8 @@ mod tests {
         img.attributes.insert("reflect:lighting".into(), json!({"type": "sh", "coefficients": l}).to_string());
         img.attributes.insert(
             "reflect:objects".into(),
-            r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"lambert","albedo":[0.5,0.5,0.5]}}]"#.into(),
+            r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"lambert","albedo":[0.5,0.5,0.5]}}]"#
+                .into(),
         );
         let good = tmp("probe.exr");
         write_exr(&good, &img).unwrap();

@@ -38,17 +38,17 @@
 use super::Error;
 use super::header::{header_json, probe_exitance_deg};
 use super::sh::check_lmax;
-use analysis::image::{read_image, Image};
+use analysis::image::{Image, read_image};
 use analysis::inverse::factorization::{
-    directional_lighting, filter_from_lighting, hemisphere_nodes, project, Factorization, LightField, NormalRule, OutgoingNode,
-    DEFAULT_MAX_AMPLIFICATION,
+    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, OutgoingNode, directional_lighting,
+    filter_from_lighting, hemisphere_nodes, project,
 };
 use analysis::sh::lm;
 use renderer::camera::{Camera, NormalProbe};
-use renderer::render::{render, RenderOptions};
+use renderer::render::{RenderOptions, render};
 use renderer::scene::file::{CameraSection, ObjectSection};
 use renderer::scene::{Scene, SceneFile};
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -218,11 +218,16 @@ fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {
     let ch = channel_index(&a.channel)?;
     let rule = rule_of(&a.rule)?;
     if !(a.max_amplification.is_finite() && a.max_amplification >= 1.0) {
-        return Err(Error::new(format!("--max-amplification must be a finite number ≥ 1, got {}", a.max_amplification)));
+        return Err(Error::new(format!(
+            "--max-amplification must be a finite number ≥ 1, got {}",
+            a.max_amplification
+        )));
     }
     let m = match (&a.scene, a.images.is_empty()) {
         (Some(_), false) => return Err(Error::new("give either IMAGES or --scene, not both")),
-        (None, true) => return Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI")),
+        (None, true) => {
+            return Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI"));
+        }
         (Some(scene), true) => {
             if a.normal.is_some() {
                 return Err(Error::new("--normal applies to IMAGES; with --scene the θ_o = 0 view is rendered"));
@@ -238,15 +243,18 @@ fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {
 
 /// Camera of a header: (θ_o°, φ_o°), checked to be a pixel-centre normal-probe.
 fn probe_angles(img: &Image, p: &Path) -> Result<(f64, f64), Error> {
-    let cam = header_json(img, "reflect:camera")
-        .map_err(|e| e.in_file(p))?
-        .ok_or_else(|| Error::file(p, "no reflect:camera in the header (factor needs normal-probe renders of reflect)"))?;
+    let cam = header_json(img, "reflect:camera").map_err(|e| e.in_file(p))?.ok_or_else(|| {
+        Error::file(p, "no reflect:camera in the header (factor needs normal-probe renders of reflect)")
+    })?;
     let ty = cam.get("type").and_then(|t| t.as_str()).unwrap_or("");
     if ty != "normal-probe" {
         return Err(Error::file(p, format!("camera type '{ty}' cannot be factored (normal-probe renders only)")));
     }
     if cam.get("jitter").and_then(|j| j.as_bool()) == Some(true) {
-        return Err(Error::file(p, "a jittered normal-probe render holds pixel averages, not the pixel-centre samples the quadrature needs (render with jitter = false)"));
+        return Err(Error::file(
+            p,
+            "a jittered normal-probe render holds pixel averages, not the pixel-centre samples the quadrature needs (render with jitter = false)",
+        ));
     }
     probe_exitance_deg(&cam).map_err(|e| e.in_file(p))
 }
@@ -276,7 +284,9 @@ type NodeMatch = ((usize, usize), Vec<OutgoingNode>, Vec<usize>);
 /// those are not all Gauss–Legendre nodes of that count, the smallest larger count whose nodes they
 /// are: a whole missing ring) and n_φ the smallest count whose azimuth grid holds every φ_o seen. Every node must be hit exactly once.
 fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, usize)>) -> Result<NodeMatch, Error> {
-    let thetas_of = |n_mu: usize| -> Result<Vec<f64>, Error> { Ok(hemisphere_nodes(n_mu, 1)?.iter().map(|n| n.theta_o.to_degrees()).collect()) };
+    let thetas_of = |n_mu: usize| -> Result<Vec<f64>, Error> {
+        Ok(hemisphere_nodes(n_mu, 1)?.iter().map(|n| n.theta_o.to_degrees()).collect())
+    };
     let (n_mu, n_phi) = match given {
         Some(g) => g,
         None => {
@@ -293,9 +303,16 @@ fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, us
             // n_φ: the smallest count whose azimuths 360°k/n_φ hold every φ_o seen (so a ring
             // with gaps is not mistaken for a coarser rule), at least the fullest ring.
             let fullest = rings.iter().map(|r| r.1.len()).max().unwrap_or(0);
-            let on_grid = |n: usize| rings.iter().flat_map(|r| &r.1).all(|&p| circular_deg(p, (p / (360.0 / n as f64)).round() * 360.0 / n as f64) <= NODE_TOL_DEG);
+            let on_grid = |n: usize| {
+                rings
+                    .iter()
+                    .flat_map(|r| &r.1)
+                    .all(|&p| circular_deg(p, (p / (360.0 / n as f64)).round() * 360.0 / n as f64) <= NODE_TOL_DEG)
+            };
             let n_phi = (fullest.max(1)..=MAX_PHI).find(|&n| on_grid(n)).unwrap_or(fullest);
-            let fits = |n: usize| thetas_of(n).map(|ts| rings.iter().all(|r| ts.iter().any(|t| (t - r.0).abs() <= NODE_TOL_DEG)));
+            let fits = |n: usize| {
+                thetas_of(n).map(|ts| rings.iter().all(|r| ts.iter().any(|t| (t - r.0).abs() <= NODE_TOL_DEG)))
+            };
             let mut n_mu = rings.len();
             while n_mu < MAX_MU && !fits(n_mu)? {
                 n_mu += 1;
@@ -306,7 +323,8 @@ fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, us
             (n_mu, n_phi)
         }
     };
-    check_nodes(n_mu, n_phi).map_err(|e| Error::new(format!("inferred from {} images: {}", angles.len(), e.message)))?;
+    check_nodes(n_mu, n_phi)
+        .map_err(|e| Error::new(format!("inferred from {} images: {}", angles.len(), e.message)))?;
     let nodes = hemisphere_nodes(n_mu, n_phi)?;
     let deg: Vec<(f64, f64)> = nodes.iter().map(node_degrees).collect();
     let mut owner: Vec<Option<usize>> = vec![None; nodes.len()];
@@ -323,7 +341,10 @@ fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, us
             )
         })?;
         if let Some(k) = owner[j] {
-            return Err(Error::file(&names[i], format!("same node {} as {} (every node exactly once)", fmt_node(deg[j].0, deg[j].1), names[k])));
+            return Err(Error::file(
+                &names[i],
+                format!("same node {} as {} (every node exactly once)", fmt_node(deg[j].0, deg[j].1), names[k]),
+            ));
         }
         owner[j] = Some(i);
         out.push(j);
@@ -351,12 +372,26 @@ fn scene_of(img: &Image) -> [Option<String>; 2] {
 fn same_scene(first: &[Option<String>; 2], first_path: &Path, img: &Image, p: &Path) -> Result<(), Error> {
     let s = scene_of(img);
     match (0..2).find(|&k| first[k] != s[k]) {
-        Some(k) => Err(Error::file(p, format!("header {} differs from {}'s (all renders must be of one scene)", SCENE_KEYS[k], first_path.display()))),
+        Some(k) => Err(Error::file(
+            p,
+            format!(
+                "header {} differs from {}'s (all renders must be of one scene)",
+                SCENE_KEYS[k],
+                first_path.display()
+            ),
+        )),
         None => Ok(()),
     }
 }
 
-fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, usize)>, ch: usize, rule: NormalRule, lmax: usize) -> Result<Measured, Error> {
+fn from_images(
+    paths: &[PathBuf],
+    normal: Option<&Path>,
+    given: Option<(usize, usize)>,
+    ch: usize,
+    rule: NormalRule,
+    lmax: usize,
+) -> Result<Measured, Error> {
     let mut angles = Vec::with_capacity(paths.len());
     let mut data = Vec::with_capacity(paths.len());
     let mut size = None;
@@ -366,12 +401,23 @@ fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, u
         let img = read_image(p)?;
         let (t, ph) = probe_angles(&img, p)?;
         if t.abs() <= NODE_TOL_DEG {
-            return Err(Error::file(p, "θ_o = 0 is not a node of the outgoing rule: pass a normal-exitance view with --normal"));
+            return Err(Error::file(
+                p,
+                "θ_o = 0 is not a node of the outgoing rule: pass a normal-exitance view with --normal",
+            ));
         }
         match size {
             None => size = Some((img.width, img.height, p)),
             Some((w, h, first)) if (w, h) != (img.width, img.height) => {
-                return Err(Error::file(p, format!("image is {}×{}, but {} is {w}×{h} (all node images must share one grid)", img.width, img.height, first.display())));
+                return Err(Error::file(
+                    p,
+                    format!(
+                        "image is {}×{}, but {} is {w}×{h} (all node images must share one grid)",
+                        img.width,
+                        img.height,
+                        first.display()
+                    ),
+                ));
             }
             _ => {}
         }
@@ -407,10 +453,16 @@ fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, u
                 same_scene(s0, p0, &img, p)?;
             }
             if t.abs() > NODE_TOL_DEG {
-                return Err(Error::file(p, format!("--normal needs a θ_o = 0 normal-probe render, this one is at θ_o = {t}°")));
+                return Err(Error::file(
+                    p,
+                    format!("--normal needs a θ_o = 0 normal-probe render, this one is at θ_o = {t}°"),
+                ));
             }
             if lmax >= img.height {
-                return Err(Error::file(p, format!("--lmax {lmax} is not resolved by {} image rows (need lmax < H)", img.height)));
+                return Err(Error::file(
+                    p,
+                    format!("--lmax {lmax} is not resolved by {} image rows (need lmax < H)", img.height),
+                ));
             }
             let (v, se) = channel_of(&img, ch, p)?;
             if let Some(s) = se {
@@ -431,18 +483,34 @@ fn from_images(paths: &[PathBuf], normal: Option<&Path>, given: Option<(usize, u
 
 /// Renders one normal-probe view of `scene` at (θ_o°, φ_o°) and returns the channel and its
 /// largest standard error. A renderer panic is reported as an error (as `verify` does).
-fn render_view(scene: &mut Scene, sphere: (glam::Vec3, f32), theta_deg: f64, phi_deg: f64, ch: usize) -> Result<(Vec<f64>, f64), Error> {
+fn render_view(
+    scene: &mut Scene,
+    sphere: (glam::Vec3, f32),
+    theta_deg: f64,
+    phi_deg: f64,
+    ch: usize,
+) -> Result<(Vec<f64>, f64), Error> {
     let (w, h) = (scene.settings.width, scene.settings.height);
-    let cam = NormalProbe::new(theta_deg as f32, phi_deg as f32, false, sphere.0, sphere.1, w, h).map_err(Error::new)?;
+    let cam =
+        NormalProbe::new(theta_deg as f32, phi_deg as f32, false, sphere.0, sphere.1, w, h).map_err(Error::new)?;
     scene.camera = Camera::NormalProbe(cam);
-    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(scene, &RenderOptions { progress: false })));
-    let (film, _) = out.map_err(|_| Error::new(format!("the renderer panicked at {}", fmt_node(theta_deg, phi_deg))))?;
+    let out =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(scene, &RenderOptions { progress: false })));
+    let (film, _) =
+        out.map_err(|_| Error::new(format!("the renderer panicked at {}", fmt_node(theta_deg, phi_deg))))?;
     let v = film.pixels.iter().map(|p| p.rgb[ch] as f64).collect();
     let se = film.pixels.iter().fold(0.0f64, |m, p| m.max(p.stderr[ch] as f64));
     Ok((v, se))
 }
 
-fn from_scene(path: &Path, (n_mu, n_phi): (usize, usize), (w, h): (u32, u32), ch: usize, rule: NormalRule, lmax: usize) -> Result<Measured, Error> {
+fn from_scene(
+    path: &Path,
+    (n_mu, n_phi): (usize, usize),
+    (w, h): (u32, u32),
+    ch: usize,
+    rule: NormalRule,
+    lmax: usize,
+) -> Result<Measured, Error> {
     check_nodes(n_mu, n_phi)?;
     if lmax >= h as usize {
         return Err(Error::new(format!("--lmax {lmax} is not resolved by --size {w}x{h} (need lmax < height)")));
@@ -523,7 +591,8 @@ fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: No
             "directionality": s.directionality,
         })
     });
-    let profile: Vec<Value> = m.lf.albedo_profile().iter().map(|(t, v)| json!({"theta_o_deg": t.to_degrees(), "p_albedo": v})).collect();
+    let profile: Vec<Value> =
+        m.lf.albedo_profile().iter().map(|(t, v)| json!({"theta_o_deg": t.to_degrees(), "p_albedo": v})).collect();
     let filter = m.normal_b.as_ref().map(|b| {
         let factored = ratios(&filter_from_lighting(b, &f.lighting, lmax));
         let directional = f.source_direction().map(|s| {
@@ -565,7 +634,12 @@ fn print_text(doc: &Value) {
     let g = &doc["grid"];
     println!(
         "# invert factor (eq. 18) — {}x{} outgoing nodes (Gauss–Legendre μ × trapezoid φ), {}×{} normals ({}), channel {}",
-        n[0], n[1], g[0], g[1], doc["rule"].as_str().unwrap_or(""), doc["channel"].as_str().unwrap_or("")
+        n[0],
+        n[1],
+        g[0],
+        g[1],
+        doc["rule"].as_str().unwrap_or(""),
+        doc["channel"].as_str().unwrap_or("")
     );
     if let Some(s) = doc["input"]["scene"].as_str() {
         println!(
@@ -576,21 +650,40 @@ fn print_text(doc: &Value) {
             doc["input"]["objects"]
         );
         if doc["input"]["objects"].as_u64().unwrap_or(1) > 1 {
-            println!("# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections");
+            println!(
+                "# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections"
+            );
         }
     }
     if let Some(r) = doc["renders"].as_object() {
-        println!("# renders: {} ({} nodes + 1 at θ_o = 0), wall time {:.2} s", r["count"], r["count"].as_u64().unwrap_or(1).saturating_sub(1), r["wall_seconds"].as_f64().unwrap_or(0.0));
+        println!(
+            "# renders: {} ({} nodes + 1 at θ_o = 0), wall time {:.2} s",
+            r["count"],
+            r["count"].as_u64().unwrap_or(1).saturating_sub(1),
+            r["wall_seconds"].as_f64().unwrap_or(0.0)
+        );
     }
     if let Some(se) = doc["max_stderr"].as_f64() {
         println!("# largest per-pixel standard error of the renders: {se:.3e}");
     }
-    println!("# orders with amplification 1/gain > {} are ill-conditioned; κ_l = 0 is ambiguous (0/0)", doc["max_amplification"]);
+    println!(
+        "# orders with amplification 1/gain > {} are ill-conditioned; κ_l = 0 is ambiguous (0/0)",
+        doc["max_amplification"]
+    );
     println!("{:>4} {:>14} {:>12} {:>16}", "l", "κ_l/κ_0", "gain", "status");
     for o in doc["orders"].as_array().into_iter().flatten() {
-        println!("{:>4} {:>14} {:>12} {:>16}", o["l"].as_u64().unwrap_or(0), fmt_num(&o["kappa_ratio"]), fmt_num(&o["gain"]), o["status"].as_str().unwrap_or(""));
+        println!(
+            "{:>4} {:>14} {:>12} {:>16}",
+            o["l"].as_u64().unwrap_or(0),
+            fmt_num(&o["kappa_ratio"]),
+            fmt_num(&o["gain"]),
+            o["status"].as_str().unwrap_or("")
+        );
     }
-    println!("\n# lighting L_lm/P up to the global scale P = ∫L dω (L_00/P = 1/√(4π) = {:.6} is the gauge)", doc["gauge_l00"].as_f64().unwrap_or(0.0));
+    println!(
+        "\n# lighting L_lm/P up to the global scale P = ∫L dω (L_00/P = 1/√(4π) = {:.6} is the gauge)",
+        doc["gauge_l00"].as_f64().unwrap_or(0.0)
+    );
     println!("{:>4} {:>4} {:>14}", "l", "m", "L_lm/P");
     for (k, v) in doc["lighting"].as_array().into_iter().flatten().enumerate() {
         let (l, mm) = lm(k);
@@ -608,7 +701,10 @@ fn print_text(doc: &Value) {
                 s["theta_deg"].as_f64().unwrap_or(f64::NAN),
                 s["phi_deg"].as_f64().unwrap_or(f64::NAN)
             );
-            println!("# directionality |L_1|/√(3/4π) = {:.5} (1 for a single directional source, < 1 otherwise)", s["directionality"].as_f64().unwrap_or(f64::NAN));
+            println!(
+                "# directionality |L_1|/√(3/4π) = {:.5} (1 for a single directional source, < 1 otherwise)",
+                s["directionality"].as_f64().unwrap_or(f64::NAN)
+            );
         }
         None => println!("\n# source direction: none (l_max < 1, or the order-1 lighting is ambiguous or zero)"),
     }
@@ -632,7 +728,7 @@ fn print_text(doc: &Value) {
 mod tests {
     use super::*;
     use analysis::image::write_exr;
-    use analysis::sh::{index, lambda, latlong_direction, num_coefficients, ShBasis};
+    use analysis::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
 
     fn tmp(name: &str) -> PathBuf {
         crate::cli::test_path("factor", name)
@@ -710,7 +806,8 @@ mod tests {
         a.normal = Some(normal);
         let doc = factor_doc(&a).unwrap();
         assert_eq!(doc["nodes"], json!([3, 4]));
-        let status: Vec<&str> = doc["orders"].as_array().unwrap().iter().map(|o| o["status"].as_str().unwrap()).collect();
+        let status: Vec<&str> =
+            doc["orders"].as_array().unwrap().iter().map(|o| o["status"].as_str().unwrap()).collect();
         // Lambert: a(θ) = const, so κ_l ∝ ∫_0^1 μ P_l(μ) dμ = 0 at l = 3 (eq. 38): ambiguous; l = 4
         // has gain |A_4/A_0| = 1/24 < 1/10: ill-conditioned.
         assert_eq!(status, ["recovered", "recovered", "recovered", "ambiguous", "ill-conditioned"]);
@@ -868,7 +965,9 @@ radius = 1.0
     #[test]
     fn scene_mode_renders_the_light_field_and_agrees_with_image_mode() {
         let truth = [0.48, -0.36, 0.8];
-        let glossy = format!("{SCENE}brdf = {{ type = \"microfacet\", distribution = \"beckmann\", alpha = 0.4, fresnel = \"none\" }}\n");
+        let glossy = format!(
+            "{SCENE}brdf = {{ type = \"microfacet\", distribution = \"beckmann\", alpha = 0.4, fresnel = \"none\" }}\n"
+        );
         let scene = tmp("glossy.toml");
         std::fs::write(&scene, &glossy).unwrap();
         let mut a = args(vec![], 2);
@@ -893,7 +992,10 @@ radius = 1.0
         for (j, node) in hemisphere_nodes(2, 4).unwrap().iter().enumerate() {
             let (t, p) = node_degrees(node);
             let text = glossy
-                .replace("type = \"orthographic\"", &format!("type = \"normal-probe\"\ntheta_o_deg = {}\nphi_o_deg = {}", toml_float(t), toml_float(p)))
+                .replace(
+                    "type = \"orthographic\"",
+                    &format!("type = \"normal-probe\"\ntheta_o_deg = {}\nphi_o_deg = {}", toml_float(t), toml_float(p)),
+                )
                 .replace("from = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nextent = 1.1\n", "")
                 .replace("width = 8\nheight = 8", "width = 24\nheight = 12");
             let sc = Scene::build(SceneFile::parse(&text).unwrap(), Path::new(".")).unwrap();
@@ -919,7 +1021,14 @@ radius = 1.0
 
         // objects[0] must be a sphere; absurd sizes and missing --nodes are refused.
         let mesh = tmp("mesh.toml");
-        std::fs::write(&mesh, SCENE.replace("shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0", "shape = \"mesh\"\nfile = \"x.obj\"") + "brdf = { type = \"lambert\", albedo = 1.0 }\n").unwrap();
+        std::fs::write(
+            &mesh,
+            SCENE.replace(
+                "shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0",
+                "shape = \"mesh\"\nfile = \"x.obj\"",
+            ) + "brdf = { type = \"lambert\", albedo = 1.0 }\n",
+        )
+        .unwrap();
         a.scene = Some(mesh);
         let e = factor_doc(&a).unwrap_err().to_string();
         assert!(e.contains("mesh.toml") && e.contains("sphere"), "{e}");

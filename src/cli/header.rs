@@ -34,7 +34,10 @@ pub fn json_vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
 pub fn probe_exitance_deg(cam: &Value) -> Result<(f64, f64), Error> {
     let num = |k: &str| match cam.get(k) {
         None => Ok(0.0),
-        Some(v) => v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| Error::new(format!("header camera '{k}' is not a number"))),
+        Some(v) => v
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| Error::new(format!("header camera '{k}' is not a number"))),
     };
     Ok((num("theta_o_deg")?, num("phi_o_deg")?))
 }
@@ -45,7 +48,9 @@ pub fn probe_exitance_deg(cam: &Value) -> Result<(f64, f64), Error> {
 pub fn probe_theta_o_deg(cam: &Value, what: &str) -> Result<f64, Error> {
     let (theta_o_deg, phi_o_deg) = probe_exitance_deg(cam)?;
     if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
-        return Err(Error::new(format!("a normal-probe render at phi_o_deg = {phi_o_deg} cannot be {what} (only phi_o_deg = 0)")));
+        return Err(Error::new(format!(
+            "a normal-probe render at phi_o_deg = {phi_o_deg} cannot be {what} (only phi_o_deg = 0)"
+        )));
     }
     Ok(theta_o_deg)
 }
@@ -96,7 +101,9 @@ pub fn lighting_of(
         return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
     }
     match header_json(first, "reflect:lighting").map_err(|e| e.in_file(first_path))? {
-        Some(v) => Ok(Some((Lighting::from_json_with(&v, first_path.parent(), false)?, "reflect:lighting header".to_string()))),
+        Some(v) => {
+            Ok(Some((Lighting::from_json_with(&v, first_path.parent(), false)?, "reflect:lighting header".to_string())))
+        }
         None => Ok(None),
     }
 }

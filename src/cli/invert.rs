@@ -16,17 +16,17 @@
 //! θ_o = 0 the normal is the reflection vector, so every BRDF's B is in its own parameterization),
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
 //! normal parameterization for lambert and the reflection one otherwise).
-use super::sh::{check_lmax, model_from_args};
 use super::Error;
 use super::header::{first_sphere, header_json, json_rgb, json_vec3, lighting_of, probe_theta_o_deg};
-use analysis::image::{read_image, write_exr, Image};
-use analysis::inverse::brdf::{estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe, Model};
-use analysis::inverse::lighting::{invert_lighting, Rule, DEFAULT_MAX_AMPLIFICATION};
+use super::sh::{check_lmax, model_from_args};
+use analysis::image::{Image, read_image, write_exr};
+use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
+use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::lighting::Lighting;
-use analysis::projection::{fit_orthographic, project_normal_probe, OrthoCamera, OrthoView, Param};
+use analysis::projection::{OrthoCamera, OrthoView, Param, fit_orthographic, project_normal_probe};
 use analysis::sh::reconstruct_latlong;
 use analysis::transfer::TransferModel;
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -145,18 +145,26 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
     let mut ortho = Vec::new();
     let mut probe = None;
     for (img, p) in images.iter().zip(paths) {
-        let cam = header_json(img, "reflect:camera")
-            .map_err(|e| e.in_file(p))?
-            .ok_or_else(|| Error::file(p, "no reflect:camera in the header (invert needs a render of reflect, or use analyze)"))?;
+        let cam = header_json(img, "reflect:camera").map_err(|e| e.in_file(p))?.ok_or_else(|| {
+            Error::file(p, "no reflect:camera in the header (invert needs a render of reflect, or use analyze)")
+        })?;
         match cam.get("type").and_then(|t| t.as_str()).unwrap_or("") {
             "normal-probe" => probe = Some(probe_theta_o_deg(&cam, "inverted").map_err(|e| e.in_file(p))?),
             "orthographic" => ortho.push(OrthoCamera {
                 from: json_vec3(&cam, "from").map_err(|e| e.in_file(p))?,
                 to: json_vec3(&cam, "to").map_err(|e| e.in_file(p))?,
                 up: json_vec3(&cam, "up").map_err(|e| e.in_file(p))?,
-                extent: cam.get("extent").and_then(|e| e.as_f64()).ok_or_else(|| Error::file(p, "header camera has no 'extent'"))?,
+                extent: cam
+                    .get("extent")
+                    .and_then(|e| e.as_f64())
+                    .ok_or_else(|| Error::file(p, "header camera has no 'extent'"))?,
             }),
-            other => return Err(Error::file(p, format!("camera type '{other}' cannot be inverted (use orthographic or normal-probe)"))),
+            other => {
+                return Err(Error::file(
+                    p,
+                    format!("camera type '{other}' cannot be inverted (use orthographic or normal-probe)"),
+                ));
+            }
         }
     }
     if let Some(theta_o_deg) = probe {
@@ -165,13 +173,22 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         }
         let (b, stderr) = project_normal_probe(&images[0], lmax).map_err(|e| e.in_file(&paths[0]))?;
         let first = images.into_iter().next().unwrap_or_default();
-        return Ok(Projected { b, stderr, method: format!("normal-probe quadrature (theta_o {theta_o_deg}°)"), theta_o: theta_o_deg.to_radians(), first, probe: true });
+        return Ok(Projected {
+            b,
+            stderr,
+            method: format!("normal-probe quadrature (theta_o {theta_o_deg}°)"),
+            theta_o: theta_o_deg.to_radians(),
+            first,
+            probe: true,
+        });
     }
     let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
     let sphere = sphere.unwrap_or_default();
-    let views: Vec<OrthoView> = images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
+    let views: Vec<OrthoView> =
+        images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
     let fit = fit_orthographic(&views, &sphere, param, lmax)?;
-    let method = format!("weighted least squares over {} orthographic view(s), {} parameterization", views.len(), param.name());
+    let method =
+        format!("weighted least squares over {} orthographic view(s), {} parameterization", views.len(), param.name());
     drop(views);
     let first = images.into_iter().next().unwrap_or_default();
     Ok(Projected { b: fit.coefficients, stderr: Some(fit.stderr), method, theta_o: 0.0, first, probe: false })
@@ -193,7 +210,9 @@ fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(Tr
                 "mirror" => ("kr", None, None),
                 "phong" => ("ks", b.get("s").and_then(|x| x.as_f64()), None),
                 "torrance-sparrow" => ("ks", None, b.get("sigma").and_then(|x| x.as_f64())),
-                other => return Err(Error::new(format!("the header's BRDF '{other}' has no transfer model: pass --brdf"))),
+                other => {
+                    return Err(Error::new(format!("the header's BRDF '{other}' has no transfer model: pass --brdf")));
+                }
             };
             let th = if ty == "lambert" || ty == "mirror" || ty == "phong" { None } else { theta_o_deg };
             (model_from_args(&ty, s, sigma, th)?, ty, json_rgb(b.get(key)))
@@ -226,7 +245,9 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
     let named = a.brdf.as_deref();
     let first = read_image(&a.images[0])?;
     let (_, header_brdf, _) = first_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
-    let ty = named.map(str::to_string).or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str().map(str::to_string)));
+    let ty = named
+        .map(str::to_string)
+        .or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str().map(str::to_string)));
     let param = if ty.as_deref() == Some("lambert") { Param::Normal } else { Param::Reflection };
     let p = project(&a.images, a.lmax, param)?;
     let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)?;
@@ -239,7 +260,8 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
         for (ch, n) in ["R", "G", "B"].iter().enumerate() {
             img.channels.insert(n.to_string(), px.iter().map(|p| p[ch] as f32).collect());
         }
-        img.attributes.insert("reflect:lighting-source".into(), format!("invert lighting, {} regularisation", rule.name()));
+        img.attributes
+            .insert("reflect:lighting-source".into(), format!("invert lighting, {} regularisation", rule.name()));
         write_exr(out, &img)?;
     }
     Ok(json!({
@@ -357,25 +379,43 @@ fn fmt_opt(v: &Value) -> String {
 fn print_text(doc: &Value) {
     println!("# {} — {}", doc["command"].as_str().unwrap_or(""), doc["method"].as_str().unwrap_or(""));
     if doc["command"] == "invert lighting" {
-        println!("# brdf {}, albedo {}, orders with amplification > {} are ill-conditioned", doc["brdf"], doc["albedo"], doc["max_amplification"]);
+        println!(
+            "# brdf {}, albedo {}, orders with amplification > {} are ill-conditioned",
+            doc["brdf"], doc["albedo"], doc["max_amplification"]
+        );
         println!("{:>4} {:>12} {:>14} {:>16}", "l", "Λ_l ρ̂_l", "amplification", "status");
         for o in doc["orders"].as_array().into_iter().flatten() {
-            println!("{:>4} {:>12} {:>14} {:>16}", o["l"].as_u64().unwrap_or(0), fmt_opt(&o["lambda_rho"]), fmt_opt(&o["amplification"]), o["status"].as_str().unwrap_or(""));
+            println!(
+                "{:>4} {:>12} {:>14} {:>16}",
+                o["l"].as_u64().unwrap_or(0),
+                fmt_opt(&o["lambda_rho"]),
+                fmt_opt(&o["amplification"]),
+                o["status"].as_str().unwrap_or("")
+            );
         }
         println!("\n{:>4} {:>30} {:>14}", "k", "L_lm (R) ± se", "regularised R");
         let c = doc["coefficients"].as_array().cloned().unwrap_or_default();
         for (k, v) in c.iter().enumerate() {
             let se = &doc["stderr"][k][0];
             let reg = &doc["regularised"]["coefficients"][k][0];
-            let cell = if v.is_null() { "unobservable".to_string() } else { format!("{} ± {}", fmt_opt(&v[0]), fmt_opt(se)) };
+            let cell =
+                if v.is_null() { "unobservable".to_string() } else { format!("{} ± {}", fmt_opt(&v[0]), fmt_opt(se)) };
             println!("{k:>4} {cell:>30} {:>14}", fmt_opt(reg));
         }
-        println!("# Tikhonov: {}, λ = {}", doc["regularised"]["rule"].as_str().unwrap_or(""), doc["regularised"]["lambda"]);
+        println!(
+            "# Tikhonov: {}, λ = {}",
+            doc["regularised"]["rule"].as_str().unwrap_or(""),
+            doc["regularised"]["lambda"]
+        );
     } else {
         println!("# lighting: {}", doc["lighting"].as_str().unwrap_or(""));
         println!("{:>4} {:>30}", "l", "Λ_l ρ̂_l (R) ± se");
         for o in doc["filter"].as_array().into_iter().flatten() {
-            let cell = if o["observable"] == true { format!("{} ± {}", fmt_opt(&o["estimate"][0]), fmt_opt(&o["stderr"][0])) } else { "unobservable".into() };
+            let cell = if o["observable"] == true {
+                format!("{} ± {}", fmt_opt(&o["estimate"][0]), fmt_opt(&o["stderr"][0]))
+            } else {
+                "unobservable".into()
+            };
             println!("{:>4} {cell:>30}", o["l"].as_u64().unwrap_or(0));
         }
         let iv = |v: &Value| v.as_f64().map_or("unbounded".to_string(), |x| format!("{x:.4}"));
@@ -394,7 +434,7 @@ fn print_text(doc: &Value) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use analysis::sh::{index, latlong_direction, num_coefficients, Reconstructor};
+    use analysis::sh::{Reconstructor, index, latlong_direction, num_coefficients};
     use std::path::Path;
 
     fn tmp(name: &str) -> PathBuf {
@@ -414,7 +454,10 @@ mod tests {
         }
         img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
         img.attributes.insert("reflect:lighting".into(), json!({"type": "sh", "coefficients": l}).to_string());
-        img.attributes.insert("reflect:objects".into(), format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{brdf}}}]"#));
+        img.attributes.insert(
+            "reflect:objects".into(),
+            format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{brdf}}}]"#),
+        );
         write_exr(path, &img).unwrap();
     }
 
@@ -443,8 +486,20 @@ mod tests {
         let mut a = lighting_args(vec![path.clone()], lmax);
         a.output = Some(tmp("env.exr"));
         let doc = lighting_doc(&a).unwrap();
-        let status: Vec<&str> = doc["orders"].as_array().unwrap().iter().map(|o| o["status"].as_str().unwrap()).collect();
-        assert_eq!(status, ["recovered", "recovered", "recovered", "unobservable", "ill-conditioned", "unobservable", "ill-conditioned"]);
+        let status: Vec<&str> =
+            doc["orders"].as_array().unwrap().iter().map(|o| o["status"].as_str().unwrap()).collect();
+        assert_eq!(
+            status,
+            [
+                "recovered",
+                "recovered",
+                "recovered",
+                "unobservable",
+                "ill-conditioned",
+                "unobservable",
+                "ill-conditioned"
+            ]
+        );
         // Midpoint lat-long quadrature (256×128) errs (and aliases higher orders) by
         // O((π l_max/H)²/24) ≈ 3e-5 l_max² ≈ 1e-3 of B_00 (l_max = 6); inversion amplifies that by
         // 1/(albedo Λ_l ρ̂_l). Measured: worst 2.4e-4 at (2, 0). Able to fail: a wrong albedo
@@ -505,7 +560,16 @@ mod tests {
         let s = 24.0;
         let path = tmp("phong.exr");
         probe(&path, &l, &analysis::transfer::phong::phong(s, lmax), [0.8; 3], r#"{"type":"phong","s":24,"ks":0.8}"#);
-        let a = BrdfArgs { images: vec![path.clone()], lighting: None, mapping: None, model: "phong".into(), lmax, min: None, max: None, json: true };
+        let a = BrdfArgs {
+            images: vec![path.clone()],
+            lighting: None,
+            mapping: None,
+            model: "phong".into(),
+            lmax,
+            min: None,
+            max: None,
+            json: true,
+        };
         let doc = brdf_doc(&a).unwrap();
         // No stderr layer: unit weights rescaled by the residual scatter. The only error is the
         // quadrature's, ≈ 3e-5 l² relative (1/2 % at l = 12); d ln Λρ̂_l / d ln s ≈ l²/2s ≈ 3 there,
@@ -552,10 +616,22 @@ mod tests {
             }
             img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
             img.attributes.insert("reflect:lighting".into(), json!({"type": "sh", "coefficients": l}).to_string());
-            img.attributes.insert("reflect:objects".into(), r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"phong","s":32,"ks":1}}]"#.into());
+            img.attributes.insert(
+                "reflect:objects".into(),
+                r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"phong","s":32,"ks":1}}]"#.into(),
+            );
             let path = tmp(&format!("noisy{trial}.exr"));
             write_exr(&path, &img).unwrap();
-            let a = BrdfArgs { images: vec![path.clone()], lighting: None, mapping: None, model: "phong".into(), lmax, min: None, max: None, json: true };
+            let a = BrdfArgs {
+                images: vec![path.clone()],
+                lighting: None,
+                mapping: None,
+                model: "phong".into(),
+                lmax,
+                min: None,
+                max: None,
+                json: true,
+            };
             let doc = brdf_doc(&a).unwrap();
             assert!(doc["fit"].as_str().unwrap().starts_with("generalised"), "{}", doc["fit"]);
             assert_eq!(doc["channels"].as_array().unwrap().len(), 3);
@@ -581,14 +657,25 @@ mod tests {
             }
             img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
             img.attributes.insert("reflect:lighting".into(), json!({"type": "sh", "coefficients": l}).to_string());
-            img.attributes.insert("reflect:objects".into(), r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"phong","s":32,"ks":1}}]"#.into());
+            img.attributes.insert(
+                "reflect:objects".into(),
+                r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"phong","s":32,"ks":1}}]"#.into(),
+            );
             let path = tmp("clean.exr");
             write_exr(&path, &img).unwrap();
-            let a = BrdfArgs { images: vec![path], lighting: None, mapping: None, model: "phong".into(), lmax, min: None, max: None, json: true };
+            let a = BrdfArgs {
+                images: vec![path],
+                lighting: None,
+                mapping: None,
+                model: "phong".into(),
+                lmax,
+                min: None,
+                max: None,
+                json: true,
+            };
             brdf_doc(&a).unwrap()["estimate"].as_f64().unwrap()
         };
         assert!((clean_fit / s_true - 1.0).abs() < 1e-2, "quadrature bias {clean_fit}");
         assert!((mean - clean_fit).abs() < 4.0 * sd / n.sqrt(), "mean {mean} vs noise-free {clean_fit} (sd {sd})");
-
     }
 }

@@ -1,11 +1,11 @@
 //! The command line: one file per subcommand.
 
 pub mod analyze;
-pub mod header;
 pub mod factor;
+pub mod header;
 pub mod invert;
-pub mod separate;
 pub mod render;
+pub mod separate;
 pub mod sh;
 pub mod verify;
 

@@ -48,7 +48,8 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
     let (text, base, path) = match &a.scene {
         Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| Error::file(p, format!("cannot read scene file: {e}")))?;
+            let text =
+                std::fs::read_to_string(p).map_err(|e| Error::file(p, format!("cannot read scene file: {e}")))?;
             (text, p.parent().map(Path::to_path_buf).unwrap_or_default(), Some(p.clone()))
         }
         None => (DEFAULT_SCENE.to_string(), PathBuf::from("."), None),

@@ -28,7 +28,9 @@
 use super::Error;
 use super::header::{first_sphere, header_json, json_rgb, probe_exitance_deg};
 use analysis::image::{Image, RgbImage, read_image, write_exr};
-use analysis::inverse::separation::{LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples};
+use analysis::inverse::separation::{
+    LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
+};
 use analysis::sh::{ShBasis, lm, num_coefficients, reconstruct_latlong};
 use renderer::sampling::chi2::chi2_survival;
 use serde_json::{Value, json};
@@ -99,15 +101,24 @@ fn read_view(p: &Path) -> Result<(View, Image), Error> {
         .ok_or_else(|| Error::file(p, "no reflect:camera in the header: not a normal-probe render of reflect"))?;
     let ty = cam.get("type").and_then(|t| t.as_str()).unwrap_or("");
     if ty != "normal-probe" {
-        return Err(Error::file(p, format!("not a normal-probe render (camera type '{ty}'): separation needs normal-probe views")));
+        return Err(Error::file(
+            p,
+            format!("not a normal-probe render (camera type '{ty}'): separation needs normal-probe views"),
+        ));
     }
     let (theta_o_deg, phi_o_deg) = probe_exitance_deg(&cam).map_err(|e| e.in_file(p))?;
     if !(0.0..90.0).contains(&theta_o_deg) {
-        return Err(Error::file(p, format!("header camera has theta_o_deg = {theta_o_deg}, phi_o_deg = {phi_o_deg} (need 0 ≤ θ_o < 90)")));
+        return Err(Error::file(
+            p,
+            format!("header camera has theta_o_deg = {theta_o_deg}, phi_o_deg = {phi_o_deg} (need 0 ≤ θ_o < 90)"),
+        ));
     }
     let rgb = img.rgb().ok_or_else(|| Error::file(p, "no R, G, B channels"))?;
     if rgb.width != 2 * rgb.height || rgb.height < 4 {
-        return Err(Error::file(p, format!("a normal-probe image is a lat-long map with W = 2H ≥ 8, this one is {}×{}", rgb.width, rgb.height)));
+        return Err(Error::file(
+            p,
+            format!("a normal-probe image is a lat-long map with W = 2H ≥ 8, this one is {}×{}", rgb.width, rgb.height),
+        ));
     }
     let stderr = img.rgb_layer("stderr.");
     Ok((View { path: p.to_path_buf(), theta_o_deg, phi_o_deg, rgb, stderr }, img))
@@ -193,22 +204,37 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
             if v.theta_o_deg != 0.0 {
                 return Err(Error::file(
                     p,
-                    format!("the diffuse view (the first image) must be at normal exitance θ_o = 0, this render is at θ_o = {}° (give the θ_o = 0 render first)", v.theta_o_deg),
+                    format!(
+                        "the diffuse view (the first image) must be at normal exitance θ_o = 0, this render is at θ_o = {}° (give the θ_o = 0 render first)",
+                        v.theta_o_deg
+                    ),
                 ));
             }
         } else {
             if v.theta_o_deg == 0.0 {
-                return Err(Error::file(p, "a specular view must be at θ_o > 0 (at θ_o = 0 R = n and the consistency holds for any split)"));
+                return Err(Error::file(
+                    p,
+                    "a specular view must be at θ_o > 0 (at θ_o = 0 R = n and the consistency holds for any split)",
+                ));
             }
             let phi = v.phi_o_deg.rem_euclid(360.0);
             if phi != 0.0 && phi != 180.0 {
-                return Err(Error::file(p, format!("a specular view must be at φ_o = 0° or 180° (R on the normal's meridian), this render is at φ_o = {}°", v.phi_o_deg)));
+                return Err(Error::file(
+                    p,
+                    format!(
+                        "a specular view must be at φ_o = 0° or 180° (R on the normal's meridian), this render is at φ_o = {}°",
+                        v.phi_o_deg
+                    ),
+                ));
             }
             let first: &View = &views[0];
             if (v.rgb.width, v.rgb.height) != (first.rgb.width, first.rgb.height) {
                 return Err(Error::file(
                     p,
-                    format!("image size {}×{} differs from the diffuse view's {}×{}", v.rgb.width, v.rgb.height, first.rgb.width, first.rgb.height),
+                    format!(
+                        "image size {}×{} differs from the diffuse view's {}×{}",
+                        v.rgb.width, v.rgb.height, first.rgb.width, first.rgb.height
+                    ),
                 ));
             }
         }
@@ -216,14 +242,24 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     }
     let (w, h) = (views[0].rgb.width, views[0].rgb.height);
     if 2 * (a.lmax + 1) > h {
-        return Err(Error::file(&a.images[0], format!("--lmax {} needs at least 2(lmax + 1) = {} pixel rows, the images have {h}", a.lmax, 2 * (a.lmax + 1))));
+        return Err(Error::file(
+            &a.images[0],
+            format!(
+                "--lmax {} needs at least 2(lmax + 1) = {} pixel rows, the images have {h}",
+                a.lmax,
+                2 * (a.lmax + 1)
+            ),
+        ));
     }
     let hs = header_brdf.as_ref().and_then(header_split);
     let (kd, kd_arg) = weight_arg(a.kd.as_deref(), hs.map(|s| s.0), "kd")?;
     let (ks, ks_arg) = weight_arg(a.ks.as_deref(), hs.map(|s| s.1), "ks")?;
     for &c in &channels {
         if !(kd[c].is_finite() && kd[c] > 0.0 && ks[c].is_finite() && ks[c] > 0.0) {
-            return Err(Error::new(format!("k_d and k_s must be > 0, got k_d = {}, k_s = {} in channel {}", kd[c], ks[c], CHANNELS[c])));
+            return Err(Error::new(format!(
+                "k_d and k_s must be > 0, got k_d = {}, k_s = {} in channel {}",
+                kd[c], ks[c], CHANNELS[c]
+            )));
         }
     }
     let split_source = match (kd_arg, ks_arg) {
@@ -232,12 +268,16 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
         (true, false) => "k_d from the command line, k_s from the header".to_string(),
         (false, true) => "k_s from the command line, k_d from the header".to_string(),
     };
-    let missing_stderr: Vec<String> = views.iter().filter(|v| v.stderr.is_none()).map(|v| v.path.display().to_string()).collect();
+    let missing_stderr: Vec<String> =
+        views.iter().filter(|v| v.stderr.is_none()).map(|v| v.path.display().to_string()).collect();
     let with_stderr = missing_stderr.is_empty();
     let sigma_source = if with_stderr {
         "the renders' stderr layers".to_string()
     } else {
-        format!("none: no stderr layer in {} — every pixel gets σ = 1, so σ and χ² are relative and only the scan's minimum means something", missing_stderr.join(", "))
+        format!(
+            "none: no stderr layer in {} — every pixel gets σ = 1, so σ and χ² are relative and only the scan's minimum means something",
+            missing_stderr.join(", ")
+        )
     };
 
     // Separate each channel.
@@ -257,7 +297,8 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
         for v in &views[1..] {
             spec.append(samples(v));
         }
-        let sep = Separation::new(&dif, &spec, a.lmax).map_err(|e| Error::new(format!("channel {}: {}", CHANNELS[c], e.message)))?;
+        let sep = Separation::new(&dif, &spec, a.lmax)
+            .map_err(|e| Error::new(format!("channel {}: {}", CHANNELS[c], e.message)))?;
         let solved = sep.solve(kd[c], ks[c])?;
         let scan = a.scan.then(|| {
             let total = kd[c] + ks[c];
@@ -265,7 +306,8 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
             let pts = sep.scan_split(total, &coarse);
             // Refine around the grid minimum (step 5e-4): the scan is cheap once the operators exist.
             let best = best_split(&pts).map(|(x0, _)| {
-                let fine: Vec<f64> = (-20..=20).map(|i| x0 + 5e-4 * i as f64).filter(|x| *x > 0.0 && *x < 1.0).collect();
+                let fine: Vec<f64> =
+                    (-20..=20).map(|i| x0 + 5e-4 * i as f64).filter(|x| *x > 0.0 && *x < 1.0).collect();
                 best_split(&sep.scan_split(total, &fine)).unwrap_or((x0, f64::NAN))
             });
             (pts, best)
@@ -276,7 +318,11 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
         let basis = ShBasis::new(a.lmax);
         let mut y = vec![0.0; num_coefficients(a.lmax)];
         let res = Samples {
-            value: spec.normal.iter().map(|&nn| nine_term_residual(&solved.specular, kd[c], ks[c], &basis, nn, &mut y)).collect(),
+            value: spec
+                .normal
+                .iter()
+                .map(|&nn| nine_term_residual(&solved.specular, kd[c], ks[c], &basis, nn, &mut y))
+                .collect(),
             sigma: vec![0.0; spec.len()],
             ..spec
         };
@@ -291,16 +337,28 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     // Everything is computed: write the map last, so a failure leaves no partial output.
     let n = num_coefficients(a.lmax);
     if let Some(out) = &a.output {
-        let coeffs: Vec<[f64; 3]> =
-            (0..n).map(|k| if results.len() == 3 { [0, 1, 2].map(|c| results[c].sep.specular[k]) } else { [results[0].sep.specular[k]; 3] }).collect();
+        let coeffs: Vec<[f64; 3]> = (0..n)
+            .map(|k| {
+                if results.len() == 3 {
+                    [0, 1, 2].map(|c| results[c].sep.specular[k])
+                } else {
+                    [results[0].sep.specular[k]; 3]
+                }
+            })
+            .collect();
         let (ow, oh) = (a.width, a.width / 2);
         let px = reconstruct_latlong(&coeffs, ow, oh);
         let mut img = Image { width: ow, height: oh, ..Default::default() };
         for (ch, name) in CHANNELS.iter().enumerate() {
             img.channels.insert(name.to_string(), px.iter().map(|p| p[ch] as f32).collect());
         }
-        let what = if results.len() == 3 { "R, G, B".to_string() } else { format!("channel {} replicated to R, G, B", CHANNELS[channels[0]]) };
-        img.attributes.insert("reflect:lighting-source".into(), format!("invert separate (sec. 3.5), l <= {}, {what}", a.lmax));
+        let what = if results.len() == 3 {
+            "R, G, B".to_string()
+        } else {
+            format!("channel {} replicated to R, G, B", CHANNELS[channels[0]])
+        };
+        img.attributes
+            .insert("reflect:lighting-source".into(), format!("invert separate (sec. 3.5), l <= {}, {what}", a.lmax));
         write_exr(out, &img)?;
     }
 
@@ -308,7 +366,13 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     let per = |len: usize, f: &dyn Fn(&ChannelResult, usize) -> Option<f64>| -> Value {
         Value::Array(
             (0..len)
-                .map(|k| if results.len() == 1 { json!(f(&results[0], k)) } else { json!(results.iter().map(|r| f(r, k)).collect::<Vec<_>>()) })
+                .map(|k| {
+                    if results.len() == 1 {
+                        json!(f(&results[0], k))
+                    } else {
+                        json!(results.iter().map(|r| f(r, k)).collect::<Vec<_>>())
+                    }
+                })
                 .collect(),
         )
     };
@@ -318,7 +382,8 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     let pick = |v: [f64; 3]| -> Value { if channels.len() == 1 { json!(v[channels[0]]) } else { json!(v) } };
     let chi2 = one(&|r| json!(r.sep.chi2));
     let p_value = one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64))));
-    let consistent = one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64) >= P_CONSISTENT)));
+    let consistent =
+        one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64) >= P_CONSISTENT)));
     let meaning = one(&|r| json!(meaning(r.sep.chi2, with_stderr, a.lmax)));
     let scan = a.scan.then(|| {
         Value::Array(
@@ -384,13 +449,19 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
 
 /// A plain statement of what the consistency χ² says.
 fn meaning(chi2: Option<f64>, with_stderr: bool, lmax: usize) -> String {
-    let Some(c) = chi2 else { return "χ² undefined (the consistency covariance is singular: noise-free data?)".into() };
+    let Some(c) = chi2 else {
+        return "χ² undefined (the consistency covariance is singular: noise-free data?)".into();
+    };
     if !with_stderr {
-        return format!("χ² = {c:.3} is in units of an unknown per-pixel noise variance (no stderr layers) and cannot be judged; only the scan's minimum is meaningful");
+        return format!(
+            "χ² = {c:.3} is in units of an unknown per-pixel noise variance (no stderr layers) and cannot be judged; only the scan's minimum is meaningful"
+        );
     }
     let p = chi2_survival(c, LOW as f64);
     if p >= P_CONSISTENT {
-        format!("consistent: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise at this split (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.2})")
+        format!(
+            "consistent: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise at this split (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.2})"
+        )
     } else {
         format!(
             "inconsistent: the two sides differ beyond the noise (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.1e}); the split k_d : k_s is wrong, or the 9-term diffuse subtraction's residual (eq. 38–39) or the aliasing of lighting above l = {lmax} exceeds the noise (--scan shows which split fits best)"
@@ -430,14 +501,42 @@ fn table(title: &str, doc: &Value, val: &Value, se: &Value, len: usize) {
 
 fn print_text(doc: &Value) {
     let lmax = doc["lmax"].as_u64().unwrap_or(0) as usize;
-    println!("# invert separate — diffuse + specular separation (sec. 3.5, ref. [17]), {}", doc["layout"].as_str().unwrap_or(""));
+    println!(
+        "# invert separate — diffuse + specular separation (sec. 3.5, ref. [17]), {}",
+        doc["layout"].as_str().unwrap_or("")
+    );
     println!("# diffuse view: {} (θ_o = 0)", doc["diffuse_view"]["file"].as_str().unwrap_or(""));
     for v in doc["specular_views"].as_array().into_iter().flatten() {
-        println!("# specular view: {} (θ_o = {}°, φ_o = {}°)", v["file"].as_str().unwrap_or(""), v["theta_o_deg"], v["phi_o_deg"]);
+        println!(
+            "# specular view: {} (θ_o = {}°, φ_o = {}°)",
+            v["file"].as_str().unwrap_or(""),
+            v["theta_o_deg"],
+            v["phi_o_deg"]
+        );
     }
-    println!("# {}×{} pixels; k_d = {}, k_s = {} ({}); σ from {}", doc["width"], doc["height"], doc["kd"], doc["ks"], doc["split_source"].as_str().unwrap_or(""), doc["sigma_source"].as_str().unwrap_or(""));
-    table("diffuse side L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2", doc, &doc["diffuse"]["coefficients"], &doc["diffuse"]["stderr"], LOW);
-    table(&format!("recovered lighting L_lm (specular side), l ≤ {lmax}"), doc, &doc["coefficients"], &doc["stderr"], num_coefficients(lmax));
+    println!(
+        "# {}×{} pixels; k_d = {}, k_s = {} ({}); σ from {}",
+        doc["width"],
+        doc["height"],
+        doc["kd"],
+        doc["ks"],
+        doc["split_source"].as_str().unwrap_or(""),
+        doc["sigma_source"].as_str().unwrap_or("")
+    );
+    table(
+        "diffuse side L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2",
+        doc,
+        &doc["diffuse"]["coefficients"],
+        &doc["diffuse"]["stderr"],
+        LOW,
+    );
+    table(
+        &format!("recovered lighting L_lm (specular side), l ≤ {lmax}"),
+        doc,
+        &doc["coefficients"],
+        &doc["stderr"],
+        num_coefficients(lmax),
+    );
     table("consistency d_lm = L̂_lm − c_lm, l ≤ 2", doc, &doc["consistency"]["d"], &doc["consistency"]["stderr"], LOW);
     let cons = &doc["consistency"];
     let ch: Vec<&str> = doc["channels"].as_array().into_iter().flatten().filter_map(|c| c.as_str()).collect();
@@ -445,18 +544,38 @@ fn print_text(doc: &Value) {
         Value::Array(a) => a.clone(),
         x => vec![x.clone()],
     };
-    table("9-term residual's predicted share of d (eq. 38–39, from the recovered orders 3…lmax; σ is d's)", doc, &cons["nine_term_residual"]["d"], &cons["stderr"], LOW);
+    table(
+        "9-term residual's predicted share of d (eq. 38–39, from the recovered orders 3…lmax; σ is d's)",
+        doc,
+        &cons["nine_term_residual"]["d"],
+        &cons["stderr"],
+        LOW,
+    );
     println!();
     let nr = &cons["nine_term_residual"];
-    for (((c, m), x), p) in ch.iter().zip(per_channel(&cons["meaning"])).zip(per_channel(&nr["chi2_removed"])).zip(per_channel(&nr["p_value_removed"])) {
+    for (((c, m), x), p) in ch
+        .iter()
+        .zip(per_channel(&cons["meaning"]))
+        .zip(per_channel(&nr["chi2_removed"]))
+        .zip(per_channel(&nr["p_value_removed"]))
+    {
         println!("# consistency, {c}: {}", m.as_str().unwrap_or(""));
         let x = x.as_f64().map_or("—".into(), |x| format!("{x:.1}"));
         let p = p.as_f64().map_or("—".into(), |p| format!(", P(χ²_9 ≥ χ²) = {p:.2e}"));
         println!("#   with the predicted 9-term residual removed from d: χ² = {x}{p}");
     }
     for s in doc["scan"].as_array().into_iter().flatten() {
-        println!("\n## split scan, channel {}: consistency χ² vs k_d/(k_d+k_s) at k_d + k_s = {}", s["channel"].as_str().unwrap_or(""), s["total"]);
-        let pts: Vec<(f64, f64)> = s["points"].as_array().into_iter().flatten().filter_map(|p| Some((p[0].as_f64()?, p[1].as_f64()?))).collect();
+        println!(
+            "\n## split scan, channel {}: consistency χ² vs k_d/(k_d+k_s) at k_d + k_s = {}",
+            s["channel"].as_str().unwrap_or(""),
+            s["total"]
+        );
+        let pts: Vec<(f64, f64)> = s["points"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|p| Some((p[0].as_f64()?, p[1].as_f64()?)))
+            .collect();
         // Every 0.05, and the grid points next to the minimum.
         let bx = s["best_fraction"].as_f64().unwrap_or(f64::NAN);
         for (x, c) in &pts {
@@ -513,11 +632,24 @@ mod tests {
     /// `light` × TINT at exitance (θ_o, φ_o ∈ {0°, 180°}), Gaussian noise σ per pixel (seeded) and
     /// a stderr layer σ unless `stderr` is false.
     #[allow(clippy::too_many_arguments)]
-    fn render(path: &Path, light: &[f64], kd: f64, ks: f64, theta_o_deg: f64, phi_o_deg: f64, (w, h): (usize, usize), sigma: f64, seed: u64, stderr: bool, brdf: &str) {
+    fn render(
+        path: &Path,
+        light: &[f64],
+        kd: f64,
+        ks: f64,
+        theta_o_deg: f64,
+        phi_o_deg: f64,
+        (w, h): (usize, usize),
+        sigma: f64,
+        seed: u64,
+        stderr: bool,
+        brdf: &str,
+    ) {
         let lmax = analysis::sh::lmax_of(light.len()).unwrap();
         let basis = ShBasis::new(lmax);
         let f = analysis::transfer::lambert::lambert(lmax);
-        let geo = probe_samples(&vec![0.0; w * h], &vec![0.0; w * h], w, h, theta_o_deg.to_radians(), phi_o_deg == 180.0);
+        let geo =
+            probe_samples(&vec![0.0; w * h], &vec![0.0; w * h], w, h, theta_o_deg.to_radians(), phi_o_deg == 180.0);
         let mut y = vec![0.0; light.len()];
         let mut rng = TestRng::new(seed);
         let mut gauss = || {
@@ -543,8 +675,14 @@ mod tests {
                 img.channels.insert(format!("stderr.{n}"), vec![sigma as f32; w * h]);
             }
         }
-        img.attributes.insert("reflect:camera".into(), json!({"type": "normal-probe", "theta_o_deg": theta_o_deg, "phi_o_deg": phi_o_deg}).to_string());
-        img.attributes.insert("reflect:objects".into(), format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{brdf}}}]"#));
+        img.attributes.insert(
+            "reflect:camera".into(),
+            json!({"type": "normal-probe", "theta_o_deg": theta_o_deg, "phi_o_deg": phi_o_deg}).to_string(),
+        );
+        img.attributes.insert(
+            "reflect:objects".into(),
+            format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{brdf}}}]"#),
+        );
         write_exr(path, &img).unwrap();
     }
 
@@ -566,7 +704,17 @@ mod tests {
     }
 
     fn args(images: Vec<PathBuf>) -> SeparateArgs {
-        SeparateArgs { images, kd: None, ks: None, lmax: 5, channel: None, scan: false, output: None, width: 64, json: true }
+        SeparateArgs {
+            images,
+            kd: None,
+            ks: None,
+            lmax: 5,
+            channel: None,
+            scan: false,
+            output: None,
+            width: 64,
+            json: true,
+        }
     }
 
     fn f(v: &Value) -> f64 {
@@ -679,7 +827,10 @@ mod tests {
         let big = mk("bad-big.exr", 40.0, 180.0, (64, 32), MIX);
         let lam = mk("bad-lambert.exr", 0.0, 0.0, small, r#"{"type":"lambert","albedo":0.5}"#);
         let mut ortho = read_image(&d0).unwrap();
-        ortho.attributes.insert("reflect:camera".into(), r#"{"type":"orthographic","from":[3,0,1],"to":[0,0,0],"up":[0,0,1],"extent":1.05}"#.into());
+        ortho.attributes.insert(
+            "reflect:camera".into(),
+            r#"{"type":"orthographic","from":[3,0,1],"to":[0,0,0],"up":[0,0,1],"extent":1.05}"#.into(),
+        );
         let ortho_path = tmp("bad-ortho.exr");
         write_exr(&ortho_path, &ortho).unwrap();
         let missing = tmp("bad-missing.exr");
@@ -695,9 +846,17 @@ mod tests {
             (args(vec![d0.clone(), s90.clone()]), Some(&s90), "φ_o"),
             (args(vec![d0.clone()]), None, "at least one specular view"),
             (args(vec![lam.clone(), s1.clone(), s2.clone()]), None, "--kd is required"),
-            (SeparateArgs { kd: Some(vec![0.5]), ..args(vec![lam.clone(), s1.clone(), s2.clone()]) }, None, "--ks is required"),
+            (
+                SeparateArgs { kd: Some(vec![0.5]), ..args(vec![lam.clone(), s1.clone(), s2.clone()]) },
+                None,
+                "--ks is required",
+            ),
             (SeparateArgs { kd: Some(vec![0.0]), ..args(ok.images.clone()) }, None, "must be > 0"),
-            (SeparateArgs { ks: Some(vec![0.5, -1.0, 0.5]), channel: Some("g".into()), ..args(ok.images.clone()) }, None, "must be > 0"),
+            (
+                SeparateArgs { ks: Some(vec![0.5, -1.0, 0.5]), channel: Some("g".into()), ..args(ok.images.clone()) },
+                None,
+                "must be > 0",
+            ),
             (SeparateArgs { kd: Some(vec![0.5, 0.5]), ..args(ok.images.clone()) }, None, "one number or r,g,b"),
             (SeparateArgs { lmax: 1000, ..args(ok.images.clone()) }, None, "maximum"),
             // 16 rows cannot carry l = 8.
@@ -731,4 +890,3 @@ mod tests {
         }
     }
 }
-

@@ -10,7 +10,7 @@
 //! `--json` prints one JSON document (CONVENTIONS §7) to stdout; otherwise a table.
 use super::Error;
 use analysis::image::read_rgb;
-use analysis::projection::{project_envmap, Mapping};
+use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::lm;
 use analysis::transfer::TransferModel;
 use serde_json::json;
@@ -108,7 +108,12 @@ fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
 }
 
 /// The transfer model named on the command line, with its parameters checked.
-pub fn model_from_args(brdf: &str, s: Option<f64>, sigma: Option<f64>, theta_o_deg: Option<f64>) -> Result<TransferModel, Error> {
+pub fn model_from_args(
+    brdf: &str,
+    s: Option<f64>,
+    sigma: Option<f64>,
+    theta_o_deg: Option<f64>,
+) -> Result<TransferModel, Error> {
     let unused = |name: &str, v: Option<f64>| match v {
         Some(_) => Err(Error::new(format!("--{name} does not apply to --brdf {brdf}"))),
         None => Ok(()),
@@ -135,7 +140,7 @@ pub fn model_from_args(brdf: &str, s: Option<f64>, sigma: Option<f64>, theta_o_d
         other => {
             return Err(Error::new(format!(
                 "unknown --brdf '{other}' (expected lambert, phong, mirror or torrance-sparrow)"
-            )))
+            )));
         }
     };
     m.validate()?;
@@ -152,7 +157,9 @@ fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
         TransferModel::Phong { .. } => "eq. 43 exact",
         TransferModel::Mirror => "eq. 33",
         TransferModel::TorranceSparrow { theta_o: 0.0, .. } => "eq. 50 numerical integration",
-        TransferModel::TorranceSparrow { .. } => "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)",
+        TransferModel::TorranceSparrow { .. } => {
+            "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)"
+        }
     };
     if a.json {
         let mut doc = json!({

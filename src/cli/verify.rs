@@ -59,7 +59,8 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
         }
         None => CHECKS.iter().collect(),
     };
-    std::fs::create_dir_all(&a.out).map_err(|e| Error::file(&a.out, format!("cannot create the report folder: {e}")))?;
+    std::fs::create_dir_all(&a.out)
+        .map_err(|e| Error::file(&a.out, format!("cannot create the report folder: {e}")))?;
     let ctx = Ctx { quick: a.quick, wrong: a.wrong_prediction, seed: a.seed, out: a.out.clone(), verbose: true };
     let t = std::time::Instant::now();
     let checks = super::render::with_threads(a.threads, || {

@@ -184,7 +184,11 @@ pub fn compare_rows(c: &mut Check, theta_o: f64, a: &Image, x: &Image, informati
 /// The check from the renders: per θ_o, the reference A and the pairs (B, C) compared with it;
 /// `clamp` optionally (θ_o, clamped Phong image) for the informative row; the lightings for the
 /// informative rows and the plot.
-pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Image, &Image)>, lights: &Lightings) -> Option<Check> {
+pub fn evaluate(
+    per_angle: &[(f64, Image, Vec<Image>)],
+    clamp: Option<(f64, &Image, &Image)>,
+    lights: &Lightings,
+) -> Option<Check> {
     let mut c = Check::new(
         NAME,
         EQUATION,
@@ -193,8 +197,24 @@ pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Ima
     // The lightings differ (informative: "expected" = the reference lighting's RMS).
     for l in [2, 4, 8] {
         let r0 = order_rms(l, |k| lights.l[k]);
-        c.push(Row::new(format!("RMS_m L'_lm / L_lm, l={l} (lightings differ)"), 1.0, order_rms(l, |k| lights.blurred[k]) / r0, 0.0).informative());
-        c.push(Row::new(format!("RMS_m L''_lm / L_lm, l={l} (lightings differ)"), 1.0, order_rms(l, |k| lights.rescaled[k]) / r0, 0.0).informative());
+        c.push(
+            Row::new(
+                format!("RMS_m L'_lm / L_lm, l={l} (lightings differ)"),
+                1.0,
+                order_rms(l, |k| lights.blurred[k]) / r0,
+                0.0,
+            )
+            .informative(),
+        );
+        c.push(
+            Row::new(
+                format!("RMS_m L''_lm / L_lm, l={l} (lightings differ)"),
+                1.0,
+                order_rms(l, |k| lights.rescaled[k]) / r0,
+                0.0,
+            )
+            .informative(),
+        );
     }
     let mut chi_series: Vec<Series> = vec![];
     let (mut exp_x, mut exp_y, mut band_lo, mut band_hi) = (vec![], vec![], vec![], vec![]);
@@ -237,8 +257,18 @@ pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Ima
         y_label: "RMS_m |L_lm|".into(),
         curves: vec![
             Series { name: "L (Phong s=8)".into(), x: ls.clone(), y: rms(&lights.l), ..Default::default() },
-            Series { name: "L' = F_8 L (mirror, eq. 47)".into(), x: ls.clone(), y: rms(&lights.blurred), ..Default::default() },
-            Series { name: "L'' = F_8/F_16 L (Phong s=16, eq. 32)".into(), x: ls.clone(), y: rms(&lights.rescaled), ..Default::default() },
+            Series {
+                name: "L' = F_8 L (mirror, eq. 47)".into(),
+                x: ls.clone(),
+                y: rms(&lights.blurred),
+                ..Default::default()
+            },
+            Series {
+                name: "L'' = F_8/F_16 L (Phong s=16, eq. 32)".into(),
+                x: ls.clone(),
+                y: rms(&lights.rescaled),
+                ..Default::default()
+            },
         ],
         points: vec![],
     });
@@ -251,7 +281,9 @@ pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Ima
         y_label: "χ²/N".into(),
         curves: vec![
             Series { name: "expected (Student t)".into(), x: exp_x.clone(), y: exp_y, ..Default::default() },
-            Series { name: "expected − 4σ".into(), x: exp_x.clone(), y: band_lo, dashed: true, ..Default::default() },
+            Series {
+                name: "expected − 4σ".into(), x: exp_x.clone(), y: band_lo, dashed: true, ..Default::default()
+            },
             Series { name: "expected + 4σ".into(), x: exp_x, y: band_hi, dashed: true, ..Default::default() },
         ],
         points: chi_series,
@@ -275,7 +307,12 @@ pub fn evaluate(per_angle: &[(f64, Image, Vec<Image>)], clamp: Option<(f64, &Ima
             title: format!("Per-order content g_l about R of the three renders, θo = {theta}° (rel. to L)"),
             x_label: "l".into(),
             y_label: "g_l".into(),
-            curves: vec![Series { name: "F_8(l), eq. 43".into(), x: (0..=LMAX).map(|l| l as f64).collect(), y: f8, ..Default::default() }],
+            curves: vec![Series {
+                name: "F_8(l), eq. 43".into(),
+                x: (0..=LMAX).map(|l| l as f64).collect(),
+                y: f8,
+                ..Default::default()
+            }],
             points,
         });
     }
@@ -324,7 +361,9 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let clamp_pair = Some((theta_c, &others[0], &clamp));
         evaluate(&per_angle, clamp_pair, &lights).ok_or("comparison failed (sizes or ν)")?
     };
-    c.push(Row::new("max σ̂ of the mirror renders (deterministic)", 0.0, mirror_sigma, 0.0).floor(F32_FLOOR * mirror_max));
+    c.push(
+        Row::new("max σ̂ of the mirror renders (deterministic)", 0.0, mirror_sigma, 0.0).floor(F32_FLOOR * mirror_max),
+    );
     let h = PROBE_HEIGHT;
     c.note(format!(
         "normal-probe {}×{h}, Phong {spp} spp, mirror {mirror_spp} spp; {} renders ({} angles × 3 pairs + 1 clamp); SH lighting l ≤ {LMAX}; filters F_s = eq. 43 (exact){}",
@@ -343,8 +382,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::super::fit::latlong_dir;
+    use super::*;
     use analysis::sh::ShBasis;
     use renderer::sampling::chi2::TestRng;
 
@@ -404,7 +443,11 @@ mod tests {
             assert!((chi.chi2 - chi.expected).abs() < 4.0 * chi.sd, "{chi:?}");
             assert!((chi.chi2 - 1.0).abs() > 4.0 * chi.sd, "bias ν/(ν−2) must be visible: {chi:?}");
         }
-        assert_eq!(compare(&exact, f64::INFINITY, &exact, f64::INFINITY).map(|c| c.n), None, "nothing noisy to compare");
+        assert_eq!(
+            compare(&exact, f64::INFINITY, &exact, f64::INFINITY).map(|c| c.n),
+            None,
+            "nothing noisy to compare"
+        );
         assert!(compare(&a, 3.0, &b, 15.0).is_none(), "ν ≤ 4: Var[t²] infinite");
     }
 
@@ -429,7 +472,11 @@ mod tests {
         };
         let (lights, per_angle) = mk(S);
         let good = evaluate(&per_angle, None, &lights).unwrap();
-        assert!(good.passed(), "{:?}", good.rows.iter().filter(|r| !r.passed()).map(|r| (&r.label, r.measured, r.tolerance())).collect::<Vec<_>>());
+        assert!(
+            good.passed(),
+            "{:?}",
+            good.rows.iter().filter(|r| !r.passed()).map(|r| (&r.label, r.measured, r.tolerance())).collect::<Vec<_>>()
+        );
         // The lightings really differ: L'/L at l = 8 is F_8(8) = 384/36465.
         let r8 = good.rows.iter().find(|r| r.label.starts_with("RMS_m L'_lm / L_lm, l=8")).unwrap();
         assert!((r8.measured - 384.0 / 36465.0).abs() < 1e-12 && r8.informative);

@@ -38,7 +38,8 @@ pub fn evaluate(a: &Channel, b: &Channel) -> Option<Check> {
     let mut worst: Option<Row> = None;
     for k in 0..num_coefficients(LMAX) {
         let (l, m) = lm(k);
-        let row = Row::new(format!("worst D_lm = (B_phong − B_mirror)_lm (at l={l} m={m})"), 0.0, fit.coef[k], fit.sigma[k]);
+        let row =
+            Row::new(format!("worst D_lm = (B_phong − B_mirror)_lm (at l={l} m={m})"), 0.0, fit.coef[k], fit.sigma[k]);
         if worst.as_ref().is_none_or(|x| row.ratio() > x.ratio()) {
             worst = Some(row);
         }
@@ -55,7 +56,12 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let filter = transfer::phong(if ctx.wrong { 1.2 * S } else { S }, LMAX);
     let blurred: Vec<f64> = light.iter().enumerate().map(|(k, v)| v * filter[lm(k).0]).collect();
     let spp = ctx.spp(128, 256);
-    let pa = Spec::probe(ctx, spp, Lighting::Sh(light), &format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"));
+    let pa = Spec::probe(
+        ctx,
+        spp,
+        Lighting::Sh(light),
+        &format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"),
+    );
     let pb = Spec::probe(ctx, 4, Lighting::Sh(blurred), "{ type = \"mirror\", kr = 1.0 }");
     let a = Channel::from_film(&render_spec(ctx, &pa)?, 0);
     let b = Channel::from_film(&render_spec(ctx, &pb)?, 0);

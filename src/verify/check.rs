@@ -91,7 +91,13 @@ impl Row {
     /// |Δ| / tolerance: < 1 passes.
     pub fn ratio(&self) -> f64 {
         let t = self.tolerance();
-        if t > 0.0 { self.deviation() / t } else if self.deviation() == 0.0 { 0.0 } else { f64::INFINITY }
+        if t > 0.0 {
+            self.deviation() / t
+        } else if self.deviation() == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        }
     }
 }
 
@@ -172,7 +178,10 @@ impl Check {
     pub fn apply_family_k(&mut self) {
         let k = k_sigma_for(self.noisy_rows());
         if k != K_SIGMA {
-            self.details.push(format!("{} noisy deciding rows: k = {k:.2} (Šidák, same per-check false-alarm rate as 30 rows at 4σ)", self.noisy_rows()));
+            self.details.push(format!(
+                "{} noisy deciding rows: k = {k:.2} (Šidák, same per-check false-alarm rate as 30 rows at 4σ)",
+                self.noisy_rows()
+            ));
         }
         self.rows.iter_mut().for_each(|r| r.k = k);
     }

@@ -76,7 +76,9 @@ pub fn add_view_rows(ch: &Channel, from: [f64; 3], up: [f64; 3], light: &[f64], 
             for a in 0..SUB {
                 for b in 0..SUB {
                     let x = EXTENT * (2.0 * (c as f64 + (b as f64 + 0.5) / SUB as f64) / w as f64 - 1.0);
-                    let yy = EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / SUB as f64) / h as f64);
+                    let yy = EXTENT
+                        * (h as f64 / w as f64)
+                        * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / SUB as f64) / h as f64);
                     let q = 1.0 - x * x - yy * yy;
                     if q <= 0.25 {
                         // Outside the disk, or cosθ_o < 0.5 at some footprint point.
@@ -117,7 +119,11 @@ pub fn add_view_rows(ch: &Channel, from: [f64; 3], up: [f64; 3], light: &[f64], 
 
 /// Rows: each path vs the prediction, and the orthographic paths minus the probe.
 pub fn evaluate(probe: &Measured, ortho: &Measured, mesh: &Measured, pred: &[f64]) -> Check {
-    let mut c = Check::new(NAME, EQUATION, "normal-probe, orthographic multi-view sphere and icosphere mesh give the same Λ_l ρ̂_l");
+    let mut c = Check::new(
+        NAME,
+        EQUATION,
+        "normal-probe, orthographic multi-view sphere and icosphere mesh give the same Λ_l ρ̂_l",
+    );
     filter::rows(&mut c, "normal-probe", probe, pred, None, false);
     filter::rows(&mut c, "ortho sphere", ortho, pred, None, false);
     filter::rows(&mut c, "ortho icosphere", mesh, pred, None, false);
@@ -173,7 +179,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed + 5);
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
-    let probe = Measured::from_fit(&fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?, LMAX);
+    let probe =
+        Measured::from_fit(&fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?, LMAX);
     let ortho = fit_views(ctx, &light, Shape::Sphere, false)?;
     std::fs::create_dir_all(&ctx.out).map_err(|e| format!("{}: {e}", ctx.out.display()))?;
     let obj = ctx.out.join("icosphere4.obj");
@@ -195,7 +202,11 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         x_label: "l".into(),
         y_label: "Λ_l ρ̂_l".into(),
         curves: vec![filter::curve("eq. 38 / π", &transfer::lambert(LMAX))],
-        points: vec![probe.series("normal-probe"), ortho.series("orthographic sphere"), mesh.series("orthographic icosphere")],
+        points: vec![
+            probe.series("normal-probe"),
+            ortho.series("orthographic sphere"),
+            mesh.series("orthographic icosphere"),
+        ],
     });
     Ok(c)
 }

@@ -28,8 +28,18 @@ pub type Lobe = (&'static str, &'static str, fn(f64) -> f64, Vec<f64>);
 /// The three lobes.
 pub fn lobes() -> Vec<Lobe> {
     vec![
-        ("lambert", "{ type = \"lambert\", albedo = 1.0 }", transfer::lambert_lobe as fn(f64) -> f64, transfer::lambert(LMAX)),
-        ("phong s=8", "{ type = \"phong\", ks = 1.0, s = 8.0, horizon = \"ignore\" }", |g| transfer::phong_lobe(8.0, g), transfer::phong(8.0, LMAX)),
+        (
+            "lambert",
+            "{ type = \"lambert\", albedo = 1.0 }",
+            transfer::lambert_lobe as fn(f64) -> f64,
+            transfer::lambert(LMAX),
+        ),
+        (
+            "phong s=8",
+            "{ type = \"phong\", ks = 1.0, s = 8.0, horizon = \"ignore\" }",
+            |g| transfer::phong_lobe(8.0, g),
+            transfer::phong(8.0, LMAX),
+        ),
         (
             "torrance-sparrow σ=0.1",
             "{ type = \"torrance-sparrow\", ks = 1.0, sigma = 0.1, horizon = \"clamp\" }",
@@ -43,11 +53,13 @@ pub fn lobes() -> Vec<Lobe> {
 pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel, e: f64, rho: fn(f64) -> f64, a: &[f64]) {
     let (w, h) = (ch.width, ch.height);
     let z = [0.0, 0.0, 1.0];
-    let pred: Vec<f64> = (0..w * h).map(|i| e * rho(dot(latlong_dir(i / w, i % w, w, h), z).clamp(-1.0, 1.0).acos())).collect();
+    let pred: Vec<f64> =
+        (0..w * h).map(|i| e * rho(dot(latlong_dir(i / w, i % w, w, h), z).clamp(-1.0, 1.0).acos())).collect();
     let pmax = pred.iter().cloned().fold(0.0, f64::max);
     let mut worst: Option<Row> = None;
     for (i, &p) in pred.iter().enumerate() {
-        let row = Row::new(format!("{label}: worst pixel B vs E ρ̂"), p, ch.value[i], ch.sigma[i]).floor(F32_FLOOR * (p.abs() + 1e-3 * pmax));
+        let row = Row::new(format!("{label}: worst pixel B vs E ρ̂"), p, ch.value[i], ch.sigma[i])
+            .floor(F32_FLOOR * (p.abs() + 1e-3 * pmax));
         if worst.as_ref().is_none_or(|wr| row.ratio() > wr.ratio()) {
             worst = Some(row);
         }
@@ -56,7 +68,10 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel, e: f64, rho: fn(f
     // Coefficients: quadrature of the render (σ: the pixel floor propagated) vs E ρ̂_l, with the
     // quadrature error of the same projection of the predicted image stated as approximation.
     let floor_ch = Channel { sigma: pred.iter().map(|p| F32_FLOOR * (p.abs() + 1e-3 * pmax)).collect(), ..ch.clone() };
-    let (b, sb) = project_probe(&Channel { sigma: (0..w * h).map(|i| ch.sigma[i].hypot(floor_ch.sigma[i])).collect(), ..ch.clone() }, LMAX);
+    let (b, sb) = project_probe(
+        &Channel { sigma: (0..w * h).map(|i| ch.sigma[i].hypot(floor_ch.sigma[i])).collect(), ..ch.clone() },
+        LMAX,
+    );
     let (bp, _) = project_probe(&Channel { value: pred.clone(), ..floor_ch.clone() }, LMAX);
     for (l, &al) in a.iter().enumerate().take(LMAX + 1) {
         let k = index(l, 0);
@@ -66,7 +81,9 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel, e: f64, rho: fn(f
         // grid's quadrature error cancels exactly). Informative: that projection vs the analytic
         // E ρ̂_l, i.e. the quadrature error of this grid.
         c.push(Row::new(format!("{label}: B_{l}0 vs quadrature of E ρ̂"), bp[k], b[k], sb[k]));
-        c.push(Row::new(format!("{label}: quadrature of E ρ̂ vs E ρ̂_{l} (grid error)"), expect, bp[k], 0.0).informative());
+        c.push(
+            Row::new(format!("{label}: quadrature of E ρ̂ vs E ρ̂_{l} (grid error)"), expect, bp[k], 0.0).informative(),
+        );
     }
     let mut wm: Option<Row> = None;
     for l in 1..=LMAX {
@@ -89,7 +106,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let e_pred = if ctx.wrong { 1.05 * IRRADIANCE } else { IRRADIANCE };
     let mut fig2 = None;
     for (label, brdf, rho, a) in lobes() {
-        let spec = Spec::probe(ctx, 4, Lighting::Directional { direction: [0.0, 0.0, 1.0], irradiance: IRRADIANCE }, brdf);
+        let spec =
+            Spec::probe(ctx, 4, Lighting::Directional { direction: [0.0, 0.0, 1.0], irradiance: IRRADIANCE }, brdf);
         let film = render_spec(ctx, &spec)?;
         let ch = Channel::from_film(&film, 0);
         evaluate_into(&mut c, label, &ch, e_pred, rho, &a);
@@ -97,7 +115,11 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             fig2 = Some(ch);
         }
     }
-    c.note(format!("normal-probe {}×{}, 4 spp (deterministic), E = {IRRADIANCE}", 2 * ctx.probe_height(), ctx.probe_height()));
+    c.note(format!(
+        "normal-probe {}×{}, 4 spp (deterministic), E = {IRRADIANCE}",
+        2 * ctx.probe_height(),
+        ctx.probe_height()
+    ));
     c.note("the mirror is not included: a delta BRDF under a delta light has no pixel-wise image to compare (its impulse response is checked through check 5, Λ_l ρ̂_l = 1)");
     if let Some(ch) = fig2 {
         c.plots.push(figure2(&ch));
@@ -156,7 +178,13 @@ mod tests {
     #[test]
     fn exact_impulse_response_passes_and_wrong_irradiance_fails() {
         for (label, _, rho, a) in lobes() {
-            let ch = Channel::synthetic_probe(64, 32, |n| (IRRADIANCE * rho(n[2].clamp(-1.0, 1.0).acos())) as f32 as f64, 0.0, 1);
+            let ch = Channel::synthetic_probe(
+                64,
+                32,
+                |n| (IRRADIANCE * rho(n[2].clamp(-1.0, 1.0).acos())) as f32 as f64,
+                0.0,
+                1,
+            );
             let mut ok = Check::default();
             evaluate_into(&mut ok, label, &ch, IRRADIANCE, rho, &a);
             assert!(ok.passed(), "{label}: {:?}", ok.worst());

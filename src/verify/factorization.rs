@@ -42,8 +42,8 @@ use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, normalize};
 use super::scenes::{Camera, Lighting, Spec, render_spec};
 use analysis::inverse::factorization::{
-    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, Status, directional_lighting, filter_from_lighting,
-    hemisphere_nodes, project,
+    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, Status, directional_lighting,
+    filter_from_lighting, hemisphere_nodes, project,
 };
 use analysis::sh::index;
 use analysis::special::erfc;
@@ -96,7 +96,11 @@ pub struct Slice {
 
 /// Builds a [`Slice`] from an image source `image(θ'_o, φ'_o, H)` (degrees; W = 2H), which is a
 /// renderer in [`run`] and a closed form in the tests.
-pub fn measure(plan: Plan, nodes: (usize, usize), image: &mut dyn FnMut(f64, f64, usize) -> Result<Vec<f64>, String>) -> Result<Slice, String> {
+pub fn measure(
+    plan: Plan,
+    nodes: (usize, usize),
+    image: &mut dyn FnMut(f64, f64, usize) -> Result<Vec<f64>, String>,
+) -> Result<Slice, String> {
     let (w, h) = (2 * plan.height, plan.height);
     let e = |e: analysis::Error| e.to_string();
     let mut lf = LightField::new(w, h, NormalRule::Fejer).map_err(e)?;
@@ -187,7 +191,11 @@ fn filter_ratios(factor: &Factorization, normal_b: &[f64], directional: bool) ->
 
 /// The check from the glossy and Lambertian slices (coarse, fine) and a prediction.
 pub fn evaluate(glossy: (&Slice, &Slice), lambert: (&Slice, &Slice), p: &Prediction) -> Check {
-    let mut c = Check::new(NAME, EQUATION, "factor the light field of a sphere under an unknown directional source into L_lm (up to scale) and the BRDF");
+    let mut c = Check::new(
+        NAME,
+        EQUATION,
+        "factor the light field of a sphere under an unknown directional source into L_lm (up to scale) and the BRDF",
+    );
     let y = directional_lighting(p.source, LMAX);
     let floor = F32_FLOOR / (4.0 * PI).sqrt();
     for (name, (coarse, fine)) in [("microfacet", glossy), ("lambert", lambert)] {
@@ -197,7 +205,8 @@ pub fn evaluate(glossy: (&Slice, &Slice), lambert: (&Slice, &Slice), p: &Predict
                 let label = format!("{name}: L_{},{m}/P vs Y_lm(s) ({}, gain {:.3e})", o.l, o.status.name(), o.gain);
                 match (fine.factor.lighting[k], coarse.factor.lighting[k], fine.factor_mid.lighting[k]) {
                     (Some(f), Some(q), Some(mid)) => {
-                        let mut row = Row::new(label, y[k], f, 0.0).approx((f - q).abs() + (f - mid).abs()).floor(floor);
+                        let mut row =
+                            Row::new(label, y[k], f, 0.0).approx((f - q).abs() + (f - mid).abs()).floor(floor);
                         if o.l == 0 {
                             row.label = format!("{name}: L_00/P = Λ_0⁻¹ (gauge, identity)");
                             row = row.informative();
@@ -224,13 +233,20 @@ pub fn evaluate(glossy: (&Slice, &Slice), lambert: (&Slice, &Slice), p: &Predict
         match (fine.factor.source_direction(), coarse.factor.source_direction(), fine.factor_mid.source_direction()) {
             (Some(f), Some(q), Some(mid)) => {
                 c.push(
-                    Row::new(format!("{name}: angle(recovered, true source) (deg)"), 0.0, angle_deg(f.direction, p.source), 0.0)
-                        .approx(angle_deg(f.direction, q.direction) + angle_deg(f.direction, mid.direction))
-                        .floor(F32_FLOOR.to_degrees()),
+                    Row::new(
+                        format!("{name}: angle(recovered, true source) (deg)"),
+                        0.0,
+                        angle_deg(f.direction, p.source),
+                        0.0,
+                    )
+                    .approx(angle_deg(f.direction, q.direction) + angle_deg(f.direction, mid.direction))
+                    .floor(F32_FLOOR.to_degrees()),
                 );
                 c.push(
                     Row::new(format!("{name}: directionality |L_1|/√(3/4π)"), 1.0, f.directionality, 0.0)
-                        .approx((f.directionality - q.directionality).abs() + (f.directionality - mid.directionality).abs())
+                        .approx(
+                            (f.directionality - q.directionality).abs() + (f.directionality - mid.directionality).abs(),
+                        )
                         .floor(F32_FLOOR)
                         .informative(),
                 );
@@ -240,7 +256,10 @@ pub fn evaluate(glossy: (&Slice, &Slice), lambert: (&Slice, &Slice), p: &Predict
     }
     // Lambert: the odd orders l ≥ 3 are 0/0 (eq. 38).
     for o in lambert.1.factor.orders.iter().filter(|o| o.l >= 3 && o.l % 2 == 1) {
-        c.push(Row::new(format!("lambert: gain |Λ_{0} κ_{0}|/|Λ_0 κ_0| = 0 (eq. 38: ambiguous)", o.l), 0.0, o.gain, 0.0).floor(F32_FLOOR));
+        c.push(
+            Row::new(format!("lambert: gain |Λ_{0} κ_{0}|/|Λ_0 κ_0| = 0 (eq. 38: ambiguous)", o.l), 0.0, o.gain, 0.0)
+                .floor(F32_FLOOR),
+        );
         c.note(format!("lambert l = {}: {} (L_lm not returned)", o.l, o.status.name()));
     }
     // Lambert's BRDF coefficients ρ̃_0l0 ∝ κ_l (the normal-averaged outgoing profile, B̃_00l0), which
@@ -271,7 +290,9 @@ pub fn evaluate(glossy: (&Slice, &Slice), lambert: (&Slice, &Slice), p: &Predict
         for l in 1..=top {
             let label = format!("microfacet: Λ_{l}ρ̂_{l}/Λ_0ρ̂_0 at θ_o = 0, eq. 16 with {how}");
             match (f.get(l).copied().flatten(), q.get(l).copied().flatten(), mid.get(l).copied().flatten()) {
-                (Some(a), Some(b), Some(m)) => c.push(Row::new(label, ratio(l), a, 0.0).approx((a - b).abs() + (a - m).abs()).floor(F32_FLOOR)),
+                (Some(a), Some(b), Some(m)) => {
+                    c.push(Row::new(label, ratio(l), a, 0.0).approx((a - b).abs() + (a - m).abs()).floor(F32_FLOOR))
+                }
                 _ => c.push(Row::new(label, ratio(l), f64::NAN, 0.0)),
             }
         }
@@ -296,7 +317,13 @@ fn plots(glossy: &Slice, lambert: &Slice, y: &[f64]) -> Vec<Plot> {
             dashed: false,
         }
     };
-    let truth = Series { name: "Y_lm(s) (eq. 19)".into(), x: (1..n).map(|k| k as f64).collect(), y: y[1..].to_vec(), err: None, dashed: false };
+    let truth = Series {
+        name: "Y_lm(s) (eq. 19)".into(),
+        x: (1..n).map(|k| k as f64).collect(),
+        y: y[1..].to_vec(),
+        err: None,
+        dashed: false,
+    };
     let coeffs = Plot {
         legend: Legend::UpperRight,
         file: "factorization_lighting.svg".into(),
@@ -314,7 +341,9 @@ fn plots(glossy: &Slice, lambert: &Slice, y: &[f64]) -> Vec<Plot> {
             y: ls
                 .iter()
                 .map(|&l| {
-                    let e = (-(l as i64)..=(l as i64)).map(|m| (s.factor.lighting[index(l, m)].unwrap_or(0.0) - y[index(l, m)]).abs()).fold(0.0, f64::max);
+                    let e = (-(l as i64)..=(l as i64))
+                        .map(|m| (s.factor.lighting[index(l, m)].unwrap_or(0.0) - y[index(l, m)]).abs())
+                        .fold(0.0, f64::max);
                     e.max(1e-16).log10()
                 })
                 .collect(),
@@ -364,7 +393,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         measure(coarse, (coarse.n_mu, coarse.n_phi), &mut render(GLOSSY))?,
         measure(fine, (fine.n_mu, fine.n_phi), &mut render(GLOSSY))?,
     );
-    let l = (measure(coarse, LAMBERT_NODES, &mut render(LAMBERT))?, measure(fine, LAMBERT_NODES, &mut render(LAMBERT))?);
+    let l =
+        (measure(coarse, LAMBERT_NODES, &mut render(LAMBERT))?, measure(fine, LAMBERT_NODES, &mut render(LAMBERT))?);
     let secs = t.elapsed().as_secs_f64();
     // Determinism: the renderer's own standard error of one node must be 0 (σ = 0 is claimed).
     let spec = Spec {
@@ -381,7 +411,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let ch = Channel::from_film(&film, 0);
     let worst_se = ch.sigma.iter().cloned().fold(0.0, f64::max);
     let mut c = evaluate((&g.0, &g.1), (&l.0, &l.1), &Prediction::new(ctx.wrong));
-    c.push(Row::new("determinism: max per-pixel stderr of a 4-spp render (σ = 0 claimed)", 0.0, worst_se, 0.0).floor(F32_FLOOR * 1e-3));
+    c.push(
+        Row::new("determinism: max per-pixel stderr of a 4-spp render (σ = 0 claimed)", 0.0, worst_se, 0.0)
+            .floor(F32_FLOOR * 1e-3),
+    );
     c.note(format!(
         "coarse: {}×{} normals (Fejér), {} μ × {} φ nodes; fine: {}×{}, {} × {}; lambert {} × {} nodes; source {:?} (unit irradiance), renders {:.1} s",
         2 * coarse.height,
@@ -402,9 +435,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::super::fit::latlong_dir;
-
+    use super::*;
 
     /// Closed-form images of a unit directional source: B = ρ̂ (Beckmann α, F = 1, or Lambert).
     fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f64>, String> {
@@ -426,7 +458,10 @@ mod tests {
                     let ch = dot(n, hv);
                     let d = (-(1.0 - ch * ch) / (ch * ch) / (ALPHA * ALPHA)).exp() / (PI * ALPHA * ALPHA * ch.powi(4));
                     let co = dot(n, wo);
-                    let g = 1.0 / (1.0 + beckmann_lambda(co.clamp(-1.0, 1.0).acos(), ALPHA) + beckmann_lambda(ci.clamp(-1.0, 1.0).acos(), ALPHA));
+                    let g = 1.0
+                        / (1.0
+                            + beckmann_lambda(co.clamp(-1.0, 1.0).acos(), ALPHA)
+                            + beckmann_lambda(ci.clamp(-1.0, 1.0).acos(), ALPHA));
                     (d * g / (4.0 * co)) as f32 as f64
                 })
                 .collect())
@@ -450,7 +485,10 @@ mod tests {
             measure(coarse, (coarse.n_mu, coarse.n_phi), &mut closed_form(false)).unwrap(),
             measure(fine, (fine.n_mu, fine.n_phi), &mut closed_form(false)).unwrap(),
         );
-        let l = (measure(coarse, LAMBERT_NODES, &mut closed_form(true)).unwrap(), measure(fine, LAMBERT_NODES, &mut closed_form(true)).unwrap());
+        let l = (
+            measure(coarse, LAMBERT_NODES, &mut closed_form(true)).unwrap(),
+            measure(fine, LAMBERT_NODES, &mut closed_form(true)).unwrap(),
+        );
         let good = evaluate((&g.0, &g.1), (&l.0, &l.1), &Prediction::new(false));
         assert!(good.passed(), "{:?}", good.rows.iter().filter(|r| !r.informative && !r.passed()).collect::<Vec<_>>());
         assert!(good.rows.iter().any(|r| r.label.contains("ambiguous") && !r.informative));

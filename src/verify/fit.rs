@@ -262,7 +262,12 @@ pub fn fit_filter_probe(ch: &Channel, light: &[f64], lmax_fit: usize) -> Option<
 
 /// Like [`fit_filter_probe`], but the order parts are evaluated at `dir(r, c)` instead of the
 /// pixel's normal (e.g. the reflection vector R at non-normal exitance).
-pub fn fit_filter_at(ch: &Channel, light: &[f64], lmax_fit: usize, dir: impl Fn(usize, usize) -> [f64; 3]) -> Option<Fit> {
+pub fn fit_filter_at(
+    ch: &Channel,
+    light: &[f64],
+    lmax_fit: usize,
+    dir: impl Fn(usize, usize) -> [f64; 3],
+) -> Option<Fit> {
     let (w, h) = (ch.width, ch.height);
     let basis = ShBasis::new(lmax_fit);
     let mut y = vec![0.0; num_coefficients(lmax_fit)];
@@ -302,7 +307,8 @@ mod tests {
         // B = Σ a_l S_l exactly plus noise σ: the fit returns a_l within 4σ(a_l), and σ(a_l)
         // matches the spread over seeds (checked loosely: ratio within 30 % over 40 seeds).
         let lmax = 4;
-        let light: Vec<f64> = (0..25).map(|k| if k == 0 { 3.0 } else { 0.3 * ((k * 7 % 11) as f64 / 11.0 - 0.5) }).collect();
+        let light: Vec<f64> =
+            (0..25).map(|k| if k == 0 { 3.0 } else { 0.3 * ((k * 7 % 11) as f64 / 11.0 - 0.5) }).collect();
         let a_true = [1.0, 0.6, 0.3, -0.1, 0.05];
         let basis = ShBasis::new(lmax);
         let f = |n: [f64; 3]| {

@@ -59,11 +59,14 @@ fn project() -> Result<Vec<f64>, String> {
             }
             acc
         })
-        .reduce(|| vec![0.0; n], |mut a, b| {
-            for k in 0..n {
-                a[k] += b[k];
-            }
-            a
-        });
+        .reduce(
+            || vec![0.0; n],
+            |mut a, b| {
+                for k in 0..n {
+                    a[k] += b[k];
+                }
+                a
+            },
+        );
     Ok(sum)
 }

@@ -62,7 +62,8 @@ pub fn bins(ch: &Channel, pred: &dyn Fn(f64) -> f64) -> Vec<(f64, f64, f64, f64)
             for a in 0..4 {
                 for b in 0..4 {
                     let x = EXTENT * (2.0 * (c as f64 + (b as f64 + 0.5) / 4.0) / w as f64 - 1.0);
-                    let y = EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / 4.0) / h as f64);
+                    let y =
+                        EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / 4.0) / h as f64);
                     let q = 1.0 - x * x - y * y;
                     if q <= 0.0 {
                         ok = false;
@@ -100,7 +101,8 @@ pub fn evaluate_into(c: &mut Check, label: &str, bins: &[(f64, f64, f64, f64)]) 
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
-    let mut c = Check::new(NAME, EQUATION, "horizon clamp vs ignore (paper's simplification) vs viewing angle, uniform light");
+    let mut c =
+        Check::new(NAME, EQUATION, "horizon clamp vs ignore (paper's simplification) vs viewing angle, uniform light");
     let phong_clamp = Table::new(|t| transfer::phong_horizon_fraction(S, t));
     let ts_clamp = Table::new(|t| transfer::ts_albedo(SIGMA, t, true));
     let ts_ignore = Table::new(|t| transfer::ts_albedo(SIGMA, t, false));
@@ -110,10 +112,30 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     // (label, BRDF, prediction, deliberately wrong prediction).
     type Case<'a> = (&'a str, String, Box<dyn Fn(f64) -> f64 + 'a>, Box<dyn Fn(f64) -> f64 + 'a>);
     let cases: Vec<Case> = vec![
-        ("phong clamp", format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"clamp\" }}"), Box::new(|t| phong_clamp.at(t)), Box::new(|_| 1.0)),
-        ("phong ignore", format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"), Box::new(|_| 1.0), Box::new(|_| 1.0)),
-        ("TS clamp", format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"clamp\" }}"), Box::new(|t| ts_clamp.at(t)), Box::new(|t| ts_ignore.at(t))),
-        ("TS ignore", format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"ignore\" }}"), Box::new(|t| ts_ignore.at(t)), Box::new(|t| ts_ignore.at(t))),
+        (
+            "phong clamp",
+            format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"clamp\" }}"),
+            Box::new(|t| phong_clamp.at(t)),
+            Box::new(|_| 1.0),
+        ),
+        (
+            "phong ignore",
+            format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"),
+            Box::new(|_| 1.0),
+            Box::new(|_| 1.0),
+        ),
+        (
+            "TS clamp",
+            format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"clamp\" }}"),
+            Box::new(|t| ts_clamp.at(t)),
+            Box::new(|t| ts_ignore.at(t)),
+        ),
+        (
+            "TS ignore",
+            format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"ignore\" }}"),
+            Box::new(|t| ts_ignore.at(t)),
+            Box::new(|t| ts_ignore.at(t)),
+        ),
     ];
     for (label, brdf, right, wrong) in &cases {
         let spec = Spec {
@@ -156,7 +178,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             100.0 * (ts_ignore.at(t) / ts_clamp.at(t) - 1.0)
         ));
     }
-    c.note(format!("orthographic {size}×{size} from +x, uniform L = 1, {} spp, bins of {BIN_DEG}° up to {MAX_DEG}°", ctx.spp(32, 256)));
+    c.note(format!(
+        "orthographic {size}×{size} from +x, uniform L = 1, {} spp, bins of {BIN_DEG}° up to {MAX_DEG}°",
+        ctx.spp(32, 256)
+    ));
     if ctx.wrong {
         c.note("WRONG-PREDICTION MODE: clamp renders compared with the ignore prediction");
     }

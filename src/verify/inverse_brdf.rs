@@ -72,9 +72,11 @@ pub fn linearised_sd_ln_s(s: f64, cov: &[f64], lmax: usize) -> f64 {
     let cinv = ch.inverse();
     let g = analysis::transfer::phong::phong(s, lmax);
     let h = 1e-4;
-    let (gp, gm) = (analysis::transfer::phong::phong(s * (1.0 + h), lmax), analysis::transfer::phong::phong(s * (1.0 - h), lmax));
+    let (gp, gm) =
+        (analysis::transfer::phong::phong(s * (1.0 + h), lmax), analysis::transfer::phong::phong(s * (1.0 - h), lmax));
     let d: Vec<f64> = (0..n).map(|l| (gp[l] - gm[l]) / (2.0 * h)).collect();
-    let quad = |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
+    let quad =
+        |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
     let (a, b, c) = (quad(&g, &g), quad(&g, &d), quad(&d, &d));
     // [(JᵀC⁻¹J)⁻¹]_22 = a / (a c − b²); ∞ when s is not identifiable (one order, or a flat filter).
     let det = a * c - b * b;
@@ -102,29 +104,74 @@ pub struct Fits {
 
 /// The check from the fits; `s_pred` is the predicted exponent.
 pub fn evaluate(f: &Fits, s_pred: f64) -> Check {
-    let mut c = Check::new(NAME, EQUATION, "Phong s from Λ_l ρ̂_l: sharp under a directional source, ill-conditioned under 9-term lighting, undetermined under uniform lighting");
-    c.push(Row::new(format!("s, directional (l ≤ {LMAX})"), s_pred, f.dir.parameter, half_width(&f.dir).unwrap_or(f64::INFINITY)));
+    let mut c = Check::new(
+        NAME,
+        EQUATION,
+        "Phong s from Λ_l ρ̂_l: sharp under a directional source, ill-conditioned under 9-term lighting, undetermined under uniform lighting",
+    );
+    c.push(Row::new(
+        format!("s, directional (l ≤ {LMAX})"),
+        s_pred,
+        f.dir.parameter,
+        half_width(&f.dir).unwrap_or(f64::INFINITY),
+    ));
     match half_width(&f.nine) {
         Some(h) => c.push(Row::new("s, 9-term render (l ≤ 2)", s_pred, f.nine.parameter, h)),
-        None => c.push(Row::new("s, 9-term render (l ≤ 2), interval unbounded", s_pred, f.nine.parameter, 0.0).informative()),
+        None => c.push(
+            Row::new("s, 9-term render (l ≤ 2), interval unbounded", s_pred, f.nine.parameter, 0.0).informative(),
+        ),
     }
     let ratio = f.dir_l2.relative_width() / f.dir.relative_width();
-    c.push(Row::new(format!("equal noise: l ≤ 2 interval wider than the l ≤ {LMAX} one (1 = holds)"), 1.0, if ratio > 1.0 { 1.0 } else { 0.0 }, 0.0));
-    let predicted = linearised_sd_ln_s(s_pred, &block(&f.cov, LMAX + 1, 3), 2) / linearised_sd_ln_s(s_pred, &f.cov, LMAX);
-    c.push(Row::new("equal noise: width ratio l ≤ 2 / l ≤ 12 vs its linearised prediction", predicted, ratio, 0.0).informative());
+    c.push(Row::new(
+        format!("equal noise: l ≤ 2 interval wider than the l ≤ {LMAX} one (1 = holds)"),
+        1.0,
+        if ratio > 1.0 { 1.0 } else { 0.0 },
+        0.0,
+    ));
+    let predicted =
+        linearised_sd_ln_s(s_pred, &block(&f.cov, LMAX + 1, 3), 2) / linearised_sd_ln_s(s_pred, &f.cov, LMAX);
+    c.push(
+        Row::new("equal noise: width ratio l ≤ 2 / l ≤ 12 vs its linearised prediction", predicted, ratio, 0.0)
+            .informative(),
+    );
     let unbounded = f.dir_l0.interval == (None, None);
-    c.push(Row::new("uniform lighting (order 0 only): s unbounded on both sides (1 = holds)", 1.0, if unbounded { 1.0 } else { 0.0 }, 0.0));
+    c.push(Row::new(
+        "uniform lighting (order 0 only): s unbounded on both sides (1 = holds)",
+        1.0,
+        if unbounded { 1.0 } else { 0.0 },
+        0.0,
+    ));
     let iv = |b: &BrdfFit| format!("{:?} … {:?}", b.interval.0, b.interval.1);
-    c.note(format!("directional l ≤ {LMAX}: ŝ = {:.3}, Δχ² = 1 interval {}, relative width {:.4}", f.dir.parameter, iv(&f.dir), f.dir.relative_width()));
-    c.note(format!("same render, l ≤ 2: ŝ = {:.3}, interval {}, relative width {:.4}: {ratio:.1}× the l ≤ {LMAX} one", f.dir_l2.parameter, iv(&f.dir_l2), f.dir_l2.relative_width()));
-    let lin = |cov: &[f64]| linearised_sd_ln_s(s_pred, &block(cov, LMAX + 1, 3), 2) / linearised_sd_ln_s(s_pred, cov, LMAX);
+    c.note(format!(
+        "directional l ≤ {LMAX}: ŝ = {:.3}, Δχ² = 1 interval {}, relative width {:.4}",
+        f.dir.parameter,
+        iv(&f.dir),
+        f.dir.relative_width()
+    ));
+    c.note(format!(
+        "same render, l ≤ 2: ŝ = {:.3}, interval {}, relative width {:.4}: {ratio:.1}× the l ≤ {LMAX} one",
+        f.dir_l2.parameter,
+        iv(&f.dir_l2),
+        f.dir_l2.relative_width()
+    ));
+    let lin =
+        |cov: &[f64]| linearised_sd_ln_s(s_pred, &block(cov, LMAX + 1, 3), 2) / linearised_sd_ln_s(s_pred, cov, LMAX);
     c.note(format!(
         "linearised prediction of that ratio: {:.1} with the measured covariance, {:.1} with equal independent noise",
         lin(&f.cov),
         lin(&identity(LMAX + 1))
     ));
-    c.note(format!("same render, order 0 only (uniform lighting): interval {} (flat χ² profile: max Δχ² = {:.2e})", iv(&f.dir_l0), f.dir_l0.profile.iter().map(|p| p.1).fold(0.0, f64::max)));
-    c.note(format!("9-term render: ŝ = {:.3}, interval {}, relative width {:.4} (its own, lower noise)", f.nine.parameter, iv(&f.nine), f.nine.relative_width()));
+    c.note(format!(
+        "same render, order 0 only (uniform lighting): interval {} (flat χ² profile: max Δχ² = {:.2e})",
+        iv(&f.dir_l0),
+        f.dir_l0.profile.iter().map(|p| p.1).fold(0.0, f64::max)
+    ));
+    c.note(format!(
+        "9-term render: ŝ = {:.3}, interval {}, relative width {:.4} (its own, lower noise)",
+        f.nine.parameter,
+        iv(&f.nine),
+        f.nine.relative_width()
+    ));
     let profile = |name: &str, b: &BrdfFit| Series {
         name: name.into(),
         x: b.profile.iter().map(|p| p.0.log10()).collect(),
@@ -163,13 +210,26 @@ fn fit_one(ctx: &Ctx, l_light: usize) -> Result<(Fit, Vec<f64>), String> {
 /// gave intervals that missed s = 32 by 4σ on some seeds.
 fn fit_orders(fit: &Fit, lmax: usize) -> Result<BrdfFit, String> {
     let p = fit.coef.len();
-    fit_model_gls(&(0..=lmax).collect::<Vec<_>>(), &fit.coef[..=lmax], &block(&fit.cov, p, lmax + 1), Model::Phong, None).map_err(|e| e.to_string())
+    fit_model_gls(
+        &(0..=lmax).collect::<Vec<_>>(),
+        &fit.coef[..=lmax],
+        &block(&fit.cov, p, lmax + 1),
+        Model::Phong,
+        None,
+    )
+    .map_err(|e| e.to_string())
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let (d, _) = fit_one(ctx, LMAX)?;
     let (n9, _) = fit_one(ctx, 2)?;
-    let fits = Fits { dir: fit_orders(&d, LMAX)?, dir_l2: fit_orders(&d, 2)?, dir_l0: fit_orders(&d, 0)?, nine: fit_orders(&n9, 2)?, cov: d.cov.clone() };
+    let fits = Fits {
+        dir: fit_orders(&d, LMAX)?,
+        dir_l2: fit_orders(&d, 2)?,
+        dir_l0: fit_orders(&d, 0)?,
+        nine: fit_orders(&n9, 2)?,
+        cov: d.cov.clone(),
+    };
     let mut c = evaluate(&fits, if ctx.wrong { 1.2 * S } else { S });
     c.note(format!(
         "normal-probe {}×{}, {} spp, channel R; per-order σ of Λ_l ρ̂_l, directional render: {}",
@@ -194,7 +254,13 @@ mod tests {
     }
 
     fn fits(sigma: f64) -> Fits {
-        Fits { dir: synthetic(LMAX, sigma), dir_l2: synthetic(2, sigma), dir_l0: synthetic(0, sigma), nine: synthetic(2, sigma), cov: identity(LMAX + 1).iter().map(|v| v * sigma * sigma).collect() }
+        Fits {
+            dir: synthetic(LMAX, sigma),
+            dir_l2: synthetic(2, sigma),
+            dir_l0: synthetic(0, sigma),
+            nine: synthetic(2, sigma),
+            cov: identity(LMAX + 1).iter().map(|v| v * sigma * sigma).collect(),
+        }
     }
 
     #[test]

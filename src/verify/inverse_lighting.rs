@@ -64,15 +64,22 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
     let rgb = |v: &[f64]| v[..n].iter().map(|x| [*x; 3]).collect::<Vec<_>>();
     let inv = invert_lighting(&rgb(b), Some(&rgb(b_se)), &f, [1.0; 3], LMAX, DEFAULT_MAX_AMPLIFICATION, None)
         .map_err(|e| e.to_string())?;
-    let mut c = Check::new(NAME, EQUATION, "inverse lighting from a Lambertian sphere under Grace: l ≤ 2 recovered, odd l ≥ 3 unobservable, even l ≥ 4 ill-conditioned");
+    let mut c = Check::new(
+        NAME,
+        EQUATION,
+        "inverse lighting from a Lambertian sphere under Grace: l ≤ 2 recovered, odd l ≥ 3 unobservable, even l ≥ 4 ill-conditioned",
+    );
     for o in &inv.orders {
         for m in -(o.l as i64)..=(o.l as i64) {
             let k = index(o.l, m);
             match o.status {
-                Status::Unobservable => c.push(Row::new(format!("B_{},{m} (filter 0: unobservable)", o.l), scale * q[k], b[k], b_se[k])),
+                Status::Unobservable => {
+                    c.push(Row::new(format!("B_{},{m} (filter 0: unobservable)", o.l), scale * q[k], b[k], b_se[k]))
+                }
                 status => {
                     let (Some(l), Some(se)) = (inv.coefficients[k], inv.stderr[k]) else { continue };
-                    let mut row = Row::new(format!("L_{},{m} ({})", o.l, status.name()), scale * q[k] / f[o.l], l[0], se[0]);
+                    let mut row =
+                        Row::new(format!("L_{},{m} ({})", o.l, status.name()), scale * q[k] / f[o.l], l[0], se[0]);
                     if status == Status::IllConditioned {
                         row = row.informative();
                     }
@@ -81,7 +88,13 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
             }
         }
         if let Some(a) = o.amplification {
-            c.note(format!("l = {}: Λ_l ρ̂_l = {:.5}, noise amplification {:.1} → {}", o.l, o.filter, a, o.status.name()));
+            c.note(format!(
+                "l = {}: Λ_l ρ̂_l = {:.5}, noise amplification {:.1} → {}",
+                o.l,
+                o.filter,
+                a,
+                o.status.name()
+            ));
         } else {
             c.note(format!("l = {}: Λ_l ρ̂_l = 0 → unobservable (eq. 38)", o.l));
         }
@@ -90,7 +103,13 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
     c.note(format!("Tikhonov (GCV) λ = {lambda:.3e}; regularised L_00 = {:.5}", inv.regularised.coefficients[0][0]));
     // Plots: recovered vs true, and error vs order against the predicted standard error.
     let obs: Vec<usize> = (0..n).filter(|&k| inv.coefficients[k].is_some()).collect();
-    let truth = Series { name: "Grace L_lm".into(), x: (0..n).map(|k| k as f64).collect(), y: (0..n).map(|k| if f[lm(k).0] != 0.0 { scale * q[k] / f[lm(k).0] } else { 0.0 }).collect(), err: None, dashed: false };
+    let truth = Series {
+        name: "Grace L_lm".into(),
+        x: (0..n).map(|k| k as f64).collect(),
+        y: (0..n).map(|k| if f[lm(k).0] != 0.0 { scale * q[k] / f[lm(k).0] } else { 0.0 }).collect(),
+        err: None,
+        dashed: false,
+    };
     let rec = Series {
         name: "recovered ± σ".into(),
         x: obs.iter().map(|&k| k as f64).collect(),
@@ -98,7 +117,13 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
         err: Some(obs.iter().map(|&k| inv.stderr[k].map_or(0.0, |v| v[0])).collect()),
         dashed: false,
     };
-    let reg = Series { name: "Tikhonov (GCV)".into(), x: (0..n).map(|k| k as f64).collect(), y: inv.regularised.coefficients.iter().map(|v| v[0]).collect(), err: None, dashed: true };
+    let reg = Series {
+        name: "Tikhonov (GCV)".into(),
+        x: (0..n).map(|k| k as f64).collect(),
+        y: inv.regularised.coefficients.iter().map(|v| v[0]).collect(),
+        err: None,
+        dashed: true,
+    };
     c.plots.push(Plot {
         legend: Legend::UpperRight,
         file: "inverse_lighting.svg".into(),
@@ -125,7 +150,10 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
         points: vec![Series {
             name: "measured".into(),
             x: orders.iter().map(|&l| l as f64).collect(),
-            y: orders.iter().map(|&l| order_rms(l, |k| inv.coefficients[k].map_or(0.0, |v| v[0]) - scale * q[k] / f[l])).collect(),
+            y: orders
+                .iter()
+                .map(|&l| order_rms(l, |k| inv.coefficients[k].map_or(0.0, |v| v[0]) - scale * q[k] / f[l]))
+                .collect(),
             err: None,
             dashed: false,
         }],
@@ -159,7 +187,8 @@ mod tests {
     fn passes_the_right_prediction_and_fails_a_wrong_one() {
         // A synthetic render of the exact band-limited B of an SH lighting with noise σ = 0.05
         // per pixel (a quick run's), 96 × 48.
-        let light: Vec<f64> = (0..num_coefficients(8)).map(|k| if k == 0 { 2.0 } else { 0.3 / (1.0 + lm(k).0 as f64) }).collect();
+        let light: Vec<f64> =
+            (0..num_coefficients(8)).map(|k| if k == 0 { 2.0 } else { 0.3 / (1.0 + lm(k).0 as f64) }).collect();
         let (w, h) = (96, 48);
         let q = predicted_quadrature(&light, w, h);
         let f8 = analysis::transfer::lambert::lambert(8);

@@ -44,7 +44,10 @@ pub const S: f64 = 16.0;
 pub fn fit_sh(ch: &Channel, light: &[f64], lmax: usize) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     let n = num_coefficients(lmax);
     let (rows, weight) = sh_design(ch.width, ch.height, lmax);
-    let floor: Vec<f64> = rows.iter().map(|y| F32_FLOOR * (0..n.min(light.len())).map(|k| (light[k] * y[k]).abs()).sum::<f64>()).collect();
+    let floor: Vec<f64> = rows
+        .iter()
+        .map(|y| F32_FLOOR * (0..n.min(light.len())).map(|k| (light[k] * y[k]).abs()).sum::<f64>())
+        .collect();
     let fit = lsq(&rows, &ch.value, &ch.sigma, &weight)?;
     let fl = lsq(&rows, &ch.value, &floor, &weight)?;
     Some((fit.coef, fit.sigma, fl.sigma))
@@ -55,17 +58,40 @@ fn rgb(v: &[f64]) -> Vec<[f64; 3]> {
 }
 
 /// Mirror rows: every order recovered with amplification 1, L̂_lm = B_lm against `scale` × L_lm.
-pub fn evaluate_mirror(c: &mut Check, b: &[f64], se: &[f64], floor: &[f64], light: &[f64], scale: f64) -> Result<InverseLighting, String> {
+pub fn evaluate_mirror(
+    c: &mut Check,
+    b: &[f64],
+    se: &[f64],
+    floor: &[f64],
+    light: &[f64],
+    scale: f64,
+) -> Result<InverseLighting, String> {
     let f = analysis::transfer::mirror::mirror(LMAX_MIRROR);
     let n = num_coefficients(LMAX_MIRROR);
-    let inv = invert_lighting(&rgb(&b[..n]), Some(&rgb(&se[..n])), &f, [1.0; 3], LMAX_MIRROR, DEFAULT_MAX_AMPLIFICATION, None)
-        .map_err(|e| e.to_string())?;
+    let inv = invert_lighting(
+        &rgb(&b[..n]),
+        Some(&rgb(&se[..n])),
+        &f,
+        [1.0; 3],
+        LMAX_MIRROR,
+        DEFAULT_MAX_AMPLIFICATION,
+        None,
+    )
+    .map_err(|e| e.to_string())?;
     let recovered = inv.orders.iter().filter(|o| o.status == Status::Recovered && o.amplification == Some(1.0)).count();
-    c.push(Row::new(format!("mirror: orders recovered with amplification 1 (of {})", LMAX_MIRROR + 1), (LMAX_MIRROR + 1) as f64, recovered as f64, 0.0));
+    c.push(Row::new(
+        format!("mirror: orders recovered with amplification 1 (of {})", LMAX_MIRROR + 1),
+        (LMAX_MIRROR + 1) as f64,
+        recovered as f64,
+        0.0,
+    ));
     for k in 0..n {
         let (l, m) = lm(k);
         let Some(v) = inv.coefficients[k] else { continue };
-        c.push(Row::new(format!("mirror L_{l},{m}"), scale * light[k], v[0], inv.stderr[k].map_or(0.0, |s| s[0])).floor(floor[k]));
+        c.push(
+            Row::new(format!("mirror L_{l},{m}"), scale * light[k], v[0], inv.stderr[k].map_or(0.0, |s| s[0]))
+                .floor(floor[k]),
+        );
     }
     Ok(inv)
 }
@@ -75,8 +101,9 @@ pub fn evaluate_mirror(c: &mut Check, b: &[f64], se: &[f64], floor: &[f64], ligh
 pub fn evaluate_phong(c: &mut Check, b: &[f64], se: &[f64], q: &[f64], scale: f64) -> Result<InverseLighting, String> {
     let f = analysis::transfer::phong::phong(S, LMAX_PHONG);
     let n = num_coefficients(LMAX_PHONG);
-    let inv = invert_lighting(&rgb(&b[..n]), Some(&rgb(&se[..n])), &f, [1.0; 3], LMAX_PHONG, DEFAULT_MAX_AMPLIFICATION, None)
-        .map_err(|e| e.to_string())?;
+    let inv =
+        invert_lighting(&rgb(&b[..n]), Some(&rgb(&se[..n])), &f, [1.0; 3], LMAX_PHONG, DEFAULT_MAX_AMPLIFICATION, None)
+            .map_err(|e| e.to_string())?;
     // The boundary of eq. 46 at the stated threshold, against the classification by eq. 43.
     let l_star = inv.orders.iter().take_while(|o| o.status == Status::Recovered).count();
     let l_eq46 = (2.0 * S * DEFAULT_MAX_AMPLIFICATION.ln()).sqrt();
@@ -88,14 +115,22 @@ pub fn evaluate_phong(c: &mut Check, b: &[f64], se: &[f64], q: &[f64], scale: f6
         for m in -(o.l as i64)..=(o.l as i64) {
             let k = index(o.l, m);
             let (Some(v), Some(s)) = (inv.coefficients[k], inv.stderr[k]) else { continue };
-            let mut row = Row::new(format!("Phong L_{},{m} ({})", o.l, o.status.name()), scale * q[k] / f[o.l], v[0], s[0]);
+            let mut row =
+                Row::new(format!("Phong L_{},{m} ({})", o.l, o.status.name()), scale * q[k] / f[o.l], v[0], s[0]);
             if o.status != Status::Recovered {
                 row = row.informative();
             }
             c.push(row);
         }
         if let Some(a) = o.amplification {
-            c.note(format!("Phong l = {}: Λ_l ρ̂_l = {:.5} (eq. 46: {:.5}), amplification {:.1} → {}", o.l, o.filter, (-((o.l * o.l) as f64) / (2.0 * S)).exp(), a, o.status.name()));
+            c.note(format!(
+                "Phong l = {}: Λ_l ρ̂_l = {:.5} (eq. 46: {:.5}), amplification {:.1} → {}",
+                o.l,
+                o.filter,
+                (-((o.l * o.l) as f64) / (2.0 * S)).exp(),
+                a,
+                o.status.name()
+            ));
         }
     }
     Ok(inv)
@@ -107,27 +142,51 @@ fn plots(c: &mut Check, mirror: (&InverseLighting, &[f64]), phong: (&InverseLigh
     let ls = |lmax: usize| (0..=lmax).map(|l| l as f64).collect::<Vec<_>>();
     let (im, lm_true) = mirror;
     let (ip, lp_true) = phong;
-    let err = |inv: &InverseLighting, truth: &[f64], l: usize| order_rms(l, |k| inv.coefficients[k].map_or(0.0, |v| v[0]) - truth[k]);
+    let err = |inv: &InverseLighting, truth: &[f64], l: usize| {
+        order_rms(l, |k| inv.coefficients[k].map_or(0.0, |v| v[0]) - truth[k])
+    };
     let se = |inv: &InverseLighting, l: usize| order_rms(l, |k| inv.stderr[k].map_or(0.0, |v| v[0]));
     c.plots.push(Plot {
         legend: Legend::UpperRight,
         file: "inverse_specular_error.svg".into(),
-        title: format!("Inverse lighting: RMS error per order, mirror (l ≤ {LMAX_MIRROR}) and Phong s = {S} under Grace"),
+        title: format!(
+            "Inverse lighting: RMS error per order, mirror (l ≤ {LMAX_MIRROR}) and Phong s = {S} under Grace"
+        ),
         x_label: "l".into(),
         y_label: "RMS |L̂_lm − L_lm| (log10)".into(),
         curves: vec![
-            Series { name: "Phong: predicted σ (amplification × σ_B)".into(), x: ls(LMAX_PHONG), y: (0..=LMAX_PHONG).map(|l| se(ip, l).max(1e-12).log10()).collect(), err: None, dashed: false },
+            Series {
+                name: "Phong: predicted σ (amplification × σ_B)".into(),
+                x: ls(LMAX_PHONG),
+                y: (0..=LMAX_PHONG).map(|l| se(ip, l).max(1e-12).log10()).collect(),
+                err: None,
+                dashed: false,
+            },
             Series {
                 name: "Phong: σ_B · exp(l²/2s) (eq. 46)".into(),
                 x: ls(LMAX_PHONG),
-                y: (0..=LMAX_PHONG).map(|l| (se(ip, 0) * ((l * l) as f64 / (2.0 * S)).exp()).max(1e-12).log10()).collect(),
+                y: (0..=LMAX_PHONG)
+                    .map(|l| (se(ip, 0) * ((l * l) as f64 / (2.0 * S)).exp()).max(1e-12).log10())
+                    .collect(),
                 err: None,
                 dashed: true,
             },
         ],
         points: vec![
-            Series { name: "Phong: measured".into(), x: ls(LMAX_PHONG), y: (0..=LMAX_PHONG).map(|l| err(ip, lp_true, l).max(1e-12).log10()).collect(), err: None, dashed: false },
-            Series { name: "mirror: measured".into(), x: ls(LMAX_MIRROR), y: (0..=LMAX_MIRROR).map(|l| err(im, lm_true, l).max(1e-12).log10()).collect(), err: None, dashed: false },
+            Series {
+                name: "Phong: measured".into(),
+                x: ls(LMAX_PHONG),
+                y: (0..=LMAX_PHONG).map(|l| err(ip, lp_true, l).max(1e-12).log10()).collect(),
+                err: None,
+                dashed: false,
+            },
+            Series {
+                name: "mirror: measured".into(),
+                x: ls(LMAX_MIRROR),
+                y: (0..=LMAX_MIRROR).map(|l| err(im, lm_true, l).max(1e-12).log10()).collect(),
+                err: None,
+                dashed: false,
+            },
         ],
     });
     let n = num_coefficients(LMAX_PHONG);
@@ -138,7 +197,13 @@ fn plots(c: &mut Check, mirror: (&InverseLighting, &[f64]), phong: (&InverseLigh
         title: format!("Inverse lighting from a Phong sphere (s = {S}) under Grace: L_lm vs k = l(l+1)+m"),
         x_label: "k".into(),
         y_label: "L_lm".into(),
-        curves: vec![Series { name: "Grace L_lm".into(), x: ks.iter().map(|&k| k as f64).collect(), y: ks.iter().map(|&k| lp_true[k]).collect(), err: None, dashed: false }],
+        curves: vec![Series {
+            name: "Grace L_lm".into(),
+            x: ks.iter().map(|&k| k as f64).collect(),
+            y: ks.iter().map(|&k| lp_true[k]).collect(),
+            err: None,
+            dashed: false,
+        }],
         points: vec![Series {
             name: "recovered ± σ".into(),
             x: ks.iter().map(|&k| k as f64).collect(),
@@ -151,7 +216,11 @@ fn plots(c: &mut Check, mirror: (&InverseLighting, &[f64]), phong: (&InverseLigh
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let scale = if ctx.wrong { 1.05 } else { 1.0 };
-    let mut c = Check::new(NAME, EQUATION, "inverse lighting: a mirror recovers every order (amplification 1), Phong s = 16 only up to l ≈ √(2 s ln 10)");
+    let mut c = Check::new(
+        NAME,
+        EQUATION,
+        "inverse lighting: a mirror recovers every order (amplification 1), Phong s = 16 only up to l ≈ √(2 s ln 10)",
+    );
     // Mirror under a band-limited SH lighting.
     let light = sh_lighting(LMAX_MIRROR, 0.3, ctx.seed + 11);
     let spec = Spec::probe(ctx, 1, Lighting::Sh(light.clone()), "{ type = \"mirror\", kr = 1.0 }");
@@ -159,7 +228,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let ch = Channel::from_film(&film, 0);
     let (b, se, floor) = fit_sh(&ch, &light, LMAX_MIRROR).ok_or("singular SH fit of the mirror image")?;
     let im = evaluate_mirror(&mut c, &b, &se, &floor, &light, scale)?;
-    c.note(format!("mirror: normal-probe {}×{}, 1 spp (deterministic), SH lighting l ≤ {LMAX_MIRROR} with per-order energy 0.3", spec.width, spec.height));
+    c.note(format!(
+        "mirror: normal-probe {}×{}, 1 spp (deterministic), SH lighting l ≤ {LMAX_MIRROR} with per-order energy 0.3",
+        spec.width, spec.height
+    ));
     // Phong under Grace.
     let lg = grace::coefficients()?;
     let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}");
@@ -192,7 +264,13 @@ mod tests {
         let light = sh_lighting(LMAX_MIRROR, 0.3, 3);
         let basis = ShBasis::new(LMAX_MIRROR);
         // The mirror image in f32, as the renderer produces it.
-        let ch = Channel::synthetic_probe(96, 48, |n| basis.eval(n).iter().zip(&light).map(|(y, l)| y * l).sum::<f64>() as f32 as f64, 0.0, 1);
+        let ch = Channel::synthetic_probe(
+            96,
+            48,
+            |n| basis.eval(n).iter().zip(&light).map(|(y, l)| y * l).sum::<f64>() as f32 as f64,
+            0.0,
+            1,
+        );
         let (b, se, floor) = fit_sh(&ch, &light, LMAX_MIRROR).unwrap();
         let mut good = Check::new(NAME, EQUATION, "");
         evaluate_mirror(&mut good, &b, &se, &floor, &light, 1.0).unwrap();

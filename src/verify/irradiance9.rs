@@ -79,7 +79,11 @@ pub fn energy_share(ch: &Channel) -> f64 {
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
-    let mut c = Check::new(NAME, EQUATION, "9-term (l ≤ 2) approximation of Lambertian reflection under Grace; energy share 127/128");
+    let mut c = Check::new(
+        NAME,
+        EQUATION,
+        "9-term (l ≤ 2) approximation of Lambertian reflection under Grace; energy share 127/128",
+    );
     let lg = grace::coefficients()?;
     let spec = Spec::probe(ctx, ctx.spp(256, 512), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let ch = Channel::from_film(&render_spec(ctx, &spec)?, grace::CHANNEL);
@@ -106,18 +110,39 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     c.push(Row::new("max |B − B₉|/B", p.max_abs, m.max_abs, 0.0).informative());
 
     // Energy share on the directional (impulse-response) render.
-    let spec = Spec::probe(ctx, 4, Lighting::Directional { direction: [0.0, 0.0, 1.0], irradiance: 1.0 }, "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(
+        ctx,
+        4,
+        Lighting::Directional { direction: [0.0, 0.0, 1.0], irradiance: 1.0 },
+        "{ type = \"lambert\", albedo = 1.0 }",
+    );
     let dch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
     let share = energy_share(&dch);
-    let exact_img = Channel { value: (0..dch.width * dch.height).map(|i| transfer::lambert_lobe(latlong_dir(i / dch.width, i % dch.width, dch.width, dch.height)[2].clamp(-1.0, 1.0).acos())).collect(), ..dch.clone() };
+    let exact_img = Channel {
+        value: (0..dch.width * dch.height)
+            .map(|i| {
+                transfer::lambert_lobe(
+                    latlong_dir(i / dch.width, i % dch.width, dch.width, dch.height)[2].clamp(-1.0, 1.0).acos(),
+                )
+            })
+            .collect(),
+        ..dch.clone()
+    };
     let qshare = energy_share(&exact_img);
     let expected = if ctx.wrong { 0.99 } else { 127.0 / 128.0 };
-    c.push(Row::new("kernel energy share in l ≤ 2", expected, share, 0.0).approx(qshare - 127.0 / 128.0).floor(10.0 * F32_FLOOR));
+    c.push(
+        Row::new("kernel energy share in l ≤ 2", expected, share, 0.0)
+            .approx(qshare - 127.0 / 128.0)
+            .floor(10.0 * F32_FLOOR),
+    );
     c.note(format!(
         "Grace (green), normal-probe {}×{}, {} spp; predicted rms/mean/max 9-term relative error {:.4}/{:.4}/{:.4}, measured {:.4} ± {:.4} / {:.4} / {:.4} (mean and max of |e| are biased up by the noise)",
         spec.width, spec.height, ctx.spp(256, 512), p.rms(), p.mean_abs, p.max_abs, m.rms(), m.sigma_rms(), m.mean_abs, m.max_abs
     ));
-    c.note(format!("energy share: measured {share:.6}, same quadrature of the exact kernel {qshare:.6}, 127/128 = {:.6}", 127.0 / 128.0));
+    c.note(format!(
+        "energy share: measured {share:.6}, same quadrature of the exact kernel {qshare:.6}, 127/128 = {:.6}",
+        127.0 / 128.0
+    ));
     let _ = index(0, 0);
     Ok(c)
 }
@@ -131,7 +156,8 @@ mod tests {
         let ch = Channel::synthetic_probe(512, 256, |n| transfer::lambert_lobe(n[2].clamp(-1.0, 1.0).acos()), 0.0, 1);
         assert!((energy_share(&ch) - 127.0 / 128.0).abs() < 2e-4);
         // A sharper kernel (Phong s = 8) has much less of its energy in l ≤ 2: the check can fail.
-        let ch = Channel::synthetic_probe(512, 256, |n| transfer::phong_lobe(8.0, n[2].clamp(-1.0, 1.0).acos()), 0.0, 1);
+        let ch =
+            Channel::synthetic_probe(512, 256, |n| transfer::phong_lobe(8.0, n[2].clamp(-1.0, 1.0).acos()), 0.0, 1);
         assert!(energy_share(&ch) < 0.9);
     }
 

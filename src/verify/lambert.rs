@@ -52,7 +52,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     c.note(format!(
         "normal-probe {}×{}, {} spp, independent sampler; SH lighting l ≤ {LMAX} with Σ_m L_lm² = 0.25 per order; \
          Grace fit with orders l ≤ {} (modelled), green channel",
-        spec.width, spec.height, spec.spp, grace::LMAX
+        spec.width,
+        spec.height,
+        spec.spp,
+        grace::LMAX
     ));
     if let Some(x) = fit.reduced_chi2 {
         c.note(format!("SH fit reduced χ² = {x:.3} (≈ 1 when the model and the σ are right)"));

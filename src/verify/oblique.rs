@@ -70,7 +70,13 @@ pub struct Resolution {
 }
 
 /// ∫ f(ω_i) ρ̂(ω_i; n, ω_o) dω_i for the clamped Torrance–Sparrow lobe (unit k_s).
-pub fn integrate_lobe(sigma: f64, n: [f64; 3], wo: [f64; 3], res: Resolution, mut f: impl FnMut([f64; 3]) -> f64) -> f64 {
+pub fn integrate_lobe(
+    sigma: f64,
+    n: [f64; 3],
+    wo: [f64; 3],
+    res: Resolution,
+    mut f: impl FnMut([f64; 3]) -> f64,
+) -> f64 {
     // A frame (t1, t2, n).
     let a = if n[2].abs() < 0.9 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] };
     let t1 = normalize([a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0]]);

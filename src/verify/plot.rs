@@ -24,7 +24,10 @@ pub fn write_svg(dir: &Path, plot: &Plot) -> Result<(), String> {
     root.present().map_err(|e| format!("{}: {e}", path.display()))
 }
 
-fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, plotters::coord::Shift>, plot: &Plot) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    plot: &Plot,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     root.fill(&WHITE)?;
     let mut xs: Vec<f64> = vec![];
     let mut ys: Vec<f64> = vec![];
@@ -60,7 +63,9 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, plotters::coord::Shift>, plot
         } else {
             chart.draw_series(LineSeries::new(pts, color.stroke_width(2)))?
         };
-        drawn.label(s.name.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+        drawn
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
     }
     // Measured points take the colour of their curve when there is one solid curve per point
     // series (Figure 4, the horizon study); otherwise colours after the curves'.
@@ -71,7 +76,10 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, plotters::coord::Shift>, plot
         if let Some(err) = &s.err {
             // Vertical error bars ±σ as line segments (the `errorbar` feature is not enabled).
             chart.draw_series(
-                s.x.iter().zip(&s.y).zip(err).map(|((&x, &y), &e)| PathElement::new(vec![(x, y - e), (x, y + e)], color.stroke_width(2))),
+                s.x.iter()
+                    .zip(&s.y)
+                    .zip(err)
+                    .map(|((&x, &y), &e)| PathElement::new(vec![(x, y - e), (x, y + e)], color.stroke_width(2))),
             )?;
         }
         chart

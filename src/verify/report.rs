@@ -29,7 +29,18 @@ pub fn table(checks: &[Check]) -> String {
         let verdict = if c.passed() { "PASS" } else { "FAIL" };
         match (c.worst(), &c.error) {
             (_, Some(e)) => {
-                let _ = writeln!(s, "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {:<6} error: {}", c.name, c.equation, "-", "-", "-", "-", verdict, e.lines().next().unwrap_or(""));
+                let _ = writeln!(
+                    s,
+                    "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {:<6} error: {}",
+                    c.name,
+                    c.equation,
+                    "-",
+                    "-",
+                    "-",
+                    "-",
+                    verdict,
+                    e.lines().next().unwrap_or("")
+                );
             }
             (Some(r), None) => {
                 let _ = writeln!(
@@ -47,12 +58,22 @@ pub fn table(checks: &[Check]) -> String {
                 );
             }
             (None, None) => {
-                let _ = writeln!(s, "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {:<6} nothing compared", c.name, c.equation, "-", "-", "-", "-", verdict);
+                let _ = writeln!(
+                    s,
+                    "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {:<6} nothing compared",
+                    c.name, c.equation, "-", "-", "-", "-", verdict
+                );
             }
         }
     }
     let failed = checks.iter().filter(|c| !c.passed()).count();
-    let _ = writeln!(s, "{} checks, {} passed, {} failed (tolerance = kσ + stated approximation error + f32 floor; k = {K_SIGMA}, Šidák-corrected in checks with more than {FAMILY_ROWS} noisy rows)", checks.len(), checks.len() - failed, failed);
+    let _ = writeln!(
+        s,
+        "{} checks, {} passed, {} failed (tolerance = kσ + stated approximation error + f32 floor; k = {K_SIGMA}, Šidák-corrected in checks with more than {FAMILY_ROWS} noisy rows)",
+        checks.len(),
+        checks.len() - failed,
+        failed
+    );
     s
 }
 
@@ -121,7 +142,10 @@ pub fn markdown(checks: &[Check], quick: bool, seconds: f64) -> String {
             let _ = writeln!(s, "![{}]({})\n", p.title, p.file);
         }
         if !c.rows.is_empty() {
-            let _ = writeln!(s, "| row | expected | measured | σ | approx + floor | tolerance | result |\n|---|---|---|---|---|---|---|");
+            let _ = writeln!(
+                s,
+                "| row | expected | measured | σ | approx + floor | tolerance | result |\n|---|---|---|---|---|---|---|"
+            );
             for r in &c.rows {
                 s.push_str(&row_md(r));
             }
@@ -142,11 +166,22 @@ pub fn html(checks: &[Check], quick: bool, seconds: f64) -> String {
          td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}.pass{color:#080}.fail{color:#c00;font-weight:bold}\
          pre{background:#f6f6f6;padding:8px;overflow:auto}</style></head><body>\n",
     );
-    let _ = writeln!(s, "<h1>reflect verify</h1><p>Mode: {}; wall time {seconds:.1} s; tolerance = kσ + stated approximation error + f32 floor (k = {K_SIGMA}; Šidák-corrected above {FAMILY_ROWS} noisy rows).</p>", if quick { "--quick" } else { "default" });
+    let _ = writeln!(
+        s,
+        "<h1>reflect verify</h1><p>Mode: {}; wall time {seconds:.1} s; tolerance = kσ + stated approximation error + f32 floor (k = {K_SIGMA}; Šidák-corrected above {FAMILY_ROWS} noisy rows).</p>",
+        if quick { "--quick" } else { "default" }
+    );
     let _ = writeln!(s, "<pre>{}</pre>", esc(&table(checks)));
     for c in checks {
         let cls = if c.passed() { "pass" } else { "fail" };
-        let _ = writeln!(s, "<h2>{} ({}) — <span class=\"{cls}\">{}</span></h2><p>{}</p>", esc(&c.name), esc(&c.equation), if c.passed() { "PASS" } else { "FAIL" }, esc(&c.description));
+        let _ = writeln!(
+            s,
+            "<h2>{} ({}) — <span class=\"{cls}\">{}</span></h2><p>{}</p>",
+            esc(&c.name),
+            esc(&c.equation),
+            if c.passed() { "PASS" } else { "FAIL" },
+            esc(&c.description)
+        );
         if let Some(e) = &c.error {
             let _ = writeln!(s, "<p class=\"fail\">Could not run: {}</p>", esc(e));
         }
@@ -159,9 +194,18 @@ pub fn html(checks: &[Check], quick: bool, seconds: f64) -> String {
             let _ = writeln!(s, "<p><img src=\"{}\" alt=\"{}\"></p>", esc(&p.file), esc(&p.title));
         }
         if !c.rows.is_empty() {
-            let _ = writeln!(s, "<table><tr><th>row</th><th>expected</th><th>measured</th><th>σ</th><th>approx + floor</th><th>tolerance</th><th>result</th></tr>");
+            let _ = writeln!(
+                s,
+                "<table><tr><th>row</th><th>expected</th><th>measured</th><th>σ</th><th>approx + floor</th><th>tolerance</th><th>result</th></tr>"
+            );
             for r in &c.rows {
-                let cls = if r.passed() { "pass" } else if r.informative { "" } else { "fail" };
+                let cls = if r.passed() {
+                    "pass"
+                } else if r.informative {
+                    ""
+                } else {
+                    "fail"
+                };
                 let _ = writeln!(
                     s,
                     "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{cls}\">{}{}</td></tr>",
@@ -190,7 +234,9 @@ pub fn write_folder(dir: &Path, checks: &[Check], quick: bool, seconds: f64) -> 
             plot::write_svg(dir, p)?;
         }
     }
-    let w = |name: &str, text: String| std::fs::write(dir.join(name), text).map_err(|e| format!("{}: {e}", dir.join(name).display()));
+    let w = |name: &str, text: String| {
+        std::fs::write(dir.join(name), text).map_err(|e| format!("{}: {e}", dir.join(name).display()))
+    };
     w("report.md", markdown(checks, quick, seconds))?;
     w("report.html", html(checks, quick, seconds))?;
     w("report.json", serde_json::to_string_pretty(&json(checks, quick, seconds)).unwrap_or_default())?;

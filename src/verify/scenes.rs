@@ -29,10 +29,16 @@ pub enum Camera {
 pub enum Lighting {
     /// Grey SH lighting, coefficients in index order k.
     Sh(Vec<f64>),
-    Directional { direction: [f64; 3], irradiance: f64 },
+    Directional {
+        direction: [f64; 3],
+        irradiance: f64,
+    },
     Uniform(f64),
     /// Axially symmetric about `axis`, `[θ_deg, value]` rows.
-    Axial { axis: [f64; 3], profile: Vec<[f64; 2]> },
+    Axial {
+        axis: [f64; 3],
+        profile: Vec<[f64; 2]>,
+    },
     /// The Grace probe with a scale.
     Grace(f64),
 }
@@ -88,7 +94,10 @@ impl Spec {
         );
         match &self.camera {
             Camera::Probe { theta_o_deg, phi_o_deg } => {
-                let _ = writeln!(s, "[camera]\ntype = \"normal-probe\"\ntheta_o_deg = {theta_o_deg:?}\nphi_o_deg = {phi_o_deg:?}\n");
+                let _ = writeln!(
+                    s,
+                    "[camera]\ntype = \"normal-probe\"\ntheta_o_deg = {theta_o_deg:?}\nphi_o_deg = {phi_o_deg:?}\n"
+                );
             }
             Camera::Ortho { from, up, extent } => {
                 let _ = writeln!(
@@ -134,10 +143,15 @@ impl Spec {
         }
         match &self.shape {
             Shape::Sphere => {
-                let _ = writeln!(s, "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {}", self.brdf);
+                let _ = writeln!(
+                    s,
+                    "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {}",
+                    self.brdf
+                );
             }
             Shape::Mesh(file) => {
-                let _ = writeln!(s, "[[objects]]\nshape = \"mesh\"\nfile = {file:?}\nsmooth = true\nbrdf = {}", self.brdf);
+                let _ =
+                    writeln!(s, "[[objects]]\nshape = \"mesh\"\nfile = {file:?}\nsmooth = true\nbrdf = {}", self.brdf);
             }
         }
         s
@@ -152,11 +166,18 @@ pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
     let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
     let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();
-    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(&scene, &RenderOptions { progress: false })));
+    let out =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(&scene, &RenderOptions { progress: false })));
     match out {
         Ok((film, stats)) => {
             if ctx.verbose {
-                eprintln!("    render {}×{} {} spp: {:.2} s", spec.width, spec.height, spec.spp, t.elapsed().as_secs_f64());
+                eprintln!(
+                    "    render {}×{} {} spp: {:.2} s",
+                    spec.width,
+                    spec.height,
+                    spec.spp,
+                    t.elapsed().as_secs_f64()
+                );
             }
             let _ = stats;
             Ok(film)

@@ -38,7 +38,9 @@ use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, order_rms};
 use super::grace;
 use super::scenes::{Camera, Lighting, Spec, grace_path, render_spec};
-use analysis::inverse::separation::{LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples};
+use analysis::inverse::separation::{
+    LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
+};
 use analysis::sh::{ShBasis, lm, num_coefficients};
 use std::f64::consts::PI;
 
@@ -109,7 +111,11 @@ pub fn separate(
     // The lighting alone at R, and the pure residual at n, through the same least squares
     // (k_d = 0: nothing subtracted, k_s = 1).
     let zero = with_values(dif, |_| 0.0);
-    let lighting_lsq = Separation::new(&zero, &with_values(spec, |p| light_at(spec.reflected[p])), lmax).map_err(e)?.solve(0.0, 1.0).map_err(e)?.specular;
+    let lighting_lsq = Separation::new(&zero, &with_values(spec, |p| light_at(spec.reflected[p])), lmax)
+        .map_err(e)?
+        .solve(0.0, 1.0)
+        .map_err(e)?
+        .specular;
     let mut y2 = vec![0.0; light.len()];
     let res = with_values(spec, |p| nine_term_residual(light, kd, ks, &basis, spec.normal[p], &mut y2));
     let residual_lsq = Separation::new(&zero, &res, lmax).map_err(e)?.solve(0.0, 1.0).map_err(e)?.specular;
@@ -130,7 +136,15 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
     for j in 0..LOW {
         let (l, mm) = lm(j);
         let r = inp.residual_lsq[j];
-        c.push(Row::new(format!("consistency L̂_{l},{mm} − c_{l},{mm}"), p.consistency[j] + r, m.consistency[j], m.consistency_se[j]).approx(r));
+        c.push(
+            Row::new(
+                format!("consistency L̂_{l},{mm} − c_{l},{mm}"),
+                p.consistency[j] + r,
+                m.consistency[j],
+                m.consistency_se[j],
+            )
+            .approx(r),
+        );
     }
     let n = num_coefficients(inp.lmax);
     for k in 0..n {
@@ -150,7 +164,10 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
         );
     }
     if let Some((x, chi)) = best_split(&inp.scan) {
-        c.push(Row::new("split scan: k_d/(k_d+k_s) minimising the consistency χ²", inp.true_fraction, x, 0.01).informative());
+        c.push(
+            Row::new("split scan: k_d/(k_d+k_s) minimising the consistency χ²", inp.true_fraction, x, 0.01)
+                .informative(),
+        );
         c.note(format!("split scan over k_d/(k_d+k_s) ∈ [0.35, 0.65] (step 0.01, k_d + k_s fixed): minimum χ² = {chi:.1} (9 dof) at {x:.2}; true {:.2}", inp.true_fraction));
     }
     let grid: Vec<f64> = (0..LOW).map(|j| p.consistency[j] + inp.residual_lsq[j]).collect();
@@ -162,7 +179,8 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
     if let Some(chi) = m.chi2 {
         c.note(format!("consistency χ² = {chi:.1} for 9 coefficients at the assumed split k_d = {:.2}, k_s = {:.2} (includes the stated bias)", m.kd, m.ks));
     }
-    let alias: Vec<f64> = (0..=inp.lmax).map(|l| order_rms(l, |k| inp.lighting_lsq[k] - truth.get(k).copied().unwrap_or(0.0))).collect();
+    let alias: Vec<f64> =
+        (0..=inp.lmax).map(|l| order_rms(l, |k| inp.lighting_lsq[k] - truth.get(k).copied().unwrap_or(0.0))).collect();
     c.note(format!(
         "least squares of the lighting at the R directions vs its full-resolution L_lm (aliasing of orders > {}), RMS per order: {}",
         inp.lmax,
@@ -177,12 +195,36 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
         x_label: "k".into(),
         y_label: "L_lm".into(),
         curves: vec![
-            Series { name: "Grace (least squares at R)".into(), x: ks.clone(), y: inp.lighting_lsq.clone(), err: None, dashed: false },
-            Series { name: "Grace (full resolution)".into(), x: ks.clone(), y: (0..n).map(|k| truth.get(k).copied().unwrap_or(0.0)).collect(), err: None, dashed: true },
+            Series {
+                name: "Grace (least squares at R)".into(),
+                x: ks.clone(),
+                y: inp.lighting_lsq.clone(),
+                err: None,
+                dashed: false,
+            },
+            Series {
+                name: "Grace (full resolution)".into(),
+                x: ks.clone(),
+                y: (0..n).map(|k| truth.get(k).copied().unwrap_or(0.0)).collect(),
+                err: None,
+                dashed: true,
+            },
         ],
         points: vec![
-            Series { name: "recovered ± σ".into(), x: ks.clone(), y: m.specular.clone(), err: Some(m.specular_se.clone()), dashed: false },
-            Series { name: "diffuse side L̂ (l ≤ 2) ± σ".into(), x: ks[..LOW].to_vec(), y: m.diffuse.clone(), err: Some(m.diffuse_se.clone()), dashed: false },
+            Series {
+                name: "recovered ± σ".into(),
+                x: ks.clone(),
+                y: m.specular.clone(),
+                err: Some(m.specular_se.clone()),
+                dashed: false,
+            },
+            Series {
+                name: "diffuse side L̂ (l ≤ 2) ± σ".into(),
+                x: ks[..LOW].to_vec(),
+                y: m.diffuse.clone(),
+                err: Some(m.diffuse_se.clone()),
+                dashed: false,
+            },
         ],
     });
     let ls: Vec<f64> = (0..=inp.lmax).map(|l| l as f64).collect();
@@ -193,8 +235,20 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
         x_label: "l".into(),
         y_label: "RMS over m".into(),
         curves: vec![
-            Series { name: "9-term residual at R".into(), x: ls.clone(), y: (0..=inp.lmax).map(|l| order_rms(l, |k| inp.residual_lsq[k])).collect(), err: None, dashed: false },
-            Series { name: "σ (propagated)".into(), x: ls.clone(), y: (0..=inp.lmax).map(|l| order_rms(l, |k| m.specular_se[k])).collect(), err: None, dashed: true },
+            Series {
+                name: "9-term residual at R".into(),
+                x: ls.clone(),
+                y: (0..=inp.lmax).map(|l| order_rms(l, |k| inp.residual_lsq[k])).collect(),
+                err: None,
+                dashed: false,
+            },
+            Series {
+                name: "σ (propagated)".into(),
+                x: ls.clone(),
+                y: (0..=inp.lmax).map(|l| order_rms(l, |k| m.specular_se[k])).collect(),
+                err: None,
+                dashed: true,
+            },
         ],
         points: vec![Series {
             name: "measured |c − c_G|".into(),
@@ -212,7 +266,13 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
             x_label: "k_d / (k_d + k_s)".into(),
             y_label: "χ²".into(),
             curves: vec![],
-            points: vec![Series { name: "χ²".into(), x: inp.scan.iter().map(|s| s.0).collect(), y: inp.scan.iter().map(|s| s.1).collect(), err: None, dashed: false }],
+            points: vec![Series {
+                name: "χ²".into(),
+                x: inp.scan.iter().map(|s| s.0).collect(),
+                y: inp.scan.iter().map(|s| s.1).collect(),
+                err: None,
+                dashed: false,
+            }],
         });
     }
     c
@@ -259,7 +319,9 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         })
         .collect();
     let mut it = samples.into_iter();
-    let (Some(dif), Some(s0), Some(s1)) = (it.next(), it.next(), it.next()) else { return Err("renders missing".into()) };
+    let (Some(dif), Some(s0), Some(s1)) = (it.next(), it.next(), it.next()) else {
+        return Err("renders missing".into());
+    };
     let mut spec = s0;
     spec.append(s1);
     let (kd, ks) = if ctx.wrong { (KD_WRONG, KS_WRONG) } else { (KD, KS) };
@@ -284,7 +346,11 @@ mod tests {
         (0..num_coefficients(6))
             .map(|k| {
                 let (l, m) = lm(k);
-                if k == 0 { 3.0 } else { 1.2 / (1.0 + l as f64 * l as f64) * (((5 * k + 3 * (m + 9) as usize) % 11) as f64 / 11.0 - 0.45) }
+                if k == 0 {
+                    3.0
+                } else {
+                    1.2 / (1.0 + l as f64 * l as f64) * (((5 * k + 3 * (m + 9) as usize) % 11) as f64 / 11.0 - 0.45)
+                }
             })
             .collect()
     }
@@ -302,7 +368,9 @@ mod tests {
         for (i, (t, flip)) in [(0.0, false), (to, false), (to, true)].into_iter().enumerate() {
             let geo = probe_samples(&vec![0.0; w * h], &vec![0.0; w * h], w, h, t, flip);
             let ch = Channel::synthetic_probe(w, h, |_| 0.0, sigma, seed * 3 + i as u64);
-            let v: Vec<f64> = (0..w * h).map(|p| KD * eval(geo.normal[p], true) + KS * eval(geo.reflected[p], false) + ch.value[p]).collect();
+            let v: Vec<f64> = (0..w * h)
+                .map(|p| KD * eval(geo.normal[p], true) + KS * eval(geo.reflected[p], false) + ch.value[p])
+                .collect();
             out.push(Samples { value: v, sigma: ch.sigma.clone(), ..geo });
         }
         let mut it = out.into_iter();
@@ -320,7 +388,15 @@ mod tests {
         let at = |d: [f64; 3]| basis.eval(d).iter().zip(&lt).map(|(y, l)| y * l).sum::<f64>();
         let (dif, spec) = synthetic(&lt, 96, 48, 0.01, 3);
         let good = evaluate(&separate(&dif, &spec, &lt, &at, 8, KD, KS, 0.5).unwrap(), &lt);
-        assert!(good.passed(), "{:?}", good.rows.iter().filter(|r| !r.informative && !r.passed()).map(|r| (&r.label, r.measured, r.expected, r.tolerance())).collect::<Vec<_>>());
+        assert!(
+            good.passed(),
+            "{:?}",
+            good.rows
+                .iter()
+                .filter(|r| !r.informative && !r.passed())
+                .map(|r| (&r.label, r.measured, r.expected, r.tolerance()))
+                .collect::<Vec<_>>()
+        );
         // The 9-term residual is real here (l = 4, 6 content) and stated, not zero.
         assert!(good.rows.iter().any(|r| !r.informative && r.label.starts_with("recovered L_4") && r.approx > 1e-4));
         let wrong = separate(&dif, &spec, &lt, &at, 8, KD_WRONG, KS_WRONG, 0.5).unwrap();

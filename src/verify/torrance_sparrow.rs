@@ -33,7 +33,14 @@ pub const THETA_O_DEG: [f64; 2] = [30.0, 60.0];
 pub const LOBL: usize = 8;
 
 /// Rows of the filter measured about R at θ_o vs the full numerical prediction.
-pub fn evaluate_oblique_filter(c: &mut Check, sigma: f64, theta_o_deg: f64, m: &Measured, pred: &[f64], approx: &[f64]) {
+pub fn evaluate_oblique_filter(
+    c: &mut Check,
+    sigma: f64,
+    theta_o_deg: f64,
+    m: &Measured,
+    pred: &[f64],
+    approx: &[f64],
+) {
     filter::rows(c, &format!("σ={sigma} θo={theta_o_deg}° about R vs eq. 48 numerical"), m, pred, Some(approx), false);
 }
 
@@ -55,9 +62,7 @@ pub fn evaluate_oblique(c: &mut Check, sigma: f64, theta_o_deg: f64, measured: f
     let pred = if wrong { 1.05 * exact } else { exact };
     c.push(Row::new(format!("σ={sigma} θo={theta_o_deg}° l=0 albedo"), pred, measured, sd));
     let normal = transfer::ts_albedo(sigma, 0.0, true);
-    c.push(
-        Row::new(format!("σ={sigma} θo={theta_o_deg}° l=0 vs normal exitance"), normal, measured, sd).informative(),
-    );
+    c.push(Row::new(format!("σ={sigma} θo={theta_o_deg}° l=0 vs normal exitance"), normal, measured, sd).informative());
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
@@ -136,9 +141,17 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             let e59 = oblique::eq59(sigma, th, LOBL);
             let e50 = transfer::torrance_sparrow(sigma, LOBL);
             for l in 0..=LOBL {
-                c.push(Row::new(format!("σ={sigma} θo={t}° l={l}: fit vs pure q=0 term"), q0[l], m.a[l], m.sigma[l]).informative());
-                c.push(Row::new(format!("σ={sigma} θo={t}° l={l}: q=0 term vs eq. 50 (θo=0)"), e50[l], q0[l], 0.0).informative());
-                c.push(Row::new(format!("σ={sigma} θo={t}° l={l}: eq. 59 vs q=0 term"), q0[l], e59[l], 0.0).informative());
+                c.push(
+                    Row::new(format!("σ={sigma} θo={t}° l={l}: fit vs pure q=0 term"), q0[l], m.a[l], m.sigma[l])
+                        .informative(),
+                );
+                c.push(
+                    Row::new(format!("σ={sigma} θo={t}° l={l}: q=0 term vs eq. 50 (θo=0)"), e50[l], q0[l], 0.0)
+                        .informative(),
+                );
+                c.push(
+                    Row::new(format!("σ={sigma} θo={t}° l={l}: eq. 59 vs q=0 term"), q0[l], e59[l], 0.0).informative(),
+                );
             }
             let dep = (0..=LOBL).map(|l| q0[l] - e50[l]).fold(0.0f64, |a, b| if b.abs() > a.abs() { b } else { a });
             let d59 = (0..=LOBL).map(|l| (e59[l] - q0[l]).abs()).fold(0.0, f64::max);
@@ -148,7 +161,9 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             ));
             plots[si].points.push(m.series(&format!("measured about R, θo = {t}°")));
             plots[si].curves.push(filter::curve(&format!("q = 0 term, θo = {t}°"), &q0));
-            plots[si].curves.push(filter::dashed(&format!("fit of the eq. 48 image about R, θo = {t}° (decides)"), &pf));
+            plots[si]
+                .curves
+                .push(filter::dashed(&format!("fit of the eq. 48 image about R, θo = {t}° (decides)"), &pf));
         }
     }
     c.plots = plots;

@@ -229,7 +229,8 @@ pub fn ts_albedo(sigma: f64, theta_o: f64, clamp: bool) -> f64 {
             }
             s += 4.0 * oh;
         }
-        s * (2.0 * PI / nphi as f64) * st * (-(th * th) / (sigma * sigma)).exp() / (4.0 * PI * sigma * sigma * theta_o.cos())
+        s * (2.0 * PI / nphi as f64) * st * (-(th * th) / (sigma * sigma)).exp()
+            / (4.0 * PI * sigma * sigma * theta_o.cos())
     })
 }
 
@@ -290,7 +291,12 @@ mod tests {
         // (an O(lσ²) change), so the departure from eq. 57 is bounded by (σl)⁴/2 + (l+1)σ².
         for l in 0..=10 {
             let sl = sigma * l as f64;
-            assert!((c[l] - g[l]).abs() < 0.5 * sl.powi(4) + (l + 1) as f64 * sigma * sigma, "l={l}: {} vs {}", c[l], g[l]);
+            assert!(
+                (c[l] - g[l]).abs() < 0.5 * sl.powi(4) + (l + 1) as f64 * sigma * sigma,
+                "l={l}: {} vs {}",
+                c[l],
+                g[l]
+            );
         }
     }
 

@@ -64,7 +64,11 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let (_, (ml, sl)) = means[0];
     let (_, (mm, sm)) = means[1];
     c.push(Row::new("mirror − lambert (same albedo)", 0.0, mm - ml, sl.hypot(sm)).floor(F32_FLOOR * expected));
-    c.note(format!("normal-probe {}×{}, uniform radiance {RADIANCE}, albedo {ALBEDO}", 2 * ctx.probe_height(), ctx.probe_height()));
+    c.note(format!(
+        "normal-probe {}×{}, uniform radiance {RADIANCE}, albedo {ALBEDO}",
+        2 * ctx.probe_height(),
+        ctx.probe_height()
+    ));
     Ok(c)
 }
 

@@ -23,7 +23,7 @@
 //! `normal-probe` image; `reflect invert brdf` uses it whenever the image has a `stderr` layer.
 
 use crate::error::{Error, Result};
-use crate::filter::{measured_filter, OrderEstimate};
+use crate::filter::{OrderEstimate, measured_filter};
 use crate::transfer::TransferModel;
 
 /// The parametric model fitted.
@@ -65,10 +65,17 @@ impl Model {
 
 /// Per-order estimates of (albedo ·) Λ_l ρ̂_l from B_lm and L_lm (eq. 16); orders where the
 /// lighting's energy is below 1e-8 of its largest order are unobservable.
-pub fn estimate_transfer(b: &[[f64; 3]], b_stderr: Option<&[[f64; 3]]>, lighting: &[[f64; 3]], lmax: usize) -> Result<Vec<OrderEstimate>> {
+pub fn estimate_transfer(
+    b: &[[f64; 3]],
+    b_stderr: Option<&[[f64; 3]]>,
+    lighting: &[[f64; 3]],
+    lmax: usize,
+) -> Result<Vec<OrderEstimate>> {
     let n = crate::sh::num_coefficients(lmax);
     if b.len() < n || lighting.len() < n || b_stderr.is_some_and(|s| s.len() < n) {
-        return Err(Error::new(format!("inverse BRDF needs {n} coefficients of B, its standard errors and L for l_max {lmax}")));
+        return Err(Error::new(format!(
+            "inverse BRDF needs {n} coefficients of B, its standard errors and L for l_max {lmax}"
+        )));
     }
     Ok(measured_filter(b, b_stderr, lighting, lmax, 1e-8))
 }
@@ -104,7 +111,10 @@ impl BrdfFit {
     }
     /// χ²(p) − χ²_min at the profile grid point nearest p (in ln p): the height of the error curve.
     pub fn delta_chi2_at(&self, p: f64) -> f64 {
-        self.profile.iter().min_by(|a, b| (a.0.ln() - p.ln()).abs().total_cmp(&(b.0.ln() - p.ln()).abs())).map_or(0.0, |q| q.1)
+        self.profile
+            .iter()
+            .min_by(|a, b| (a.0.ln() - p.ln()).abs().total_cmp(&(b.0.ln() - p.ln()).abs()))
+            .map_or(0.0, |q| q.1)
     }
     pub fn contains(&self, p: f64) -> bool {
         self.interval.0.is_none_or(|lo| lo <= p) && self.interval.1.is_none_or(|hi| p <= hi)
@@ -159,7 +169,10 @@ fn chi2_at(model: Model, p: f64, pts: &[Point], lmax: usize) -> (f64, [Option<f6
 pub fn fit_model(est: &[OrderEstimate], model: Model, range: Option<(f64, f64)>) -> Result<BrdfFit> {
     let (lo, hi) = range.unwrap_or(model.default_range());
     if !(lo > 0.0 && hi > lo && hi.is_finite()) {
-        return Err(Error::new(format!("the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]", model.parameter_name())));
+        return Err(Error::new(format!(
+            "the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]",
+            model.parameter_name()
+        )));
     }
     if let Model::TorranceSparrow { theta_o } = model {
         model.transfer(lo).validate()?;
@@ -261,18 +274,32 @@ fn profile_search(chi2: &dyn Fn(f64) -> f64, lo: f64, hi: f64, factor: &dyn Fn(f
 /// under a directional source adjacent orders correlate at ≈ 0.85, because the noise concentrates
 /// near the source — and ignoring that makes the Δχ² = 1 interval wrong (half as wide there).
 /// Otherwise as [`fit_model`] (same search, interval and profile).
-pub fn fit_model_gls(orders: &[usize], f: &[f64], cov: &[f64], model: Model, range: Option<(f64, f64)>) -> Result<BrdfFit> {
+pub fn fit_model_gls(
+    orders: &[usize],
+    f: &[f64],
+    cov: &[f64],
+    model: Model,
+    range: Option<(f64, f64)>,
+) -> Result<BrdfFit> {
     let (lo, hi) = range.unwrap_or(model.default_range());
     if !(lo > 0.0 && hi > lo && hi.is_finite()) {
-        return Err(Error::new(format!("the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]", model.parameter_name())));
+        return Err(Error::new(format!(
+            "the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]",
+            model.parameter_name()
+        )));
     }
     let n = f.len();
     if n == 0 || orders.len() != n || cov.len() != n * n || f.iter().chain(cov).any(|v| !v.is_finite()) {
-        return Err(Error::new(format!("GLS fit needs n orders, n finite estimates and an n × n covariance (n = {n}, {} orders, {} entries)", orders.len(), cov.len())));
+        return Err(Error::new(format!(
+            "GLS fit needs n orders, n finite estimates and an n × n covariance (n = {n}, {} orders, {} entries)",
+            orders.len(),
+            cov.len()
+        )));
     }
     let cinv = crate::lsq::Cholesky::new(cov, n, 1e-14)?.inverse();
     let lmax = orders.iter().copied().max().unwrap_or(0);
-    let quad = |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
+    let quad =
+        |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
     let ff = quad(f, f);
     let fit_at = |p: f64| {
         let all = model.transfer(p).lambda_rho(lmax);
@@ -302,7 +329,11 @@ pub fn fit_model_gls(orders: &[usize], f: &[f64], cov: &[f64], model: Model, ran
 /// u_l(p) = ΔΩ_p Σ_m L_lm Y_lm(n_p) / E_l, so Cov(f̂_l, f̂_l') = Σ_p u_l(p) u_l'(p) σ_p² (pixels
 /// are independent). Returns (lmax+1)² per channel (rows/columns of orders without lighting energy
 /// are 0), or None without a `stderr` layer.
-pub fn transfer_covariance_probe(img: &crate::image::Image, lighting: &[[f64; 3]], lmax: usize) -> Result<Option<[Vec<f64>; 3]>> {
+pub fn transfer_covariance_probe(
+    img: &crate::image::Image,
+    lighting: &[[f64; 3]],
+    lmax: usize,
+) -> Result<Option<[Vec<f64>; 3]>> {
     let Some(se) = img.rgb_layer("stderr.") else { return Ok(None) };
     let (w, h) = (se.width, se.height);
     let nk = crate::sh::num_coefficients(lmax);
@@ -338,7 +369,11 @@ pub fn transfer_covariance_probe(img: &crate::image::Image, lighting: &[[f64; 3]
                 }
                 for l in 0..no {
                     let e = energy[l][ch];
-                    u[l] = if e > 0.0 { d_omega * (l * l..(l + 1) * (l + 1)).map(|k| lighting[k][ch] * y[k]).sum::<f64>() / e } else { 0.0 };
+                    u[l] = if e > 0.0 {
+                        d_omega * (l * l..(l + 1) * (l + 1)).map(|k| lighting[k][ch] * y[k]).sum::<f64>() / e
+                    } else {
+                        0.0
+                    };
                 }
                 for i in 0..no {
                     for j in 0..no {
@@ -405,9 +440,19 @@ mod tests {
         assert!(!dir.contains(40.0));
         // ... but not outside the 9-term one, which is > 10× wider.
         assert!(within_4_sigma(&nine, s), "{} {:?}", nine.parameter, nine.interval);
-        assert!(nine.relative_width() > 10.0 * dir.relative_width(), "9-term {} vs directional {}", nine.relative_width(), dir.relative_width());
+        assert!(
+            nine.relative_width() > 10.0 * dir.relative_width(),
+            "9-term {} vs directional {}",
+            nine.relative_width(),
+            dir.relative_width()
+        );
         // Flat error curve: Δχ² at s = 2·32 is > 100× smaller under 9 terms.
-        assert!(nine.delta_chi2_at(2.0 * s) < 0.01 * dir.delta_chi2_at(2.0 * s), "{} vs {}", nine.delta_chi2_at(2.0 * s), dir.delta_chi2_at(2.0 * s));
+        assert!(
+            nine.delta_chi2_at(2.0 * s) < 0.01 * dir.delta_chi2_at(2.0 * s),
+            "{} vs {}",
+            nine.delta_chi2_at(2.0 * s),
+            dir.delta_chi2_at(2.0 * s)
+        );
         // Uniform lighting (order 0 only): with a free scale the χ² profile is flat, no bound at all.
         let uni = fit(Model::Phong, s, 16, 0, 1e-2, 1);
         assert_eq!(uni.interval, (None, None));
@@ -426,8 +471,18 @@ mod tests {
         assert!(dir.relative_width() < 0.05, "{}", dir.relative_width());
         assert!(!dir.contains(0.12));
         assert!(within_4_sigma(&nine, sigma), "{} {:?}", nine.parameter, nine.interval);
-        assert!(nine.relative_width() > 10.0 * dir.relative_width(), "{} vs {}", nine.relative_width(), dir.relative_width());
-        assert!(nine.delta_chi2_at(2.0 * sigma) < 0.01 * dir.delta_chi2_at(2.0 * sigma), "{} vs {}", nine.delta_chi2_at(2.0 * sigma), dir.delta_chi2_at(2.0 * sigma));
+        assert!(
+            nine.relative_width() > 10.0 * dir.relative_width(),
+            "{} vs {}",
+            nine.relative_width(),
+            dir.relative_width()
+        );
+        assert!(
+            nine.delta_chi2_at(2.0 * sigma) < 0.01 * dir.delta_chi2_at(2.0 * sigma),
+            "{} vs {}",
+            nine.delta_chi2_at(2.0 * sigma),
+            dir.delta_chi2_at(2.0 * sigma)
+        );
     }
 
     #[test]
@@ -435,7 +490,8 @@ mod tests {
         // 300 noisy directional fits of s = 20 (l ≤ 10, σ_B = 3e-3). Coverage of a Δχ² = 1 interval
         // is 68.3 %; binomial σ = √(0.683·0.317/300) = 2.7 %: 4σ band.
         let trials = 300;
-        let hits = (0..trials).filter(|&t| fit(Model::Phong, 20.0, 10, 10, 3e-3, 100 + t as u64).contains(20.0)).count();
+        let hits =
+            (0..trials).filter(|&t| fit(Model::Phong, 20.0, 10, 10, 3e-3, 100 + t as u64).contains(20.0)).count();
         let frac = hits as f64 / trials as f64;
         let sd = (0.683f64 * 0.317 / trials as f64).sqrt();
         assert!((frac - 0.683).abs() < 4.0 * sd, "coverage {frac}");
@@ -446,7 +502,11 @@ mod tests {
         let lmax = 12;
         let light = directional(lmax, lmax);
         // Lighting with energy in every m (so residuals over m exist without standard errors).
-        let light: Vec<[f64; 3]> = light.iter().enumerate().map(|(k, v)| if v[0] != 0.0 { *v } else { [0.05 * ((k % 5) as f64 + 1.0); 3] }).collect();
+        let light: Vec<[f64; 3]> = light
+            .iter()
+            .enumerate()
+            .map(|(k, v)| if v[0] != 0.0 { *v } else { [0.05 * ((k % 5) as f64 + 1.0); 3] })
+            .collect();
         let g = crate::transfer::phong::phong(16.0, lmax);
         let mut rng = Gauss::new(9);
         let (b, _) = render(&light, &g, [1.0; 3], 1e-3, &mut rng);
@@ -466,9 +526,16 @@ mod tests {
         let s_true = 32.0;
         let g = Model::Phong.transfer(s_true).lambda_rho(12);
         let sig: Vec<f64> = (0..13).map(|l| 2e-3 * (1.0 + 0.1 * l as f64)).collect();
-        let f: Vec<f64> = g.iter().enumerate().map(|(l, v)| 0.9 * v + if l % 3 == 0 { sig[l] } else { -0.5 * sig[l] }).collect();
-        let est: Vec<OrderEstimate> =
-            (0..13).map(|l| OrderEstimate { l, energy: [1.0; 3], estimate: [Some(f[l]), None, None], stderr: [Some(sig[l]), None, None] }).collect();
+        let f: Vec<f64> =
+            g.iter().enumerate().map(|(l, v)| 0.9 * v + if l % 3 == 0 { sig[l] } else { -0.5 * sig[l] }).collect();
+        let est: Vec<OrderEstimate> = (0..13)
+            .map(|l| OrderEstimate {
+                l,
+                energy: [1.0; 3],
+                estimate: [Some(f[l]), None, None],
+                stderr: [Some(sig[l]), None, None],
+            })
+            .collect();
         let diag: Vec<f64> = (0..169).map(|k| if k / 13 == k % 13 { sig[k / 13].powi(2) } else { 0.0 }).collect();
         let a = fit_model(&est, Model::Phong, None).unwrap();
         let orders: Vec<usize> = (0..13).collect();
@@ -476,12 +543,24 @@ mod tests {
         // Same χ² up to rounding; the minimum is flat, so p̂ agrees to the search's precision.
         assert!((a.parameter / b.parameter - 1.0).abs() < 1e-6, "{} vs {}", a.parameter, b.parameter);
         let (ai, bi) = (a.interval, b.interval);
-        assert!((ai.0.unwrap() / bi.0.unwrap() - 1.0).abs() < 1e-5 && (ai.1.unwrap() / bi.1.unwrap() - 1.0).abs() < 1e-5);
+        assert!(
+            (ai.0.unwrap() / bi.0.unwrap() - 1.0).abs() < 1e-5 && (ai.1.unwrap() / bi.1.unwrap() - 1.0).abs() < 1e-5
+        );
         assert!((b.scale[0].unwrap() / a.scale[0].unwrap() - 1.0).abs() < 1e-6);
         // Strongly correlated errors (ρ = 0.9 between all orders) move the interval.
-        let corr: Vec<f64> = (0..169).map(|k| { let (i, j) = (k / 13, k % 13); sig[i] * sig[j] * if i == j { 1.0 } else { 0.9 } }).collect();
+        let corr: Vec<f64> = (0..169)
+            .map(|k| {
+                let (i, j) = (k / 13, k % 13);
+                sig[i] * sig[j] * if i == j { 1.0 } else { 0.9 }
+            })
+            .collect();
         let c = fit_model_gls(&orders, &f, &corr, Model::Phong, None).unwrap();
-        assert!((c.relative_width() / b.relative_width() - 1.0).abs() > 0.1, "{} vs {}", c.relative_width(), b.relative_width());
+        assert!(
+            (c.relative_width() / b.relative_width() - 1.0).abs() > 0.1,
+            "{} vs {}",
+            c.relative_width(),
+            b.relative_width()
+        );
         assert!(fit_model_gls(&orders, &f, &corr[..168], Model::Phong, None).is_err());
         assert!(fit_model_gls(&orders[..12], &f, &corr, Model::Phong, None).is_err());
     }
@@ -495,9 +574,14 @@ mod tests {
         let mut img = crate::image::Image { width: w, height: h, ..Default::default() };
         for (c, n) in ["R", "G", "B"].iter().enumerate() {
             img.channels.insert(n.to_string(), (0..w * h).map(|i| 1.0 + 0.1 * ((i * (c + 3)) % 7) as f32).collect());
-            img.channels.insert(format!("stderr.{n}"), (0..w * h).map(|i| 0.01 + 0.02 * ((i / w) as f32 / h as f32).powi(2) * (c + 1) as f32).collect());
+            img.channels.insert(
+                format!("stderr.{n}"),
+                (0..w * h).map(|i| 0.01 + 0.02 * ((i / w) as f32 / h as f32).powi(2) * (c + 1) as f32).collect(),
+            );
         }
-        let light: Vec<[f64; 3]> = (0..num_coefficients(lmax)).map(|k| [1.0 / (1.0 + k as f64), 0.5 - 0.05 * k as f64, if k % 3 == 0 { 0.3 } else { 0.0 }]).collect();
+        let light: Vec<[f64; 3]> = (0..num_coefficients(lmax))
+            .map(|k| [1.0 / (1.0 + k as f64), 0.5 - 0.05 * k as f64, if k % 3 == 0 { 0.3 } else { 0.0 }])
+            .collect();
         let (b, se) = crate::projection::project_normal_probe(&img, lmax).unwrap();
         let est = estimate_transfer(&b, se.as_deref(), &light, lmax).unwrap();
         let cov = transfer_covariance_probe(&img, &light, lmax).unwrap().unwrap();

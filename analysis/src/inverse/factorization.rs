@@ -41,7 +41,7 @@
 
 use crate::error::{Error, Result};
 use crate::quadrature::gauss_legendre;
-use crate::sh::{index, lambda, latlong_direction, num_coefficients, ShBasis};
+use crate::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
 use std::f64::consts::PI;
 
 /// Default threshold on the amplification 1/g_l above which an order is ill-conditioned (as
@@ -98,7 +98,11 @@ pub fn hemisphere_nodes(n_mu: usize, n_phi: usize) -> Result<Vec<OutgoingNode>> 
     for (xi, wi) in x.iter().zip(&w) {
         let mu = 0.5 * (xi + 1.0);
         for k in 0..n_phi {
-            out.push(OutgoingNode { theta_o: mu.acos(), phi_o: 2.0 * PI * k as f64 / n_phi as f64, weight: 0.5 * wi * 2.0 * PI / n_phi as f64 });
+            out.push(OutgoingNode {
+                theta_o: mu.acos(),
+                phi_o: 2.0 * PI * k as f64 / n_phi as f64,
+                weight: 0.5 * wi * 2.0 * PI / n_phi as f64,
+            });
         }
     }
     Ok(out)
@@ -154,7 +158,14 @@ impl LightField {
         if width == 0 || height == 0 {
             return Err(Error::new("light-field grid must be at least 1 × 1"));
         }
-        Ok(LightField { width, height, rule, row_weight: row_weights(width, height, rule), exitance: vec![0.0; width * height], nodes: vec![] })
+        Ok(LightField {
+            width,
+            height,
+            rule,
+            row_weight: row_weights(width, height, rule),
+            exitance: vec![0.0; width * height],
+            nodes: vec![],
+        })
     }
 
     /// Adds the image B(n_p; node) (row-major W × H, CONVENTIONS §2).
@@ -189,7 +200,8 @@ impl LightField {
 
     /// M_lm = √(4π) B̃_lm00, l ≤ lmax.
     pub fn exitance_coefficients(&self, lmax: usize) -> Vec<f64> {
-        project(&self.exitance, self.width, self.height, self.rule, lmax).unwrap_or_else(|_| vec![f64::NAN; num_coefficients(lmax)])
+        project(&self.exitance, self.width, self.height, self.rule, lmax)
+            .unwrap_or_else(|_| vec![f64::NAN; num_coefficients(lmax)])
     }
 
     /// κ_l = √(4π) B̃_00l0 = Σ_j w_j cos θ_j Y_l0(θ_j) S_j, l ≤ lmax.
@@ -367,7 +379,6 @@ mod tests {
         [a[0] / n, a[1] / n, a[2] / n]
     }
 
-
     /// A BRDF as ρ̂ = ρ cos θ_i for (n, ω_i, ω_o), zero below either horizon.
     type Rho = fn([f64; 3], [f64; 3], [f64; 3]) -> f64;
 
@@ -395,7 +406,13 @@ mod tests {
         for node in hemisphere_nodes(n_mu, n_phi).unwrap() {
             let img: Vec<f64> = normals
                 .iter()
-                .map(|&n| if dot(n, s) > 0.0 { rho(n, s, crate::projection::normal_probe_outgoing(n, node.theta_o, node.phi_o)) } else { 0.0 })
+                .map(|&n| {
+                    if dot(n, s) > 0.0 {
+                        rho(n, s, crate::projection::normal_probe_outgoing(n, node.theta_o, node.phi_o))
+                    } else {
+                        0.0
+                    }
+                })
                 .collect();
             lf.add(node, &img).unwrap();
         }

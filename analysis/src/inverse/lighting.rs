@@ -126,10 +126,19 @@ pub struct InverseLighting {
     pub regularised: Regularised,
 }
 
-fn check_inputs(b: &[[f64; 3]], b_stderr: Option<&[[f64; 3]]>, filter: &[f64], lmax: usize, albedo: [f64; 3]) -> Result<()> {
+fn check_inputs(
+    b: &[[f64; 3]],
+    b_stderr: Option<&[[f64; 3]]>,
+    filter: &[f64],
+    lmax: usize,
+    albedo: [f64; 3],
+) -> Result<()> {
     let n = num_coefficients(lmax);
     if b.len() < n {
-        return Err(Error::new(format!("inverse lighting needs {n} coefficients B_lm for l_max {lmax}, got {}", b.len())));
+        return Err(Error::new(format!(
+            "inverse lighting needs {n} coefficients B_lm for l_max {lmax}, got {}",
+            b.len()
+        )));
     }
     if let Some(s) = b_stderr {
         if s.len() < n {
@@ -140,7 +149,10 @@ fn check_inputs(b: &[[f64; 3]], b_stderr: Option<&[[f64; 3]]>, filter: &[f64], l
         }
     }
     if filter.len() < lmax + 1 {
-        return Err(Error::new(format!("inverse lighting needs Λ_l ρ̂_l for l = 0 … {lmax}, got {} orders", filter.len())));
+        return Err(Error::new(format!(
+            "inverse lighting needs Λ_l ρ̂_l for l = 0 … {lmax}, got {} orders",
+            filter.len()
+        )));
     }
     if !filter[..=lmax].iter().any(|f| *f != 0.0) || filter.iter().any(|f| !f.is_finite()) {
         return Err(Error::new("the BRDF's transfer coefficients are all zero or not finite"));
@@ -350,7 +362,17 @@ pub(crate) mod tests {
         use Status::*;
         assert_eq!(
             status,
-            vec![Recovered, Recovered, Recovered, Unobservable, IllConditioned, Unobservable, IllConditioned, Unobservable, IllConditioned]
+            vec![
+                Recovered,
+                Recovered,
+                Recovered,
+                Unobservable,
+                IllConditioned,
+                Unobservable,
+                IllConditioned,
+                Unobservable,
+                IllConditioned
+            ]
         );
         // Eq. 38 amplifications: 1, 3/2, 4, —, 24, —, 64, —, 128.
         let expect = [Some(1.0), Some(1.5), Some(4.0), None, Some(24.0), None, Some(64.0), None, Some(128.0)];
@@ -430,7 +452,11 @@ pub(crate) mod tests {
 
     /// ‖L(λ) − L_true‖ over the observable coefficients, channel R.
     fn error_of(inv: &InverseLighting, truth: &[[f64; 3]], get: &dyn Fn(usize) -> f64) -> f64 {
-        (0..truth.len()).filter(|&k| inv.coefficients[k].is_some()).map(|k| (get(k) - truth[k][0]).powi(2)).sum::<f64>().sqrt()
+        (0..truth.len())
+            .filter(|&k| inv.coefficients[k].is_some())
+            .map(|k| (get(k) - truth[k][0]).powi(2))
+            .sum::<f64>()
+            .sqrt()
     }
 
     #[test]
@@ -465,7 +491,11 @@ pub(crate) mod tests {
                 let lam = disc.regularised.lambda[ch];
                 assert!(lam > 0.0 && lam.is_finite(), "σ={sigma}: λ = {lam}");
                 // The discrepancy rule's defining property: residual χ² = N.
-                assert!((disc.regularised.residual[ch] - n).abs() < 1e-6 * n, "χ² {} vs {n}", disc.regularised.residual[ch]);
+                assert!(
+                    (disc.regularised.residual[ch] - n).abs() < 1e-6 * n,
+                    "χ² {} vs {n}",
+                    disc.regularised.residual[ch]
+                );
                 assert!(gcv.regularised.lambda[ch] > 0.0);
             }
             // Where the plain inverse is bad (σ = 1e-2: error 4.8), both rules cut the error ≥ 4×.
@@ -486,7 +516,8 @@ pub(crate) mod tests {
         assert!(inv0.regularised.lambda.iter().all(|l| l.is_infinite()));
         assert!(inv0.regularised.coefficients.iter().flatten().all(|v| *v == 0.0));
         let orders = classify(&f, 10.0);
-        let exact = tikhonov(&clean, Some(&vec![[0.0; 3]; clean.len()]), &orders, albedo, lmax, Rule::Discrepancy).unwrap();
+        let exact =
+            tikhonov(&clean, Some(&vec![[0.0; 3]; clean.len()]), &orders, albedo, lmax, Rule::Discrepancy).unwrap();
         assert_eq!(exact.lambda, [0.0; 3]);
     }
 

@@ -75,7 +75,9 @@ impl Samples {
             return Err(Error::new(format!("{what}: no samples")));
         }
         if self.sigma.len() != n || self.normal.len() != n || self.reflected.len() != n || self.weight.len() != n {
-            return Err(Error::new(format!("{what}: value, sigma, normal, reflected and weight must have the same length")));
+            return Err(Error::new(format!(
+                "{what}: value, sigma, normal, reflected and weight must have the same length"
+            )));
         }
         if self.value.iter().chain(&self.sigma).chain(&self.weight).any(|v| !v.is_finite())
             || self.sigma.iter().chain(&self.weight).any(|&v| v < 0.0)
@@ -227,7 +229,9 @@ impl Separation {
             .map(|(n, r)| (n[0] - r[0]).abs() + (n[1] - r[1]).abs() + (n[2] - r[2]).abs())
             .fold(0.0, f64::max);
         if off > 1e-6 {
-            return Err(Error::new("diffuse view: it must be at normal exitance (R = n); use an oblique view only as a specular view"));
+            return Err(Error::new(
+                "diffuse view: it must be at normal exitance (R = n); use an oblique view only as a specular view",
+            ));
         }
         let fl = lambert(2);
         let basis9 = ShBasis::new(2);
@@ -361,10 +365,22 @@ impl Separation {
             }
             out
         };
-        let cov_d: Vec<f64> = (0..LOW * LOW).map(|ij| tst[ij] + self.mb_cov[(ij / LOW) * nfit + ij % LOW] / (ks * ks)).collect();
+        let cov_d: Vec<f64> =
+            (0..LOW * LOW).map(|ij| tst[ij] + self.mb_cov[(ij / LOW) * nfit + ij % LOW] / (ks * ks)).collect();
         let consistency_se: Vec<f64> = (0..LOW).map(|j| cov_d[j * LOW + j].max(0.0).sqrt()).collect();
         let diffuse_se = (0..LOW).map(|j| cov_l[j * LOW + j].max(0.0).sqrt()).collect();
-        let mut out = Separated { kd, ks, diffuse, diffuse_se, specular, specular_se, consistency, consistency_se, chi2: None, consistency_cov: cov_d };
+        let mut out = Separated {
+            kd,
+            ks,
+            diffuse,
+            diffuse_se,
+            specular,
+            specular_se,
+            consistency,
+            consistency_se,
+            chi2: None,
+            consistency_cov: cov_d,
+        };
         out.chi2 = out.chi2_of(&out.consistency);
         Ok(out)
     }
@@ -474,7 +490,8 @@ mod tests {
                 let t = [theta.cos() * phi.cos(), theta.cos() * phi.sin(), -theta.sin()];
                 let wo: Vec<f64> = (0..3).map(|i| theta_o.cos() * n[i] + sign * theta_o.sin() * t[i]).collect();
                 let r = reflect(n, [wo[0], wo[1], wo[2]]);
-                spec.value.push(kd * eval(light, &basis, n, Some(&f)) + ks * eval(light, &basis, r, None) + sigma * gauss());
+                spec.value
+                    .push(kd * eval(light, &basis, n, Some(&f)) + ks * eval(light, &basis, r, None) + sigma * gauss());
                 spec.sigma.push(sigma);
                 spec.normal.push(n);
                 spec.reflected.push(r);

@@ -12,7 +12,7 @@
 
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
-use crate::sh::{index, num_coefficients, RgbCoeffs, ShBasis};
+use crate::sh::{RgbCoeffs, ShBasis, index, num_coefficients};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -77,7 +77,10 @@ pub fn project_envmap(img: &RgbImage, mapping: Mapping, lmax: usize) -> Result<V
         Mapping::LatLong => Ok(project_latlong(img, None, lmax).0),
         Mapping::Angular => {
             if img.width != img.height {
-                return Err(Error::new(format!("an angular map must be square, this one is {}×{}", img.width, img.height)));
+                return Err(Error::new(format!(
+                    "an angular map must be square, this one is {}×{}",
+                    img.width, img.height
+                )));
             }
             Ok(project_angular(img, lmax))
         }
@@ -191,11 +194,7 @@ pub(crate) fn sum_parts(parts: Vec<Vec<[f64; 3]>>, n: usize) -> Vec<[f64; 3]> {
 
 /// Lat-long projection by separable quadrature. With `variance` (per-pixel variance of the
 /// radiance, same size), also returns the variance of each coefficient, Σ ΔΩ² Y_k² σ².
-pub fn project_latlong(
-    img: &RgbImage,
-    variance: Option<&RgbImage>,
-    lmax: usize,
-) -> (RgbCoeffs, Option<RgbCoeffs>) {
+pub fn project_latlong(img: &RgbImage, variance: Option<&RgbImage>, lmax: usize) -> (RgbCoeffs, Option<RgbCoeffs>) {
     let n = num_coefficients(lmax);
     let (w, h) = (img.width, img.height);
     let nm = lmax + 1;

@@ -6,7 +6,7 @@
 //! raise `n_theta` until the coefficients converge.
 
 use crate::quadrature::gauss_legendre;
-use crate::sh::{num_coefficients, ShBasis};
+use crate::sh::{ShBasis, num_coefficients};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 

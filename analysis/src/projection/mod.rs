@@ -7,7 +7,7 @@ pub mod function;
 pub mod normal_probe;
 pub mod orthographic;
 
-pub use envmap::{project_envmap, project_latlong, Mapping};
+pub use envmap::{Mapping, project_envmap, project_latlong};
 pub use function::{project_function, project_function_scalar};
 pub use normal_probe::{normal_probe_outgoing, project_normal_probe};
-pub use orthographic::{fit_orthographic, Fit, OrthoCamera, OrthoView, Param, Sphere};
+pub use orthographic::{Fit, OrthoCamera, OrthoView, Param, Sphere, fit_orthographic};

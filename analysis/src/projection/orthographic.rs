@@ -22,7 +22,7 @@
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::lsq::Cholesky;
-use crate::sh::{num_coefficients, ShBasis};
+use crate::sh::{ShBasis, num_coefficients};
 use rayon::prelude::*;
 
 /// Orthographic camera of CONVENTIONS §5.
@@ -127,7 +127,8 @@ fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Ve
         _ => None,
     };
     let f = normalize(sub(cam.to, cam.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
-    let right = normalize(cross(f, cam.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
+    let right =
+        normalize(cross(f, cam.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
     let up = cross(right, f);
     if !(cam.extent > 0.0) || !(sphere.radius > 0.0) {
         return Err(Error::new("camera extent and sphere radius must be positive"));
@@ -247,7 +248,8 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
                 let t = tile.len();
                 for (si, smp) in tile.iter().enumerate() {
                     basis.eval_into(smp.dir, &mut y);
-                    let lanes = [smp.w, smp.w * smp.w * smp.var[0], smp.w * smp.w * smp.var[1], smp.w * smp.w * smp.var[2]];
+                    let lanes =
+                        [smp.w, smp.w * smp.w * smp.var[0], smp.w * smp.w * smp.var[1], smp.w * smp.w * smp.var[2]];
                     for i in 0..p {
                         yt[i * TILE + si] = y[i];
                         for l in 0..4 {
@@ -387,10 +389,6 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
         stderr,
         stderr_source: if all_have_stderr { "stderr-layer" } else { "residuals" },
         pixels_used: samples.len(),
-        rms_residual: [
-            (rss_w[0] / sum_w).sqrt(),
-            (rss_w[1] / sum_w).sqrt(),
-            (rss_w[2] / sum_w).sqrt(),
-        ],
+        rms_residual: [(rss_w[0] / sum_w).sqrt(), (rss_w[1] / sum_w).sqrt(), (rss_w[2] / sum_w).sqrt()],
     })
 }

@@ -15,7 +15,13 @@ pub fn index(l: usize, m: i64) -> usize {
 #[inline]
 pub fn lm(k: usize) -> (usize, i64) {
     let l = ((k as f64).sqrt()) as usize;
-    let l = if (l + 1) * (l + 1) <= k { l + 1 } else if l * l > k { l - 1 } else { l };
+    let l = if (l + 1) * (l + 1) <= k {
+        l + 1
+    } else if l * l > k {
+        l - 1
+    } else {
+        l
+    };
     (l, k as i64 - (l * (l + 1)) as i64)
 }
 
@@ -51,7 +57,8 @@ impl ShBasis {
             }
         }
         let sub_diag = (0..=lmax).map(|l| (2.0 * l as f64 + 1.0).sqrt()).collect();
-        let diag = (0..=lmax).map(|l| if l == 0 { 0.0 } else { ((2.0 * l as f64 + 1.0) / (2.0 * l as f64)).sqrt() }).collect();
+        let diag =
+            (0..=lmax).map(|l| if l == 0 { 0.0 } else { ((2.0 * l as f64 + 1.0) / (2.0 * l as f64)).sqrt() }).collect();
         ShBasis { lmax, a, b, sub_diag, diag }
     }
 

@@ -5,9 +5,9 @@ pub mod basis;
 pub mod reconstruct;
 pub mod rotation;
 
-pub use basis::{index, lm, num_coefficients, ShBasis};
-pub use reconstruct::{latlong_direction, lmax_of, reconstruct_latlong, Reconstructor};
-pub use rotation::{rotate_coefficients, rotation_matrices, Rotation};
+pub use basis::{ShBasis, index, lm, num_coefficients};
+pub use reconstruct::{Reconstructor, latlong_direction, lmax_of, reconstruct_latlong};
+pub use rotation::{Rotation, rotate_coefficients, rotation_matrices};
 
 /// RGB coefficients in index order k.
 pub type RgbCoeffs = Vec<[f64; 3]>;

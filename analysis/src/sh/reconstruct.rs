@@ -3,7 +3,7 @@
 //! Coefficients are RGB triples in index order k (CONVENTIONS §3); their count fixes l_max.
 //! [`Reconstructor`] owns its scratch buffer so repeated evaluation does not allocate.
 
-use super::basis::{num_coefficients, ShBasis};
+use super::basis::{ShBasis, num_coefficients};
 
 /// l_max of a coefficient vector of length (l_max + 1)², or `None` if the length is not a square.
 pub fn lmax_of(len: usize) -> Option<usize> {

@@ -10,8 +10,8 @@
 //! [`Rotation`] is a 3 × 3 orthonormal matrix; [`Rotation::from_xyz_deg`] builds the scene-file
 //! rotation `rotate_deg` of CONVENTIONS §6 (about x, then y, then z: R = R_z R_y R_x).
 
-use super::basis::{num_coefficients, ShBasis};
-use super::reconstruct::{lmax_of, Reconstructor};
+use super::basis::{ShBasis, num_coefficients};
+use super::reconstruct::{Reconstructor, lmax_of};
 use crate::quadrature::gauss_legendre;
 
 /// A rotation of world directions, row-major 3 × 3.

@@ -39,7 +39,9 @@ impl TransferModel {
     /// Checks the parameters (`s` > 0, `σ` > 0, 0 ≤ θ_o < π/2).
     pub fn validate(&self) -> Result<()> {
         match *self {
-            TransferModel::Phong { s } if !(s > 0.0 && s.is_finite()) => Err(Error::new(format!("phong exponent s must be > 0, got {s}"))),
+            TransferModel::Phong { s } if !(s > 0.0 && s.is_finite()) => {
+                Err(Error::new(format!("phong exponent s must be > 0, got {s}")))
+            }
             TransferModel::TorranceSparrow { sigma, theta_o } => {
                 if !(sigma > 0.0 && sigma.is_finite()) {
                     Err(Error::new(format!("torrance-sparrow sigma must be > 0, got {sigma}")))

@@ -103,7 +103,8 @@ mod tests {
         }
         assert!((f[100] - g).abs() < 1e-13 * g, "{} vs {g}", f[100]);
         // Independent check: eq. 41 integrated in θ (composite Gauss resolving the 1/√s-wide lobe).
-        let num = crate::transfer::radial::radial(|t| (s + 1.0) / (2.0 * std::f64::consts::PI) * t.cos().powf(s), 0.2, 100);
+        let num =
+            crate::transfer::radial::radial(|t| (s + 1.0) / (2.0 * std::f64::consts::PI) * t.cos().powf(s), 0.2, 100);
         for l in 0..=100 {
             assert!((num[l] - f[l]).abs() < 1e-10 * f[l], "l={l}: {} vs {}", num[l], f[l]);
         }

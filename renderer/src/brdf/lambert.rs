@@ -4,7 +4,7 @@
 //! Parameters: `albedo` (RGB, the directional albedo at every θ_o). Sampling: cosine-weighted
 //! hemisphere, pdf = cosθ_i/π, so every sample carries weight = albedo exactly.
 use super::{BrdfSample, Bxdf};
-use crate::math::{Rgb, Vec2, Vec3, INV_PI};
+use crate::math::{INV_PI, Rgb, Vec2, Vec3};
 use crate::sampling::warp;
 
 #[derive(Clone, Debug)]

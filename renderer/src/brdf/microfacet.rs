@@ -22,7 +22,7 @@
 //! Both refuse draws with ω_o·h ≤ 0 or ω_i below the horizon; `pdf` integrates to the kept fraction.
 use super::fresnel;
 use super::{BrdfSample, Bxdf};
-use crate::math::{Rgb, Vec2, Vec3, INV_PI, PI};
+use crate::math::{INV_PI, PI, Rgb, Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MicrofacetDistribution {
@@ -227,11 +227,7 @@ mod tests {
     const THETAS: [f32; 3] = [0.0, 30.0, 70.0];
 
     fn frame_for(alpha: f32, wo: Vec3) -> (Vec3, f32) {
-        if alpha >= 0.3 {
-            (Vec3::Z, 1.0)
-        } else {
-            (refl(wo), (0.25 / alpha / wo.z.sqrt()).max(1.0))
-        }
+        if alpha >= 0.3 { (Vec3::Z, 1.0) } else { (refl(wo), (0.25 / alpha / wo.z.sqrt()).max(1.0)) }
     }
 
     /// D is normalised (∫ D cosθ_h dω_h = 1) and Λ is consistent with it: the projected area of the

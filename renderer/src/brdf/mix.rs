@@ -72,7 +72,12 @@ impl Bxdf for Mix {
         let s = layer.sample(wo, u_sub, u)?;
         if s.delta {
             // w_j k_r / p_j = k_r Σw.
-            return Some(BrdfSample { wi: s.wi, weight: s.weight * (1.0 / self.inv_total), pdf: s.pdf * p, delta: true });
+            return Some(BrdfSample {
+                wi: s.wi,
+                weight: s.weight * (1.0 / self.inv_total),
+                pdf: s.pdf * p,
+                delta: true,
+            });
         }
         let pdf = self.pdf(wo, s.wi);
         if !pdf.is_finite() || pdf <= 0.0 {
@@ -154,7 +159,8 @@ mod tests {
     fn chi2_rejects_wrong_pdf() {
         let m = diffuse_glossy();
         let wo = dir_theta_deg(30.0);
-        let r = chi2_sphere(|ul, u| m.sample(wo, ul, u).map(|s| s.wi), |wi| m.layers[0].1.pdf(wo, wi) as f64, &chi2_cfg());
+        let r =
+            chi2_sphere(|ul, u| m.sample(wo, ul, u).map(|s| s.wi), |wi| m.layers[0].1.pdf(wo, wi) as f64, &chi2_cfg());
         assert!(!r.passes(ALPHA), "{r:?}");
     }
 

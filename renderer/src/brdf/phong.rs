@@ -9,7 +9,7 @@
 //!
 //! Sampling is exact: cos α = u^{1/(s+1)} about R, pdf = (s+1)/(2π) cos^s α, weight = k_s.
 use super::{BrdfSample, Bxdf, Horizon};
-use crate::math::{Frame, Rgb, Vec2, Vec3, INV_2PI};
+use crate::math::{Frame, INV_2PI, Rgb, Vec2, Vec3};
 use crate::sampling::warp;
 
 #[derive(Clone, Debug)]
@@ -90,11 +90,7 @@ mod tests {
     /// unzoomed, so that the cut z = 0 is a bin edge (a cut across cells is not resolved by the
     /// harness's midpoint rule).
     fn frame_for(b: &Phong, wo: Vec3) -> (Vec3, f32) {
-        if b.horizon == Horizon::Clamp && b.s <= 8.0 && wo.z < 0.9 {
-            (Vec3::Z, 1.0)
-        } else {
-            (refl(wo), zoom_for(b.s))
-        }
+        if b.horizon == Horizon::Clamp && b.s <= 8.0 && wo.z < 0.9 { (Vec3::Z, 1.0) } else { (refl(wo), zoom_for(b.s)) }
     }
 
     #[test]

@@ -9,7 +9,7 @@
 
 use super::Bxdf;
 use crate::math::{Frame, Rgb, Vec2, Vec3};
-use crate::sampling::chi2::{chi2_sphere, integrate_sphere, Chi2Config, Chi2Result, TestRng};
+use crate::sampling::chi2::{Chi2Config, Chi2Result, TestRng, chi2_sphere, integrate_sphere};
 use glam::DVec3;
 
 /// Significance of each chi-square test: about 100 such tests run in this crate's BRDF suite, so a

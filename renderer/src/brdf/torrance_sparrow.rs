@@ -17,7 +17,7 @@
 //! Densities: p_h(h) = p(θ)/(2π sinθ) per steradian, p(ω_i) = p_h / (4 ω_o·h) (the reflection
 //! Jacobian), and weight = ρ̂/p = k_s Z (sinθ/θ)(ω_o·h)/cosθ_o.
 use super::{BrdfSample, Bxdf, Horizon};
-use crate::math::{Rgb, Vec2, Vec3, PI};
+use crate::math::{PI, Rgb, Vec2, Vec3};
 
 #[derive(Clone, Debug)]
 pub struct TorranceSparrow {
@@ -255,7 +255,8 @@ mod tests {
         for horizon in [Horizon::Clamp, Horizon::Ignore] {
             for s in SIGMAS {
                 let b = TorranceSparrow::new(Rgb::ONE, s, horizon);
-                let tc = if horizon == Horizon::Clamp { std::f64::consts::FRAC_PI_4 } else { std::f64::consts::FRAC_PI_2 };
+                let tc =
+                    if horizon == Horizon::Clamp { std::f64::consts::FRAC_PI_4 } else { std::f64::consts::FRAC_PI_2 };
                 let s64 = s as f64;
                 // Composite midpoint rule, 100k nodes: error ~1e-10.
                 let n = 100_000;

@@ -29,7 +29,15 @@ pub struct NormalProbe {
 }
 
 impl NormalProbe {
-    pub fn new(theta_o_deg: f32, phi_o_deg: f32, jitter: bool, center: Vec3, radius: f32, width: u32, height: u32) -> Result<Self, String> {
+    pub fn new(
+        theta_o_deg: f32,
+        phi_o_deg: f32,
+        jitter: bool,
+        center: Vec3,
+        radius: f32,
+        width: u32,
+        height: u32,
+    ) -> Result<Self, String> {
         if !(0.0..90.0).contains(&theta_o_deg) {
             return Err(format!("normal-probe theta_o_deg must be in [0, 90), got {theta_o_deg}"));
         }

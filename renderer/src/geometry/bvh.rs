@@ -384,7 +384,8 @@ mod tests {
                 }
             };
             // Every 10th ray is axis-aligned (±0.0 components exercise the octant/sign handling).
-            let d = if i % 10 == 9 { [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z][(i / 10) % 6] } else { d };
+            let d =
+                if i % 10 == 9 { [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z][(i / 10) % 6] } else { d };
             let mut ray = Ray::new(o, d);
             if i % 7 == 0 {
                 ray.t_max = 3.0 * rng.next_f32();
@@ -467,4 +468,3 @@ mod tests {
 
     use super::super::TriangleMesh;
 }
-

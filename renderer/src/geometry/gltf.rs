@@ -30,7 +30,8 @@ pub fn load_gltf(path: &Path, smooth: bool) -> crate::Result<TriangleMesh> {
     let doc = &gltf.document;
     check_accessors(doc, &buffers).map_err(err)?;
 
-    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err("glTF file has no scene".into()))?;
+    let scene =
+        doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err("glTF file has no scene".into()))?;
     let mut out = TriangleMesh::default();
     for node in scene.nodes() {
         visit(&node, Mat4::IDENTITY, 0, &buffers, smooth, &mut out).map_err(err)?;
@@ -89,8 +90,7 @@ fn read_primitive(
     smooth: bool,
 ) -> Result<TriangleMesh, String> {
     let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-    let positions: Vec<Vec3> =
-        reader.read_positions().ok_or("no POSITION attribute")?.map(Vec3::from_array).collect();
+    let positions: Vec<Vec3> = reader.read_positions().ok_or("no POSITION attribute")?.map(Vec3::from_array).collect();
     let n = positions.len() as u32;
     let indices: Vec<u32> = match reader.read_indices() {
         Some(ix) => ix.into_u32().collect(),

@@ -120,9 +120,8 @@ impl TriangleMesh {
             return ng;
         }
         let [a, b, c] = self.triangles[i];
-        let n = (1.0 - b1 - b2) * self.normals[a as usize]
-            + b1 * self.normals[b as usize]
-            + b2 * self.normals[c as usize];
+        let n =
+            (1.0 - b1 - b2) * self.normals[a as usize] + b1 * self.normals[b as usize] + b2 * self.normals[c as usize];
         let n = n.normalize_or_zero();
         if n == Vec3::ZERO { ng } else { n }
     }

@@ -20,12 +20,7 @@ pub fn load_obj(path: &Path, smooth: bool) -> crate::Result<TriangleMesh> {
     if let Err(e) = std::fs::metadata(path) {
         return Err(err(format!("cannot open OBJ file: {e}")));
     }
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
+    let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     // Materials are irrelevant here (BRDFs come from the scene file); a missing .mtl is not an error.
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| err(format!("invalid OBJ: {e}")))?;
 

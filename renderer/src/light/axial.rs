@@ -13,7 +13,7 @@
 //! density is exactly p(ω) = (g_i + c) / Σ_j (g_j + c)ΔΩ_j, constant on each cell.
 
 use super::{DistantLight, LightSample};
-use crate::math::{Frame, Rgb, Vec2, Vec3, PI};
+use crate::math::{Frame, PI, Rgb, Vec2, Vec3};
 use crate::sampling::distribution::Distribution1D;
 
 /// Resolution in θ of the sampling table (0.18° per cell).
@@ -42,7 +42,8 @@ impl Axial {
     /// and an empty profile means no light.
     pub fn new(axis: Vec3, profile: Vec<(f32, Rgb)>) -> Self {
         let axis = axis.try_normalize().unwrap_or(Vec3::Z);
-        let mut profile: Vec<(f32, Rgb)> = profile.into_iter().filter(|(t, l)| t.is_finite() && l.is_finite()).collect();
+        let mut profile: Vec<(f32, Rgb)> =
+            profile.into_iter().filter(|(t, l)| t.is_finite() && l.is_finite()).collect();
         profile.sort_by(|a, b| a.0.total_cmp(&b.0));
         let z64: Vec<f64> =
             (0..=THETA_CELLS).map(|i| (std::f64::consts::PI * i as f64 / THETA_CELLS as f64).cos()).collect();
@@ -57,7 +58,11 @@ impl Axial {
         }
         let mass: f64 = g.iter().zip(&dz).map(|(g, d)| g * 2.0 * std::f64::consts::PI * d).sum();
         // Floor c with c·4π = α/(1−α) · Σ gΔΩ, i.e. a fraction α of the total mass.
-        let c = if mass > 0.0 { UNIFORM_FRACTION / (1.0 - UNIFORM_FRACTION) * mass / (4.0 * std::f64::consts::PI) } else { 1.0 };
+        let c = if mass > 0.0 {
+            UNIFORM_FRACTION / (1.0 - UNIFORM_FRACTION) * mass / (4.0 * std::f64::consts::PI)
+        } else {
+            1.0
+        };
         let norm = mass + c * 4.0 * std::f64::consts::PI;
         let weights: Vec<f32> = g.iter().zip(&dz).map(|(g, d)| ((g + c) * d) as f32).collect();
         Axial {
@@ -87,7 +92,9 @@ impl Axial {
                 )));
             }
             if !l.is_finite() {
-                return Err(crate::Error::new(format!("axial lighting: profile entry {i} has non-finite radiance {l}")));
+                return Err(crate::Error::new(format!(
+                    "axial lighting: profile entry {i} has non-finite radiance {l}"
+                )));
             }
             last = t;
         }

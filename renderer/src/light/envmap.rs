@@ -20,7 +20,7 @@
 
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample};
-use crate::math::{Rgb, Vec2, Vec3, PI};
+use crate::math::{PI, Rgb, Vec2, Vec3};
 use crate::sampling::distribution::Distribution2D;
 use analysis::image::RgbImage;
 use rayon::prelude::*;
@@ -81,11 +81,7 @@ struct Texel {
 /// sinθ/θ, → 1 at θ = 0 (the angular map's solid-angle factor).
 #[inline]
 fn sinc(theta: f32) -> f32 {
-    if theta < 1e-3 {
-        1.0 - theta * theta * (1.0 / 6.0)
-    } else {
-        theta.sin() / theta
-    }
+    if theta < 1e-3 { 1.0 - theta * theta * (1.0 / 6.0) } else { theta.sin() / theta }
 }
 
 #[inline]
@@ -105,7 +101,9 @@ impl Envmap {
             )));
         }
         if mapping == Mapping::Angular && w != h {
-            return Err(crate::Error::new(format!("environment map: an angular map must be square, this one is {w}×{h}")));
+            return Err(crate::Error::new(format!(
+                "environment map: an angular map must be square, this one is {w}×{h}"
+            )));
         }
         if !scale.is_finite() || scale < 0.0 {
             return Err(crate::Error::new(format!("environment map: scale {scale} must be finite and ≥ 0")));
@@ -381,10 +379,9 @@ mod tests {
     /// Map direction of the centre of pixel (r, c), straight from CONVENTIONS §2.
     fn centre_direction(mapping: Mapping, r: usize, c: usize, w: usize, h: usize) -> Option<Vec3> {
         match mapping {
-            Mapping::LatLong => Some(spherical_direction(
-                PI * (r as f32 + 0.5) / h as f32,
-                2.0 * PI * (c as f32 + 0.5) / w as f32,
-            )),
+            Mapping::LatLong => {
+                Some(spherical_direction(PI * (r as f32 + 0.5) / h as f32, 2.0 * PI * (c as f32 + 0.5) / w as f32))
+            }
             Mapping::Angular => {
                 let half = w as f32 / 2.0;
                 let u = (c as f32 + 0.5 - half) / half;
@@ -607,14 +604,24 @@ mod tests {
         assert!(e.contains("corrupt_probe.hdr"), "{e}");
         // A NaN pixel in a float EXR.
         let nan = dir.join("nan_probe.exr");
-        exr::prelude::write_rgb_file(&nan, 4, 2, |x, y| if (x, y) == (1, 1) { (f32::NAN, 0.0, 0.0) } else { (1.0, 1.0, 1.0) })
-            .unwrap();
+        exr::prelude::write_rgb_file(
+            &nan,
+            4,
+            2,
+            |x, y| if (x, y) == (1, 1) { (f32::NAN, 0.0, 0.0) } else { (1.0, 1.0, 1.0) },
+        )
+        .unwrap();
         let e = load(&nan);
         assert!(e.contains("nan_probe.exr") && e.contains("non-finite"), "{e}");
         // A negative pixel.
         let neg = dir.join("negative_probe.exr");
-        exr::prelude::write_rgb_file(&neg, 4, 2, |x, y| if (x, y) == (2, 1) { (1.0, -0.5, 0.0) } else { (1.0, 1.0, 1.0) })
-            .unwrap();
+        exr::prelude::write_rgb_file(
+            &neg,
+            4,
+            2,
+            |x, y| if (x, y) == (2, 1) { (1.0, -0.5, 0.0) } else { (1.0, 1.0, 1.0) },
+        )
+        .unwrap();
         let e = load(&neg);
         assert!(e.contains("negative_probe.exr") && e.contains("row 1, column 2") && e.contains("non-negative"), "{e}");
         // A non-square angular map, and a good file read back exactly.

@@ -10,7 +10,7 @@
 //! p(ω) = p_uv / (2π H Δz_r) = g / Σ g ΔΩ: piecewise constant on the sphere, proportional to g,
 //! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
 
-use crate::math::{Vec2, Vec3, PI};
+use crate::math::{PI, Vec2, Vec3};
 use crate::sampling::distribution::Distribution2D;
 
 #[derive(Clone, Debug)]

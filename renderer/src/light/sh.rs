@@ -12,7 +12,7 @@
 
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample};
-use crate::math::{Rgb, Vec2, Vec3, PI};
+use crate::math::{PI, Rgb, Vec2, Vec3};
 use analysis::sh::ShBasis;
 use rayon::prelude::*;
 
@@ -57,7 +57,8 @@ impl ShLight {
             return Err(crate::Error::new(format!("sh lighting: coefficient {k} is not finite ({})", coefficients[k])));
         }
         let coeff64 = coefficients.iter().map(|c| [c.x as f64, c.y as f64, c.z as f64]).collect();
-        let mut light = ShLight { coefficients, lmax, basis: ShBasis::new(lmax), coeff64, grid: LatLongGrid::new(&[1.0], 1, 1) };
+        let mut light =
+            ShLight { coefficients, lmax, basis: ShBasis::new(lmax), coeff64, grid: LatLongGrid::new(&[1.0], 1, 1) };
         light.grid = light.build_grid();
         Ok(light)
     }
@@ -120,7 +121,11 @@ impl ShLight {
                 row.iter().map(|&v| v as f64).sum::<f64>() * 2.0 * std::f64::consts::PI / GRID_W as f64 * dz
             })
             .sum();
-        let floor = if mass > 0.0 { UNIFORM_FRACTION / (1.0 - UNIFORM_FRACTION) * mass / (4.0 * std::f64::consts::PI) } else { 1.0 };
+        let floor = if mass > 0.0 {
+            UNIFORM_FRACTION / (1.0 - UNIFORM_FRACTION) * mass / (4.0 * std::f64::consts::PI)
+        } else {
+            1.0
+        };
         g.iter_mut().for_each(|v| *v = (*v as f64 + floor) as f32);
         LatLongGrid::new(&g, GRID_W, GRID_H)
     }
@@ -154,7 +159,7 @@ impl DistantLight for ShLight {
 mod tests {
     use super::*;
     use crate::light::testutil::check_light;
-    use crate::sampling::chi2::{integrate_sphere, TestRng};
+    use crate::sampling::chi2::{TestRng, integrate_sphere};
 
     /// An l_max = 4 lighting with strong higher orders: negative over a large part of the sphere.
     fn signed_light() -> ShLight {

@@ -3,7 +3,7 @@
 
 use super::DistantLight;
 use crate::math::Vec2;
-use crate::sampling::chi2::{chi2_sphere, integrate_sphere, Chi2Config, Chi2Result, TestRng};
+use crate::sampling::chi2::{Chi2Config, Chi2Result, TestRng, chi2_sphere, integrate_sphere};
 
 /// About ten χ² tests run in the light module: Šidák-corrected alpha ≈ 1e-3 / 10.
 pub const ALPHA: f64 = 1e-4;

@@ -6,7 +6,7 @@
 //! sampling (combined by MIS) covers the lobe.
 
 use super::{DistantLight, LightSample};
-use crate::math::{Rgb, Vec2, Vec3, INV_4PI, PI};
+use crate::math::{INV_4PI, PI, Rgb, Vec2, Vec3};
 
 #[derive(Clone, Debug)]
 pub struct Uniform {

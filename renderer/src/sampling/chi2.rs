@@ -279,11 +279,7 @@ mod tests {
         assert!(good.passes(1e-3), "{good:?}");
         assert!((good.pdf_integral - 1.0).abs() < 1e-6);
         // Claim a cosine-weighted density for uniform samples: must fail.
-        let bad = chi2_sphere(
-            |_, u| Some(uniform_sphere(u)),
-            |d| (d.z.max(0.0) as f64) / std::f64::consts::PI,
-            &cfg,
-        );
+        let bad = chi2_sphere(|_, u| Some(uniform_sphere(u)), |d| (d.z.max(0.0) as f64) / std::f64::consts::PI, &cfg);
         assert!(!bad.passes(1e-3), "{bad:?}");
     }
 }

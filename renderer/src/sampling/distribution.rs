@@ -119,11 +119,7 @@ impl Distribution1D {
     /// Probability mass of cell `i` (0 when the function is identically zero).
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
-        if self.func_int > 0.0 {
-            (self.func[i] as f64 / (self.func_int * self.func.len() as f64)) as f32
-        } else {
-            0.0
-        }
+        if self.func_int > 0.0 { (self.func[i] as f64 / (self.func_int * self.func.len() as f64)) as f32 } else { 0.0 }
     }
 
     /// Draws x ∈ [0, 1) with density f(x)/∫f. Returns (x, density, cell index).
@@ -138,11 +134,7 @@ impl Distribution1D {
     /// Density f_i/∫f of cell `i` with respect to x ∈ [0, 1].
     #[inline]
     pub fn pdf_cell(&self, i: usize) -> f32 {
-        if self.func_int > 0.0 {
-            (self.func[i] as f64 / self.func_int) as f32
-        } else {
-            0.0
-        }
+        if self.func_int > 0.0 { (self.func[i] as f64 / self.func_int) as f32 } else { 0.0 }
     }
 
     /// Density at x ∈ [0, 1] (0 outside).
@@ -206,11 +198,7 @@ impl Distribution2D {
     #[inline]
     pub fn pdf_index(&self, iu: usize, iv: usize) -> f32 {
         let total = self.marginal.integral();
-        if total > 0.0 {
-            (self.conditional[iv].func(iu) as f64 / total) as f32
-        } else {
-            0.0
-        }
+        if total > 0.0 { (self.conditional[iv].func(iu) as f64 / total) as f32 } else { 0.0 }
     }
 
     /// Density at `uv` ∈ [0, 1]² (0 outside).
@@ -243,7 +231,7 @@ mod tests {
             assert_eq!(d.find(u), expect, "u = {u}");
         }
     }
-    use crate::sampling::chi2::{chi2_survival, TestRng};
+    use crate::sampling::chi2::{TestRng, chi2_survival};
 
     /// Pearson χ² of observed counts against expected counts (cells with expectation 0 must stay
     /// empty). Returns the p-value.
@@ -307,7 +295,8 @@ mod tests {
 
     #[test]
     fn one_d_discrete_chi_square() {
-        let f: Vec<f32> = (0..50).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 + (i as f32 * 0.37).sin().abs() * 5.0 }).collect();
+        let f: Vec<f32> =
+            (0..50).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 + (i as f32 * 0.37).sin().abs() * 5.0 }).collect();
         let d = Distribution1D::new(&f);
         let n = 200_000;
         let mut rng = TestRng::new(11);
@@ -338,7 +327,8 @@ mod tests {
             assert_eq!(i, (x * f.len() as f32) as usize);
             obs[((x * bins as f32) as usize).min(bins - 1)] += 1.0;
         }
-        let exp: Vec<f64> = (0..bins).map(|b| d.pdf((b as f32 + 0.5) / bins as f32) as f64 / bins as f64 * n as f64).collect();
+        let exp: Vec<f64> =
+            (0..bins).map(|b| d.pdf((b as f32 + 0.5) / bins as f32) as f64 / bins as f64 * n as f64).collect();
         let p = chi2_counts(&obs, &exp);
         assert!(p > ALPHA, "p = {p}");
     }

@@ -14,7 +14,7 @@
 //!   normalised Phong lobe of eq. 40, sampled exactly by cos α = u^{1/(s+1)}.
 //! - `cos_power_lobe_about(axis, s)`: the same lobe about an arbitrary unit axis (e.g. R).
 
-use crate::math::{Frame, Vec2, Vec3, INV_2PI, INV_4PI, INV_PI, PI};
+use crate::math::{Frame, INV_2PI, INV_4PI, INV_PI, PI, Vec2, Vec3};
 
 /// Unit vector with z = `cos_t` and azimuth φ = 2π `u_phi` (sinθ ≥ 0 from cosθ).
 #[inline]
@@ -43,11 +43,7 @@ pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
 
 #[inline]
 pub fn uniform_hemisphere_pdf(d: Vec3) -> f32 {
-    if d.z >= 0.0 {
-        INV_2PI
-    } else {
-        0.0
-    }
+    if d.z >= 0.0 { INV_2PI } else { 0.0 }
 }
 
 /// Shirley–Chiu concentric map of the square onto the unit disk (area preserving, low distortion).
@@ -58,11 +54,7 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     if a == 0.0 && b == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, phi) = if a.abs() > b.abs() {
-        (a, (PI / 4.0) * (b / a))
-    } else {
-        (b, PI / 2.0 - (PI / 4.0) * (a / b))
-    };
+    let (r, phi) = if a.abs() > b.abs() { (a, (PI / 4.0) * (b / a)) } else { (b, PI / 2.0 - (PI / 4.0) * (a / b)) };
     let (s, c) = phi.sin_cos();
     Vec2::new(r * c, r * s)
 }
@@ -88,11 +80,7 @@ pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
 
 #[inline]
 pub fn uniform_cone_pdf(d: Vec3, cos_max: f32) -> f32 {
-    if d.z >= cos_max {
-        INV_2PI / (1.0 - cos_max)
-    } else {
-        0.0
-    }
+    if d.z >= cos_max { INV_2PI / (1.0 - cos_max) } else { 0.0 }
 }
 
 /// Phong lobe (s+1)/(2π) cos^s α about +z: the CDF in cos α is (cos α)^{s+1}, so
@@ -106,11 +94,7 @@ pub fn square_to_cos_power_lobe(u: Vec2, inv_s_plus_1: f32) -> Vec3 {
 /// Density of [`square_to_cos_power_lobe`] for exponent `s`: (s+1)/(2π) cos^s α on z > 0.
 #[inline]
 pub fn cos_power_lobe_pdf(d: Vec3, s: f32) -> f32 {
-    if d.z > 0.0 {
-        (s + 1.0) * INV_2PI * d.z.powf(s)
-    } else {
-        0.0
-    }
+    if d.z > 0.0 { (s + 1.0) * INV_2PI * d.z.powf(s) } else { 0.0 }
 }
 
 /// The cos^s lobe about a unit `axis`: density (s+1)/(2π) max(axis·ω, 0)^s.
@@ -122,17 +106,13 @@ pub fn square_to_cos_power_lobe_about(u: Vec2, axis: Vec3, inv_s_plus_1: f32) ->
 #[inline]
 pub fn cos_power_lobe_about_pdf(d: Vec3, axis: Vec3, s: f32) -> f32 {
     let c = d.dot(axis);
-    if c > 0.0 {
-        (s + 1.0) * INV_2PI * c.powf(s)
-    } else {
-        0.0
-    }
+    if c > 0.0 { (s + 1.0) * INV_2PI * c.powf(s) } else { 0.0 }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::chi2::{chi2_sphere, integrate_sphere, Chi2Config};
+    use crate::sampling::chi2::{Chi2Config, chi2_sphere, integrate_sphere};
 
     // Ten chi-square tests in this module: Šidák-style alpha 1e-3 / 10.
     const ALPHA: f64 = 1e-3 / 10.0;
@@ -150,22 +130,14 @@ mod tests {
 
     #[test]
     fn uniform_hemisphere_chi2() {
-        let r = chi2_sphere(
-            |_, u| Some(square_to_uniform_hemisphere(u)),
-            |d| uniform_hemisphere_pdf(d) as f64,
-            &cfg(),
-        );
+        let r = chi2_sphere(|_, u| Some(square_to_uniform_hemisphere(u)), |d| uniform_hemisphere_pdf(d) as f64, &cfg());
         assert!(r.passes(ALPHA), "{r:?}");
         assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{r:?}");
     }
 
     #[test]
     fn cosine_hemisphere_chi2() {
-        let r = chi2_sphere(
-            |_, u| Some(square_to_cosine_hemisphere(u)),
-            |d| cosine_hemisphere_pdf(d) as f64,
-            &cfg(),
-        );
+        let r = chi2_sphere(|_, u| Some(square_to_cosine_hemisphere(u)), |d| cosine_hemisphere_pdf(d) as f64, &cfg());
         assert!(r.passes(ALPHA), "{r:?}");
         assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{r:?}");
     }
@@ -174,11 +146,7 @@ mod tests {
     fn uniform_cone_chi2() {
         // cos θ_max on a bin edge (bins are 2/32 wide in z): the pdf's jump is then resolved exactly.
         let cm = 0.375f32;
-        let r = chi2_sphere(
-            |_, u| Some(square_to_uniform_cone(u, cm)),
-            |d| uniform_cone_pdf(d, cm) as f64,
-            &cfg(),
-        );
+        let r = chi2_sphere(|_, u| Some(square_to_uniform_cone(u, cm)), |d| uniform_cone_pdf(d, cm) as f64, &cfg());
         assert!(r.passes(ALPHA), "{r:?}");
     }
 
@@ -188,11 +156,8 @@ mod tests {
         // cannot resolve cos^s inside the top cosθ bin for large s.
         for s in [1.0f32, 3.0, 8.0] {
             let inv = 1.0 / (s + 1.0);
-            let r = chi2_sphere(
-                |_, u| Some(square_to_cos_power_lobe(u, inv)),
-                |d| cos_power_lobe_pdf(d, s) as f64,
-                &cfg(),
-            );
+            let r =
+                chi2_sphere(|_, u| Some(square_to_cos_power_lobe(u, inv)), |d| cos_power_lobe_pdf(d, s) as f64, &cfg());
             assert!(r.passes(ALPHA), "s = {s}: {r:?}");
             // Midpoint rule on a 512 × 1024 grid: error O(h²) ≪ 1e-3 for these smooth lobes.
             let m = integrate_sphere(|d| cos_power_lobe_pdf(d, s) as f64, 512);

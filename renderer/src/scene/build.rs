@@ -47,7 +47,8 @@ pub const DEFAULT_SCENE: &str = include_str!("default.toml");
 impl Scene {
     /// Loads and builds a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
         let file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::build(file, &base).map_err(|e| e.in_file(path)).map(|mut s| {
@@ -144,14 +145,29 @@ impl Scene {
     }
 }
 
-fn build_camera(c: &CameraSection, first_sphere: Option<Sphere>, w: u32, h: u32) -> std::result::Result<Camera, String> {
+fn build_camera(
+    c: &CameraSection,
+    first_sphere: Option<Sphere>,
+    w: u32,
+    h: u32,
+) -> std::result::Result<Camera, String> {
     Ok(match c {
-        CameraSection::Orthographic { from, to, up, extent } => {
-            Camera::Orthographic(Orthographic::new(vec3(*from, "from")?, vec3(*to, "to")?, vec3(*up, "up")?, *extent, w, h)?)
-        }
-        CameraSection::Perspective { from, to, up, fov_deg } => {
-            Camera::Perspective(Perspective::new(vec3(*from, "from")?, vec3(*to, "to")?, vec3(*up, "up")?, *fov_deg, w, h)?)
-        }
+        CameraSection::Orthographic { from, to, up, extent } => Camera::Orthographic(Orthographic::new(
+            vec3(*from, "from")?,
+            vec3(*to, "to")?,
+            vec3(*up, "up")?,
+            *extent,
+            w,
+            h,
+        )?),
+        CameraSection::Perspective { from, to, up, fov_deg } => Camera::Perspective(Perspective::new(
+            vec3(*from, "from")?,
+            vec3(*to, "to")?,
+            vec3(*up, "up")?,
+            *fov_deg,
+            w,
+            h,
+        )?),
         CameraSection::NormalProbe { theta_o_deg, phi_o_deg, jitter } => {
             let s = first_sphere.ok_or("the normal-probe camera needs objects[0] to be a sphere")?;
             Camera::NormalProbe(NormalProbe::new(*theta_o_deg, *phi_o_deg, *jitter, s.center, s.radius, w, h)?)
@@ -210,9 +226,7 @@ pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
             };
             let fr = match fresnel.as_str() {
                 "none" => brdf::Fresnel::None,
-                "schlick" => brdf::Fresnel::Schlick {
-                    f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")?,
-                },
+                "schlick" => brdf::Fresnel::Schlick { f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")? },
                 "conductor" => brdf::Fresnel::Conductor {
                     eta: color(eta.ok_or("fresnel = \"conductor\" needs eta")?, "eta")?,
                     k: color(k.ok_or("fresnel = \"conductor\" needs k")?, "k")?,
@@ -240,7 +254,9 @@ pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
 fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
     let lerr = |m: String| Error::new(format!("lighting: {m}"));
     Ok(match l {
-        LightingSection::Uniform { radiance } => Light::Uniform(light::Uniform::new(color(*radiance, "radiance").map_err(lerr)?)),
+        LightingSection::Uniform { radiance } => {
+            Light::Uniform(light::Uniform::new(color(*radiance, "radiance").map_err(lerr)?))
+        }
         LightingSection::Directional { direction, irradiance } => {
             let d = vec3(*direction, "direction").map_err(lerr)?;
             if d.length_squared() < 1e-12 {
@@ -264,7 +280,8 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
                     return Err(lerr("axial profile angles must increase within [0, 180] degrees".into()));
                 }
                 prev = t;
-                table.push((t.to_radians(), color(super::file::Color::Rgb([r, g, b]), "axial radiance").map_err(lerr)?));
+                table
+                    .push((t.to_radians(), color(super::file::Color::Rgb([r, g, b]), "axial radiance").map_err(lerr)?));
             }
             Light::Axial(light::Axial::try_new(a, table)?)
         }
