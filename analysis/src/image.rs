@@ -51,6 +51,43 @@ impl Image {
         })
     }
 
+    /// The per-pixel standard-error layer `stderr.R/G/B` (CONVENTIONS §5), validated once for every
+    /// consumer: each value is a standard deviation, so it must be finite and ≥ 0 (a negative one
+    /// would be squared into a valid-looking variance) — an error naming the layer (callers add the
+    /// file). 0 is allowed here: it is an exact pixel (a deterministic render, e.g. a pixel-centre
+    /// `normal-probe` under a directional source, has σ = 0 everywhere), and propagated errors are
+    /// then 0. Consumers that *weight* by 1/σ² or invert a covariance built from σ use
+    /// [`Image::stderr_layer_for_weights`]. `Ok(None)` when the image has no such layer.
+    pub fn stderr_layer(&self) -> Result<Option<RgbImage>> {
+        let Some(layer) = self.rgb_layer("stderr.") else { return Ok(None) };
+        for (ch, name) in ["R", "G", "B"].iter().enumerate() {
+            if let Some(i) = layer.pixels.iter().position(|p| !(p[ch].is_finite() && p[ch] >= 0.0)) {
+                return Err(Error::new(format!(
+                    "layer stderr.{name} has the value {} at row {}, column {}: a standard error must be finite and ≥ 0",
+                    layer.pixels[i][ch],
+                    i / self.width.max(1),
+                    i % self.width.max(1)
+                )));
+            }
+        }
+        Ok(Some(layer))
+    }
+
+    /// [`Image::stderr_layer`] for a consumer that weights by it (a covariance it inverts, weights
+    /// 1/σ²): a channel that is zero at every pixel carries no noise estimate, every covariance
+    /// built from it is singular, so it is an error naming the layer and the cause.
+    pub fn stderr_layer_for_weights(&self) -> Result<Option<RgbImage>> {
+        let Some(layer) = self.stderr_layer()? else { return Ok(None) };
+        for (ch, name) in ["R", "G", "B"].iter().enumerate() {
+            if layer.pixels.iter().all(|p| p[ch] == 0.0) {
+                return Err(Error::new(format!(
+                    "layer stderr.{name} is zero at every pixel: a noise-free image gives no weights (the covariance of the fit is singular); remove the stderr layers to fit with unit weights"
+                )));
+            }
+        }
+        Ok(Some(layer))
+    }
+
     /// The main RGB image; a luminance-only (`Y`) EXR is replicated to grey.
     pub fn rgb(&self) -> Option<RgbImage> {
         self.rgb_layer("").or_else(|| {
