@@ -28,6 +28,21 @@ pub struct RgbImage {
 }
 
 impl RgbImage {
+    /// For a `stderr` layer (already checked by [`Image::stderr_layer`]) about to weight a fit in
+    /// `channels`: a channel that is zero at every pixel is an error naming the layer and the
+    /// cause (see [`Image::stderr_layer_for_weights`]).
+    pub fn check_weights(&self, channels: &[usize]) -> Result<()> {
+        for &ch in channels {
+            if self.pixels.iter().all(|p| p[ch] == 0.0) {
+                return Err(Error::new(format!(
+                    "layer stderr.{} is zero at every pixel: a noise-free image gives no weights (the covariance of the fit is singular); remove the stderr layers to fit with unit weights",
+                    ["R", "G", "B"][ch.min(2)]
+                )));
+            }
+        }
+        Ok(())
+    }
+
     #[inline]
     pub fn get(&self, row: usize, col: usize) -> [f32; 3] {
         self.pixels[row * self.width + col]
@@ -78,13 +93,7 @@ impl Image {
     /// built from it is singular, so it is an error naming the layer and the cause.
     pub fn stderr_layer_for_weights(&self) -> Result<Option<RgbImage>> {
         let Some(layer) = self.stderr_layer()? else { return Ok(None) };
-        for (ch, name) in ["R", "G", "B"].iter().enumerate() {
-            if layer.pixels.iter().all(|p| p[ch] == 0.0) {
-                return Err(Error::new(format!(
-                    "layer stderr.{name} is zero at every pixel: a noise-free image gives no weights (the covariance of the fit is singular); remove the stderr layers to fit with unit weights"
-                )));
-            }
-        }
+        layer.check_weights(&[0, 1, 2])?;
         Ok(Some(layer))
     }
 

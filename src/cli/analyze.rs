@@ -216,14 +216,15 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
                 Camera::NormalProbe { .. } => unreachable!(),
             })
             .collect();
+        let fit = fit_orthographic(&views, &sphere, param, a.lmax)
+            .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
+        // (After the fit, so that a refusal stays the one line on stderr.)
         if views.len() == 1 && param == Param::Normal {
             eprintln!(
                 "note: one orthographic view sees one hemisphere of normals; energy of B above l_max aliases into the fit \
                  (raise --lmax, add the opposite view, or render a normal-probe)"
             );
         }
-        let fit = fit_orthographic(&views, &sphere, param, a.lmax)
-            .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
         (
             fit.coefficients,
             Some(fit.stderr),

@@ -117,7 +117,7 @@ fn read_view(p: &Path) -> Result<(View, Image), Error> {
             format!("a normal-probe image is a lat-long map with W = 2H ≥ 8, this one is {}×{}", rgb.width, rgb.height),
         ));
     }
-    let stderr = img.stderr_layer_for_weights().map_err(|e| e.in_file(p))?;
+    let stderr = img.stderr_layer().map_err(|e| e.in_file(p))?;
     Ok((View { path: p.to_path_buf(), theta_o_deg, phi_o_deg, rgb, stderr }, img))
 }
 
@@ -266,6 +266,14 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     let missing_stderr: Vec<String> =
         views.iter().filter(|v| v.stderr.is_none()).map(|v| v.path.display().to_string()).collect();
     let with_stderr = missing_stderr.is_empty();
+    if with_stderr {
+        // The layers weight the fits and their covariances are inverted (the χ²).
+        for v in &views {
+            if let Some(s) = &v.stderr {
+                s.check_weights(&channels).map_err(|e| e.in_file(&v.path))?;
+            }
+        }
+    }
     let sigma_source = if with_stderr {
         "the renders' stderr layers".to_string()
     } else {
@@ -862,7 +870,7 @@ mod tests {
             (SeparateArgs { kd: Some(vec![0.5, 0.5]), ..args(ok.images.clone()) }, None, "one number or r,g,b"),
             (SeparateArgs { lmax: 1000, ..args(ok.images.clone()) }, None, "maximum"),
             // 16 rows cannot carry l = 8.
-            (SeparateArgs { lmax: 8, ..args(ok.images.clone()) }, Some(&d0), "pixel rows"),
+            (SeparateArgs { lmax: 8, ..args(ok.images.clone()) }, Some(&d0), "highest order"),
             (SeparateArgs { output: Some(out.clone()), width: 3, ..args(ok.images.clone()) }, None, "--width"),
             (SeparateArgs { channel: Some("a".into()), ..args(ok.images.clone()) }, None, "--channel"),
         ];
