@@ -16,6 +16,10 @@
 //! (`--mapping latlong|angular`, default inferred from the aspect ratio: W = H angular, W = 2H
 //! lat-long); without `--lighting`, the `reflect:lighting` header of the first image.
 //!
+//! `--lmax` above the highest order the input carries (`analysis::projection::resolution`: a W × H
+//! normal probe min(W/2, H) − 1; orthographic views D − 1 or D/2 − 1, D the sphere's diameter in
+//! pixels) is refused; the output states that order (`lmax_carried`).
+//!
 //! Output: B_lm ± standard error, L_lm, the measured filter (per-order least-squares estimate of
 //! albedo · Λ_l ρ̂_l with its standard error; orders where L has no energy are unobservable) and,
 //! with a known BRDF, its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo.

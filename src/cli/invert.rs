@@ -12,6 +12,9 @@
 //!   Δχ² = 1 interval (unbounded sides reported as null). Lighting as in `analyze`: a scene's
 //!   `[lighting]`, an environment map, or the image's `reflect:lighting` header.
 //!
+//! `--lmax` above the highest order the images carry is refused as in `analyze` (`lmax_carried` in
+//! the output), and so is an `--output` map whose W × W/2 grid cannot carry it (W/2 − 1).
+//!
 //! Images are projected as in `analyze`: one `normal-probe` render (lat-long quadrature; at
 //! θ_o = 0 the normal is the reflection vector, so every BRDF's B is in its own parameterization),
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
