@@ -8,7 +8,7 @@
 //! the direction (nearest pixel). Sampling follows the same pixels:
 //! - lat-long: a pixel is chosen with probability ∝ max-channel radiance × its exact solid angle
 //!   (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within it
-//!   ([`LatLongGrid`]), so p(ω) ∝ the pixel's max channel exactly;
+//!   (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's max channel exactly;
 //! - angular map: a continuous point (a, b) ∈ [−1, 1]² of the image plane is drawn from a
 //!   [`PiecewiseConstant2D`] with pixel weights ∝ max channel × sinθ/θ at the pixel centre (∝ its solid
 //!   angle, 0 for pixels whose centre lies outside the disc ρ ≤ 1), mapped by θ = πρ,
