@@ -13,7 +13,7 @@ use std::process::ExitCode;
 pub struct RenderArgs {
     /// Scene file (TOML, CONVENTIONS §6). Without it, the built-in default scene.
     pub scene: Option<PathBuf>,
-    /// Output OpenEXR file [default: out/<scene name>.exr].
+    /// Output OpenEXR file [default: out/SCENE_NAME.exr].
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Samples per pixel (overrides render.spp).

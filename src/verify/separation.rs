@@ -1,4 +1,4 @@
-//! Check "separation" (sec. 3.5, eq. 38–39; the algorithm of reference [17]; issue 5): recover the
+//! Check "separation" (sec. 3.5, eq. 38–39; the algorithm of reference \[17\]; issue 5): recover the
 //! Grace lighting at high angular resolution from a sphere with ρ̂ = k_d·lambert + k_s·mirror by
 //! subtracting the 9-term diffuse part, and test the consistency of the low orders of both sides.
 //!
