@@ -119,8 +119,8 @@ pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
 /// A pixel is m · 2^(e − 136) (m the mantissa byte; e = 0 is black), as the `image` crate and most
 /// readers decode it. Before any pixel memory is allocated the claimed size is checked against the
 /// bytes that follow the header: the most compact encoding (the adaptive run-length one) needs
-/// 4 + 8 ⌈W/127⌉ bytes per scanline (4 per scanline otherwise), so a short file claiming a huge
-/// image is refused at once.
+/// at least 12 bytes per scanline (4 for W = 1, 8 for W ≤ 256; see below), so a short file claiming
+/// a huge image is refused at once, and the pixels are allocated only once a first scanline decoded.
 pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
     let bad = |m: String| Error::new(format!("corrupt Radiance .hdr: {m}"));
     let mut pos = 0usize;
@@ -195,19 +195,30 @@ pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
     check_size(w, h)?;
     let (nscan, len) = (n1, n2);
     let data = &bytes[pos.min(bytes.len())..];
-    let per_scan = if (8..=0x7fff).contains(&len) { 4 + 8 * len.div_ceil(127) } else { 4 };
-    if (data.len() as u128) < nscan as u128 * per_scan as u128 {
+    // The most compact scanline any encoding allows: one pixel, then (old run-length encoding) a
+    // repeat code of up to 255 and a second, shifted one of up to 255 << 8, which covers any width
+    // up to MAX_IMAGE_SIDE. The adaptive encoding needs 4 + 8⌈W/127⌉ ≥ 12 bytes, flat pixels 4W.
+    let per_scan: u128 = match len {
+        1 => 4,
+        2..=256 => 8,
+        _ => 12,
+    };
+    if (data.len() as u128) < nscan as u128 * per_scan {
         return Err(bad(format!(
             "the header claims {w}×{h} pixels, which needs at least {} bytes of scanlines, but only {} follow",
-            nscan as u128 * per_scan as u128,
+            nscan as u128 * per_scan,
             data.len()
         )));
     }
-    let mut rgb = vec![[0.0f32; 3]; w * h];
+    // Allocated once a first scanline has decoded: at most W ≤ 32768 pixels per 12 bytes of file.
+    let mut rgb: Vec<[f32; 3]> = Vec::new();
     let mut scan = vec![[0u8; 4]; len];
     let mut p = 0usize;
     for i in 0..nscan {
         read_scanline(data, &mut p, &mut scan).map_err(|m| bad(format!("scanline {i}: {m}")))?;
+        if i == 0 {
+            rgb.resize(w * h, [0.0; 3]);
+        }
         for (j, px) in scan.iter().enumerate() {
             let (row, col) = if major_y {
                 (if s1 < 0 { i } else { h - 1 - i }, if s2 > 0 { j } else { w - 1 - j })
