@@ -310,11 +310,14 @@ fn read_scanline(data: &[u8], p: &mut usize, scan: &mut [[u8; 4]]) -> std::resul
     }
 }
 
-/// Decoded sample bytes a file of `n` bytes may claim: deflate (ZIP/PXR24) compresses at most
-/// ~1032:1, so 4096 × the file (with a 64 MiB floor for small files) admits every real image and
-/// refuses a small file that claims a huge one before its pixels are allocated.
+/// Decoded sample bytes (4 per sample) a file of `n` bytes may claim: deflate (ZIP/PXR24)
+/// compresses at most ~1032:1 and OpenEXR's RLE 64:1, so 2048 × the file (with a 1 MiB floor for
+/// tiny files) admits real images and refuses a small file that claims a huge one before its
+/// pixels are allocated.
+pub const EXR_MAX_EXPANSION: usize = 2048;
+
 fn exr_decoded_limit(file_bytes: usize) -> u128 {
-    (file_bytes as u128 * 4096).max(64 << 20)
+    (file_bytes as u128 * EXR_MAX_EXPANSION as u128).max(1 << 20)
 }
 
 /// Reads an OpenEXR file: scanline or tiled, any compression, half/float/uint samples, the full
