@@ -380,8 +380,10 @@ fn exr_seeds(dir: &Path) -> Vec<Vec<u8>> {
     push(Image::from_layers(ImageAttributes::new(IntegerBounds::new((0, 0), (8, 6))), vec![z, a]));
     // A mip-mapped tiled file.
     let lv = |w: usize, h: usize| FlatSamples::F32(vec![1.5; w * h]);
-    let levels =
-        Levels::Mip { rounding_mode: exr::math::RoundingMode::Down, level_data: vec![lv(8, 4), lv(4, 2), lv(2, 1), lv(1, 1)] };
+    let levels = Levels::Mip {
+        rounding_mode: exr::math::RoundingMode::Down,
+        level_data: vec![lv(8, 4), lv(4, 2), lv(2, 1), lv(1, 1)],
+    };
     let list: Vec<AnyChannel<Levels<FlatSamples>>> =
         ["B", "G", "R"].iter().map(|c| AnyChannel::new(Text::from(*c), levels.clone())).collect();
     let enc = Encoding { blocks: Blocks::Tiles(Vec2(4, 4)), ..Encoding::FAST_LOSSLESS };
