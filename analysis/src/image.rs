@@ -398,21 +398,19 @@ pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
         .map_err(corrupt)?;
-    let layer =
-        image.layer_data.get(chosen).ok_or_else(|| Error::new(format!("{} could not be read", part_name(chosen))))?;
+    let image_other = image.attributes.other;
+    let layer = image
+        .layer_data
+        .into_iter()
+        .nth(chosen)
+        .ok_or_else(|| Error::new(format!("{} could not be read", part_name(chosen))))?;
     let (lw, lh) = (layer.size.width(), layer.size.height());
     // Offset of the data window in the display window (both in absolute pixel coordinates).
     let ox = layer.attributes.layer_position.x() as i64 - display.position.x() as i64;
     let oy = layer.attributes.layer_position.y() as i64 - display.position.y() as i64;
+    let same_window = ox == 0 && oy == 0 && lw == dw && lh == dh;
     let mut channels = BTreeMap::new();
-    for ch in &layer.channel_data.list {
-        let get = |i: usize| -> f32 {
-            match &ch.sample_data {
-                FlatSamples::F16(v) => v[i].to_f32(),
-                FlatSamples::F32(v) => v[i],
-                FlatSamples::U32(v) => v[i] as f32,
-            }
-        };
+    for ch in layer.channel_data.list {
         if ch.sample_data.len() != lw * lh {
             return Err(Error::new(format!(
                 "channel {} has {} samples for a {lw}×{lh} data window",
@@ -420,23 +418,38 @@ pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
                 ch.sample_data.len()
             )));
         }
-        let mut data = vec![0.0f32; dw * dh];
-        for (r, row) in data.chunks_exact_mut(dw).enumerate() {
-            let sy = r as i64 - oy;
-            if sy < 0 || sy >= lh as i64 {
-                continue;
-            }
-            for (c, v) in row.iter_mut().enumerate() {
-                let sx = c as i64 - ox;
-                if sx >= 0 && sx < lw as i64 {
-                    *v = get(sy as usize * lw + sx as usize);
+        let name = ch.name.to_string();
+        let data = match ch.sample_data {
+            // The usual case: no copy.
+            FlatSamples::F32(v) if same_window => v,
+            samples => {
+                let get = |i: usize| -> f32 {
+                    match &samples {
+                        FlatSamples::F16(v) => v[i].to_f32(),
+                        FlatSamples::F32(v) => v[i],
+                        FlatSamples::U32(v) => v[i] as f32,
+                    }
+                };
+                let mut data = vec![0.0f32; dw * dh];
+                for (r, row) in data.chunks_exact_mut(dw).enumerate() {
+                    let sy = r as i64 - oy;
+                    if sy < 0 || sy >= lh as i64 {
+                        continue;
+                    }
+                    for (c, v) in row.iter_mut().enumerate() {
+                        let sx = c as i64 - ox;
+                        if sx >= 0 && sx < lw as i64 {
+                            *v = get(sy as usize * lw + sx as usize);
+                        }
+                    }
                 }
+                data
             }
-        }
-        channels.insert(ch.name.to_string(), data);
+        };
+        channels.insert(name, data);
     }
     let mut attributes = BTreeMap::new();
-    let others = image.attributes.other.iter().chain(layer.attributes.other.iter());
+    let others = image_other.iter().chain(layer.attributes.other.iter());
     for (k, v) in others {
         if let AttributeValue::Text(t) = v {
             attributes.insert(k.to_string(), t.to_string());

@@ -102,8 +102,8 @@ fn project_angular(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
     //   Σ L ∫sin(mφ)… = ∫sin(mφ)… [(A − C) + (−1)^m (D − B)],
     // so one footprint integral of Y serves four pixels.
     blocked_sum(half, n, |rows| {
-        let (mut y, mut yi, mut ys) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let mut nodes = Vec::new();
+        let (mut yi, mut ys) = (vec![0.0; n], vec![0.0; n]);
+        let mut sc = FootprintScratch::new(n);
         let mut acc = vec![0.0; 3 * n];
         for r in rows {
             let r2 = w - 1 - r;
@@ -114,7 +114,7 @@ fn project_angular(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
                 if a == [0.0; 3] && b == [0.0; 3] && cq == [0.0; 3] && dq == [0.0; 3] {
                     continue;
                 }
-                if !footprint_integrals(r, c, w, &basis, &rules, &mut nodes, &mut y, &mut yi) {
+                if !footprint_integrals((r, c, w), &basis, &rules, &mut sc, &mut yi) {
                     continue;
                 }
                 let u_pos = [a[0] + cq[0], a[1] + cq[1], a[2] + cq[2]];
@@ -153,13 +153,13 @@ fn project_angular_generic(img: &RgbImage, lmax: usize) -> Vec<[f64; 3]> {
     let basis = ShBasis::new(lmax);
     let rules = GlRules::new();
     blocked_sum(img.height, n, |rows| {
-        let (mut y, mut yi) = (vec![0.0; n], vec![0.0; n]);
-        let mut nodes = Vec::new();
+        let mut yi = vec![0.0; n];
+        let mut sc = FootprintScratch::new(n);
         let mut acc = vec![0.0; 3 * n];
         for r in rows {
             for c in 0..w {
                 let px = img.get(r, c);
-                if px == [0.0; 3] || !footprint_integrals(r, c, w, &basis, &rules, &mut nodes, &mut y, &mut yi) {
+                if px == [0.0; 3] || !footprint_integrals((r, c, w), &basis, &rules, &mut sc, &mut yi) {
                     continue;
                 }
                 for ch in 0..3 {
@@ -797,25 +797,36 @@ fn polar_footprint(a0: f64, a1: f64, b0: f64, b1: f64, lmax: usize, rules: &GlRu
 }
 
 /// ∫ Y_k over the footprint of angular pixel (row, col) for all k, into `yi` (`y` is scratch).
+/// Scratch space of [`footprint_integrals`]: quadrature nodes and one evaluation of all Y_k.
+struct FootprintScratch {
+    nodes: Vec<([f64; 3], f64)>,
+    y: Vec<f64>,
+}
+
+impl FootprintScratch {
+    fn new(n: usize) -> Self {
+        FootprintScratch { nodes: Vec::new(), y: vec![0.0; n] }
+    }
+}
+
+/// ∫ Y_k over the footprint of angular pixel (row, col) for all k, into `yi`; false for a pixel
+/// outside the disc.
 fn footprint_integrals(
-    row: usize,
-    col: usize,
-    w: usize,
+    (row, col, w): (usize, usize, usize),
     basis: &ShBasis,
     rules: &GlRules,
-    nodes: &mut Vec<([f64; 3], f64)>,
-    y: &mut [f64],
+    sc: &mut FootprintScratch,
     yi: &mut [f64],
 ) -> bool {
-    angular_footprint(row, col, w, basis.lmax(), rules, nodes);
+    angular_footprint(row, col, w, basis.lmax(), rules, &mut sc.nodes);
     yi.iter_mut().for_each(|v| *v = 0.0);
-    for &(d, wt) in nodes.iter() {
-        basis.eval_into(d, y);
-        for (a, b) in yi.iter_mut().zip(y.iter()) {
+    for &(d, wt) in sc.nodes.iter() {
+        basis.eval_into(d, &mut sc.y);
+        for (a, b) in yi.iter_mut().zip(sc.y.iter()) {
             *a += wt * b;
         }
     }
-    !nodes.is_empty()
+    !sc.nodes.is_empty()
 }
 
 #[cfg(test)]
