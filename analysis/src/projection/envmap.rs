@@ -796,7 +796,6 @@ fn polar_footprint(a0: f64, a1: f64, b0: f64, b1: f64, lmax: usize, rules: &GlRu
     }
 }
 
-/// ∫ Y_k over the footprint of angular pixel (row, col) for all k, into `yi` (`y` is scratch).
 /// Scratch space of [`footprint_integrals`]: quadrature nodes and one evaluation of all Y_k.
 struct FootprintScratch {
     nodes: Vec<([f64; 3], f64)>,
