@@ -33,7 +33,7 @@ pub struct VerifyArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = super::render::parse_threads)]
     pub threads: Option<usize>,
     /// Testing aid: compare every check with a deliberately wrong prediction (each must then fail).
     #[arg(long, hide = true)]
