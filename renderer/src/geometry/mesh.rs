@@ -126,6 +126,75 @@ impl TriangleMesh {
         if n == Vec3::ZERO { ng } else { n }
     }
 
+    /// Orientation problems that would make the mesh render black seen from outside, one line
+    /// each (empty when there are none):
+    /// - a closed mesh, consistently wound ([`Self::is_closed_and_consistent`]), whose signed
+    ///   volume is negative: every face is wound clockwise seen from outside (inside-out);
+    /// - faces whose three vertex normals all point against the face's winding (file normals that
+    ///   contradict the face order).
+    pub fn orientation_warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.is_closed_and_consistent() {
+            let v = self.signed_volume();
+            if v < 0.0 {
+                out.push(format!(
+                    "closed mesh is wound inside-out (faces clockwise seen from outside, signed volume {v:.4} < 0): \
+                     it is seen from behind everywhere and renders black; reverse the vertex order of its faces"
+                ));
+            }
+        }
+        if !self.normals.is_empty() {
+            let against = (0..self.triangles.len())
+                .filter(|&i| {
+                    let ng = self.face_normal_area(i);
+                    ng != Vec3::ZERO && self.triangles[i].iter().all(|&k| self.normals[k as usize].dot(ng) < 0.0)
+                })
+                .count();
+            if against > 0 {
+                out.push(format!(
+                    "{against} of {} faces have vertex normals pointing against their winding (the normals \
+                     contradict the face order); those faces render black from outside",
+                    self.triangles.len()
+                ));
+            }
+        }
+        out
+    }
+
+    /// True when the mesh is closed and consistently wound: vertices identified by position, every
+    /// edge of a non-degenerate face is shared by exactly two faces that traverse it in opposite
+    /// directions. (Only then is the sign of [`Self::signed_volume`] meaningful.)
+    pub fn is_closed_and_consistent(&self) -> bool {
+        use std::collections::HashMap;
+        let key = |p: Vec3| (p + Vec3::ZERO).to_array().map(f32::to_bits);
+        let mut ids: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.positions.len());
+        let welded: Vec<u32> = self
+            .positions
+            .iter()
+            .map(|&p| {
+                let n = ids.len() as u32;
+                *ids.entry(key(p)).or_insert(n)
+            })
+            .collect();
+        // (min, max) → (faces using the edge, a→b minus b→a traversals with a < b).
+        let mut edges: HashMap<(u32, u32), (u32, i32)> = HashMap::with_capacity(3 * self.triangles.len());
+        let mut any = false;
+        for t in &self.triangles {
+            let w = t.map(|k| welded[k as usize]);
+            if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
+                continue;
+            }
+            any = true;
+            for k in 0..3 {
+                let (a, b) = (w[k], w[(k + 1) % 3]);
+                let e = edges.entry((a.min(b), a.max(b))).or_insert((0, 0));
+                e.0 += 1;
+                e.1 += if a < b { 1 } else { -1 };
+            }
+        }
+        any && edges.values().all(|&(n, d)| n == 2 && d == 0)
+    }
+
     /// Signed volume enclosed by the mesh, Σ v0·(v1 × v2)/6 (positive for a closed mesh wound
     /// outward). f64 sum.
     pub fn signed_volume(&self) -> f64 {

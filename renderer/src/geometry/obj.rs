@@ -1,99 +1,310 @@
-//! Wavefront OBJ loading (via `tobj`) into one [`TriangleMesh`].
+//! Wavefront OBJ loading into one [`TriangleMesh`].
 //!
-//! - All models (`o`/`g` groups) of the file are merged into one mesh; polygons are triangulated
-//!   as fans; points and lines are ignored; materials are ignored.
+//! The geometry subset of the format (Wavefront "Object Files (.obj)", Appendix B1 of the Advanced
+//! Visualizer manual) is parsed here rather than through `tobj`, because the mesh must follow the
+//! file's own vertices: `tobj` re-indexes every `g`/`o`/`usemtl` group separately (so smooth
+//! normals split along group borders, and differently whether the `.mtl` file is found), does not
+//! expose smoothing groups, and drops the first statement after a UTF-8 byte-order mark.
+//!
+//! What is read:
+//! - Text: an optional UTF-8 byte-order mark, LF or CRLF line ends, spaces or tabs between tokens,
+//!   `#` comments, `\` line continuation. Bytes that are not UTF-8 only matter inside numbers.
+//! - `v x y z [w | r g b]` (the first three numbers), `vn x y z`, and `f` with `v`, `v/vt`,
+//!   `v//vn` or `v/vt/vn` corners, 1-based or negative (relative) indices. Polygons are
+//!   triangulated as fans (v0, v_k, v_{k+1}), keeping the file's winding.
+//! - `s N` / `s off` (smoothing groups). `l` and `p` (polylines and points) are not surfaces:
+//!   they are skipped with a warning and never become faces. Everything else (`vt`, `g`, `o`,
+//!   `usemtl`, `mtllib`, free-form statements) is ignored: materials come from the scene file.
 //! - `smooth = false`: flat shading, `normals` left empty (the face normal is used).
-//! - `smooth = true`: if every face has `vn` normals they are used (a vertex is split where one
-//!   position carries different normals, e.g. at creases); otherwise angle-weighted vertex
-//!   normals are computed ([`TriangleMesh::compute_smooth_normals`]).
-//! - Errors (missing or unreadable file, parse error, index out of range, non-finite coordinate,
-//!   no triangles) are returned as one-line [`crate::Error`]s naming the file; nothing panics.
+//! - `smooth = true`: a corner with a `vn` uses the file's normal (normalised). Other corners get
+//!   the angle-weighted normal (Thürmer & Wüthrich 1998) of the faces that share their file vertex
+//!   *and* their smoothing group; faces in group 0 (`s off`/`s 0`) are flat. A file without any `s`
+//!   statement is one smoothing group. Groups `g` and materials never split normals.
+//! - Only vertices that faces use are kept.
+//! - Errors (missing or unreadable file, malformed number, index 0 or out of range, a face with
+//!   fewer than 3 corners, non-finite coordinate, no faces) are one-line [`crate::Error`]s naming
+//!   the file and the line; nothing panics. Memory is linear in the file size.
 
 use super::TriangleMesh;
 use crate::math::Vec3;
+use glam::DVec3;
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Loads all models of an OBJ file into one mesh. `smooth`: keep/compute vertex normals.
+/// Loads an OBJ file as one mesh. `smooth`: keep/compute vertex normals. Warnings (skipped lines and
+/// points, orientation problems) are printed to stderr, one line each, naming the file.
 pub fn load_obj(path: &Path, smooth: bool) -> crate::Result<TriangleMesh> {
-    let err = |msg: String| crate::Error::file(path, msg);
-    if let Err(e) = std::fs::metadata(path) {
-        return Err(err(format!("cannot open OBJ file: {e}")));
-    }
-    let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    // Materials are irrelevant here (BRDFs come from the scene file); a missing .mtl is not an error.
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| err(format!("invalid OBJ: {e}")))?;
-
-    let mut mesh = TriangleMesh::default();
-    // Per-corner (position index, normal index) of the whole file, used for the smooth-with-normals case.
-    let mut corner_normals: Vec<Vec3> = Vec::new();
-    let mut corner_normal_idx: Vec<u32> = Vec::new();
-    let mut all_have_normals = true;
-
-    for model in &models {
-        let m = &model.mesh;
-        if !m.indices.len().is_multiple_of(3) {
-            return Err(err(format!("model '{}' is not triangulated", model.name)));
-        }
-        let base = mesh.positions.len() as u32;
-        let nv = (m.positions.len() / 3) as u32;
-        mesh.positions.extend(m.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-        for tri in m.indices.chunks_exact(3) {
-            if let Some(&bad) = tri.iter().find(|&&k| k >= nv) {
-                return Err(err(format!("model '{}': vertex index {bad} out of range ({nv} vertices)", model.name)));
-            }
-            mesh.triangles.push([base + tri[0], base + tri[1], base + tri[2]]);
-        }
-        let has_normals = !m.normals.is_empty() && m.normal_indices.len() == m.indices.len();
-        all_have_normals &= has_normals;
-        if smooth && has_normals {
-            let nbase = corner_normals.len() as u32;
-            let nn = (m.normals.len() / 3) as u32;
-            corner_normals.extend(m.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-            for &k in &m.normal_indices {
-                if k >= nn {
-                    return Err(err(format!("model '{}': normal index {k} out of range ({nn} normals)", model.name)));
-                }
-                corner_normal_idx.push(nbase + k);
-            }
-        }
-    }
-
-    if mesh.triangles.is_empty() {
-        return Err(err("OBJ file contains no triangles".into()));
-    }
-    mesh.validate().map_err(err)?;
-    if let Some(i) = corner_normals.iter().position(|n| !n.is_finite()) {
-        return Err(err(format!("normal {i} has a non-finite coordinate")));
-    }
-
-    if smooth {
-        if all_have_normals {
-            mesh = split_by_normals(&mesh, &corner_normals, &corner_normal_idx);
-        } else {
-            mesh.compute_smooth_normals();
-        }
+    let (mesh, warnings) = load_obj_with_warnings(path, smooth)?;
+    for w in warnings {
+        eprintln!("warning: {}: {w}", path.display());
     }
     Ok(mesh)
 }
 
-/// Builds a mesh whose vertices are the distinct (position, normal) pairs of the triangle corners.
-fn split_by_normals(mesh: &TriangleMesh, normals: &[Vec3], corner_normal_idx: &[u32]) -> TriangleMesh {
-    let mut out = TriangleMesh::default();
-    let mut map: HashMap<(u32, u32), u32> = HashMap::new();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        let mut new_tri = [0u32; 3];
-        for k in 0..3 {
-            let key = (tri[k], corner_normal_idx[3 * t + k]);
-            new_tri[k] = *map.entry(key).or_insert_with(|| {
-                out.positions.push(mesh.positions[key.0 as usize]);
-                out.normals.push(normals[key.1 as usize].normalize_or_zero());
-                (out.positions.len() - 1) as u32
-            });
-        }
-        out.triangles.push(new_tri);
+/// [`load_obj`] returning the warnings (without the file name) instead of printing them.
+pub fn load_obj_with_warnings(path: &Path, smooth: bool) -> crate::Result<(TriangleMesh, Vec<String>)> {
+    let err = |msg: String| crate::Error::file(path, msg);
+    let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read OBJ file: {e}")))?;
+    let obj = parse(&bytes).map_err(err)?;
+    let mut warnings = Vec::new();
+    if obj.skipped_lines + obj.skipped_points > 0 {
+        warnings.push(format!(
+            "{} line (l) and {} point (p) elements skipped: they are not surfaces",
+            obj.skipped_lines, obj.skipped_points
+        ));
     }
-    out
+    let mesh = obj.into_mesh(smooth).map_err(err)?;
+    warnings.extend(mesh.orientation_warnings());
+    Ok((mesh, warnings))
+}
+
+/// One face corner: 0-based position index and optional 0-based normal index.
+#[derive(Clone, Copy, Debug)]
+struct Corner {
+    v: u32,
+    vn: Option<u32>,
+}
+
+/// The parsed geometry statements of a file.
+#[derive(Default, Debug)]
+struct ObjFile {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    /// Triangles (fan-triangulated faces) of corners, with their smoothing group (0: off).
+    triangles: Vec<([Corner; 3], u32)>,
+    /// The file has at least one `s` statement.
+    has_smoothing_groups: bool,
+    skipped_lines: usize,
+    skipped_points: usize,
+}
+
+/// Parses the geometry statements (see the module documentation).
+fn parse(bytes: &[u8]) -> Result<ObjFile, String> {
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    let mut obj = ObjFile::default();
+    let mut group = 0u32;
+    // Until the first `s` statement every face is in group 1 (smoothed together); the first `s`
+    // makes the file's groups authoritative, and faces read before it are then flat (the format's
+    // default is "s off").
+    let mut face_groups_before_s = Vec::new();
+    let mut line_no = 0usize;
+    let mut logical = Vec::new();
+    let mut start_line = 0usize;
+    let mut corners: Vec<Corner> = Vec::new();
+    for raw in bytes.split(|&b| b == b'\n') {
+        line_no += 1;
+        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
+        if logical.is_empty() {
+            start_line = line_no;
+        }
+        if let Some(head) = raw.strip_suffix(b"\\") {
+            logical.extend_from_slice(head);
+            logical.push(b' ');
+            continue;
+        }
+        logical.extend_from_slice(raw);
+        let line = std::mem::take(&mut logical);
+        let line = match line.iter().position(|&b| b == b'#') {
+            Some(k) => &line[..k],
+            None => &line[..],
+        };
+        let at = |m: String| format!("line {start_line}: {m}");
+        let mut tokens = line.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty());
+        let Some(keyword) = tokens.next() else { continue };
+        match keyword {
+            b"v" | b"vn" => {
+                let mut xyz = [0f32; 3];
+                for c in &mut xyz {
+                    let t = tokens.next().ok_or_else(|| at(format!("'{}' needs 3 coordinates", show(keyword))))?;
+                    *c = number(t).ok_or_else(|| at(format!("invalid number '{}'", show(t))))?;
+                }
+                let p = Vec3::from_array(xyz);
+                if !p.is_finite() {
+                    return Err(at("non-finite coordinate".into()));
+                }
+                if keyword == b"v" { obj.positions.push(p) } else { obj.normals.push(p) }
+            }
+            b"f" => {
+                corners.clear();
+                for t in tokens {
+                    corners.push(corner(t, obj.positions.len(), obj.normals.len()).map_err(at)?);
+                }
+                if corners.len() < 3 {
+                    return Err(at(format!("face with {} corners (at least 3 needed)", corners.len())));
+                }
+                for k in 1..corners.len() - 1 {
+                    obj.triangles.push(([corners[0], corners[k], corners[k + 1]], group));
+                    if !obj.has_smoothing_groups {
+                        face_groups_before_s.push(obj.triangles.len() - 1);
+                    }
+                }
+            }
+            b"s" => {
+                let t = tokens.next().ok_or_else(|| at("'s' needs a group number or 'off'".into()))?;
+                group = if t == b"off" {
+                    0
+                } else {
+                    std::str::from_utf8(t)
+                        .ok()
+                        .and_then(|s| s.parse::<u32>().ok())
+                        .ok_or_else(|| at(format!("invalid smoothing group '{}'", show(t))))?
+                };
+                obj.has_smoothing_groups = true;
+            }
+            b"l" => obj.skipped_lines += 1,
+            b"p" => obj.skipped_points += 1,
+            _ => {}
+        }
+    }
+    if obj.has_smoothing_groups {
+        for &i in &face_groups_before_s {
+            obj.triangles[i].1 = 0;
+        }
+    } else {
+        for t in &mut obj.triangles {
+            t.1 = 1;
+        }
+    }
+    // Positive indices may refer to vertices defined later in the file: check them all now.
+    let (nv, nn) = (obj.positions.len(), obj.normals.len());
+    for (c, _) in &obj.triangles {
+        for c in c {
+            if c.v as usize >= nv {
+                return Err(format!("vertex index {} out of range ({nv} vertices)", c.v as u64 + 1));
+            }
+            if let Some(n) = c.vn
+                && n as usize >= nn
+            {
+                return Err(format!("normal index {} out of range ({nn} normals)", n as u64 + 1));
+            }
+        }
+    }
+    Ok(obj)
+}
+
+fn show(t: &[u8]) -> String {
+    let s = String::from_utf8_lossy(t);
+    let s: String = s.chars().take(32).collect();
+    s.escape_debug().to_string()
+}
+
+fn number(t: &[u8]) -> Option<f32> {
+    std::str::from_utf8(t).ok()?.parse::<f32>().ok()
+}
+
+/// A 1-based (or negative, relative to the `count` defined so far) OBJ index, 0-based.
+fn index(t: &[u8], count: usize, what: &str) -> Result<u32, String> {
+    let i: i64 = std::str::from_utf8(t)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .ok_or_else(|| format!("invalid {what} index '{}'", show(t)))?;
+    let k = if i > 0 {
+        i - 1
+    } else if i < 0 {
+        count as i64 + i
+    } else {
+        return Err(format!("{what} index 0 (OBJ indices start at 1)"));
+    };
+    if k < 0 || k >= u32::MAX as i64 {
+        return Err(format!("{what} index {i} out of range ({count} {what}s so far)"));
+    }
+    Ok(k as u32)
+}
+
+/// A face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+fn corner(t: &[u8], nv: usize, nn: usize) -> Result<Corner, String> {
+    let mut parts = t.split(|&b| b == b'/');
+    let v = index(parts.next().unwrap_or_default(), nv, "vertex")?;
+    let _vt = parts.next();
+    let vn = match parts.next() {
+        Some(p) if !p.is_empty() => Some(index(p, nn, "normal")?),
+        _ => None,
+    };
+    if parts.next().is_some() {
+        return Err(format!("invalid face corner '{}'", show(t)));
+    }
+    Ok(Corner { v, vn })
+}
+
+/// What a smooth corner's normal comes from: the file's normal, its smoothing group's normal at the
+/// file vertex, or its face (flat).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum NormalKey {
+    File(u32),
+    Group(u32),
+    Face(u32),
+}
+
+impl ObjFile {
+    fn into_mesh(self, smooth: bool) -> Result<TriangleMesh, String> {
+        if self.triangles.is_empty() {
+            return Err("OBJ file contains no faces".into());
+        }
+        let mut mesh = TriangleMesh::default();
+        if !smooth {
+            let mut remap: HashMap<u32, u32> = HashMap::new();
+            for (c, _) in &self.triangles {
+                let t = c.map(|c| {
+                    *remap.entry(c.v).or_insert_with(|| {
+                        mesh.positions.push(self.positions[c.v as usize]);
+                        (mesh.positions.len() - 1) as u32
+                    })
+                });
+                mesh.triangles.push(t);
+            }
+            mesh.validate()?;
+            return Ok(mesh);
+        }
+        // Angle-weighted normals per (file vertex, smoothing group) for corners without `vn`.
+        let mut group_normals: HashMap<(u32, u32), DVec3> = HashMap::new();
+        for (c, g) in &self.triangles {
+            if *g == 0 {
+                continue;
+            }
+            let p = c.map(|c| self.positions[c.v as usize].as_dvec3());
+            let nf = (p[1] - p[0]).cross(p[2] - p[0]);
+            let len = nf.length();
+            if !(len > 0.0 && len.is_finite()) {
+                continue; // degenerate: no direction to contribute
+            }
+            for k in 0..3 {
+                if c[k].vn.is_some() {
+                    continue;
+                }
+                let angle = (p[(k + 1) % 3] - p[k]).angle_between(p[(k + 2) % 3] - p[k]);
+                if angle.is_finite() {
+                    *group_normals.entry((c[k].v, *g)).or_default() += angle * nf / len;
+                }
+            }
+        }
+        let mut vertices: HashMap<(u32, NormalKey), u32> = HashMap::new();
+        for (f, (c, g)) in self.triangles.iter().enumerate() {
+            let p = c.map(|c| self.positions[c.v as usize]);
+            let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            let t = c.map(|c| {
+                let key = match (c.vn, *g) {
+                    (Some(n), _) => NormalKey::File(n),
+                    (None, 0) => NormalKey::Face(f as u32),
+                    (None, g) => NormalKey::Group(g),
+                };
+                *vertices.entry((c.v, key)).or_insert_with(|| {
+                    let n = match key {
+                        NormalKey::File(n) => self.normals[n as usize].normalize_or_zero(),
+                        NormalKey::Face(_) => face,
+                        NormalKey::Group(g) => {
+                            group_normals.get(&(c.v, g)).map_or(Vec3::ZERO, |n| n.normalize_or_zero().as_vec3())
+                        }
+                    };
+                    mesh.positions.push(self.positions[c.v as usize]);
+                    mesh.normals.push(n);
+                    (mesh.positions.len() - 1) as u32
+                })
+            });
+            mesh.triangles.push(t);
+        }
+        mesh.validate()?;
+        Ok(mesh)
+    }
 }
 
 #[cfg(test)]
