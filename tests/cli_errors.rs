@@ -411,3 +411,165 @@ fn same_bits_for_1_3_7_threads_through_the_binary() {
         assert!(images[0].channels["R"].iter().zip(&other.channels["R"]).any(|(a, b)| a != b), "{name}");
     }
 }
+
+/// `reflect … --json` on good input: exit 0 and the JSON document.
+fn reflect_json(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+    assert_eq!(out.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: not JSON: {e}"))
+}
+
+/// Issue 18, analysis at the edges: orders the input cannot carry, transfer coefficients at the
+/// limits of their parameters, exitance angles and BRDF parameters from headers, and degenerate
+/// `stderr` layers — each refused through the binary (exit 2, one line naming the file) or given
+/// its right value.
+#[test]
+fn analysis_at_the_edges() {
+    use analysis::image::{read_image, write_exr};
+    let d = temp_dir("cli-edges");
+    let w = |name: &str, text: &str| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let render = |toml: &str, exr: &str| {
+        let out = d.join(exr);
+        let (code, err) =
+            reflect(&["render", &w(&format!("{exr}.toml"), toml), "--out", out.to_str().unwrap(), "--quiet"]);
+        assert_eq!(code, 0, "{err}");
+        out.to_str().unwrap().to_string()
+    };
+    let probe_toml = |w: u32, h: u32| {
+        GOOD.replace("width = 8\nheight = 8", &format!("width = {w}\nheight = {h}")).replace(
+            "type = \"orthographic\"\nfrom = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05",
+            "type = \"normal-probe\"",
+        )
+    };
+    let none = d.join("no-output.exr");
+
+    // Orders the data cannot carry. A 16 × 8 normal-probe grid carries l ≤ 7 (|m| < W/2, l < H);
+    // at --lmax 20 it once reported all 21 orders "recovered" with L_16,0 = −4.43 (exact 0).
+    let p16 = render(&probe_toml(16, 8), "p16.exr");
+    assert_bad_input(&["invert", "lighting", &p16, "--lmax", "20"], "p16.exr", "l = 7", &none);
+    assert_bad_input(&["analyze", &p16, "--lmax", "8"], "p16.exr", "l = 7", &none);
+    assert_bad_input(&["invert", "brdf", &p16, "--model", "phong", "--lmax", "8"], "p16.exr", "l = 7", &none);
+    // At the limit it is accepted and says so; uniform radiance 1 on a lambert sphere: L_00 = √(4π)
+    // within 4 of its reported standard errors (2 spp: σ ≈ 2 % of L_00).
+    let doc = reflect_json(&["invert", "lighting", &p16, "--lmax", "7", "--json"]);
+    assert_eq!(doc["lmax_carried"], 7);
+    let (l00, se) = (doc["coefficients"][0][0].as_f64().unwrap(), doc["stderr"][0][0].as_f64().unwrap());
+    assert!((l00 - (4.0 * std::f64::consts::PI).sqrt()).abs() < 4.0 * se, "L_00 = {l00} ± {se}");
+    assert_eq!(reflect_json(&["analyze", &p16, "--lmax", "7", "--json"])["lmax_carried"], 7);
+    // Synthesis: a 4 × 2 map carries l ≤ 1, so --lmax 8 is refused (it once wrote a map that
+    // projected back 260 % off its own coefficients), naming the output file, which is not written.
+    let p32 = render(&probe_toml(32, 16), "p32.exr");
+    let env = d.join("env.exr");
+    let e = env.to_str().unwrap();
+    assert_bad_input(
+        &["invert", "lighting", &p32, "--lmax", "8", "--output", e, "--width", "4"],
+        "env.exr",
+        "l = 1",
+        &env,
+    );
+    // Orthographic views: the sphere is 8/1.05 = 7.6 pixels across, so l ≤ 6 in the normal
+    // parameterization and l ≤ 2 in the reflection one (which --lmax 3 once fitted from 32 pixels).
+    let ortho = render(GOOD, "ortho.exr");
+    assert_bad_input(&["analyze", &ortho, "--lmax", "7"], "ortho.exr", "l = 6", &none);
+    assert_bad_input(&["analyze", &ortho, "--param", "reflection", "--lmax", "3"], "ortho.exr", "l = 2", &none);
+
+    // Transfer coefficients at the ends of the parameter range: σ → 0 is the mirror (Λ_l ρ̂_l = 1);
+    // σ = 1e-160 once printed NaN/inf.
+    for theta in ["0", "45"] {
+        let doc = reflect_json(&[
+            "sh",
+            "transfer",
+            "--brdf",
+            "torrance-sparrow",
+            "--sigma",
+            "1e-160",
+            "--theta-o",
+            theta,
+            "--lmax",
+            "16",
+            "--json",
+        ]);
+        for v in doc["lambda_rho"].as_array().unwrap() {
+            assert!((v.as_f64().unwrap() - 1.0).abs() < 1e-12, "θ_o {theta}: {v}");
+        }
+    }
+    // And no fit accepts a non-finite objective: `invert brdf --min 1e-200` on a σ = 0.1 render
+    // once returned σ̂ = 1e-200 with a null χ²; now the whole range gives the default range's fit.
+    let ts = GOOD
+        .replace("width = 8\nheight = 8\nspp = 2", "width = 48\nheight = 48\nspp = 8")
+        .replace(
+            "type = \"uniform\"\nradiance = 1.0",
+            &format!("type = \"envmap\"\nfile = \"{}\"\nmapping = \"angular\"", grace().display()),
+        )
+        .replace(
+            "brdf = { type = \"lambert\", albedo = 0.5 }",
+            "brdf = { type = \"torrance-sparrow\", ks = 1.0, sigma = 0.1, horizon = \"ignore\" }",
+        );
+    let ts = render(&ts, "ts.exr");
+    let fit = |range: &[&str]| {
+        let mut args = vec!["invert", "brdf", &ts, "--model", "torrance-sparrow", "--lmax", "8", "--json"];
+        args.extend_from_slice(range);
+        reflect_json(&args)
+    };
+    let (default, wide) = (fit(&[]), fit(&["--min", "1e-200", "--max", "1"]));
+    let (s0, s1) = (default["estimate"].as_f64().unwrap(), wide["estimate"].as_f64().unwrap());
+    assert!(wide["chi2_min"].as_f64().is_some_and(f64::is_finite), "{}", wide["chi2_min"]);
+    assert!((s1 / s0 - 1.0).abs() < 1e-6, "σ̂ {s1} over [1e-200, 1] vs {s0} over the default range");
+    assert!((s0 - 0.1).abs() < 0.03, "σ̂ = {s0}");
+
+    // Exitance angles and BRDF parameters from a header go through the same checks as flags.
+    let mut img = read_image(&p16).unwrap();
+    for (theta, name) in [("90", "theta90.exr"), ("120", "theta120.exr")] {
+        img.attributes.insert("reflect:camera".into(), format!(r#"{{"type":"normal-probe","theta_o_deg":{theta}}}"#));
+        let p = d.join(name);
+        write_exr(&p, &img).unwrap();
+        let p = p.to_str().unwrap();
+        assert_bad_input(&["analyze", p, "--lmax", "2"], name, "theta_o", &none);
+        assert_bad_input(&["invert", "lighting", p, "--lmax", "2"], name, "theta_o", &none);
+    }
+    img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
+    img.attributes.insert(
+        "reflect:objects".into(),
+        r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"torrance-sparrow","sigma":-0.1,"ks":1}}]"#
+            .into(),
+    );
+    let bad_sigma = d.join("bad-sigma.exr");
+    write_exr(&bad_sigma, &img).unwrap();
+    let bs = bad_sigma.to_str().unwrap();
+    assert_bad_input(&["analyze", bs, "--lmax", "2"], "bad-sigma.exr", "sigma", &none);
+    assert_bad_input(&["invert", "lighting", bs, "--lmax", "2"], "bad-sigma.exr", "sigma", &none);
+
+    // `stderr` layers: a negative value is refused (it was squared silently) ...
+    let mut img = read_image(&ts).unwrap();
+    img.channels.get_mut("stderr.G").unwrap()[5] = -0.1;
+    let neg = d.join("negative-stderr.exr");
+    write_exr(&neg, &img).unwrap();
+    let n = neg.to_str().unwrap();
+    assert_bad_input(&["analyze", n, "--lmax", "2"], "negative-stderr.exr", "stderr.G", &none);
+    // ... and a layer that is zero everywhere cannot weight a fit: a pixel-centre normal probe
+    // under a directional source is deterministic, so reflect itself writes σ = 0 there. It once
+    // failed with "least-squares system is singular … unknown 0 of 7", naming neither file nor cause.
+    let det = probe_toml(64, 32)
+        .replace(
+            "type = \"uniform\"\nradiance = 1.0",
+            "type = \"directional\"\ndirection = [0.3, 0.2, 1.0]\nirradiance = 3.0",
+        )
+        .replace(
+            "brdf = { type = \"lambert\", albedo = 0.5 }",
+            "brdf = { type = \"torrance-sparrow\", ks = 1.0, sigma = 0.1, horizon = \"ignore\" }",
+        );
+    let det = render(&det, "deterministic.exr");
+    assert_bad_input(
+        &["invert", "brdf", &det, "--model", "torrance-sparrow", "--lmax", "8"],
+        "deterministic.exr",
+        "stderr.R is zero at every pixel",
+        &none,
+    );
+    // Where σ is only propagated, zero is an exact pixel: analyze reports B ± 0.
+    let doc = reflect_json(&["analyze", &det, "--lmax", "4", "--json"]);
+    assert_eq!(doc["stderr"][0][0].as_f64(), Some(0.0));
+}

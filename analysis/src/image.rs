@@ -28,6 +28,21 @@ pub struct RgbImage {
 }
 
 impl RgbImage {
+    /// For a `stderr` layer (already checked by [`Image::stderr_layer`]) about to weight a fit in
+    /// `channels`: a channel that is zero at every pixel is an error naming the layer and the
+    /// cause (see [`Image::stderr_layer_for_weights`]).
+    pub fn check_weights(&self, channels: &[usize]) -> Result<()> {
+        for &ch in channels {
+            if self.pixels.iter().all(|p| p[ch] == 0.0) {
+                return Err(Error::new(format!(
+                    "layer stderr.{} is zero at every pixel: a noise-free image gives no weights (the covariance of the fit is singular); remove the stderr layers to fit with unit weights",
+                    ["R", "G", "B"][ch.min(2)]
+                )));
+            }
+        }
+        Ok(())
+    }
+
     #[inline]
     pub fn get(&self, row: usize, col: usize) -> [f32; 3] {
         self.pixels[row * self.width + col]
@@ -49,6 +64,37 @@ impl Image {
             height: self.height,
             pixels: (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect(),
         })
+    }
+
+    /// The per-pixel standard-error layer `stderr.R/G/B` (CONVENTIONS §5), validated once for every
+    /// consumer: each value is a standard deviation, so it must be finite and ≥ 0 (a negative one
+    /// would be squared into a valid-looking variance) — an error naming the layer (callers add the
+    /// file). 0 is allowed here: it is an exact pixel (a deterministic render, e.g. a pixel-centre
+    /// `normal-probe` under a directional source, has σ = 0 everywhere), and propagated errors are
+    /// then 0. Consumers that *weight* by 1/σ² or invert a covariance built from σ use
+    /// [`Image::stderr_layer_for_weights`]. `Ok(None)` when the image has no such layer.
+    pub fn stderr_layer(&self) -> Result<Option<RgbImage>> {
+        let Some(layer) = self.rgb_layer("stderr.") else { return Ok(None) };
+        for (ch, name) in ["R", "G", "B"].iter().enumerate() {
+            if let Some(i) = layer.pixels.iter().position(|p| !(p[ch].is_finite() && p[ch] >= 0.0)) {
+                return Err(Error::new(format!(
+                    "layer stderr.{name} has the value {} at row {}, column {}: a standard error must be finite and ≥ 0",
+                    layer.pixels[i][ch],
+                    i / self.width.max(1),
+                    i % self.width.max(1)
+                )));
+            }
+        }
+        Ok(Some(layer))
+    }
+
+    /// [`Image::stderr_layer`] for a consumer that weights by it (a covariance it inverts, weights
+    /// 1/σ²): a channel that is zero at every pixel carries no noise estimate, every covariance
+    /// built from it is singular, so it is an error naming the layer and the cause.
+    pub fn stderr_layer_for_weights(&self) -> Result<Option<RgbImage>> {
+        let Some(layer) = self.stderr_layer()? else { return Ok(None) };
+        layer.check_weights(&[0, 1, 2])?;
+        Ok(Some(layer))
     }
 
     /// The main RGB image; a luminance-only (`Y`) EXR is replicated to grey.

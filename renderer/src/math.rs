@@ -1,5 +1,7 @@
 //! Small geometric helpers in the world frame of CONVENTIONS §1 (+z up, right-handed).
 
+pub mod fast;
+
 pub use glam::{Vec2, Vec3};
 
 /// Linear RGB radiance or reflectance. A plain `Vec3` so all glam arithmetic applies.
@@ -9,6 +11,19 @@ pub const PI: f32 = std::f32::consts::PI;
 pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
 pub const INV_4PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
+
+/// Asks the CPU to start loading `x` into cache (no-op where there is no such instruction).
+#[inline(always)]
+pub fn prefetch_read<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults and has no architectural effect; the pointer
+    // comes from a live reference.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
 
 /// ω(θ, φ) = (sinθ cosφ, sinθ sinφ, cosθ).
 #[inline]

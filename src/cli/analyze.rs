@@ -16,6 +16,10 @@
 //! (`--mapping latlong|angular`, default inferred from the aspect ratio: W = H angular, W = 2H
 //! lat-long); without `--lighting`, the `reflect:lighting` header of the first image.
 //!
+//! `--lmax` above the highest order the input carries (`analysis::projection::resolution`: a W × H
+//! normal probe min(W/2, H) − 1; orthographic views D − 1 or D/2 − 1, D the sphere's diameter in
+//! pixels) is refused; the output states that order (`lmax_carried`).
+//!
 //! Output: B_lm ± standard error, L_lm, the measured filter (per-order least-squares estimate of
 //! albedo · Λ_l ρ̂_l with its standard error; orders where L has no energy are unobservable) and,
 //! with a known BRDF, its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo.
@@ -150,10 +154,12 @@ fn sphere_and_brdf(img: &Image) -> Result<(Option<Sphere>, Option<Brdf>), Error>
             ),
             _ => (None, [1.0; 3]),
         };
-        let model = model.filter(|m| m.validate().is_ok());
-        Brdf { model, scale, ty, table: b.clone() }
+        if let Some(m) = &model {
+            m.validate().map_err(|e| Error::new(format!("header reflect:objects {ty} BRDF: {}", e.message)))?;
+        }
+        Ok(Brdf { model, scale, ty, table: b.clone() })
     });
-    Ok((sphere, brdf))
+    Ok((sphere, brdf.transpose()?))
 }
 
 pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
@@ -181,14 +187,18 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
 
     let n_probe = cameras.iter().filter(|c| matches!(c, Camera::NormalProbe { .. })).count();
     let mut brdf = brdf;
-    let (b, b_se, method, pixels, se_source, rms) = if n_probe > 0 {
+    let (b, b_se, method, pixels, se_source, rms, carried) = if n_probe > 0 {
         if images.len() != 1 {
             return Err(Error::new("a normal-probe render must be analysed on its own (one image)"));
         }
         let Camera::NormalProbe { theta_o_deg } = cameras[0] else { unreachable!() };
         // Torrance–Sparrow seen at θ_o: the q = 0 coefficient at that exitance angle.
-        if let Some(Brdf { model: Some(TransferModel::TorranceSparrow { theta_o, .. }), .. }) = brdf.as_mut() {
+        // (θ_o passed the one exitance check when the header was read; validated again as a model.)
+        if let Some(Brdf { model: Some(m), .. }) = brdf.as_mut()
+            && let TransferModel::TorranceSparrow { theta_o, .. } = m
+        {
             *theta_o = theta_o_deg.to_radians();
+            m.validate().map_err(|e| e.in_file(&a.images[0]))?;
         }
         let (c, se) = project_normal_probe(&images[0], a.lmax).map_err(|e| e.in_file(&a.images[0]))?;
         let src = if se.is_some() { "stderr-layer" } else { "none" };
@@ -199,6 +209,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
             images[0].width * images[0].height,
             src,
             None,
+            analysis::projection::latlong_max_order(images[0].width, images[0].height).unwrap_or(0),
         )
     } else {
         let views: Vec<OrthoView> = images
@@ -209,14 +220,15 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
                 Camera::NormalProbe { .. } => unreachable!(),
             })
             .collect();
+        let fit = fit_orthographic(&views, &sphere, param, a.lmax)
+            .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
+        // (After the fit, so that a refusal stays the one line on stderr.)
         if views.len() == 1 && param == Param::Normal {
             eprintln!(
                 "note: one orthographic view sees one hemisphere of normals; energy of B above l_max aliases into the fit \
                  (raise --lmax, add the opposite view, or render a normal-probe)"
             );
         }
-        let fit = fit_orthographic(&views, &sphere, param, a.lmax)
-            .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
         (
             fit.coefficients,
             Some(fit.stderr),
@@ -228,6 +240,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
             fit.pixels_used,
             fit.stderr_source,
             Some(fit.rms_residual),
+            fit.lmax_carried,
         )
     };
 
@@ -261,6 +274,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         };
         let doc = json!({
             "lmax": a.lmax,
+            "lmax_carried": carried,
             "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "method": method,
             "param": if n_probe > 0 { "normal" } else { param.name() },
@@ -281,7 +295,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
     }
 
     println!("# {} — {method}", a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
-    println!("# pixels used {pixels}, standard errors from {se_source}");
+    println!("# pixels used {pixels}, standard errors from {se_source}; the input carries l <= {carried}");
     if let Some(r) = rms {
         println!("# weighted RMS residual of the fit: {:.3e} {:.3e} {:.3e}", r[0], r[1], r[2]);
     }

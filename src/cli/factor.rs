@@ -43,6 +43,8 @@ use analysis::inverse::factorization::{
     DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, OutgoingNode, directional_lighting,
     filter_from_lighting, hemisphere_nodes, project,
 };
+use analysis::projection::latlong_max_order;
+use analysis::projection::resolution::{LATLONG_RULE, check_latlong};
 use analysis::sh::lm;
 use renderer::camera::{Camera, NormalProbe};
 use renderer::render::{RenderOptions, render};
@@ -263,7 +265,9 @@ fn probe_angles(img: &Image, p: &Path) -> Result<(f64, f64), Error> {
 fn channel_of(img: &Image, ch: usize, p: &Path) -> Result<(Vec<f64>, Option<f64>), Error> {
     let name = ["R", "G", "B"][ch];
     let v = img.channel(name).ok_or_else(|| Error::file(p, format!("image has no {name} channel")))?;
-    let se = img.channel(&format!("stderr.{name}")).map(|s| s.iter().fold(0.0f64, |m, x| m.max(*x as f64)));
+    // The layer is only reported here, but it is validated as everywhere (finite, ≥ 0, not all zero).
+    let layer = img.stderr_layer().map_err(|e| e.in_file(p))?;
+    let se = layer.map(|s| s.pixels.iter().fold(0.0f64, |m, x| m.max(x[ch] as f64)));
     Ok((v.iter().map(|x| *x as f64).collect(), se))
 }
 
@@ -434,9 +438,7 @@ fn from_images(
         data.push(v.into_iter().map(|x| x as f32).collect::<Vec<f32>>());
     }
     let Some((w, h, _)) = size else { return Err(Error::new("no images")) };
-    if lmax >= h {
-        return Err(Error::new(format!("--lmax {lmax} is not resolved by {h} image rows (need lmax < H)")));
-    }
+    check_latlong(lmax, w, h, "normal-probe grid").map_err(|e| e.in_file(&paths[0]))?;
     let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
     let (nodes_n, nodes, idx) = match_nodes(&angles, &names, given)?;
     let mut lf = LightField::new(w, h, rule)?;
@@ -458,12 +460,7 @@ fn from_images(
                     format!("--normal needs a θ_o = 0 normal-probe render, this one is at θ_o = {t}°"),
                 ));
             }
-            if lmax >= img.height {
-                return Err(Error::file(
-                    p,
-                    format!("--lmax {lmax} is not resolved by {} image rows (need lmax < H)", img.height),
-                ));
-            }
+            check_latlong(lmax, img.width, img.height, "normal-probe image").map_err(|e| e.in_file(p))?;
             let (v, se) = channel_of(&img, ch, p)?;
             if let Some(s) = se {
                 max_se = Some(max_se.map_or(s, |m: f64| m.max(s)));
@@ -512,9 +509,7 @@ fn from_scene(
     lmax: usize,
 ) -> Result<Measured, Error> {
     check_nodes(n_mu, n_phi)?;
-    if lmax >= h as usize {
-        return Err(Error::new(format!("--lmax {lmax} is not resolved by --size {w}x{h} (need lmax < height)")));
-    }
+    check_latlong(lmax, w as usize, h as usize, "normal-probe grid (--size)")?;
     let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
     let mut file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
     let sphere = match file.objects.first() {
@@ -612,6 +607,8 @@ fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: No
         "rule": match rule { NormalRule::Fejer => "fejer", NormalRule::PixelSolidAngle => "pixel" },
         "channel": channel,
         "lmax": lmax,
+        "lmax_carried": latlong_max_order(w, h),
+        "lmax_carried_rule": LATLONG_RULE,
         "max_amplification": a.max_amplification,
         "renders": m.renders.map(|(n, s)| json!({"count": n, "wall_seconds": s})),
         "max_stderr": m.max_stderr,
@@ -640,6 +637,12 @@ fn print_text(doc: &Value) {
         g[1],
         doc["rule"].as_str().unwrap_or(""),
         doc["channel"].as_str().unwrap_or("")
+    );
+    println!(
+        "# l_max {}; the grid carries l <= {} ({})",
+        doc["lmax"],
+        doc["lmax_carried"],
+        doc["lmax_carried_rule"].as_str().unwrap_or("")
     );
     if let Some(s) = doc["input"]["scene"].as_str() {
         println!(

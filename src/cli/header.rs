@@ -30,7 +30,8 @@ pub fn json_vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
 
 /// (θ_o, φ_o) in degrees of a `normal-probe` camera header (`theta_o_deg`, `phi_o_deg`; absent
 /// = 0, CONVENTIONS §6 and our φ_o extension); a present value that is not a finite number is an
-/// error.
+/// error, and θ_o goes through the one exitance check of every command
+/// ([`analysis::transfer::validate_exitance`]: 0 ≤ θ_o < 90°, as the renderer's camera).
 pub fn probe_exitance_deg(cam: &Value) -> Result<(f64, f64), Error> {
     let num = |k: &str| match cam.get(k) {
         None => Ok(0.0),
@@ -39,7 +40,10 @@ pub fn probe_exitance_deg(cam: &Value) -> Result<(f64, f64), Error> {
             .filter(|x| x.is_finite())
             .ok_or_else(|| Error::new(format!("header camera '{k}' is not a number"))),
     };
-    Ok((num("theta_o_deg")?, num("phi_o_deg")?))
+    let theta_o_deg = num("theta_o_deg")?;
+    analysis::transfer::validate_exitance(theta_o_deg.to_radians())
+        .map_err(|e| Error::new(format!("header camera: {}", e.message)))?;
+    Ok((theta_o_deg, num("phi_o_deg")?))
 }
 
 /// θ_o (degrees) of a `normal-probe` render for the per-order analysis of `analyze` and

@@ -12,6 +12,9 @@
 //!   Δχ² = 1 interval (unbounded sides reported as null). Lighting as in `analyze`: a scene's
 //!   `[lighting]`, an environment map, or the image's `reflect:lighting` header.
 //!
+//! `--lmax` above the highest order the images carry is refused as in `analyze` (`lmax_carried` in
+//! the output), and so is an `--output` map whose W × W/2 grid cannot carry it (W/2 − 1).
+//!
 //! Images are projected as in `analyze`: one `normal-probe` render (lat-long quadrature; at
 //! θ_o = 0 the normal is the reflection vector, so every BRDF's B is in its own parameterization),
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
@@ -23,7 +26,9 @@ use analysis::image::{Image, read_image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::lighting::Lighting;
-use analysis::projection::{OrthoCamera, OrthoView, Param, fit_orthographic, project_normal_probe};
+use analysis::projection::{
+    OrthoCamera, OrthoView, Param, check_latlong, fit_orthographic, latlong_max_order, project_normal_probe,
+};
 use analysis::sh::reconstruct_latlong;
 use analysis::transfer::TransferModel;
 use serde_json::{Value, json};
@@ -137,6 +142,8 @@ struct Projected {
     first: Image,
     /// A normal-probe image (lat-long quadrature), not orthographic views.
     probe: bool,
+    /// The highest order the input carries (`project` refuses an l_max above it).
+    lmax_carried: usize,
 }
 
 fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Error> {
@@ -172,6 +179,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             return Err(Error::new("a normal-probe render must be inverted on its own (one image)"));
         }
         let (b, stderr) = project_normal_probe(&images[0], lmax).map_err(|e| e.in_file(&paths[0]))?;
+        let lmax_carried = latlong_max_order(images[0].width, images[0].height).unwrap_or(0);
         let first = images.into_iter().next().unwrap_or_default();
         return Ok(Projected {
             b,
@@ -180,18 +188,28 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             theta_o: theta_o_deg.to_radians(),
             first,
             probe: true,
+            lmax_carried,
         });
     }
     let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
     let sphere = sphere.unwrap_or_default();
     let views: Vec<OrthoView> =
         images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
-    let fit = fit_orthographic(&views, &sphere, param, lmax)?;
+    let fit = fit_orthographic(&views, &sphere, param, lmax)
+        .map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
     let method =
         format!("weighted least squares over {} orthographic view(s), {} parameterization", views.len(), param.name());
     drop(views);
     let first = images.into_iter().next().unwrap_or_default();
-    Ok(Projected { b: fit.coefficients, stderr: Some(fit.stderr), method, theta_o: 0.0, first, probe: false })
+    Ok(Projected {
+        b: fit.coefficients,
+        stderr: Some(fit.stderr),
+        method,
+        theta_o: 0.0,
+        first,
+        probe: false,
+        lmax_carried: fit.lmax_carried,
+    })
 }
 
 /// BRDF model and albedo from the command line, else from the header's BRDF table.
@@ -215,7 +233,9 @@ fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(Tr
                 }
             };
             let th = if ty == "lambert" || ty == "mirror" || ty == "phong" { None } else { theta_o_deg };
-            (model_from_args(&ty, s, sigma, th)?, ty, json_rgb(b.get(key)))
+            let m = model_from_args(&ty, s, sigma, th)
+                .map_err(|e| Error::new(format!("header reflect:objects {ty} BRDF: {}", e.message)))?;
+            (m, ty, json_rgb(b.get(key)))
         }
         (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
     };
@@ -241,6 +261,10 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
     if a.output.is_some() && !(a.width >= 4 && a.width.is_multiple_of(2) && a.width <= 16384) {
         return Err(Error::new(format!("--width must be even and in [4, 16384], got {}", a.width)));
     }
+    if let Some(out) = &a.output {
+        // The written map must carry every order it is reconstructed from.
+        check_latlong(a.lmax, a.width, a.width / 2, "--output map (--width)").map_err(|e| e.in_file(out))?;
+    }
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
     let named = a.brdf.as_deref();
     let first = read_image(&a.images[0])?;
@@ -250,7 +274,8 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
         .or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str().map(str::to_string)));
     let param = if ty.as_deref() == Some("lambert") { Param::Normal } else { Param::Reflection };
     let p = project(&a.images, a.lmax, param)?;
-    let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)?;
+    let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)
+        .map_err(|e| if a.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
     let filter = model.lambda_rho(a.lmax);
     let inv = invert_lighting(&p.b, p.stderr.as_deref(), &filter, albedo, a.lmax, a.max_amplification, Some(rule))?;
     if let Some(out) = &a.output {
@@ -267,6 +292,7 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
     Ok(json!({
         "command": "invert lighting",
         "lmax": a.lmax,
+        "lmax_carried": p.lmax_carried,
         "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "method": p.method,
         "brdf": name,
@@ -307,7 +333,11 @@ fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
     // estimates: they are correlated (≈ 0.85 between adjacent orders under a directional source),
     // and so are the channels (the same paths), so each channel is fitted by generalised least
     // squares on its own and the channel with the narrowest interval is reported.
-    let cov = if p.probe { transfer_covariance_probe(&p.first, &l, a.lmax)? } else { None };
+    let cov = if p.probe {
+        transfer_covariance_probe(&p.first, &l, a.lmax).map_err(|e| e.in_file(&a.images[0]))?
+    } else {
+        None
+    };
     let (fit, how, per_channel) = match cov {
         Some(cov) => {
             let mut fits = Vec::new();
@@ -351,6 +381,7 @@ fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
         "channels": per_channel,
         "command": "invert brdf",
         "lmax": a.lmax,
+        "lmax_carried": p.lmax_carried,
         "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
         "method": p.method,
         "lighting": source,
@@ -378,6 +409,7 @@ fn fmt_opt(v: &Value) -> String {
 
 fn print_text(doc: &Value) {
     println!("# {} — {}", doc["command"].as_str().unwrap_or(""), doc["method"].as_str().unwrap_or(""));
+    println!("# l_max {}; the input carries l <= {}", doc["lmax"], doc["lmax_carried"]);
     if doc["command"] == "invert lighting" {
         println!(
             "# brdf {}, albedo {}, orders with amplification > {} are ill-conditioned",

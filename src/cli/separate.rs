@@ -31,6 +31,9 @@ use analysis::image::{Image, RgbImage, read_image, write_exr};
 use analysis::inverse::separation::{
     LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
 };
+use analysis::projection::resolution::{
+    LATLONG_REFLECTION_RULE, check_latlong, check_order, latlong_max_order_reflection,
+};
 use analysis::sh::{ShBasis, lm, num_coefficients, reconstruct_latlong};
 use renderer::sampling::chi2::chi2_survival;
 use serde_json::{Value, json};
@@ -107,12 +110,6 @@ fn read_view(p: &Path) -> Result<(View, Image), Error> {
         ));
     }
     let (theta_o_deg, phi_o_deg) = probe_exitance_deg(&cam).map_err(|e| e.in_file(p))?;
-    if !(0.0..90.0).contains(&theta_o_deg) {
-        return Err(Error::file(
-            p,
-            format!("header camera has theta_o_deg = {theta_o_deg}, phi_o_deg = {phi_o_deg} (need 0 ≤ θ_o < 90)"),
-        ));
-    }
     let rgb = img.rgb().ok_or_else(|| Error::file(p, "no R, G, B channels"))?;
     if rgb.width != 2 * rgb.height || rgb.height < 4 {
         return Err(Error::file(
@@ -120,7 +117,7 @@ fn read_view(p: &Path) -> Result<(View, Image), Error> {
             format!("a normal-probe image is a lat-long map with W = 2H ≥ 8, this one is {}×{}", rgb.width, rgb.height),
         ));
     }
-    let stderr = img.rgb_layer("stderr.");
+    let stderr = img.stderr_layer().map_err(|e| e.in_file(p))?;
     Ok((View { path: p.to_path_buf(), theta_o_deg, phi_o_deg, rgb, stderr }, img))
 }
 
@@ -184,6 +181,10 @@ fn validate(a: &SeparateArgs) -> Result<Vec<usize>, Error> {
     if a.output.is_some() && !(a.width >= 4 && a.width.is_multiple_of(2) && a.width <= 16384) {
         return Err(Error::new(format!("--width must be even and in [4, 16384], got {}", a.width)));
     }
+    if let Some(out) = &a.output {
+        // The written map must carry every order it is reconstructed from.
+        check_latlong(a.lmax, a.width, a.width / 2, "--output map (--width)").map_err(|e| e.in_file(out))?;
+    }
     match a.channel.as_deref().map(str::to_ascii_lowercase).as_deref() {
         None => Ok(vec![0, 1, 2]),
         Some("r") => Ok(vec![0]),
@@ -241,16 +242,10 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
         views.push(v);
     }
     let (w, h) = (views[0].rgb.width, views[0].rgb.height);
-    if 2 * (a.lmax + 1) > h {
-        return Err(Error::file(
-            &a.images[0],
-            format!(
-                "--lmax {} needs at least 2(lmax + 1) = {} pixel rows, the images have {h}",
-                a.lmax,
-                2 * (a.lmax + 1)
-            ),
-        ));
-    }
+    // The specular views' pixels are attributed to R, which turns twice as fast as n.
+    let carried = latlong_max_order_reflection(w, h);
+    check_order(a.lmax, carried, &format!("a {w}×{h} specular view"), LATLONG_REFLECTION_RULE)
+        .map_err(|e| e.in_file(&a.images[0]))?;
     let hs = header_brdf.as_ref().and_then(header_split);
     let (kd, kd_arg) = weight_arg(a.kd.as_deref(), hs.map(|s| s.0), "kd")?;
     let (ks, ks_arg) = weight_arg(a.ks.as_deref(), hs.map(|s| s.1), "ks")?;
@@ -271,6 +266,14 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     let missing_stderr: Vec<String> =
         views.iter().filter(|v| v.stderr.is_none()).map(|v| v.path.display().to_string()).collect();
     let with_stderr = missing_stderr.is_empty();
+    if with_stderr {
+        // The layers weight the fits and their covariances are inverted (the χ²).
+        for v in &views {
+            if let Some(s) = &v.stderr {
+                s.check_weights(&channels).map_err(|e| e.in_file(&v.path))?;
+            }
+        }
+    }
     let sigma_source = if with_stderr {
         "the renders' stderr layers".to_string()
     } else {
@@ -407,6 +410,8 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     Ok(json!({
         "command": "invert separate",
         "lmax": a.lmax,
+        "lmax_carried": carried,
+        "lmax_carried_rule": LATLONG_REFLECTION_RULE,
         "channels": channels.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>(),
         "layout": if channels.len() == 3 { "per coefficient an [r, g, b] triple, index order k = l(l+1)+m".to_string() } else { format!("per coefficient a number of channel {}, index order k = l(l+1)+m", CHANNELS[channels[0]]) },
         "diffuse_view": {"file": views[0].path.display().to_string(), "theta_o_deg": 0.0},
@@ -504,6 +509,11 @@ fn print_text(doc: &Value) {
     println!(
         "# invert separate — diffuse + specular separation (sec. 3.5, ref. [17]), {}",
         doc["layout"].as_str().unwrap_or("")
+    );
+    println!(
+        "# l_max {lmax}; the views carry l <= {} ({})",
+        doc["lmax_carried"],
+        doc["lmax_carried_rule"].as_str().unwrap_or("")
     );
     println!("# diffuse view: {} (θ_o = 0)", doc["diffuse_view"]["file"].as_str().unwrap_or(""));
     for v in doc["specular_views"].as_array().into_iter().flatten() {
@@ -860,7 +870,7 @@ mod tests {
             (SeparateArgs { kd: Some(vec![0.5, 0.5]), ..args(ok.images.clone()) }, None, "one number or r,g,b"),
             (SeparateArgs { lmax: 1000, ..args(ok.images.clone()) }, None, "maximum"),
             // 16 rows cannot carry l = 8.
-            (SeparateArgs { lmax: 8, ..args(ok.images.clone()) }, Some(&d0), "pixel rows"),
+            (SeparateArgs { lmax: 8, ..args(ok.images.clone()) }, Some(&d0), "highest order"),
             (SeparateArgs { output: Some(out.clone()), width: 3, ..args(ok.images.clone()) }, None, "--width"),
             (SeparateArgs { channel: Some("a".into()), ..args(ok.images.clone()) }, None, "--channel"),
         ];

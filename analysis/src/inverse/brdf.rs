@@ -55,6 +55,20 @@ impl Model {
             Model::TorranceSparrow { .. } => (0.005, 1.0),
         }
     }
+    /// The search range (`range`, else [`Model::default_range`]) checked: 0 < min < max, both ends
+    /// valid parameters of the model ([`TransferModel::validate`], which also checks θ_o).
+    pub fn check_range(&self, range: Option<(f64, f64)>) -> Result<(f64, f64)> {
+        let (lo, hi) = range.unwrap_or(self.default_range());
+        if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+            return Err(Error::new(format!(
+                "the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]",
+                self.parameter_name()
+            )));
+        }
+        self.transfer(lo).validate()?;
+        self.transfer(hi).validate()?;
+        Ok((lo, hi))
+    }
     pub fn transfer(&self, p: f64) -> TransferModel {
         match *self {
             Model::Phong => TransferModel::Phong { s: p },
@@ -167,19 +181,7 @@ fn chi2_at(model: Model, p: f64, pts: &[Point], lmax: usize) -> (f64, [Option<f6
 
 /// Weighted least-squares fit of the model parameter with its Δχ² = 1 interval (module doc).
 pub fn fit_model(est: &[OrderEstimate], model: Model, range: Option<(f64, f64)>) -> Result<BrdfFit> {
-    let (lo, hi) = range.unwrap_or(model.default_range());
-    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
-        return Err(Error::new(format!(
-            "the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]",
-            model.parameter_name()
-        )));
-    }
-    if let Model::TorranceSparrow { theta_o } = model {
-        model.transfer(lo).validate()?;
-        if !(0.0..std::f64::consts::FRAC_PI_2).contains(&theta_o) {
-            return Err(Error::new("theta_o must be in [0°, 90°)"));
-        }
-    }
+    let (lo, hi) = model.check_range(range)?;
     let lmax = est.iter().map(|o| o.l).max().ok_or_else(|| Error::new("no transfer estimates to fit"))?;
     let (pts, weighted) = usable_points(est);
     let channels = (0..3).filter(|ch| pts.iter().any(|p| p.1 == *ch)).count();
@@ -190,7 +192,7 @@ pub fn fit_model(est: &[OrderEstimate], model: Model, range: Option<(f64, f64)>)
     let chi2 = |p: f64| chi2_at(model, p, &pts, lmax).0;
     // Unit weights: rescale so that χ²_min/dof = 1 (the scatter estimates σ).
     let factor = |chi2_raw: f64| if weighted || dof <= 0 || chi2_raw <= 0.0 { 1.0 } else { dof as f64 / chi2_raw };
-    let sr = profile_search(&chi2, lo, hi, &factor);
+    let sr = profile_search(&chi2, model, lo, hi, &factor)?;
     let (_, scale) = chi2_at(model, sr.p_hat, &pts, lmax);
     Ok(BrdfFit {
         model,
@@ -218,11 +220,38 @@ struct Search {
 /// Minimises χ²(p) on [lo, hi] (log grid of 40 points per decade, then golden section in ln p
 /// around the best grid point) and finds the Δχ² = 1 crossings on both sides; `factor(χ²_min)`
 /// rescales χ² (1 for known standard errors).
-fn profile_search(chi2: &dyn Fn(f64) -> f64, lo: f64, hi: f64, factor: &dyn Fn(f64) -> f64) -> Search {
+///
+/// A non-finite χ² anywhere on the way is an error naming the parameter value (never a minimum:
+/// NaN compares as neither larger nor smaller, so it would steer the search silently).
+fn profile_search(
+    chi2: &dyn Fn(f64) -> f64,
+    model: Model,
+    lo: f64,
+    hi: f64,
+    factor: &dyn Fn(f64) -> f64,
+) -> Result<Search> {
+    let bad = std::cell::Cell::new(None);
+    let chi2 = |p: f64| {
+        let v = chi2(p);
+        if !v.is_finite() && bad.get().is_none() {
+            bad.set(Some((p, v)));
+        }
+        v
+    };
     let decades = (hi / lo).log10();
     let n = ((40.0 * decades).ceil() as usize).max(20);
     let grid: Vec<f64> = (0..=n).map(|i| lo * (hi / lo).powf(i as f64 / n as f64)).collect();
     let values: Vec<f64> = grid.iter().map(|&p| chi2(p)).collect();
+    let refuse = |(p, v): (f64, f64)| {
+        Error::new(format!(
+            "the {} fit's objective chi2 is {v} at {} = {p:e} (the model's transfer coefficients or the estimates are not finite there); narrow --min/--max",
+            model.name(),
+            model.parameter_name()
+        ))
+    };
+    if let Some(b) = bad.get() {
+        return Err(refuse(b));
+    }
     let ibest = (0..=n).min_by(|&a, &b| values[a].total_cmp(&values[b])).unwrap_or(0);
     let (mut a, mut b) = (grid[ibest.saturating_sub(1)].ln(), grid[(ibest + 1).min(n)].ln());
     let r = 0.5 * (5f64.sqrt() - 1.0);
@@ -263,8 +292,11 @@ fn profile_search(chi2: &dyn Fn(f64) -> f64, lo: f64, hi: f64, factor: &dyn Fn(f
         }
         inside = p;
     }
+    if let Some(b) = bad.get() {
+        return Err(refuse(b));
+    }
     let profile = grid.iter().zip(&values).map(|(&p, &v)| (p, (v - chi2_raw) * factor)).collect();
-    Search { p_hat, chi2_min: chi2_raw * factor, interval: (lower, upper), profile }
+    Ok(Search { p_hat, chi2_min: chi2_raw * factor, interval: (lower, upper), profile })
 }
 
 /// Generalised least squares for one channel whose per-order estimates f̂_l (at the orders
@@ -281,13 +313,7 @@ pub fn fit_model_gls(
     model: Model,
     range: Option<(f64, f64)>,
 ) -> Result<BrdfFit> {
-    let (lo, hi) = range.unwrap_or(model.default_range());
-    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
-        return Err(Error::new(format!(
-            "the {} search range must satisfy 0 < min < max, got [{lo}, {hi}]",
-            model.parameter_name()
-        )));
-    }
+    let (lo, hi) = model.check_range(range)?;
     let n = f.len();
     if n == 0 || orders.len() != n || cov.len() != n * n || f.iter().chain(cov).any(|v| !v.is_finite()) {
         return Err(Error::new(format!(
@@ -308,7 +334,7 @@ pub fn fit_model_gls(
         if gg > 0.0 { (ff - gf * gf / gg, Some(gf / gg)) } else { (ff, None) }
     };
     let chi2 = |p: f64| fit_at(p).0;
-    let sr = profile_search(&chi2, lo, hi, &|_| 1.0);
+    let sr = profile_search(&chi2, model, lo, hi, &|_| 1.0)?;
     Ok(BrdfFit {
         model,
         parameter: sr.p_hat,
@@ -334,7 +360,7 @@ pub fn transfer_covariance_probe(
     lighting: &[[f64; 3]],
     lmax: usize,
 ) -> Result<Option<[Vec<f64>; 3]>> {
-    let Some(se) = img.rgb_layer("stderr.") else { return Ok(None) };
+    let Some(se) = img.stderr_layer_for_weights()? else { return Ok(None) };
     let (w, h) = (se.width, se.height);
     let nk = crate::sh::num_coefficients(lmax);
     if lighting.len() < nk || w != 2 * h || h == 0 {
@@ -528,6 +554,37 @@ mod tests {
         assert!(fit_model(&est, Model::Phong, Some((5.0, 1.0))).is_err());
         assert!(fit_model(&est, Model::Phong, Some((0.0, 1.0))).is_err());
         assert!(fit_model(&[], Model::Phong, None).is_err());
+    }
+
+    /// The whole parameter range is searchable: σ down to 1e-200 (the mirror limit, where the
+    /// transfer coefficients once overflowed to NaN and steered the search to σ̂ = 1e-200 with a
+    /// null χ²) gives the same fit as the default range; a non-finite objective is an error naming
+    /// the parameter; a range end the model refuses (σ = ∞ is not finite) is an error.
+    #[test]
+    fn extreme_ranges_and_non_finite_objectives() {
+        let lmax = 10;
+        let model = Model::TorranceSparrow { theta_o: 0.0 };
+        let light = directional(lmax, lmax);
+        let g = model.transfer(0.1).lambda_rho(lmax);
+        let mut rng = Gauss::new(3);
+        let (b, se) = render(&light, &g, [0.7, 0.5, 0.3], 1e-3, &mut rng);
+        let est = estimate_transfer(&b, Some(&se), &light, lmax).unwrap();
+        let d = fit_model(&est, model, None).unwrap();
+        let wide = fit_model(&est, model, Some((1e-200, 1.0))).unwrap();
+        assert!(wide.chi2_min.is_finite());
+        assert!((wide.parameter / d.parameter - 1.0).abs() < 1e-6, "{} vs {}", wide.parameter, d.parameter);
+        assert!(wide.contains(0.1) || (wide.parameter - 0.1).abs() < 4.0 * 0.1 * wide.relative_width());
+        assert!(fit_model(&est, model, Some((1e-3, f64::INFINITY))).is_err());
+        let mut bad = est.clone();
+        bad[3].estimate[0] = Some(f64::INFINITY);
+        let e = fit_model(&bad, model, None).unwrap_err().to_string();
+        assert!(e.contains("sigma") && e.contains("chi2"), "{e}");
+        let orders: Vec<usize> = (0..=lmax).collect();
+        let f: Vec<f64> = est.iter().map(|o| o.estimate[0].unwrap()).collect();
+        let diag: Vec<f64> =
+            (0..(lmax + 1) * (lmax + 1)).map(|k| if k / (lmax + 1) == k % (lmax + 1) { 1e-6 } else { 0.0 }).collect();
+        let gls = fit_model_gls(&orders, &f, &diag, model, Some((1e-200, 1.0))).unwrap();
+        assert!(gls.chi2_min.is_finite() && (gls.parameter / 0.1 - 1.0).abs() < 0.05, "{}", gls.parameter);
     }
 
     #[test]

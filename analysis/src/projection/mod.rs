@@ -1,13 +1,16 @@
 //! Projection into spherical harmonics: of environment maps ([`envmap`]), of any function of
 //! direction ([`function`]), of `normal-probe` renders ([`normal_probe`]) and of orthographic
-//! images of a sphere by weighted least squares ([`orthographic`]).
+//! images of a sphere by weighted least squares ([`orthographic`]); the highest order each input
+//! carries ([`resolution`]).
 
 pub mod envmap;
 pub mod function;
 pub mod normal_probe;
 pub mod orthographic;
+pub mod resolution;
 
 pub use envmap::{Mapping, project_envmap, project_latlong};
 pub use function::{project_function, project_function_scalar};
 pub use normal_probe::{normal_probe_outgoing, project_normal_probe};
 pub use orthographic::{Fit, OrthoCamera, OrthoView, Param, Sphere, fit_orthographic};
+pub use resolution::{check_latlong, check_order, latlong_max_order};

@@ -21,7 +21,9 @@ pub fn normal_probe_outgoing(n: [f64; 3], theta_o: f64, phi_o: f64) -> [f64; 3] 
     std::array::from_fn(|i| co * n[i] + so * (cp * t[i] + sp * b[i]))
 }
 
-/// B_lm (RGB) and, when the image has a `stderr` layer, their standard errors.
+/// B_lm (RGB) and, when the image has a `stderr` layer (validated by [`Image::stderr_layer`]),
+/// their standard errors. An `lmax` above the highest order the W × H grid carries
+/// ([`super::resolution::latlong_max_order`], min(W/2, H) − 1) is refused.
 pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Option<RgbCoeffs>)> {
     let rgb = img.rgb().ok_or_else(|| Error::new("normal-probe image has no R, G, B channels"))?;
     if rgb.width != 2 * rgb.height {
@@ -30,7 +32,8 @@ pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Opti
             rgb.width, rgb.height
         )));
     }
-    let var = img.rgb_layer("stderr.").map(|s| RgbImage {
+    super::resolution::check_latlong(lmax, rgb.width, rgb.height, "normal-probe image")?;
+    let var = img.stderr_layer()?.map(|s| RgbImage {
         width: s.width,
         height: s.height,
         pixels: s.pixels.iter().map(|p| [p[0] * p[0], p[1] * p[1], p[2] * p[2]]).collect(),

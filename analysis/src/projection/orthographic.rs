@@ -78,6 +78,8 @@ pub struct Fit {
     /// `"stderr-layer"` or `"residuals"`.
     pub stderr_source: &'static str,
     pub pixels_used: usize,
+    /// The highest order the views carry (`fit_orthographic` refuses any l_max above it).
+    pub lmax_carried: usize,
     /// Weighted RMS residual per channel (√(Σ w r² / Σ w)).
     pub rms_residual: [f64; 3],
 }
@@ -120,7 +122,7 @@ fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Ve
     let img = view.image;
     let cam = &view.camera;
     let rgb = img.rgb().ok_or_else(|| Error::new("image has no R, G, B channels"))?;
-    let stderr = img.rgb_layer("stderr.");
+    let stderr = img.stderr_layer()?;
     let mask = img.channel("mask.Y");
     let normals = match (img.channel("normal.X"), img.channel("normal.Y"), img.channel("normal.Z")) {
         (Some(x), Some(y), Some(z)) => Some((x, y, z)),
@@ -212,7 +214,27 @@ fn dot_tile(a: &[f64; TILE], b: &[f64]) -> f64 {
 }
 
 /// Fits RGB coefficients up to `lmax` to the covered pixels of all `views` (see module docs).
+///
+/// Refuses an `lmax` above the highest order the views carry
+/// ([`crate::projection::resolution::ortho_max_order`] of the finest view: the sphere's diameter
+/// D in pixels, D − 1 in the normal parameterization, D/2 − 1 in the reflection one).
 pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax: usize) -> Result<Fit> {
+    let diameter_px = views
+        .iter()
+        .map(|v| sphere.radius * v.image.width as f64 / v.camera.extent)
+        .filter(|d| d.is_finite())
+        .fold(0.0f64, f64::max);
+    let lmax_carried = super::resolution::ortho_max_order(diameter_px, param == Param::Reflection);
+    super::resolution::check_order(
+        lmax,
+        lmax_carried,
+        &format!("an orthographic view with the sphere {diameter_px:.1} pixels across"),
+        if param == Param::Reflection {
+            "visible normals attributed to the reflection vector: l < D/2, D the sphere's diameter in pixels"
+        } else {
+            "visible normals: l < D, D the sphere's diameter in pixels"
+        },
+    )?;
     let mut samples = Vec::new();
     let mut all_have_stderr = true;
     for v in views {
@@ -389,6 +411,7 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
         stderr,
         stderr_source: if all_have_stderr { "stderr-layer" } else { "residuals" },
         pixels_used: samples.len(),
+        lmax_carried: lmax_carried.unwrap_or(0),
         rms_residual: [(rss_w[0] / sum_w).sqrt(), (rss_w[1] / sum_w).sqrt(), (rss_w[2] / sum_w).sqrt()],
     })
 }

@@ -35,20 +35,37 @@ pub enum TransferModel {
     TorranceSparrow { sigma: f64, theta_o: f64 },
 }
 
+/// The exitance angle θ_o (radians) of every command and header: 0 ≤ θ_o < π/2 (at 90° the
+/// Torrance–Sparrow lobe's 1/cos θ_o diverges and a `normal-probe` camera looks along the
+/// surface). The one check, used by [`TransferModel::validate`], by the EXR-header readers of the
+/// CLI and by the inverse fits.
+pub fn validate_exitance(theta_o: f64) -> Result<()> {
+    if (0.0..std::f64::consts::FRAC_PI_2).contains(&theta_o) {
+        Ok(())
+    } else {
+        Err(Error::new(format!("theta_o must be in [0°, 90°), got {}°", theta_o.to_degrees())))
+    }
+}
+
+/// Below this σ (l_max + 1), Torrance–Sparrow's Λ_l ρ̂_l equals the mirror's 1 to within
+/// (σ (l+1))² < 1e-18 (eq. 55: 1 − l(l+1)σ² − 2σ²/3 + O(σ⁴ l⁴)), so the mirror limit is returned.
+pub const MIRROR_LIMIT_SIGMA_L: f64 = 1e-9;
+
 impl TransferModel {
-    /// Checks the parameters (`s` > 0, `σ` > 0, 0 ≤ θ_o < π/2).
+    /// Checks the parameters, the one validation of BRDF parameters for every command and header:
+    /// Phong `s` finite and > 0, Torrance–Sparrow `σ` finite and > 0, 0 ≤ θ_o < π/2
+    /// ([`validate_exitance`]). Every such value gives finite Λ_l ρ̂_l (σ → 0 and s → ∞ tend to
+    /// the mirror's 1).
     pub fn validate(&self) -> Result<()> {
         match *self {
             TransferModel::Phong { s } if !(s > 0.0 && s.is_finite()) => {
-                Err(Error::new(format!("phong exponent s must be > 0, got {s}")))
+                Err(Error::new(format!("phong exponent s must be finite and > 0, got {s}")))
             }
             TransferModel::TorranceSparrow { sigma, theta_o } => {
                 if !(sigma > 0.0 && sigma.is_finite()) {
-                    Err(Error::new(format!("torrance-sparrow sigma must be > 0, got {sigma}")))
-                } else if !(0.0..std::f64::consts::FRAC_PI_2).contains(&theta_o) {
-                    Err(Error::new(format!("theta_o must be in [0°, 90°), got {}°", theta_o.to_degrees())))
+                    Err(Error::new(format!("torrance-sparrow sigma must be finite and > 0, got {sigma}")))
                 } else {
-                    Ok(())
+                    validate_exitance(theta_o)
                 }
             }
             _ => Ok(()),
@@ -56,12 +73,16 @@ impl TransferModel {
     }
 
     /// Λ_l ρ̂_l, l = 0 … lmax, by the exact (or numerically exact) formula. Torrance–Sparrow uses the
-    /// paper's horizon (`ignore` beyond π/2 at normal exitance, eq. 50; `clamp` off normal).
+    /// paper's horizon (`ignore` beyond π/2 at normal exitance, eq. 50; `clamp` off normal); when
+    /// σ (l_max + 1) < [`MIRROR_LIMIT_SIGMA_L`] it is the mirror limit 1 (to rounding).
     pub fn lambda_rho(&self, lmax: usize) -> Vec<f64> {
         match *self {
             TransferModel::Lambert => lambert::lambert(lmax),
             TransferModel::Phong { s } => phong::phong(s, lmax),
             TransferModel::Mirror => mirror::mirror(lmax),
+            TransferModel::TorranceSparrow { sigma, .. } if sigma * (lmax as f64 + 1.0) < MIRROR_LIMIT_SIGMA_L => {
+                mirror::mirror(lmax)
+            }
             TransferModel::TorranceSparrow { sigma, theta_o } => {
                 if theta_o == 0.0 {
                     torrance_sparrow::normal_exitance(sigma, lmax)

@@ -88,6 +88,20 @@ mod tests {
         }
     }
 
+    /// s → ∞ is the mirror (Λ_l ρ̂_l → 1) and s → 0 the uniform lobe: both ends of the range give
+    /// finite values (the ratio recurrence never forms s! or Γ(s)).
+    #[test]
+    fn ends_of_the_exponent_range_are_finite() {
+        for s in [1e18, 1e300, f64::MAX] {
+            let f = phong(s, 64);
+            assert!(f.iter().all(|v| (v - 1.0).abs() < 1e-14), "s={s}: {f:?}");
+        }
+        let f = phong(1e-300, 64);
+        assert!(f.iter().all(|v| v.is_finite() && v.abs() <= 1.0), "{f:?}");
+        // s → 0: ρ̂ = 1/2π on the hemisphere, Λ_1 ρ̂_1 = ∫_0^1 u du = 1/2.
+        assert!((f[1] - 0.5).abs() < 1e-15, "{}", f[1]);
+    }
+
     #[test]
     fn large_s_neither_overflows_nor_loses_precision() {
         let s = 1.0e4;

@@ -111,6 +111,8 @@ impl<'a> PathTracer<'a> {
             let u_light = sampler.next_2d();
             let u_lobe = sampler.next_1d();
             let u_brdf = sampler.next_2d();
+            // The light's sampling tables for u_light start loading now, while the BRDF samples.
+            light.prefetch_sample(u_light);
 
             // The BRDF direction is drawn first so that the light's data for it (an environment
             // texel, megabytes away from anything recently used) can be fetched from memory while

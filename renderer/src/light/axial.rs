@@ -14,7 +14,7 @@
 
 use super::{DistantLight, LightSample};
 use crate::math::{Frame, PI, Rgb, Vec2, Vec3};
-use crate::sampling::distribution::Distribution1D;
+use crate::sampling::distribution::PiecewiseConstant1D;
 
 /// Resolution in θ of the sampling table (0.18° per cell).
 const THETA_CELLS: usize = 1024;
@@ -29,7 +29,7 @@ pub struct Axial {
     /// Frame with `n` = axis, to turn sampled local directions into world ones.
     frame: Frame,
     /// Discrete distribution over the θ cells (weights (g_i + c)ΔΩ_i).
-    cells: Distribution1D,
+    cells: PiecewiseConstant1D,
     /// cos θ at the THETA_CELLS + 1 cell edges.
     z_edge: Vec<f32>,
     /// Solid-angle density on each cell.
@@ -68,7 +68,7 @@ impl Axial {
         Axial {
             axis,
             frame: Frame::from_normal(axis),
-            cells: Distribution1D::new(&weights),
+            cells: PiecewiseConstant1D::new(&weights),
             z_edge: z64.iter().map(|&z| z as f32).collect(),
             cell_pdf: g.iter().map(|g| ((g + c) / norm) as f32).collect(),
             profile,

@@ -10,7 +10,7 @@
 //!   (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within it
 //!   ([`LatLongGrid`]), so p(ω) ∝ the pixel's max channel exactly;
 //! - angular map: a continuous point (a, b) ∈ [−1, 1]² of the image plane is drawn from a
-//!   [`Distribution2D`] with pixel weights ∝ max channel × sinθ/θ at the pixel centre (∝ its solid
+//!   [`PiecewiseConstant2D`] with pixel weights ∝ max channel × sinθ/θ at the pixel centre (∝ its solid
 //!   angle, 0 for pixels whose centre lies outside the disc ρ ≤ 1), mapped by θ = πρ,
 //!   φ = atan2(b, a). In polar coordinates da db = ρ dρ dφ and dω = sinθ dθ dφ = π sin(πρ) dρ dφ,
 //!   so dω = π² (sinθ/θ) da db = 4π² (sinθ/θ) du dv for the unit square (u, v) the distribution
@@ -20,8 +20,8 @@
 
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample};
-use crate::math::{PI, Rgb, Vec2, Vec3};
-use crate::sampling::distribution::Distribution2D;
+use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
+use crate::sampling::distribution::PiecewiseConstant2D;
 use analysis::image::RgbImage;
 use rayon::prelude::*;
 use std::path::Path;
@@ -36,7 +36,7 @@ pub enum Mapping {
 #[derive(Clone, Debug)]
 enum EnvSampler {
     LatLong(LatLongGrid),
-    Angular(Distribution2D),
+    Angular(PiecewiseConstant2D),
 }
 
 /// Treat the public fields as read-only after construction: the sampling tables are built from them.
@@ -51,23 +51,10 @@ pub struct Envmap {
     inv_rotation: glam::Mat3,
     sampler: EnvSampler,
     /// Hot-path table, one 16-byte texel per pixel: radiance × scale (0 outside the angular disc)
-    /// and, for the angular map, the sampling density with respect to the unit square. Keeping
-    /// both in one texel makes `eval_pdf` of a BRDF-sampled direction a single cache miss (the
-    /// table is megabytes, and such directions land anywhere).
+    /// and the sampling density (see [`Texel`]). Keeping both in one texel makes `eval_pdf` of a
+    /// BRDF-sampled direction a single cache miss (the table is megabytes, and such directions
+    /// land anywhere).
     texels: Vec<Texel>,
-}
-
-/// Asks the CPU to start loading `x` into cache (no-op where there is no such instruction).
-#[inline(always)]
-fn prefetch_read<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint that never faults and has no architectural effect; the pointer
-    // comes from a live reference.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
 
 /// One pixel of the hot-path table (16 bytes, aligned so it never straddles a cache line).
@@ -75,7 +62,10 @@ fn prefetch_read<T>(x: &T) {
 #[repr(C, align(16))]
 struct Texel {
     radiance: [f32; 3],
-    pdf_uv: f32,
+    /// Lat-long: the solid-angle density of the pixel, exactly `LatLongGrid::pdf_cell` (the
+    /// density is constant over a pixel). Angular: the density with respect to the unit square,
+    /// which `angular_pdf` divides by the Jacobian at the direction's θ.
+    pdf: f32,
 }
 
 /// sinθ/θ, → 1 at θ = 0 (the angular map's solid-angle factor).
@@ -134,7 +124,7 @@ impl Envmap {
                         None => 0.0,
                     })
                     .collect();
-                EnvSampler::Angular(Distribution2D::new(&weights, w, h))
+                EnvSampler::Angular(PiecewiseConstant2D::new(&weights, w, h))
             }
         };
         let texels: Vec<Texel> = (0..w * h)
@@ -143,11 +133,11 @@ impl Envmap {
                     Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
                     _ => Rgb::from(image.pixels[i]) * scale,
                 };
-                let pdf_uv = match &sampler {
+                let pdf = match &sampler {
                     EnvSampler::Angular(dist) => dist.pdf_index(i % w, i / w),
-                    EnvSampler::LatLong(_) => 0.0,
+                    EnvSampler::LatLong(grid) => grid.pdf_cell(i / w, i % w),
                 };
-                Texel { radiance: radiance.to_array(), pdf_uv }
+                Texel { radiance: radiance.to_array(), pdf }
             })
             .collect();
         Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler, texels })
@@ -164,7 +154,7 @@ impl Envmap {
     #[inline]
     fn angular_lookup(&self, d: Vec3) -> (usize, usize, f32) {
         let s = (d.x * d.x + d.y * d.y).sqrt();
-        let theta = s.atan2(d.z);
+        let theta = fast::atan2(s, d.z);
         let rho = theta * (1.0 / PI);
         // (a, b) = ρ (cosφ, sinφ); at the poles φ = atan2(0, 0) = 0.
         let (a, b) = if s > 0.0 { (rho * d.x / s, rho * d.y / s) } else { (rho, 0.0) };
@@ -254,18 +244,27 @@ impl DistantLight for Envmap {
     }
 
     #[inline]
+    fn prefetch_sample(&self, u: Vec2) {
+        match &self.sampler {
+            EnvSampler::LatLong(grid) => grid.prefetch_sample(u),
+            EnvSampler::Angular(dist) => dist.prefetch(u),
+        }
+    }
+
+    #[inline]
     fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
         let d = self.inv_rotation * wi;
         match &self.sampler {
             EnvSampler::LatLong(grid) => {
                 let (r, c) = grid.cell(d);
-                (Rgb::from(self.texels[r * self.image.width + c].radiance), grid.pdf(d))
+                let t = &self.texels[r * self.image.width + c];
+                (Rgb::from(t.radiance), t.pdf)
             }
             EnvSampler::Angular(_) => {
                 let (r, c, theta) = self.angular_lookup(d);
                 let i = r * self.image.width + c;
                 let t = &self.texels[i];
-                (Rgb::from(t.radiance), angular_pdf(t.pdf_uv, theta))
+                (Rgb::from(t.radiance), angular_pdf(t.pdf, theta))
             }
         }
     }
@@ -304,10 +303,13 @@ impl DistantLight for Envmap {
     fn pdf(&self, wi: Vec3) -> f32 {
         let d = self.inv_rotation * wi;
         match &self.sampler {
-            EnvSampler::LatLong(grid) => grid.pdf(d),
+            EnvSampler::LatLong(grid) => {
+                let (r, c) = grid.cell(d);
+                self.texels[r * self.image.width + c].pdf
+            }
             EnvSampler::Angular(_) => {
                 let (r, c, theta) = self.angular_lookup(d);
-                angular_pdf(self.texels[r * self.image.width + c].pdf_uv, theta)
+                angular_pdf(self.texels[r * self.image.width + c].pdf, theta)
             }
         }
     }

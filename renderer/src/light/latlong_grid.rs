@@ -3,21 +3,21 @@
 //!
 //! Parameters: `height` H, `width` W and a non-negative value g per cell (the radiance to follow,
 //! e.g. the max channel of a pixel). A cell is chosen with probability ∝ g·ΔΩ, ΔΩ = (2π/W)·Δz its
-//! exact solid angle (Δz = cos θ_top − cos θ_bottom), by a [`Distribution2D`] over the unit square
+//! exact solid angle (Δz = cos θ_top − cos θ_bottom), by a [`PiecewiseConstant2D`] over the unit square
 //! (u = φ/2π, v = row coordinate). Within the cell the direction is drawn uniformly in solid
 //! angle: φ linear in u and z = cosθ linear in v. That warp has the constant Jacobian
 //! dω = dz dφ = 2π·H·Δz_r du dv on row r, so the solid-angle density is exactly
 //! p(ω) = p_uv / (2π H Δz_r) = g / Σ g ΔΩ: piecewise constant on the sphere, proportional to g,
 //! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
 
-use crate::math::{PI, Vec2, Vec3};
-use crate::sampling::distribution::Distribution2D;
+use crate::math::{PI, Vec2, Vec3, fast};
+use crate::sampling::distribution::PiecewiseConstant2D;
 
 #[derive(Clone, Debug)]
 pub struct LatLongGrid {
     width: usize,
     height: usize,
-    dist: Distribution2D,
+    dist: PiecewiseConstant2D,
     /// cos(πr/H) for r = 0..=H: the z range of each row.
     z_edge: Vec<f32>,
     /// 1 / (2π H Δz_r): converts the unit-square density to solid angle on row r.
@@ -40,7 +40,7 @@ impl LatLongGrid {
         LatLongGrid {
             width,
             height,
-            dist: Distribution2D::new(&weights, width, height),
+            dist: PiecewiseConstant2D::new(&weights, width, height),
             z_edge: z64.iter().map(|&z| z as f32).collect(),
             inv_jacobian,
         }
@@ -55,9 +55,11 @@ impl LatLongGrid {
     /// (row, column) of the cell containing unit direction `d`.
     #[inline]
     pub fn cell(&self, d: Vec3) -> (usize, usize) {
-        // atan2 keeps θ accurate near the poles, where acos(z) loses precision in f32.
-        let theta = (d.x * d.x + d.y * d.y).sqrt().atan2(d.z);
-        let mut phi = d.y.atan2(d.x);
+        // atan2 keeps θ accurate near the poles, where acos(z) loses precision in f32. The
+        // polynomial atan2 (error ≤ 4e-7 rad, `math::fast`) can put a direction within that of a
+        // pixel edge in the neighbouring pixel; eval and pdf both use this function, so they agree.
+        let theta = fast::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
+        let mut phi = fast::atan2(d.y, d.x);
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
@@ -80,6 +82,12 @@ impl LatLongGrid {
         let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
         let (sp, cp) = (2.0 * PI * uv.x).sin_cos();
         Some((Vec3::new(sin_theta * cp, sin_theta * sp, z), p * self.inv_jacobian[r]))
+    }
+
+    /// A hint that `sample(u)` follows soon (starts loading its table entries; no effect on results).
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2) {
+        self.dist.prefetch(u);
     }
 
     /// Solid-angle density of `sample` at unit direction `d`.

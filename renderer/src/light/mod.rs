@@ -45,6 +45,10 @@ pub trait DistantLight {
     /// loading the data from memory. No effect on results.
     #[inline]
     fn prefetch(&self, _wi: Vec3) {}
+    /// A hint that `sample(u)` follows soon: lights with large sampling tables start loading the
+    /// entries it will read. No effect on results.
+    #[inline]
+    fn prefetch_sample(&self, _u: Vec2) {}
     /// `(eval(wi), pdf(wi))` together: lights whose two lookups share work override it.
     #[inline]
     fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
@@ -97,6 +101,10 @@ impl DistantLight for Light {
     #[inline]
     fn prefetch(&self, wi: Vec3) {
         dispatch!(self, l => l.prefetch(wi))
+    }
+    #[inline]
+    fn prefetch_sample(&self, u: Vec2) {
+        dispatch!(self, l => l.prefetch_sample(u))
     }
 }
 

@@ -1,0 +1,118 @@
+//! Branch-free polynomial versions of hot libm functions: straight-line f32 arithmetic and
+//! selects, so that LLVM can inline them and run them in SIMD lanes (libm's `atan2f` is an
+//! out-of-line call with branches on the octant and special cases, and was 20–34 % of the
+//! instructions of a lat-long environment render).
+//!
+//! Each function states its maximum error against f64 libm over its domain; the tests below
+//! measure it on a dense grid plus random points and assert the stated bound.
+
+use super::PI;
+use std::f32::consts::FRAC_PI_2;
+
+/// Coefficients c_k of atan(a) ≈ a · Σ c_k (a²)^k on a ∈ [0, 1] (degree 15 in a, odd), fitted by
+/// iteratively reweighted least squares toward the minimax absolute error (≈ 1.3e-7 for the
+/// polynomial alone in f32 Horner form). Plain multiply-adds: `mul_add` would be a call to
+/// `fmaf` on targets built without FMA.
+const ATAN_COEFFS: [f32; 8] = [
+    0.999_999_34,
+    -0.333_298_62,
+    0.199_465_77,
+    -0.139_086_47,
+    0.096_421_99,
+    -0.055_912_063,
+    0.021_862_669,
+    -0.004_054_471,
+];
+
+/// atan2(y, x) ∈ [−π, π], like `f32::atan2` including the signs of zeros (atan2(±0, x < 0) = ±π,
+/// atan2(0, 0) = 0).
+///
+/// **Maximum absolute error 4e-7 rad** over all finite inputs (measured: see the tests), against
+/// libm's ≈ 2.4e-7 (½ ulp at π). Octant reduction a = min(|x|,|y|)/max(|x|,|y|) ∈ [0, 1], the
+/// polynomial above, then π/2 − r, π − r and the sign of y by selects. NaN in, NaN out. Infinite
+/// inputs are not handled like libm (∞/∞ gives NaN); callers pass finite directions.
+#[inline(always)]
+pub fn atan2(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (mn, mx) = (ax.min(ay), ax.max(ay));
+    let a = if mx > 0.0 { mn / mx } else { 0.0 };
+    let s = a * a;
+    let c = &ATAN_COEFFS;
+    let p = c[7];
+    let p = p * s + c[6];
+    let p = p * s + c[5];
+    let p = p * s + c[4];
+    let p = p * s + c[3];
+    let p = p * s + c[2];
+    let p = p * s + c[1];
+    let p = p * s + c[0];
+    let mut r = a * p;
+    if ay > ax {
+        r = FRAC_PI_2 - r;
+    }
+    if x.is_sign_negative() {
+        r = PI - r;
+    }
+    // min/max drop a NaN operand: (x + y)·0 brings it back (r ≥ 0 here, so adding ±0 keeps it).
+    r += (x + y) * 0.0;
+    r.copysign(y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::TestRng;
+
+    /// The stated bound; the reference is f64 libm.
+    const ATAN2_MAX_ERR: f64 = 4e-7;
+
+    /// Largest |f(y, x) − atan2(y, x)| over every angle of a fine circle at three radii (so the
+    /// reduced ratio covers [0, 1] densely in every octant), random components of random
+    /// magnitudes, and the axes.
+    fn atan2_max_error(f: impl Fn(f32, f32) -> f32) -> f64 {
+        let mut worst = 0.0f64;
+        let mut check = |y: f32, x: f32| worst = worst.max((f(y, x) as f64 - (y as f64).atan2(x as f64)).abs());
+        let n = 1_000_000;
+        for k in 0..n {
+            let t = (k as f64 + 0.5) / n as f64 * 2.0 * std::f64::consts::PI - std::f64::consts::PI;
+            for r in [1.0f64, 1e-20, 3e15] {
+                check((r * t.sin()) as f32, (r * t.cos()) as f32);
+            }
+        }
+        let mut rng = TestRng::new(5);
+        for _ in 0..1_000_000 {
+            let m = |rng: &mut TestRng| (rng.next_f32() * 2.0 - 1.0) * 10f32.powf(rng.next_f32() * 8.0 - 4.0);
+            check(m(&mut rng), m(&mut rng));
+        }
+        for (y, x) in [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (1e-30, -1.0), (-1e-30, -1.0), (1.0, 1.0)] {
+            check(y, x);
+        }
+        worst
+    }
+
+    #[test]
+    fn atan2_error_bound() {
+        let worst = atan2_max_error(atan2);
+        eprintln!("fast atan2: max abs error {worst:.3e} rad");
+        assert!(worst <= ATAN2_MAX_ERR, "{worst:e}");
+        // The harness sees a planted error: the polynomial without its last term.
+        let truncated = |y: f32, x: f32| {
+            let a = (x.abs().min(y.abs()) / x.abs().max(y.abs())) as f64;
+            atan2(y, x) + (ATAN_COEFFS[7] as f64 * a.powi(15)) as f32 * (if y < 0.0 { 1.0 } else { -1.0 })
+        };
+        assert!(atan2_max_error(truncated) > ATAN2_MAX_ERR);
+    }
+
+    #[test]
+    fn atan2_special_values_match_libm() {
+        for (y, x) in [(0.0f32, 0.0f32), (-0.0, 0.0), (0.0, -0.0), (-0.0, -0.0), (0.0, -2.0), (-0.0, -2.0), (0.0, 3.0)]
+        {
+            assert_eq!(atan2(y, x).to_bits(), y.atan2(x).to_bits(), "atan2({y:?}, {x:?})");
+        }
+        assert!(atan2(f32::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
+        // Exact at the octant boundaries that are pixel edges of every lat-long map: ±π/2 and π.
+        assert_eq!(atan2(1.0, 0.0), FRAC_PI_2);
+        assert_eq!(atan2(-1.0, 0.0), -FRAC_PI_2);
+        assert_eq!(atan2(0.0, -1.0), PI);
+    }
+}
