@@ -38,7 +38,7 @@ pub struct VerifyArgs {
     #[arg(long, value_name = "DIR")]
     pub data: Option<PathBuf>,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = super::render::parse_threads)]
     pub threads: Option<usize>,
     /// Testing aid: compare every check with a deliberately wrong prediction (each must then fail).
     #[arg(long, hide = true)]

@@ -35,6 +35,8 @@ pub mod plot;
 pub mod report;
 pub mod scenes;
 pub mod separation;
+#[cfg(test)]
+mod testutil;
 pub mod torrance_sparrow;
 pub mod transfer;
 pub mod uniform;
