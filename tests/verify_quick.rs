@@ -19,7 +19,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 17] = [
+const NAMES: [&str; 21] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -37,6 +37,10 @@ const NAMES: [&str; 17] = [
     "separation",
     "factorization",
     "ambiguity",
+    "uniform-factorization",
+    "microfacet-ambiguity",
+    "subspace",
+    "positive-bound",
 ];
 
 #[test]
@@ -72,6 +76,11 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "inverse_lighting.svg",
         "inverse_brdf_profile.svg",
         "inverse_specular_error.svg",
+        "uniform_factorization.svg",
+        "microfacet_ambiguity.svg",
+        "subspace_sphere.svg",
+        "subspace_mesh.svg",
+        "positive_bound.svg",
     ] {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));
