@@ -167,6 +167,44 @@ fn invert_separate_and_factor_refuse_bad_input() {
     assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "", &env);
 }
 
+/// Mesh files of the kinds in `../shared/cases` (issue 9): forbidden glTF index types, node graphs
+/// that are not trees, and a malformed OBJ. Exit 2, one line naming the mesh file, no output file,
+/// no panic and no hang.
+#[test]
+fn bad_mesh_files_exit_2_with_one_line() {
+    let d = temp_dir("cli-errors-mesh");
+    let out = d.join("out.exr");
+    let o = out.to_str().unwrap();
+    let cases = root().join("../shared/cases");
+    for (scene, file, mentions) in [
+        (
+            "gltf-index-types/i8_invalid.toml",
+            "i8_invalid.gltf",
+            "accessor 1 (indices of mesh 0 primitive 0) has component type signed byte",
+        ),
+        (
+            "gltf-index-types/i16_invalid.toml",
+            "i16_invalid.gltf",
+            "accessor 1 (indices of mesh 0 primitive 0) has component type signed short",
+        ),
+        (
+            "gltf-index-types/f32_invalid.toml",
+            "f32_invalid.gltf",
+            "accessor 1 (indices of mesh 0 primitive 0) has component type float",
+        ),
+        ("gltf-node-graph/c_duplicate_child_chain.toml", "c_duplicate_child_chain.gltf", "node 1 is listed twice"),
+        ("gltf-node-graph/d_two_parent_dag.toml", "d_two_parent_dag.gltf", "more than one parent"),
+    ] {
+        assert_bad_input(&["render", cases.join(scene).to_str().unwrap(), "--out", o], file, mentions, &out);
+    }
+    // A malformed OBJ next to a scene that uses it.
+    let scene =
+        std::fs::read_to_string(cases.join("obj-bom/reference.toml")).unwrap().replace("reference.obj", "bad.obj");
+    std::fs::write(d.join("bad.toml"), scene).unwrap();
+    std::fs::write(d.join("bad.obj"), "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 0\r\n").unwrap();
+    assert_bad_input(&["render", d.join("bad.toml").to_str().unwrap(), "--out", o], "bad.obj", "line 4", &out);
+}
+
 /// `reflect … --json` on good input: exit 0 and the JSON document.
 fn reflect_json(args: &[&str]) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");

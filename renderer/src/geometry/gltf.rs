@@ -72,7 +72,12 @@ pub fn load_gltf_with_warnings(path: &Path, smooth: bool) -> crate::Result<(Tria
     // accessor before checking that it exists.
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(gltf_error(e)))?;
     check_position_references(gltf.document.as_json()).map_err(err)?;
-    let document = gltf::Document::from_json(gltf.document.into_json()).map_err(|e| err(gltf_error(e)))?;
+    let mut json = gltf.document.into_json();
+    // Required extensions are judged here, not by the crate (which refuses any it does not
+    // implement): only those that change how geometry is stored matter to a geometry loader.
+    check_required_extensions(&json.extensions_required).map_err(err)?;
+    json.extensions_required.clear();
+    let document = gltf::Document::from_json(json).map_err(|e| err(gltf_error(e)))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(&document, base, gltf.blob).map_err(err)?;
     let mut warnings = Vec::new();
@@ -102,6 +107,18 @@ fn check_position_references(root: &json::Root) -> Result<(), String> {
                     ));
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses the required extensions that store geometry in a way this loader cannot read (mesh
+/// compression); `KHR_mesh_quantization` is read, and the others (materials, textures, lights…)
+/// do not change the geometry.
+fn check_required_extensions(required: &[String]) -> Result<(), String> {
+    for ext in required {
+        if ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" {
+            return Err(format!("the file requires the extension {ext}, which is not supported (compressed meshes)"));
         }
     }
     Ok(())
@@ -286,11 +303,6 @@ fn build(
     let root = doc.as_json();
     let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or("glTF file has no scene")?;
     check_node_graph(root, scene.index())?;
-    for ext in &root.extensions_required {
-        if ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" {
-            return Err(format!("the file requires the extension {ext}, which is not supported (compressed meshes)"));
-        }
-    }
     let quantized = root.extensions_used.iter().any(|e| e == QUANTIZATION);
 
     // Instances (node, world transform) in depth-first order: each node once, the graph is a forest.
@@ -847,5 +859,173 @@ mod tests {
         std::fs::write(&p, json).expect("write");
         let e = load_gltf(&p, true).unwrap_err().to_string();
         assert!(e.contains("overrun.gltf"), "{e}");
+    }
+
+    /// Writes a glTF whose JSON is `json` with `BUFFERS` replaced by one embedded buffer holding `buf`.
+    fn gltf_file(name: &str, json: &str, buf: &[u8]) -> std::path::PathBuf {
+        let uri = format!("data:application/octet-stream;base64,{}", base64(buf));
+        let p = temp_dir().join(name);
+        let b = format!(r#""buffers": [{{"uri": "{uri}", "byteLength": {}}}]"#, buf.len());
+        std::fs::write(&p, json.replace("BUFFERS", &b)).expect("write");
+        p
+    }
+
+    fn bytes<T: Copy, const N: usize>(v: &[T], f: fn(T) -> [u8; N]) -> Vec<u8> {
+        v.iter().flat_map(|&x| f(x)).collect()
+    }
+
+    #[test]
+    fn strips_and_fans_follow_the_spec() {
+        // Strip triangle i = (v_i, v_{i+1+i%2}, v_{i+2-i%2}): winding alternates so that every
+        // triangle of a planar strip faces the same way. Odd and even vertex counts.
+        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3, 4]), vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]);
+        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]), vec![[0, 1, 2], [1, 3, 2]]);
+        // Fan triangle i = (v_{i+1}, v_{i+2}, v_0).
+        assert_eq!(triangulate(Mode::TriangleFan, &[0, 1, 2, 3]), vec![[1, 2, 0], [2, 3, 0]]);
+        // Too short, and stitching triangles (a repeated index) dropped.
+        assert!(triangulate(Mode::TriangleStrip, &[0, 1]).is_empty());
+        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 2, 3, 4, 5]), vec![[0, 1, 2], [2, 4, 3], [3, 4, 5]]);
+        assert!(triangulate(Mode::Lines, &[0, 1, 2]).is_empty());
+        // A planar zig-zag strip of 7 vertices (5 triangles): all face the same way (−z, the
+        // winding of the first triangle).
+        let zig: Vec<f32> = (0..7).flat_map(|i| [(i / 2) as f32, (i % 2) as f32, 0.0]).collect();
+        let buf = bytes(&zig, f32::to_le_bytes);
+        let json = r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "mode": 5}]}], BUFFERS,
+            "bufferViews": [{"buffer": 0, "byteLength": 84}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 7, "type": "VEC3", "min": [0,0,0], "max": [3,1,0]}]}"#;
+        let (m, w) = load_gltf_with_warnings(&gltf_file("zigzag.gltf", json, &buf), false).expect("strip");
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(m.triangles.len(), 5);
+        for t in 0..5 {
+            let n = m.face_normal_area(t);
+            assert!(n.z < 0.0 && n.x == 0.0 && n.y == 0.0, "triangle {t}: {n}");
+        }
+    }
+
+    /// The tetrahedron with u8 indices and positions stored as normalized u16 (KHR_mesh_quantization)
+    /// and normals as normalized i8.
+    fn quantized_json(ext: &str, pos_type: u32, normalized: bool) -> String {
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, {ext} "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1}}, "indices": 2}}]}}], BUFFERS,
+            "bufferViews": [{{"buffer": 0, "byteLength": 32, "byteStride": 8}}, {{"buffer": 0, "byteOffset": 32, "byteLength": 16, "byteStride": 4}},
+                            {{"buffer": 0, "byteOffset": 48, "byteLength": 12}}],
+            "accessors": [
+              {{"bufferView": 0, "componentType": {pos_type}, "normalized": {normalized}, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,1]}},
+              {{"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"}},
+              {{"bufferView": 2, "componentType": 5121, "count": 12, "type": "SCALAR"}}]}}"#
+        )
+    }
+
+    fn quantized_buffer() -> Vec<u8> {
+        let mut b = Vec::new();
+        // Positions: u16 × 3 padded to an 8-byte stride.
+        for p in [[0u16, 0, 0], [65535, 0, 0], [0, 65535, 0], [0, 0, 65535]] {
+            p.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
+            b.extend_from_slice(&[0, 0]);
+        }
+        // Normals: i8 × 3 padded to 4 bytes; −128 decodes to −1 like −127.
+        for n in [[-128i8, 0, 0], [127, 0, 0], [0, 127, 0], [0, 0, 127]] {
+            b.extend(n.iter().map(|&x| x as u8));
+            b.push(0);
+        }
+        b.extend_from_slice(&[0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]);
+        b
+    }
+
+    #[test]
+    fn u8_indices_and_quantized_attributes() {
+        let ext = r#""extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"],"#;
+        let p = gltf_file("quantized.gltf", &quantized_json(ext, 5123, true), &quantized_buffer());
+        let (m, _) = load_gltf_with_warnings(&p, true).expect("quantized");
+        assert_eq!(m.triangles.len(), 4);
+        // Normalized u16 65535 → exactly 1.0: the unit tetrahedron, outward.
+        assert!((m.signed_volume() - 1.0 / 6.0).abs() < 1e-9);
+        let o = m.positions.iter().position(|p| *p == Vec3::ZERO).expect("origin");
+        assert_eq!(m.normals[o], -Vec3::X, "i8 −128 → −1");
+        // Non-normalized u16 positions are integers (the node transform would dequantize them).
+        let p = gltf_file("quantized_int.gltf", &quantized_json(ext, 5123, false), &quantized_buffer());
+        let (m, _) = load_gltf_with_warnings(&p, false).expect("integer positions");
+        assert!((m.signed_volume() - 65535f64.powi(3) / 6.0).abs() < 1e3);
+        // Without the extension: refused naming the accessor, its type and the extension.
+        let p = gltf_file("quantized_noext.gltf", &quantized_json("", 5123, true), &quantized_buffer());
+        let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+        assert!(
+            e.contains("accessor 0 (POSITION of mesh 0 primitive 0)")
+                && e.contains("unsigned short")
+                && e.contains("KHR_mesh_quantization"),
+            "{e}"
+        );
+        // u32 positions are not allowed even with the extension.
+        let p = gltf_file("quantized_u32.gltf", &quantized_json(ext, 5125, false), &quantized_buffer());
+        let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+        assert!(e.contains("accessor 0") && e.contains("unsigned int"), "{e}");
+    }
+
+    #[test]
+    fn sparse_accessor_and_lines_skipped() {
+        // Positions: a view-less accessor of 3 zeros with all three substituted sparsely; a second
+        // primitive of mode LINES is skipped with a warning naming it.
+        let mut buf = bytes(&[0u16, 1, 2], u16::to_le_bytes);
+        buf.extend_from_slice(&[0, 0]);
+        buf.extend(bytes(&[0f32, 0., 0., 1., 0., 0., 0., 1., 0.], f32::to_le_bytes));
+        let json = r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}, {"attributes": {"POSITION": 0}, "mode": 1}]}], BUFFERS,
+            "bufferViews": [{"buffer": 0, "byteLength": 6}, {"buffer": 0, "byteOffset": 8, "byteLength": 36}],
+            "accessors": [{"componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0],
+              "sparse": {"count": 3, "indices": {"bufferView": 0, "componentType": 5123}, "values": {"bufferView": 1}}}]}"#;
+        let (m, w) = load_gltf_with_warnings(&gltf_file("sparse.gltf", json, &buf), false).expect("sparse");
+        assert_eq!(m.triangles.len(), 1);
+        assert!((m.face_normal_area(0) - Vec3::Z).length() < 1e-6);
+        assert!(w.len() == 1 && w[0].contains("mesh 0 primitive 1") && w[0].contains("Lines"), "{w:?}");
+    }
+
+    #[test]
+    fn node_graphs_that_are_not_trees_are_refused() {
+        let buf = tetra_buffer();
+        let with_nodes = |nodes: &str, roots: &str| {
+            let uri = format!("data:application/octet-stream;base64,{}", base64(&buf));
+            tetra_json(Some(&uri), 3).replace(
+                r#""scenes": [{"nodes": [0]}],
+  "nodes": [
+    {"translation": [0, 0, 5], "scale": [2, 2, 2], "children": [1]},
+    {"translation": [1, 0, 0], "mesh": 0},
+    {"mesh": 0}
+  ],"#,
+                &format!(r#""scenes": [{{"nodes": {roots}}}], "nodes": {nodes},"#),
+            )
+        };
+        let cases = [
+            ("self.gltf", r#"[{"mesh": 0, "children": [0]}]"#, "[0]", "node 0 lists itself as a child"),
+            ("cycle.gltf", r#"[{"mesh": 0}, {"children": [2]}, {"children": [1]}]"#, "[0]", "cycle"),
+            (
+                "rootchild.gltf",
+                r#"[{"children": [1]}, {"mesh": 0}]"#,
+                "[0, 1]",
+                "node 1 as a root, but it is a child of node 0",
+            ),
+            ("tworoots.gltf", r#"[{"mesh": 0}]"#, "[0, 0]", "lists node 0 twice"),
+        ];
+        for (name, nodes, roots, want) in cases {
+            let p = temp_dir().join(name);
+            let json = with_nodes(nodes, roots);
+            assert!(json.contains(nodes), "test JSON built");
+            std::fs::write(&p, json).expect("write");
+            let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+            assert!(e.contains(name) && e.contains(want), "{name}: {e}");
+        }
+    }
+
+    #[test]
+    fn instanced_triangles_are_capped_before_reading() {
+        // One primitive claiming 3 · 2^24 + 3 indices: refused by the count, before its (absent)
+        // data is touched.
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
+        let json = tetra_json(Some(&uri), 3).replace(r#""count": 12"#, &format!(r#""count": {}"#, 3 * (1 << 24) + 3));
+        let p = temp_dir().join("cap.gltf");
+        std::fs::write(&p, json).expect("write");
+        let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+        assert!(e.contains("more than 16777216 triangles"), "{e}");
     }
 }

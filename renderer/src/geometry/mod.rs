@@ -5,6 +5,7 @@ pub mod gltf;
 pub mod icosphere;
 pub mod mesh;
 pub mod obj;
+pub mod shading;
 pub mod sphere;
 
 pub use bvh::SceneGeometry;

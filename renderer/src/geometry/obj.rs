@@ -384,4 +384,62 @@ mod tests {
             assert!(s.contains(name) && !s.contains('\n'), "{s}");
         }
     }
+
+    /// The cube with CRLF line ends, tabs, a byte-order mark, negative indices, a continuation line
+    /// and trailing comments: the same mesh as [`CUBE`].
+    #[test]
+    fn crlf_tabs_bom_negative_indices_and_continuation() {
+        let text = "\u{feff}v\t0 0 0\r\nv 1\t0 0\r\nv 1 1 0 # comment\r\nv 0 1 0\r\nv 0 0 1\r\nv 1 0 1\r\nv 1 1 1\r\n\
+            v 0 1 1\r\nf -8 -5 -6 -7\r\nf 5 6 \\\r\n 7 8\r\nf 1 2 6 5\r\nf 3 4 8 7\r\nf 2 3 7 6\r\nf\t1\t5\t8\t4\r\n";
+        let a = load_obj(&temp_file("crlf.obj", text), false).expect("crlf");
+        let b = load_obj(&temp_file("cube_ref.obj", CUBE), false).expect("cube");
+        assert_eq!(a.positions, b.positions);
+        assert_eq!(a.triangles, b.triangles);
+    }
+
+    /// `l` and `p` never become faces (a closed polyline is not a filled polygon), with a warning.
+    #[test]
+    fn lines_and_points_are_not_surfaces() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nl 1 2 3 4 1\np 1 2\nf 1 2 3\n";
+        let (m, w) = load_obj_with_warnings(&temp_file("lines.obj", text), false).expect("load");
+        assert_eq!(m.triangles.len(), 1);
+        assert!(w.len() == 1 && w[0].contains("1 line (l) and 1 point (p)"), "{w:?}");
+        let e = load_obj(&temp_file("only_lines.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nl 1 2 3 1\n"), false).unwrap_err();
+        assert!(e.to_string().contains("no faces"), "{e}");
+    }
+
+    /// Smooth normals follow the file's vertices: splitting the cube's faces into `g`/`usemtl`
+    /// groups, with or without an existing `.mtl`, changes nothing; smoothing groups do.
+    #[test]
+    fn smooth_normals_follow_vertices_and_smoothing_groups() {
+        let plain = load_obj(&temp_file("cube_plain.obj", CUBE), true).expect("plain");
+        let grouped = CUBE
+            .replace("f 1 2 6 5", "g side\nusemtl red\nf 1 2 6 5")
+            .replace("f 2 3 7 6", "g other\nusemtl blue\nf 2 3 7 6");
+        let with_mtl = format!("mtllib cube.mtl\n{grouped}");
+        std::fs::write(temp_file("cube.mtl", "newmtl red\nKd 1 0 0\n"), "newmtl red\nKd 1 0 0\n").expect("mtl");
+        for (name, text) in [
+            ("cube_groups.obj", grouped.clone()),
+            ("cube_mtl.obj", with_mtl),
+            ("cube_nomtl.obj", format!("mtllib missing.mtl\n{grouped}")),
+        ] {
+            let m = load_obj(&temp_file(name, &text), true).expect(name);
+            assert_eq!(m.positions, plain.positions, "{name}: one vertex per file vertex");
+            assert_eq!(m.normals, plain.normals, "{name}: same normals");
+        }
+        // `s off` everywhere: flat faces (each corner carries its face normal, 4 per quad).
+        let flat = load_obj(&temp_file("cube_soff.obj", &format!("s off\n{CUBE}")), true).expect("s off");
+        assert_eq!(flat.positions.len(), 6 * 6);
+        for t in 0..flat.len() {
+            let ng = flat.face_normal_area(t).normalize();
+            assert!(flat.triangles[t].iter().all(|&k| (flat.normals[k as usize] - ng).length() < 1e-6));
+        }
+        // Two smoothing groups: the bottom face alone in group 2 is flat-looking (its own normals),
+        // the other five share normals in group 1.
+        let text = CUBE.replace("f 1 4 3 2\n", "s 2\nf 1 4 3 2\ns 1\n");
+        let m = load_obj(&temp_file("cube_s12.obj", &text), true).expect("s 1/2");
+        assert_eq!(m.positions.len(), 8 + 4);
+        let bottom = m.triangles[0];
+        assert!(bottom.iter().all(|&k| (m.normals[k as usize] + Vec3::Z).length() < 1e-6));
+    }
 }

@@ -13,6 +13,7 @@
 use crate::brdf::Bxdf;
 use crate::camera::PrimarySample;
 use crate::geometry::Ray;
+use crate::geometry::shading::adapt_shading_normal;
 use crate::light::DistantLight;
 use crate::math::{Frame, Rgb, Vec3};
 use crate::sampling::Sampler;
@@ -99,6 +100,8 @@ impl<'a> PathTracer<'a> {
         let mut depth = 1u32;
         loop {
             let brdf = &scene.brdfs[object as usize];
+            // Smooth meshes: keep ω_o above the shading hemisphere (Keller et al. 2017).
+            n = adapt_shading_normal(n, ng, wo_world);
             let frame = Frame::from_normal(n);
             let wo = frame.to_local(wo_world);
             if wo.z <= 0.0 {
