@@ -122,7 +122,12 @@ fn png_bad_input_is_refused() {
     let flat = dir.join("flat.exr");
     flat_exr(&flat, &[]);
     assert_refused(&["png", flat.to_str().unwrap(), "--layer", "nope", "--out", o], "flat.exr", "no layer", &out);
-    assert_refused(&["png", flat.to_str().unwrap(), "--out", dir.join("x.jpg").to_str().unwrap()], "x.jpg", "png", &out);
+    assert_refused(
+        &["png", flat.to_str().unwrap(), "--out", dir.join("x.jpg").to_str().unwrap()],
+        "x.jpg",
+        "png",
+        &out,
+    );
     assert_refused(&["png", flat.to_str().unwrap(), "--exposure", "inf", "--out", o], "exposure", "finite", &out);
 }
 

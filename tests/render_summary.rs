@@ -58,9 +58,7 @@ fn noise_summary_matches_the_written_image() {
     let (mask, v, se) = (ch("mask.Y"), [ch("R"), ch("G"), ch("B")], [ch("stderr.R"), ch("stderr.G"), ch("stderr.B")]);
     let mut rel: Vec<f64> = (0..mask.len())
         .filter(|&i| mask[i] > 0.0)
-        .filter_map(|i| {
-            (0..3).filter(|&c| v[c][i] > 0.0).map(|c| se[c][i] as f64 / v[c][i] as f64).reduce(f64::max)
-        })
+        .filter_map(|i| (0..3).filter(|&c| v[c][i] > 0.0).map(|c| se[c][i] as f64 / v[c][i] as f64).reduce(f64::max))
         .collect();
     rel.sort_by(f64::total_cmp);
     let n = rel.len();

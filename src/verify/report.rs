@@ -145,7 +145,9 @@ pub fn verdict(checks: &[Check]) -> String {
         .filter(|c| standing(c) == Standing::Fails)
         .map(|c| match (&c.error, c.worst()) {
             (Some(e), _) => format!("`{}` ({}; could not run: {})", c.name, c.equation, e.lines().next().unwrap_or("")),
-            (None, Some(r)) => format!("`{}` ({}; worst row {}: |Δ|/tolerance = {:.2})", c.name, c.equation, r.label, r.ratio()),
+            (None, Some(r)) => {
+                format!("`{}` ({}; worst row {}: |Δ|/tolerance = {:.2})", c.name, c.equation, r.label, r.ratio())
+            }
             (None, None) => format!("`{}` ({}; nothing compared)", c.name, c.equation),
         })
         .collect();
