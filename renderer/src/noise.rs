@@ -93,7 +93,8 @@ mod tests {
 
     #[test]
     fn worst_channel_and_black_pixels() {
-        assert_eq!(relative_stderr([2.0, 4.0, 1.0], [0.2, 0.2, 0.05]), Some(0.1));
+        // Values exact in binary, so the ratios are exact: 0.25, 0.125, 0.125.
+        assert_eq!(relative_stderr([2.0, 4.0, 1.0], [0.5, 0.5, 0.125]), Some(0.25));
         // A zero channel does not divide by zero; an all-black pixel has no relative error.
         assert_eq!(relative_stderr([0.0, 4.0, 0.0], [0.0, 1.0, 0.0]), Some(0.25));
         assert_eq!(relative_stderr([0.0; 3], [0.0; 3]), None);
