@@ -53,24 +53,52 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
-/// Writes `write(tmp)` then renames onto `path`; removes the temporary file on failure.
-fn atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+/// An output written under a hidden temporary name next to its destination, not yet in place.
+/// [`Staged::commit`] renames it onto the destination; dropping it uncommitted removes it. Several
+/// outputs of one command are staged first and committed together, so a failure in any of them
+/// leaves none behind.
+#[must_use = "a staged output is removed unless committed"]
+pub struct Staged {
+    tmp: PathBuf,
+    path: PathBuf,
+    committed: bool,
+}
+
+impl Staged {
+    /// Moves the staged file into place.
+    pub fn commit(mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path)
+            .map_err(|e| Error::file(&self.path, format!("cannot move output into place: {e}")))?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes `write(tmp)` to a temporary file next to `path`; removes it on failure.
+fn stage(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<Staged> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::file(path, format!("cannot create output directory: {e}")))?;
     }
-    let tmp = temp_path(path);
-    if let Err(m) = write(&tmp) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::file(path, m));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::file(path, format!("cannot move output into place: {e}"))
-    })
+    let staged = Staged { tmp: temp_path(path), path: path.to_path_buf(), committed: false };
+    write(&staged.tmp).map_err(|m| Error::file(path, m))?;
+    Ok(staged)
 }
 
-/// Writes the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B.
+/// Writes the film as 32-bit float OpenEXR (atomically, see [`stage_exr`]).
 pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<()> {
+    stage_exr(path, film, attributes)?.commit()
+}
+
+/// Stages the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B.
+pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<Staged> {
     use exr::prelude::*;
     let (w, h) = (film.width as usize, film.height as usize);
     let chan = |name: &str, f: &dyn Fn(&crate::film::Pixel) -> f32| {
@@ -95,7 +123,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
         }
     }
     let image = Image::from_layer(layer);
-    atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))
+    stage(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))
 }
 
 /// sRGB transfer of a linear value in [0, 1].
@@ -137,14 +165,23 @@ pub fn auto_exposure(pixels: &[[f32; 3]], mask: Option<&[f32]>) -> f64 {
     }
 }
 
-/// Writes a W × H preview PNG (8-bit sRGB, [`tone_map`] at `exposure_ev`) atomically: to a
-/// temporary file beside `path`, renamed onto it. Not for analysis.
-pub fn write_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure_ev: f64) -> Result<()> {
+/// Stages a W × H preview PNG (8-bit sRGB, [`tone_map`] at `exposure_ev`): written to a temporary
+/// file beside `path`, moved onto it by [`Staged::commit`]. Not for analysis.
+pub fn stage_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure_ev: f64) -> Result<Staged> {
     let buf: Vec<u8> = pixels.iter().flat_map(|p| p.map(|c| tone_map(c, exposure_ev))).collect();
     let img = image::RgbImage::from_raw(width, height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
-    atomically(path, |tmp| {
-        img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}"))
-    })
+    stage(path, |tmp| img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}")))
+}
+
+/// Writes a W × H preview PNG atomically (see [`stage_png_rgb`]).
+pub fn write_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure_ev: f64) -> Result<()> {
+    stage_png_rgb(path, width, height, pixels, exposure_ev)?.commit()
+}
+
+/// Stages a film's preview PNG at `exposure_ev` (see [`stage_png_rgb`]).
+pub fn stage_png(path: &Path, film: &Film, exposure_ev: f64) -> Result<Staged> {
+    let px: Vec<[f32; 3]> = film.pixels.iter().map(|p| p.rgb).collect();
+    stage_png_rgb(path, film.width, film.height, &px, exposure_ev)
 }
 
 /// Writes a film's preview PNG at `exposure_ev` (see [`write_png_rgb`]).
