@@ -84,10 +84,12 @@ pub fn check_lmax(lmax: usize) -> Result<(), Error> {
 
 fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
     check_lmax(a.lmax)?;
+    // Flags are checked before the file is read: a bad flag is named whatever the file holds.
+    let given = a.mapping.as_deref().map(Mapping::parse).transpose()?;
     refuse_render(&a.env)?;
     let img = read_rgb(&a.env)?;
-    let mapping = match &a.mapping {
-        Some(m) => Mapping::parse(m)?,
+    let mapping = match given {
+        Some(m) => m,
         None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&a.env))?,
     };
     let c = project_envmap(&img, mapping, a.lmax).map_err(|e| e.in_file(&a.env))?;
