@@ -257,11 +257,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         sh.approx.push((pf - pc).abs());
         // The directional source: deterministic (a delta light is sampled by next-event estimation
         // only, and the camera looks through pixel centres), 1 spp.
-        let d = Spec {
-            spp: 1,
-            lighting: Lighting::Directional { direction: SOURCE, irradiance: 1.0 },
-            ..base.clone()
-        };
+        let d = Spec { spp: 1, lighting: Lighting::Directional { direction: SOURCE, irradiance: 1.0 }, ..base.clone() };
         let dch = Channel::from_film(&render_spec(ctx, &d)?, 0);
         let (ts, pair) = directional_images(theta_o, w, h);
         dir.measured.push(pair_diff(&dch.value, &dch.sigma, &pair, w, h));

@@ -83,7 +83,10 @@ pub fn lightings(quick: bool, seed: u64) -> Vec<(String, Light)> {
     }
     for i in 0..n_sum {
         let k = 3 + (u() * 10.0) as usize;
-        out.push((format!("sum of {k} sources ({i})"), Light::Directions((0..k).map(|_| (dir(&mut u), 0.1 + u())).collect())));
+        out.push((
+            format!("sum of {k} sources ({i})"),
+            Light::Directions((0..k).map(|_| (dir(&mut u), 0.1 + u())).collect()),
+        ));
     }
     let mut frng = renderer::sampling::chi2::TestRng::new(seed ^ 0xf1e1d);
     for i in 0..n_field {
@@ -146,13 +149,7 @@ pub fn energy(value: &[f64], sigma: &[f64], w: usize, h: usize) -> Energy {
         vs += (d_share * sigma[p]).powi(2);
         vr += (d_r * sigma[p]).powi(2);
     }
-    Energy {
-        share,
-        sigma_share: vs.sqrt(),
-        r,
-        sigma_r: vr.sqrt(),
-        per_order: [1, 2, 3, 4].map(|l| e_l(l) / e00),
-    }
+    Energy { share, sigma_share: vs.sqrt(), r, sigma_r: vr.sqrt(), per_order: [1, 2, 3, 4].map(|l| e_l(l) / e00) }
 }
 
 /// The analytic image of a lighting on the probe grid (Lambert, albedo 1).
@@ -161,7 +158,17 @@ fn analytic(light: &Light, grace_coeffs: &[f64], w: usize, h: usize) -> Vec<f64>
     let series = |c: &[f64]| -> Vec<f64> {
         let lmax = analysis::sh::reconstruct::lmax_of(c.len()).unwrap_or(0);
         let basis = ShBasis::new(lmax);
-        (0..w * h).map(|p| basis.eval(latlong_dir(p / w, p % w, w, h)).iter().zip(c).enumerate().map(|(k, (y, v))| a[lm(k).0] * y * v).sum()).collect()
+        (0..w * h)
+            .map(|p| {
+                basis
+                    .eval(latlong_dir(p / w, p % w, w, h))
+                    .iter()
+                    .zip(c)
+                    .enumerate()
+                    .map(|(k, (y, v))| a[lm(k).0] * y * v)
+                    .sum()
+            })
+            .collect()
     };
     match light {
         Light::Directions(t) => (0..w * h)
@@ -203,20 +210,36 @@ pub fn evaluate(entries: &[Entry], wrong: bool) -> Check {
     let bound = if wrong { 127.0 / 128.0 } else { SHARE_BOUND };
     for e in entries {
         let floor = F32_FLOOR;
-        c.push(Row::new(format!("{}: l ≤ 2 share", e.label), e.analytic.share, e.measured.share, e.measured.sigma_share).floor(floor));
-        c.push(Row::new(format!("{}: R = E_>2/E_00", e.label), e.analytic.r, e.measured.r, e.measured.sigma_r).floor(floor * R_BOUND));
+        c.push(
+            Row::new(format!("{}: l ≤ 2 share", e.label), e.analytic.share, e.measured.share, e.measured.sigma_share)
+                .floor(floor),
+        );
+        c.push(
+            Row::new(format!("{}: R = E_>2/E_00", e.label), e.analytic.r, e.measured.r, e.measured.sigma_r)
+                .floor(floor * R_BOUND),
+        );
     }
     let below = entries.iter().filter(|e| e.measured.share + 4.0 * e.measured.sigma_share < bound - F32_FLOOR).count();
-    c.push(Row::new(format!("lightings with l ≤ 2 share below the bound {bound:.5} (beyond 4σ)"), 0.0, below as f64, 0.0));
+    c.push(Row::new(
+        format!("lightings with l ≤ 2 share below the bound {bound:.5} (beyond 4σ)"),
+        0.0,
+        below as f64,
+        0.0,
+    ));
     // The largest R: attained by the directional sources; the quadrature's error of their analytic
     // image against the exact 1/48 is stated.
     if let Some(top) = entries.iter().max_by(|a, b| a.measured.r.total_cmp(&b.measured.r)) {
         let single = entries.iter().find(|e| e.kind == Kind::Single);
         let q = single.map_or(0.0, |s| (s.analytic.r * 48.0 - 1.0).abs());
         c.push(
-            Row::new(format!("max over lightings of 48·R (bound 1, attained; at {})", top.label), 1.0, 48.0 * top.measured.r, 48.0 * top.measured.sigma_r)
-                .approx(q)
-                .floor(F32_FLOOR),
+            Row::new(
+                format!("max over lightings of 48·R (bound 1, attained; at {})", top.label),
+                1.0,
+                48.0 * top.measured.r,
+                48.0 * top.measured.sigma_r,
+            )
+            .approx(q)
+            .floor(F32_FLOOR),
         );
     }
     if let Some(s) = entries.iter().find(|e| e.kind == Kind::Single) {
@@ -226,9 +249,14 @@ pub fn evaluate(entries: &[Entry], wrong: bool) -> Check {
             let exact = (2 * l + 1) as f64 * a[l] * a[l];
             let q = (s.analytic.per_order[idx] / exact - 1.0).abs();
             c.push(
-                Row::new(format!("{}: |B_{l}|²/((2l+1) A_{l}² B_00²) = 1 (equality)", s.label), 1.0, s.measured.per_order[idx] / exact, 0.0)
-                    .approx(q)
-                    .floor(F32_FLOOR),
+                Row::new(
+                    format!("{}: |B_{l}|²/((2l+1) A_{l}² B_00²) = 1 (equality)", s.label),
+                    1.0,
+                    s.measured.per_order[idx] / exact,
+                    0.0,
+                )
+                .approx(q)
+                .floor(F32_FLOOR),
             );
         }
         c.push(
@@ -239,9 +267,14 @@ pub fn evaluate(entries: &[Entry], wrong: bool) -> Check {
     }
     if let Some(p) = entries.iter().find(|e| e.kind == Kind::Pair) {
         c.push(
-            Row::new(format!("{}: share = 63/64 (below the directional 127/128)", p.label), 63.0 / 64.0, p.measured.share, p.measured.sigma_share)
-                .approx((p.analytic.share - 63.0 / 64.0).abs())
-                .floor(F32_FLOOR),
+            Row::new(
+                format!("{}: share = 63/64 (below the directional 127/128)", p.label),
+                63.0 / 64.0,
+                p.measured.share,
+                p.measured.sigma_share,
+            )
+            .approx((p.analytic.share - 63.0 / 64.0).abs())
+            .floor(F32_FLOOR),
         );
     }
     let min = entries.iter().map(|e| e.measured.share).fold(f64::INFINITY, f64::min);
@@ -315,7 +348,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                 let mut s2 = vec![0.0; w * h];
                 for (j, (d, e)) in t.iter().enumerate() {
                     let ch = Channel::from_film(
-                        &render_spec(ctx, &spec(Lighting::Directional { direction: *d, irradiance: 1.0 }, 1, seed + 97 * j as u64))?,
+                        &render_spec(
+                            ctx,
+                            &spec(Lighting::Directional { direction: *d, irradiance: 1.0 }, 1, seed + 97 * j as u64),
+                        )?,
                         0,
                     );
                     for p in 0..w * h {
@@ -326,15 +362,20 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                 (v, s2.into_iter().map(f64::sqrt).collect())
             }
             Light::Field(c) => {
-                let ch = Channel::from_film(&render_spec(ctx, &spec(Lighting::Sh(c.clone()), ctx.spp(64, 128), seed))?, 0);
+                let ch =
+                    Channel::from_film(&render_spec(ctx, &spec(Lighting::Sh(c.clone()), ctx.spp(64, 128), seed))?, 0);
                 (ch.value, ch.sigma)
             }
             Light::Grace => {
-                let ch = Channel::from_film(&render_spec(ctx, &spec(Lighting::Grace(1.0), ctx.spp(64, 128), seed))?, grace::CHANNEL);
+                let ch = Channel::from_film(
+                    &render_spec(ctx, &spec(Lighting::Grace(1.0), ctx.spp(64, 128), seed))?,
+                    grace::CHANNEL,
+                );
                 (ch.value, ch.sigma)
             }
             Light::Uniform => {
-                let ch = Channel::from_film(&render_spec(ctx, &spec(Lighting::Uniform(1.0), ctx.spp(16, 32), seed))?, 0);
+                let ch =
+                    Channel::from_film(&render_spec(ctx, &spec(Lighting::Uniform(1.0), ctx.spp(16, 32), seed))?, 0);
                 (ch.value, ch.sigma)
             }
         };

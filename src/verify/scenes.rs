@@ -42,7 +42,10 @@ pub enum Lighting {
     /// The Grace probe with a scale.
     Grace(f64),
     /// The Grace probe with a scale, rotated by `rotate_deg` (about x, then y, then z; CONVENTIONS §6).
-    GraceRotated { scale: f64, rotate_deg: [f64; 3] },
+    GraceRotated {
+        scale: f64,
+        rotate_deg: [f64; 3],
+    },
 }
 
 /// The object.

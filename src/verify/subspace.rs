@@ -253,8 +253,7 @@ pub fn principal_angles(s: &ImageSet, pca: &Pca, k: usize, yb: &[Vec<f64>]) -> V
         .collect();
     orthonormalize(&mut u, &s.weight);
     let m = DMatrix::from_fn(k, yb.len(), |i, j| wdot(&u[i], &yb[j], &s.weight));
-    let mut angles: Vec<f64> =
-        m.singular_values().iter().map(|c| c.clamp(-1.0, 1.0).acos().to_degrees()).collect();
+    let mut angles: Vec<f64> = m.singular_values().iter().map(|c| c.clamp(-1.0, 1.0).acos().to_degrees()).collect();
     angles.sort_by(|a, b| a.total_cmp(b));
     angles
 }
@@ -308,10 +307,17 @@ pub fn rows(c: &mut Check, object: &str, m: &Stats, pred: &Stats, approx: [f64; 
     let last = |a: &[f64]| a.last().copied().unwrap_or(f64::NAN);
     let rms = |a: &[f64]| (a.iter().map(|v| v * v).sum::<f64>() / a.len().max(1) as f64).sqrt();
     c.push(
-        Row::new(format!("{object}: largest principal angle, 9 PCs vs Y_lm (l ≤ 2) (deg)"), last(&pred.angles), last(&m.angles), 0.0)
-            .informative(),
+        Row::new(
+            format!("{object}: largest principal angle, 9 PCs vs Y_lm (l ≤ 2) (deg)"),
+            last(&pred.angles),
+            last(&m.angles),
+            0.0,
+        )
+        .informative(),
     );
-    c.push(Row::new(format!("{object}: rms principal angle (deg)"), rms(&pred.angles), rms(&m.angles), 0.0).informative());
+    c.push(
+        Row::new(format!("{object}: rms principal angle (deg)"), rms(&pred.angles), rms(&m.angles), 0.0).informative(),
+    );
 }
 
 /// The analytic image of a lighting at a normal, for a transfer a_l (Lambert: eq. 38 / π).
@@ -370,7 +376,8 @@ fn footprint(r: usize, c: usize, w: usize, h: usize, sub: usize, layer: [f64; 3]
     for a in 0..sub {
         for b in 0..sub {
             let x = EXTENT * (2.0 * (c as f64 + (b as f64 + 0.5) / sub as f64) / w as f64 - 1.0);
-            let yy = EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / sub as f64) / h as f64);
+            let yy =
+                EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / sub as f64) / h as f64);
             let q = 1.0 - x * x - yy * yy;
             if q <= 0.0 {
                 return None;
@@ -520,8 +527,20 @@ fn spectrum_plot(file: &str, object: &str, m: &Stats, pred: &Stats) -> Plot {
         title: format!("Subspace: PCA spectrum of the {object} images (λ_i / Σλ), first 30"),
         x_label: "component i".into(),
         y_label: "log10 λ_i/Σλ".into(),
-        curves: vec![Series { name: "analytic images".into(), x: xs(pred.spectrum.len()), y: lg(&pred.spectrum), err: None, dashed: false }],
-        points: vec![Series { name: "renders".into(), x: xs(m.spectrum.len()), y: lg(&m.spectrum), err: None, dashed: false }],
+        curves: vec![Series {
+            name: "analytic images".into(),
+            x: xs(pred.spectrum.len()),
+            y: lg(&pred.spectrum),
+            err: None,
+            dashed: false,
+        }],
+        points: vec![Series {
+            name: "renders".into(),
+            x: xs(m.spectrum.len()),
+            y: lg(&m.spectrum),
+            err: None,
+            dashed: false,
+        }],
     }
 }
 
@@ -563,7 +582,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let spec = ortho(Lighting::Uniform(1.0), 16, ctx.seed);
     let mesh_ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
 
-    let mut c = Check::new(NAME, EQUATION, "images of a Lambertian object under ≥ 100 lightings lie close to a 9D subspace");
+    let mut c =
+        Check::new(NAME, EQUATION, "images of a Lambertian object under ≥ 100 lightings lie close to a 9D subspace");
     let iso_a = if ctx.wrong { transfer::phong(8.0, 40) } else { transfer::lambert(40) };
     let iso: Vec<f64> = KS.iter().map(|&k| isotropic_captured(&iso_a, k)).collect();
     for (object, px, renders, file) in [
@@ -618,7 +638,9 @@ mod tests {
         let images = lights
             .iter()
             .enumerate()
-            .map(|(j, l)| px.normal.iter().map(|n| pr.value(l, &dirs, std::slice::from_ref(&coeffs[j]), *n, &mut y)).collect())
+            .map(|(j, l)| {
+                px.normal.iter().map(|n| pr.value(l, &dirs, std::slice::from_ref(&coeffs[j]), *n, &mut y)).collect()
+            })
             .collect();
         ImageSet { weight: px.weight, normal: px.normal, images, sigma: vec![vec![0.0; w * h]; lights.len()] }
     }
@@ -655,7 +677,8 @@ mod tests {
         for _ in 0..20 {
             let c = random_field(&mut rng);
             for p in 0..256 * 128 {
-                let v: f64 = basis.eval(latlong_dir(p / 256, p % 256, 256, 128)).iter().zip(&c).map(|(a, b)| a * b).sum();
+                let v: f64 =
+                    basis.eval(latlong_dir(p / 256, p % 256, 256, 128)).iter().zip(&c).map(|(a, b)| a * b).sum();
                 assert!(v > 0.0);
             }
         }

@@ -168,13 +168,20 @@ pub fn evaluate(m: &[(&str, Measured)], wrong: bool) -> Check {
             c.push(Row::new(format!("{name}: L_{l},{mm}/P = 0"), expected, v, x.sigma_light[k]).floor(floor));
         }
         if let Some(v) = x.factor.lighting[0] {
-            c.push(Row::new(format!("{name}: L_00/P = Λ_0⁻¹ (gauge, identity)"), 1.0 / lambda(0), v, 0.0).informative());
+            c.push(
+                Row::new(format!("{name}: L_00/P = Λ_0⁻¹ (gauge, identity)"), 1.0 / lambda(0), v, 0.0).informative(),
+            );
         }
         if let Some(s) = x.factor.source_direction() {
             c.push(Row::new(format!("{name}: directionality |L_1|/√(3/4π)"), 0.0, s.directionality, 0.0).informative());
         }
         let determined = (1..=LMAX).filter(|&l| order_determined(x, l) == Some(true)).count();
-        c.push(Row::new(format!("{name}: BRDF orders 1 ≤ l ≤ {LMAX} determined (ρ̂_lpq, l ≥ 1)"), 0.0, determined as f64, 0.0));
+        c.push(Row::new(
+            format!("{name}: BRDF orders 1 ≤ l ≤ {LMAX} determined (ρ̂_lpq, l ≥ 1)"),
+            0.0,
+            determined as f64,
+            0.0,
+        ));
         let status: Vec<String> = (1..=LMAX)
             .map(|l| match (x.factor.orders[l].status, order_determined(x, l)) {
                 (Status::Ambiguous, _) => format!("l={l}: lighting 0/0 (κ_l = 0), ρ̂_l undetermined"),
@@ -197,13 +204,21 @@ pub fn evaluate(m: &[(&str, Measured)], wrong: bool) -> Check {
             for (name, x) in [("lambert", lam), ("mirror", mir)] {
                 let ef = if name == "lambert" { f * e } else { e };
                 c.push(
-                    Row::new(format!("{name}: κ_{l}/κ_0 = ρ̃_0{l}0/ρ̃_000 (constant albedo, eq. 38)"), ef, x.kappa_ratio[l], x.sigma_kappa_ratio[l])
-                        .floor(F32_FLOOR),
+                    Row::new(
+                        format!("{name}: κ_{l}/κ_0 = ρ̃_0{l}0/ρ̃_000 (constant albedo, eq. 38)"),
+                        ef,
+                        x.kappa_ratio[l],
+                        x.sigma_kappa_ratio[l],
+                    )
+                    .floor(F32_FLOOR),
                 );
             }
             c.push(
                 Row::new(
-                    format!("mirror − lambert: κ_{l}/κ_0 (same ρ̂_0p0, though Λ_{l}ρ̂_{l} = 1 vs {:.4})", analysis::transfer::lambert::lambert(l)[l]),
+                    format!(
+                        "mirror − lambert: κ_{l}/κ_0 (same ρ̂_0p0, though Λ_{l}ρ̂_{l} = 1 vs {:.4})",
+                        analysis::transfer::lambert::lambert(l)[l]
+                    ),
                     0.0,
                     mir.kappa_ratio[l] - lam.kappa_ratio[l],
                     mir.sigma_kappa_ratio[l].hypot(lam.sigma_kappa_ratio[l]),
@@ -343,8 +358,9 @@ mod tests {
     fn the_propagated_sigma_matches_the_scatter() {
         // σ of L_10/P over 40 noise draws agrees with the propagated value within 25 % (the sample
         // s.d. of 40 draws has a relative s.e. of 1/√80 ≈ 11 %).
-        let vals: Vec<f64> =
-            (0..40).map(|s| measure(48, 24, &images(0.01, 0.0, 100 + s)).unwrap().factor.lighting[2].unwrap()).collect();
+        let vals: Vec<f64> = (0..40)
+            .map(|s| measure(48, 24, &images(0.01, 0.0, 100 + s)).unwrap().factor.lighting[2].unwrap())
+            .collect();
         let mean = vals.iter().sum::<f64>() / 40.0;
         let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / 39.0).sqrt();
         let prop = measure(48, 24, &images(0.01, 0.0, 7)).unwrap().sigma_light[2];
