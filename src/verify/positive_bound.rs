@@ -64,7 +64,7 @@ pub enum Light {
 
 /// (label, lighting) of the ensemble (deterministic in the seed).
 pub fn lightings(quick: bool, seed: u64) -> Vec<(String, Light)> {
-    let mut rng = renderer::sampling::chi2::TestRng::new(seed ^ 0x9051_7e);
+    let mut rng = renderer::sampling::chi2::TestRng::new(seed ^ 0x0090_517e);
     let mut u = move || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
     let dir = |u: &mut dyn FnMut() -> f64| {
         let z = 2.0 * u() - 1.0;

@@ -19,7 +19,9 @@
 //!   normals (weighted least squares; deciding), debiased by the noise outside the span
 //!   Σ_jp w_p σ_pj² (1 − h_p), h_p the leverage; σ by the same first-order rule.
 //! - the principal angles between the first 9 components and that span (informative: the largest
-//!   and the rms angle).
+//!   and the rms angle). The mesh view sees one hemisphere of normals, on which the nine Y_lm are
+//!   nearly dependent (the weakest direction of their span carries ≈ 1e-3 of the energy), so its
+//!   last angles are large even for the analytic images: the energy rows, not the angles, decide.
 //!
 //! Expected: the same statistics computed from the analytic images of the same lightings on the same
 //! pixels, B(n) = Σ_l A_l L_lm Y_lm(n) with eq. 38 (closed form max(n·s, 0)/π for a directional
@@ -181,7 +183,7 @@ pub fn captured(s: &ImageSet, pca: &Pca, k: usize) -> (f64, f64) {
     // (X Q_k)_j = Σ_i x_i (Q_k)_ij, Q_k = V_k V_kᵀ.
     let n = s.images.len();
     let vk = pca.vectors.columns(0, k);
-    let q = &vk * vk.transpose();
+    let q = vk * vk.transpose();
     let proj: Vec<Vec<f64>> = (0..n)
         .map(|j| (0..s.weight.len()).map(|p| (0..n).map(|i| s.images[i][p] * q[(i, j)]).sum()).collect())
         .collect();
@@ -474,13 +476,16 @@ pub fn build_sets(
     (measured, fine, coarse)
 }
 
+/// (value, σ) images of each lighting, in the ensemble's order.
+type Renders = Vec<(Vec<f64>, Vec<f64>)>;
+
 /// Renders every lighting of the ensemble for one camera: (value, σ) per lighting (sums: empty).
 fn render_all(
     ctx: &Ctx,
     lights: &[Light],
     mk: &dyn Fn(Lighting, u32, u64) -> Spec,
     spp: (u32, u32),
-) -> Result<Vec<(Vec<f64>, Vec<f64>)>, String> {
+) -> Result<Renders, String> {
     let mut out = vec![];
     for (j, l) in lights.iter().enumerate() {
         let seed = ctx.seed + 7000 + j as u64;

@@ -110,7 +110,7 @@ pub fn measure(w: usize, h: usize, images: &[(OutgoingNode, Vec<f64>, Vec<f64>)]
         .collect();
     // κ_l = Σ_j c_lj S_j, c_lj = w_j μ_j Y_l0(θ'_j); δ(κ_l/κ_0) = Σ_j (c_lj − r_l c_0j) δS_j / κ_0.
     let mut p_l = vec![0.0; LMAX + 1];
-    let mut var_r = vec![0.0; LMAX + 1];
+    let mut var_r = [0.0; LMAX + 1];
     let r: Vec<f64> = factor.kappa.iter().map(|k| k / factor.kappa[0]).collect();
     for ((node, _, _), vs) in images.iter().zip(&var_s) {
         let mu = node.theta_o.cos();
