@@ -412,12 +412,15 @@ mod tests {
     fn the_directional_source_attains_the_bound_and_the_pair_has_the_lower_share() {
         let s = [0.3, 0.4, (1.0f64 - 0.25).sqrt()];
         let d = entry("d", Kind::Single, &Light::Directions(vec![(s, 1.0)]));
-        assert!((d.measured.r * 48.0 - 1.0).abs() < 2e-3, "{}", d.measured.r * 48.0);
-        assert!((d.measured.share - 127.0 / 128.0).abs() < 1e-4);
+        // Quadrature only (no noise): the grid's relative error of ∫B² (≈ 1e-4 at 256 × 128, the
+        // terminator's kink) is amplified ≈ 48× in R, a small difference of two energies.
+        assert!((d.measured.r * 48.0 - 1.0).abs() < 1e-2, "{}", d.measured.r * 48.0);
+        assert!((d.measured.share - 127.0 / 128.0).abs() < 3e-4, "{}", d.measured.share);
         let p = entry("p", Kind::Pair, &Light::Directions(vec![(s, 1.0), (s.map(|v| -v), 1.0)]));
-        assert!((p.measured.share - 63.0 / 64.0).abs() < 1e-4, "{}", p.measured.share);
+        assert!((p.measured.share - 63.0 / 64.0).abs() < 3e-4, "{}", p.measured.share);
         let u = entry("u", Kind::Other, &Light::Uniform);
-        assert!((u.measured.share - 1.0).abs() < 1e-12);
+        // A constant projects onto Y_20 by the pixel-centre rule's O(h²) error only.
+        assert!((u.measured.share - 1.0).abs() < 1e-4, "{}", u.measured.share);
         let good = evaluate(&[d.clone(), p.clone(), u.clone()], false);
         assert!(good.passed(), "{:?}", good.rows.iter().filter(|r| !r.passed()).collect::<Vec<_>>());
         assert!(!evaluate(&[d, p, u], true).passed(), "the pair is below 127/128");
