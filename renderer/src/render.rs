@@ -2,7 +2,7 @@
 //! sampler so the image is bit-identical for any thread count, a progress bar on stderr when it is
 //! a terminal, and throughput statistics at the end.
 
-use crate::film::{Film, Partial, PixelAccumulator, Stats, canonical_blocks};
+use crate::film::{Film, Partial, PixelAccumulator, Stats, batch_log2, canonical_blocks};
 use crate::integrator::PathTracer;
 use crate::math::Vec2;
 use crate::sampling::Sampler;
@@ -146,7 +146,10 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
     if cancelled {
         return (None, rstats);
     }
-    (Some(Partial { width: w, height: h, spp: s.spp, start, end, blocks, stats }), rstats)
+    (
+        Some(Partial { width: w, height: h, spp: s.spp, batch_log2: batch_log2(s.spp), start, end, blocks, stats }),
+        rstats,
+    )
 }
 
 /// One tile's pixels, row-major, each as the statistics of the canonical blocks of `[start, end)`.
@@ -165,7 +168,7 @@ fn render_tile(
     for row in y0..y1 {
         for col in x0..x1 {
             let pixel_id = row as u64 * s.width as u64 + col as u64;
-            let mut acc = PixelAccumulator::new(start, s.spp);
+            let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
             for i in start..end {
                 sampler.start(pixel_id, i as u32);
                 let u = sampler.next_2d();
