@@ -165,14 +165,23 @@ fn cli_blocks(bin: &str, path: &Path, spp: u32, seed: u64) -> Vec<[(f64, f64); 3
 /// every scene: `REFLECT_REFERENCE_BIN=/path/to/reflect cargo test --release --test render_regression
 /// -- --ignored write_reference`. `REFLECT_CANDIDATE_BIN=/path/to/reflect` makes the test itself
 /// compare that binary's renders instead of today's code (to calibrate the test: the reference's
-/// own binary at another seed must pass).
+/// own binary at another seed must pass). `REFLECT_REFERENCE_SCENES=a.toml,b.toml` rewrites only
+/// those entries.
 #[test]
 #[ignore]
 fn write_reference() {
     let bin = std::env::var("REFLECT_REFERENCE_BIN").expect("set REFLECT_REFERENCE_BIN to a reflect binary");
-    let reference: Reference = scenes()
-        .iter()
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), cli_blocks(&bin, p, 128, 1000)))
-        .collect();
+    let only: Option<Vec<String>> =
+        std::env::var("REFLECT_REFERENCE_SCENES").ok().map(|s| s.split(',').map(str::to_string).collect());
+    let mut reference: Reference = match (&only, std::fs::read_to_string(reference_path())) {
+        (Some(_), Ok(text)) => serde_json::from_str(&text).unwrap(),
+        _ => Reference::new(),
+    };
+    for p in scenes() {
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if only.as_ref().is_none_or(|o| o.contains(&name)) {
+            reference.insert(name, cli_blocks(&bin, &p, 128, 1000));
+        }
+    }
     std::fs::write(reference_path(), serde_json::to_string(&reference).unwrap()).unwrap();
 }

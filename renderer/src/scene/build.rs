@@ -105,6 +105,28 @@ impl Scene {
                     }
                     shapes.push(Shape::Sphere(Sphere { center: c, radius: *radius }));
                 }
+                ObjectSection::Icosphere { subdivisions, center, radius, smooth, .. } => {
+                    const MAX_SUBDIVISIONS: u32 = 9;
+                    if *subdivisions > MAX_SUBDIVISIONS {
+                        return Err(ctx(format!(
+                            "subdivisions must be at most {MAX_SUBDIVISIONS}, got {subdivisions}"
+                        )));
+                    }
+                    let c = vec3(*center, "center").map_err(ctx)?;
+                    if !(*radius > 0.0 && radius.is_finite()) {
+                        return Err(ctx(format!("radius must be positive, got {radius}")));
+                    }
+                    let mut mesh = crate::geometry::icosphere(*subdivisions);
+                    if !*smooth {
+                        mesh.normals.clear();
+                    }
+                    mesh.transform(glam::Affine3A::from_scale_rotation_translation(
+                        Vec3::splat(*radius),
+                        glam::Quat::IDENTITY,
+                        c,
+                    ));
+                    shapes.push(Shape::Mesh(mesh));
+                }
                 ObjectSection::Mesh { file: f, smooth, translate, scale, rotate_deg, .. } => {
                     let p = resolve(base, f);
                     *f = p.to_string_lossy().into_owned();
@@ -310,4 +332,33 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
             Light::Envmap(light::Envmap::new(img, m, *scale, rotation_xyz_deg(*rotate_deg)).map_err(|e| e.in_file(&p))?)
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Shape;
+
+    fn icosphere_scene(params: &str) -> Result<Scene> {
+        let toml = format!(
+            "[camera]\ntype = \"orthographic\"\nfrom = [0.0, -3.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.0\n[lighting]\ntype = \"uniform\"\nradiance = 1.0\n[[objects]]\nshape = \"icosphere\"\n{params}\nbrdf = {{ type = \"lambert\", albedo = 0.5 }}\n"
+        );
+        Scene::build(SceneFile::parse(&toml).map_err(Error::new)?, Path::new("."))
+    }
+
+    #[test]
+    fn icosphere_shape_builds_and_refuses_bad_parameters() {
+        let s = icosphere_scene("subdivisions = 2\ncenter = [1.0, 0.0, 0.0]\nradius = 2.0").unwrap();
+        let Shape::Mesh(m) = &s.geometry.shapes[0] else { panic!("not a mesh") };
+        assert_eq!(m.triangles.len(), 20 * 4 * 4);
+        assert!(m.positions.iter().all(|p| ((*p - Vec3::X).length() - 2.0).abs() < 1e-5));
+        assert!(m.normals.iter().zip(&m.positions).all(|(n, p)| (*n - (*p - Vec3::X) / 2.0).length() < 1e-5));
+        let flat = icosphere_scene("subdivisions = 1\nsmooth = false").unwrap();
+        let Shape::Mesh(m) = &flat.geometry.shapes[0] else { panic!("not a mesh") };
+        assert!(m.normals.is_empty());
+        for (bad, says) in [("subdivisions = 10", "at most 9"), ("subdivisions = 1\nradius = -1.0", "radius")] {
+            let e = icosphere_scene(bad).err().expect(bad).to_string();
+            assert!(e.contains("objects[0]") && e.contains(says), "{e}");
+        }
+    }
 }
