@@ -239,3 +239,194 @@ fn mutator_is_deterministic() {
     assert!(a.iter().any(|x| x != &seed), "mutations change the input");
     let _ = Path::new("");
 }
+
+// ---------------------------------------------------------------- images (.hdr, .exr)
+
+/// Decoded bytes an image file of `len` bytes may cost: the reader's own cap on claimed samples
+/// (analysis::image, 2048 × the file with a 1 MiB floor, times the decoder's copy and ours) plus
+/// the default budget.
+fn image_budget(len: usize) -> usize {
+    (4 << 20) + 64 * len + 3 * (len * 2048).max(1 << 20)
+}
+
+/// Small Radiance files: flat, adaptive run-length and old run-length scanlines, every orientation
+/// form, EXPOSURE and COLORCORR lines.
+fn hdr_seeds() -> Vec<Vec<u8>> {
+    let mut out = Vec::new();
+    let px = |i: usize| [(i * 37 % 256) as u8, (i * 11 % 256) as u8, 200, 128 + (i % 5) as u8];
+    for (res, w, n) in [("-Y 3 +X 4", 4, 3), ("+X 4 -Y 3", 3, 4), ("+Y 2 -X 2", 2, 2)] {
+        let mut f =
+            format!("#?RADIANCE\nEXPOSURE=2\nCOLORCORR=1 1 0.5\nFORMAT=32-bit_rle_rgbe\n\n{res}\n").into_bytes();
+        (0..w * n).for_each(|i| f.extend(px(i)));
+        out.push(f);
+    }
+    // Adaptive run-length encoding, 16 wide: a run and literals in each channel.
+    let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 16\n".to_vec();
+    for _ in 0..2 {
+        f.extend([2, 2, 0, 16]);
+        for ch in 0..4u8 {
+            f.extend([128 + 12, 100 + ch, 4, 1, 2, 3, 4]);
+        }
+    }
+    out.push(f);
+    // Old run-length encoding.
+    let mut f = b"#?RGBE\n\n-Y 2 +X 300\n".to_vec();
+    for _ in 0..2 {
+        f.extend([128, 64, 32, 129, 1, 1, 1, 43, 1, 1, 1, 1]);
+    }
+    out.push(f);
+    out
+}
+
+const HDR_DICT: &[&[u8]] = &[
+    b"#?RADIANCE\n",
+    b"FORMAT=32-bit_rle_rgbe\n",
+    b"FORMAT=32-bit_rle_xyze\n",
+    b"EXPOSURE=",
+    b"COLORCORR=",
+    b"\n\n",
+    b"-Y ",
+    b"+Y ",
+    b" +X ",
+    b" -X ",
+    b"32768",
+    b"65535",
+    b"\x02\x02\x00\x10",
+    b"\x02\x02\x7f\xff",
+    b"\x01\x01\x01\xff",
+    b"\xff",
+];
+
+#[test]
+fn fuzz_hdr() {
+    fuzz::set_hard_cap(HARD_CAP);
+    let mut seeds = read_seeds(&seed_files(&cases(), &[".hdr"], 64 << 10));
+    seeds.extend(hdr_seeds());
+    let dir = work_dir("hdr");
+    let path = dir.join("input.hdr");
+    let cfg = FuzzConfig { seed: 41, alloc_budget: image_budget, ..FuzzConfig::new("hdr") };
+    fuzz::run(&cfg, &seeds, HDR_DICT, move |bytes| {
+        std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
+        match analysis::image::read_image(&path) {
+            Ok(img) => check_image(&img),
+            Err(e) => check_error_line(&e.to_string(), "input"),
+        }
+    });
+}
+
+/// An accepted image has consistent channel sizes and finite values (the loader's contract).
+fn check_image(img: &analysis::image::Image) -> Result<bool, String> {
+    for (name, v) in &img.channels {
+        if v.len() != img.width * img.height {
+            return Err(format!("channel {name} has {} samples for {}×{}", v.len(), img.width, img.height));
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(format!("channel {name} has a non-finite value"));
+        }
+    }
+    Ok(true)
+}
+
+/// Small OpenEXR files of the variants the reader must handle: every compression, scanlines and
+/// tiles, a mip map, half and float samples, a data window inside and around the display window,
+/// several parts.
+fn exr_seeds(dir: &Path) -> Vec<Vec<u8>> {
+    use exr::prelude::*;
+    let mut out = Vec::new();
+    let chans = |w: usize, h: usize, half: bool| {
+        let list: Vec<AnyChannel<FlatSamples>> = ["B", "G", "R"]
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let v: Vec<f32> = (0..w * h).map(|i| (i + k) as f32 * 0.5).collect();
+                let s = if half {
+                    FlatSamples::F16(v.iter().map(|&x| f16::from_f32(x)).collect())
+                } else {
+                    FlatSamples::F32(v)
+                };
+                AnyChannel::new(Text::from(*c), s)
+            })
+            .collect();
+        AnyChannels::sort(list.into_iter().collect())
+    };
+    let p = dir.join("seed.exr");
+    let mut push = |img: Image<Layers<AnyChannels<FlatSamples>>>| {
+        if img.write().to_file(&p).is_ok() {
+            out.extend(std::fs::read(&p).ok());
+        }
+    };
+    let comps = [
+        Compression::Uncompressed,
+        Compression::RLE,
+        Compression::ZIP1,
+        Compression::ZIP16,
+        Compression::PIZ,
+        Compression::PXR24,
+        Compression::B44,
+    ];
+    for (i, c) in comps.into_iter().enumerate() {
+        let blocks = if i % 2 == 0 { Blocks::ScanLines } else { Blocks::Tiles(Vec2(4, 4)) };
+        let enc = Encoding { compression: c, blocks, line_order: LineOrder::Increasing };
+        let layer = Layer::new((6, 5), LayerAttributes::default(), enc, chans(6, 5, i % 3 == 0));
+        push(Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((6, 5))), vec![layer]));
+    }
+    // Data window offset inside a larger display window, and two parts.
+    let mut attrs = LayerAttributes::named("beauty");
+    attrs.layer_position = Vec2(2, 1);
+    let a = Layer::new((4, 3), attrs, Encoding::SMALL_LOSSLESS, chans(4, 3, false));
+    let z = Layer::new(
+        (4, 3),
+        LayerAttributes::named("depth"),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(
+            vec![AnyChannel::new(Text::from("Z"), FlatSamples::F32(vec![1.0; 12]))].into_iter().collect(),
+        ),
+    );
+    push(Image::from_layers(ImageAttributes::new(IntegerBounds::new((0, 0), (8, 6))), vec![z, a]));
+    // A mip-mapped tiled file.
+    let lv = |w: usize, h: usize| FlatSamples::F32(vec![1.5; w * h]);
+    let levels = Levels::Mip {
+        rounding_mode: exr::math::RoundingMode::Down,
+        level_data: vec![lv(8, 4), lv(4, 2), lv(2, 1), lv(1, 1)],
+    };
+    let list: Vec<AnyChannel<Levels<FlatSamples>>> =
+        ["B", "G", "R"].iter().map(|c| AnyChannel::new(Text::from(*c), levels.clone())).collect();
+    let enc = Encoding { blocks: Blocks::Tiles(Vec2(4, 4)), ..Encoding::FAST_LOSSLESS };
+    let layer = Layer::new((8, 4), LayerAttributes::default(), enc, AnyChannels::sort(list.into_iter().collect()));
+    if Image::from_layer(layer).write().to_file(&p).is_ok() {
+        out.extend(std::fs::read(&p).ok());
+    }
+    out
+}
+
+const EXR_DICT: &[&[u8]] = &[
+    b"dataWindow\0box2i\0",
+    b"displayWindow\0box2i\0",
+    b"compression\0compression\0",
+    b"channels\0chlist\0",
+    b"tiles\0tiledesc\0",
+    b"type\0string\0",
+    b"deepscanline",
+    b"\xff\xff\xff\x7f",
+    b"\x00\x00\x00\x80",
+    b"\x00\x80\x00\x00",
+    b"\x76\x2f\x31\x01\x02\x00\x00\x00",
+    b"\x76\x2f\x31\x01\x02\x12\x00\x00",
+];
+
+#[test]
+fn fuzz_exr() {
+    fuzz::set_hard_cap(HARD_CAP);
+    let dir = work_dir("exr");
+    let mut seeds = read_seeds(&seed_files(&cases(), &[".exr"], 64 << 10));
+    seeds.extend(exr_seeds(&dir));
+    let path = dir.join("input.exr");
+    let cfg = FuzzConfig { seed: 51, alloc_budget: image_budget, ..FuzzConfig::new("exr") };
+    fuzz::run(&cfg, &seeds, EXR_DICT, move |bytes| {
+        std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
+        match analysis::image::read_image(&path) {
+            Ok(img) => check_image(&img),
+            Err(e) => check_error_line(&e.to_string(), "input"),
+        }
+    });
+}

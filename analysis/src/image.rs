@@ -111,7 +111,13 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::file(path, format!("cannot read file: {e}")))?;
     let img = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        read_exr_bytes(&bytes)
+        read_exr_bytes(&bytes).map(|(img, note)| {
+            if let Some(n) = note {
+                // Human text goes to stderr (CONVENTIONS §7): the user learns which part lit the scene.
+                eprintln!("note: {}: {n}", path.display());
+            }
+            img
+        })
     } else if bytes.starts_with(b"#?") {
         read_hdr_bytes(&bytes)
     } else {
@@ -144,59 +150,358 @@ pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
     img.rgb().ok_or_else(|| Error::file(path, "image has no R, G, B (or Y) channels"))
 }
 
-fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
-    use image::ImageDecoder;
-    let dec = image::codecs::hdr::HdrDecoder::new(std::io::Cursor::new(bytes))
-        .map_err(|e| Error::new(format!("corrupt Radiance .hdr: {e}")))?;
-    let (w, h) = dec.dimensions();
-    let (w, h) = (w as usize, h as usize);
+/// Reads a Radiance RGBE picture (the `.hdr` / `.pic` format of Ward's Radiance, as written by
+/// `ra_*`, Photoshop, HDR Shop, …):
+///
+/// - header lines up to a blank line: `FORMAT=32-bit_rle_rgbe` (the XYZ variant is refused),
+///   `EXPOSURE=e` and `COLORCORR=r g b` (each may appear many times: a stored value was multiplied
+///   by all of them, so radiance = stored ÷ the product of every EXPOSURE and every COLORCORR, per
+///   channel), other variables and comments ignored;
+/// - the resolution string in any of its eight orientations (`-Y H +X W` is the usual top-down,
+///   left-to-right one; `+Y`/`-X` flip, `±X W ±Y H` stores columns), turned into row 0 at the top;
+/// - scanlines flat, in the old repeat-pixel run-length encoding, or in the adaptive per-channel
+///   encoding (`2 2 hi lo`).
+///
+/// A pixel is m · 2^(e − 136) (m the mantissa byte; e = 0 is black), as the `image` crate and most
+/// readers decode it. Before any pixel memory is allocated the claimed size is checked against the
+/// bytes that follow the header: the most compact encoding (the adaptive run-length one) needs
+/// at least 12 bytes per scanline (4 for W = 1, 8 for W ≤ 256; see below), so a short file claiming
+/// a huge image is refused at once, and the pixels are allocated only once a first scanline decoded.
+pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
+    let bad = |m: String| Error::new(format!("corrupt Radiance .hdr: {m}"));
+    let mut pos = 0usize;
+    let mut line = || -> Option<&[u8]> {
+        if pos >= bytes.len() {
+            return None;
+        }
+        let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
+        let l = &bytes[pos..end];
+        pos = (end + 1).min(bytes.len() + 1);
+        Some(l.strip_suffix(b"\r").unwrap_or(l))
+    };
+    let first = line().ok_or_else(|| bad("empty file".into()))?;
+    if !first.starts_with(b"#?") {
+        return Err(bad("no #? magic line".into()));
+    }
+    let mut scale = [1.0f64; 3];
+    let mut lines = 1usize;
+    loop {
+        let l = line().ok_or_else(|| bad("the header has no end (blank line)".into()))?;
+        lines += 1;
+        if lines > 100_000 {
+            return Err(bad("header longer than 100000 lines".into()));
+        }
+        if l.is_empty() {
+            break;
+        }
+        let text = String::from_utf8_lossy(l);
+        let text = text.trim();
+        if let Some(v) = text.strip_prefix("FORMAT=") {
+            if v.trim() != "32-bit_rle_rgbe" {
+                return Err(bad(format!("FORMAT={} is not supported (only 32-bit_rle_rgbe)", v.trim())));
+            }
+        } else if let Some(v) = text.strip_prefix("EXPOSURE=") {
+            let e: f64 = v.trim().parse().map_err(|_| bad(format!("EXPOSURE={} is not a number", v.trim())))?;
+            if !(e.is_finite() && e > 0.0) {
+                return Err(bad(format!("EXPOSURE={e} must be finite and > 0")));
+            }
+            scale.iter_mut().for_each(|s| *s *= e);
+        } else if let Some(v) = text.strip_prefix("COLORCORR=") {
+            let c: Vec<f64> = v.split_whitespace().map(|t| t.parse().unwrap_or(f64::NAN)).collect();
+            if c.len() != 3 || c.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(bad(format!("COLORCORR={} must be three finite numbers > 0", v.trim())));
+            }
+            (0..3).for_each(|i| scale[i] *= c[i]);
+        }
+    }
+    let res = line().ok_or_else(|| bad("no resolution string after the header".into()))?;
+    let res_text = String::from_utf8_lossy(res).trim().to_string();
+    let t: Vec<&str> = res_text.split_whitespace().collect();
+    let parse_n = |s: &str| s.parse::<usize>().ok().filter(|&n| n > 0);
+    let (o1, n1, o2, n2) = match t.as_slice() {
+        [a, n, b, m] => match (parse_n(n), parse_n(m)) {
+            (Some(n), Some(m)) => (*a, n, *b, m),
+            _ => return Err(bad(format!("resolution string '{res_text}' has no valid sizes"))),
+        },
+        _ => return Err(bad(format!("resolution string '{res_text}' is not of the form '-Y H +X W'"))),
+    };
+    // (major axis is Y, sign of the major axis, sign of the minor axis).
+    let (major_y, s1, s2) = match (o1, o2) {
+        ("-Y", "+X") => (true, -1, 1),
+        ("-Y", "-X") => (true, -1, -1),
+        ("+Y", "+X") => (true, 1, 1),
+        ("+Y", "-X") => (true, 1, -1),
+        ("+X", "+Y") => (false, 1, 1),
+        ("+X", "-Y") => (false, 1, -1),
+        ("-X", "+Y") => (false, -1, 1),
+        ("-X", "-Y") => (false, -1, -1),
+        _ => return Err(bad(format!("unsupported resolution string '{res_text}' (orientation {o1} {o2})"))),
+    };
+    let (w, h) = if major_y { (n2, n1) } else { (n1, n2) };
     check_size(w, h)?;
-    let mut buf = vec![0u8; dec.total_bytes() as usize];
-    dec.read_image(&mut buf).map_err(|e| Error::new(format!("corrupt Radiance .hdr: {e}")))?;
-    let floats: Vec<f32> = buf.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
-    if floats.len() != w * h * 3 {
-        return Err(Error::new("corrupt Radiance .hdr: pixel data is truncated"));
+    let (nscan, len) = (n1, n2);
+    let data = &bytes[pos.min(bytes.len())..];
+    // The most compact scanline any encoding allows: one pixel, then (old run-length encoding) a
+    // repeat code of up to 255 and a second, shifted one of up to 255 << 8, which covers any width
+    // up to MAX_IMAGE_SIDE. The adaptive encoding needs 4 + 8⌈W/127⌉ ≥ 12 bytes, flat pixels 4W.
+    let per_scan: u128 = match len {
+        1 => 4,
+        2..=256 => 8,
+        _ => 12,
+    };
+    if (data.len() as u128) < nscan as u128 * per_scan {
+        return Err(bad(format!(
+            "the header claims {w}×{h} pixels, which needs at least {} bytes of scanlines, but only {} follow",
+            nscan as u128 * per_scan,
+            data.len()
+        )));
+    }
+    // Allocated once a first scanline has decoded: at most W ≤ 32768 pixels per 12 bytes of file.
+    let mut rgb: Vec<[f32; 3]> = Vec::new();
+    let mut scan = vec![[0u8; 4]; len];
+    let mut p = 0usize;
+    for i in 0..nscan {
+        read_scanline(data, &mut p, &mut scan).map_err(|m| bad(format!("scanline {i}: {m}")))?;
+        if i == 0 {
+            rgb.resize(w * h, [0.0; 3]);
+        }
+        for (j, px) in scan.iter().enumerate() {
+            let (row, col) = if major_y {
+                (if s1 < 0 { i } else { h - 1 - i }, if s2 > 0 { j } else { w - 1 - j })
+            } else {
+                (if s2 < 0 { j } else { h - 1 - j }, if s1 > 0 { i } else { w - 1 - i })
+            };
+            let f = if px[3] == 0 { 0.0 } else { 2f64.powi(px[3] as i32 - 136) };
+            rgb[row * w + col] = std::array::from_fn(|ch| (px[ch] as f64 * f / scale[ch]) as f32);
+        }
     }
     let mut channels = BTreeMap::new();
     for (i, name) in ["R", "G", "B"].iter().enumerate() {
-        channels.insert(name.to_string(), floats.iter().skip(i).step_by(3).copied().collect());
+        channels.insert(name.to_string(), rgb.iter().map(|p| p[i]).collect());
     }
     Ok(Image { width: w, height: h, channels, attributes: BTreeMap::new() })
 }
 
-fn read_exr_bytes(bytes: &[u8]) -> Result<Image> {
+/// One scanline of `scan.len()` RGBE pixels from `data[*p..]`, in any of the three encodings.
+fn read_scanline(data: &[u8], p: &mut usize, scan: &mut [[u8; 4]]) -> std::result::Result<(), String> {
+    let len = scan.len();
+    let take = |p: &mut usize, n: usize| -> std::result::Result<usize, String> {
+        if *p + n > data.len() {
+            return Err("file ends inside the pixel data".into());
+        }
+        *p += n;
+        Ok(*p - n)
+    };
+    let s = take(p, 4)?;
+    let head = [data[s], data[s + 1], data[s + 2], data[s + 3]];
+    if (8..=0x7fff).contains(&len) && head[0] == 2 && head[1] == 2 && head[2] & 0x80 == 0 {
+        let n = ((head[2] as usize) << 8) | head[3] as usize;
+        if n != len {
+            return Err(format!("run-length scanline of {n} pixels in an image {len} wide"));
+        }
+        for ch in 0..4 {
+            let mut x = 0;
+            while x < len {
+                let c = data[take(p, 1)?] as usize;
+                if c > 128 {
+                    let run = c - 128;
+                    if x + run > len {
+                        return Err("a run overflows the scanline".into());
+                    }
+                    let v = data[take(p, 1)?];
+                    scan[x..x + run].iter_mut().for_each(|px| px[ch] = v);
+                    x += run;
+                } else {
+                    if c == 0 || x + c > len {
+                        return Err("a literal span is empty or overflows the scanline".into());
+                    }
+                    let q = take(p, c)?;
+                    for (px, &v) in scan[x..x + c].iter_mut().zip(&data[q..q + c]) {
+                        px[ch] = v;
+                    }
+                    x += c;
+                }
+            }
+        }
+        return Ok(());
+    }
+    // Flat pixels, with the old repeat code (1, 1, 1, n): repeat the previous pixel n << shift times,
+    // the shift growing by 8 for each consecutive repeat code.
+    let mut x = 0usize;
+    let mut shift = 0u32;
+    let mut px = head;
+    loop {
+        if px[0] == 1 && px[1] == 1 && px[2] == 1 {
+            if x == 0 {
+                return Err("a repeat code at the start of a scanline".into());
+            }
+            let n = (px[3] as usize).checked_shl(shift).filter(|_| shift < 32).ok_or("repeat count overflows")?;
+            if x + n > len {
+                return Err("a repeat run overflows the scanline".into());
+            }
+            let prev = scan[x - 1];
+            scan[x..x + n].iter_mut().for_each(|q| *q = prev);
+            x += n;
+            shift += 8;
+        } else {
+            scan[x] = px;
+            x += 1;
+            shift = 0;
+        }
+        if x >= len {
+            return Ok(());
+        }
+        let s = take(p, 4)?;
+        px = [data[s], data[s + 1], data[s + 2], data[s + 3]];
+    }
+}
+
+/// Decoded sample bytes (4 per sample) a file of `n` bytes may claim: deflate (ZIP/PXR24)
+/// compresses at most ~1032:1 and OpenEXR's RLE 64:1, so 2048 × the file (with a 1 MiB floor for
+/// tiny files) admits real images and refuses a small file that claims a huge one before its
+/// pixels are allocated.
+pub const EXR_MAX_EXPANSION: usize = 2048;
+
+fn exr_decoded_limit(file_bytes: usize) -> u128 {
+    (file_bytes as u128 * EXR_MAX_EXPANSION as u128).max(1 << 20)
+}
+
+/// Reads an OpenEXR file: scanline or tiled, any compression, half/float/uint samples, the full
+/// resolution of a mip- or rip-mapped file.
+///
+/// - The **display window is the image** (OpenEXR's definition): pixels of the display window that
+///   lie outside the data window are 0, data-window pixels outside the display window are dropped.
+/// - A **multi-part** file: the part used is the first with R, G, B (or Y) channels; the returned
+///   note says which (the caller prints it). If no part has them, the error names each part's channels.
+/// - Sizes are checked from the headers before any pixel is decoded ([`MAX_IMAGE_SIDE`] per side,
+///   and at most [`exr_decoded_limit`] decoded bytes for the whole file). Deep parts are refused.
+pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
     use exr::prelude::{AttributeValue, FlatSamples, ReadChannels, ReadLayers};
+    let corrupt = |e: exr::error::Error| Error::new(format!("corrupt OpenEXR file: {e}"));
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false).map_err(corrupt)?;
+    let part_name = |i: usize| match &meta.headers[i].own_attributes.layer_name {
+        Some(n) => format!("part {i} ('{n}')"),
+        None => format!("part {i}"),
+    };
+    let has = |i: usize, c: &str| meta.headers[i].channels.list.iter().any(|d| d.name.to_string() == c);
+    let has_rgb = |i: usize| (has(i, "R") && has(i, "G") && has(i, "B")) || has(i, "Y");
+    let mut decoded = 0u128;
+    for (i, hd) in meta.headers.iter().enumerate() {
+        if hd.deep {
+            return Err(Error::new(format!("{} holds deep data, which is not supported", part_name(i))));
+        }
+        let (w, h) = (hd.layer_size.x(), hd.layer_size.y());
+        check_size(w, h).map_err(|e| Error::new(format!("{}: data window: {e}", part_name(i))))?;
+        for c in &hd.channels.list {
+            if c.sampling.x() != 1 || c.sampling.y() != 1 {
+                return Err(Error::new(format!(
+                    "{}: channel {} is subsampled ({}×{}), which is not supported",
+                    part_name(i),
+                    c.name,
+                    c.sampling.x(),
+                    c.sampling.y()
+                )));
+            }
+            decoded += (w * h) as u128 * 4;
+        }
+    }
+    let display =
+        meta.headers.first().ok_or_else(|| Error::new("OpenEXR file has no parts"))?.shared_attributes.display_window;
+    let (dw, dh) = (display.size.x(), display.size.y());
+    check_size(dw, dh).map_err(|e| Error::new(format!("display window: {e}")))?;
+    decoded += (dw * dh) as u128 * 4 * 3;
+    if decoded > exr_decoded_limit(bytes.len()) {
+        return Err(Error::new(format!(
+            "the headers claim {decoded} bytes of samples, more than a {}-byte file can hold",
+            bytes.len()
+        )));
+    }
+    let chosen = match (0..meta.headers.len()).find(|&i| has_rgb(i)) {
+        Some(i) => i,
+        None if meta.headers.len() == 1 => 0,
+        None => {
+            let parts: Vec<String> = (0..meta.headers.len())
+                .map(|i| {
+                    let names: Vec<String> = meta.headers[i].channels.list.iter().map(|c| c.name.to_string()).collect();
+                    format!("{} has {}", part_name(i), names.join(", "))
+                })
+                .collect();
+            return Err(Error::new(format!("no part has R, G, B (or Y) channels: {}", parts.join("; "))));
+        }
+    };
+    let note = (meta.headers.len() > 1).then(|| {
+        format!(
+            "multi-part OpenEXR: using {} of {}, the first with R, G, B (or Y)",
+            part_name(chosen),
+            meta.headers.len()
+        )
+    });
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
-        .first_valid_layer()
+        .all_layers()
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| Error::new(format!("corrupt OpenEXR file: {e}")))?;
-    let layer = &image.layer_data;
-    let (w, h) = (layer.size.width(), layer.size.height());
-    check_size(w, h)?;
+        .map_err(corrupt)?;
+    let image_other = image.attributes.other;
+    let layer = image
+        .layer_data
+        .into_iter()
+        .nth(chosen)
+        .ok_or_else(|| Error::new(format!("{} could not be read", part_name(chosen))))?;
+    let (lw, lh) = (layer.size.width(), layer.size.height());
+    // Offset of the data window in the display window (both in absolute pixel coordinates).
+    let ox = layer.attributes.layer_position.x() as i64 - display.position.x() as i64;
+    let oy = layer.attributes.layer_position.y() as i64 - display.position.y() as i64;
+    let same_window = ox == 0 && oy == 0 && lw == dw && lh == dh;
     let mut channels = BTreeMap::new();
-    for ch in &layer.channel_data.list {
-        let data: Vec<f32> = match &ch.sample_data {
-            FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
-            FlatSamples::F32(v) => v.clone(),
-            FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
-        };
-        if data.len() != w * h {
-            return Err(Error::new(format!("channel {} is subsampled, which is not supported", ch.name)));
+    for ch in layer.channel_data.list {
+        if ch.sample_data.len() != lw * lh {
+            return Err(Error::new(format!(
+                "channel {} has {} samples for a {lw}×{lh} data window",
+                ch.name,
+                ch.sample_data.len()
+            )));
         }
-        channels.insert(ch.name.to_string(), data);
+        let name = ch.name.to_string();
+        let data = match ch.sample_data {
+            // The usual case: no copy.
+            FlatSamples::F32(v) if same_window => v,
+            samples => {
+                let get = |i: usize| -> f32 {
+                    match &samples {
+                        FlatSamples::F16(v) => v[i].to_f32(),
+                        FlatSamples::F32(v) => v[i],
+                        FlatSamples::U32(v) => v[i] as f32,
+                    }
+                };
+                let mut data = vec![0.0f32; dw * dh];
+                for (r, row) in data.chunks_exact_mut(dw).enumerate() {
+                    let sy = r as i64 - oy;
+                    if sy < 0 || sy >= lh as i64 {
+                        continue;
+                    }
+                    for (c, v) in row.iter_mut().enumerate() {
+                        let sx = c as i64 - ox;
+                        if sx >= 0 && sx < lw as i64 {
+                            *v = get(sy as usize * lw + sx as usize);
+                        }
+                    }
+                }
+                data
+            }
+        };
+        channels.insert(name, data);
     }
     let mut attributes = BTreeMap::new();
-    let others = image.attributes.other.iter().chain(layer.attributes.other.iter());
+    let others = image_other.iter().chain(layer.attributes.other.iter());
     for (k, v) in others {
         if let AttributeValue::Text(t) = v {
             attributes.insert(k.to_string(), t.to_string());
         }
     }
-    Ok(Image { width: w, height: h, channels, attributes })
+    Ok((Image { width: dw, height: dh, channels, attributes }, note))
 }
 
 /// Images larger than this many pixels per side are refused as absurd rather than allocated.

@@ -90,8 +90,9 @@ fn angular_map_recovers_sh_lighting() {
     let got = project_envmap(&img, Mapping::Angular, 4).unwrap();
     let e = max_err(&got, &c);
     eprintln!("angular SH recovery error at 1024²: {e}");
-    // Measured 4e-8 at 1024² (f32 pixels); the rim pixels cut by ρ = 1 are the main error.
-    assert!(e < 1e-6, "{e}");
+    // The projection is exact for the piecewise-constant map the renderer lights with; that map
+    // differs from the smooth lighting sampled at pixel centres by O(pixel²): measured 6.2e-6.
+    assert!(e < 1e-5, "{e}");
 }
 
 #[test]
@@ -335,30 +336,49 @@ fn least_squares_standard_errors_match_the_noise() {
 }
 
 #[test]
-fn angular_symmetric_and_generic_paths_agree() {
-    // The even-width path uses the four-fold mirror symmetry, an odd width the per-pixel path:
-    // compare each, on random (non-symmetric) content, with the plain per-pixel sum.
-    for w in [64usize, 65] {
+fn angular_projection_is_the_exact_integral_of_the_pixel_footprints() {
+    // Random (non-symmetric) content: the projection must equal Σ_p L_p ∫_footprint Y dω, the
+    // footprint (pixel square ∩ disc, pixels with centre inside) integrated here independently by
+    // a fine midpoint grid of sub-pixels in the image plane (error O(1/sub²) ≈ 1e-6 relative).
+    for w in [6usize, 7] {
         let mut rng = Rng(w as u64);
         let pixels: Vec<[f32; 3]> =
             (0..w * w).map(|_| [rng.next() as f32, rng.next() as f32, rng.next() as f32]).collect();
         let img = RgbImage { width: w, height: w, pixels };
-        let got = project_envmap(&img, Mapping::Angular, 6).unwrap();
-        let basis = analysis::sh::ShBasis::new(6);
-        let mut expect = vec![[0.0f64; 3]; 49];
+        let got = project_envmap(&img, Mapping::Angular, 4).unwrap();
+        let basis = analysis::sh::ShBasis::new(4);
+        let mut expect = vec![[0.0f64; 3]; 25];
+        let sub = 600;
+        let h = 2.0 / (w * sub) as f64;
         for r in 0..w {
             for c in 0..w {
-                if let Some((d, dw)) = angular_pixel(r, c, w) {
-                    let y = basis.eval(d);
-                    let p = img.get(r, c);
-                    for k in 0..49 {
-                        for ch in 0..3 {
-                            expect[k][ch] += p[ch] as f64 * dw * y[k];
+                if angular_pixel(r, c, w).is_none() {
+                    continue;
+                }
+                let p = img.get(r, c);
+                for i in 0..sub {
+                    for j in 0..sub {
+                        let a = -1.0 + (c * sub + j) as f64 * h + 0.5 * h;
+                        let b = 1.0 - (r * sub + i) as f64 * h - 0.5 * h;
+                        let rho = (a * a + b * b).sqrt();
+                        if rho > 1.0 {
+                            continue;
+                        }
+                        let t = PI * rho;
+                        let sinc = if t > 0.0 { t.sin() / t } else { 1.0 };
+                        let d = [a * PI * sinc, b * PI * sinc, t.cos()];
+                        let dw = h * h * PI * PI * sinc;
+                        let y = basis.eval(d);
+                        for k in 0..25 {
+                            for ch in 0..3 {
+                                expect[k][ch] += p[ch] as f64 * dw * y[k];
+                            }
                         }
                     }
                 }
             }
         }
-        assert!(max_err(&got, &expect) < 1e-12, "W={w}: {}", max_err(&got, &expect));
+        let e = max_err(&got, &expect);
+        assert!(e < 2e-5, "W={w}: {e}");
     }
 }

@@ -2,7 +2,9 @@
 //!
 //! - `reflect sh project ENV [--mapping latlong|angular] --lmax L [--json]`: L_lm of an environment
 //!   map (`.exr` or `.hdr`). Without `--mapping` the mapping is inferred from the aspect ratio
-//!   (W = H → angular, W = 2H → lat-long; anything else is an error).
+//!   (W = H → angular, W = 2H → lat-long; anything else is an error). Each Y_lm is integrated
+//!   exactly over each pixel's footprint, for the piecewise-constant map the renderer lights with
+//!   (analysis::projection::envmap), so every order is the exact expansion of that map.
 //! - `reflect sh transfer --brdf lambert|phong|mirror|torrance-sparrow [--s S] [--sigma X]
 //!   [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (CONVENTIONS §4), with the
 //!   paper's approximation alongside where it has one (eq. 46, 57, 59).
@@ -88,16 +90,20 @@ fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
         None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&a.env))?,
     };
     let c = project_envmap(&img, mapping, a.lmax).map_err(|e| e.in_file(&a.env))?;
+    const INTEGRATION: &str = "exact: each Y_lm integrated over each pixel of the piecewise-constant map the renderer \
+                               lights with, so every order is the exact expansion of that map";
     if a.json {
         let doc = json!({
             "file": a.env.display().to_string(),
             "mapping": mapping.name(),
             "lmax": a.lmax,
+            "integration": INTEGRATION,
             "coefficients": c,
         });
         println!("{doc}");
     } else {
         println!("# {} ({} {}×{}), l_max {}", a.env.display(), mapping.name(), img.width, img.height, a.lmax);
+        println!("# integration {INTEGRATION}");
         println!("{:>4} {:>4} {:>14} {:>14} {:>14}", "l", "m", "R", "G", "B");
         for (k, v) in c.iter().enumerate() {
             let (l, m) = lm(k);
