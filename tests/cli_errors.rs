@@ -87,7 +87,7 @@ fn bad_scene_files_exit_2_with_one_line() {
             "type = \"envmap\"\nfile = \"corrupt.exr\"\nmapping = \"latlong\"",
         ),
     );
-    assert_bad_input(&["render", &p, "--out", o], "corrupt.exr", "", &out);
+    assert_bad_input(&["render", &p, "--out", o], "corrupt.exr", "corrupt OpenEXR", &out);
     write_nan_exr(&d.join("nan.exr"));
     let p = w(
         "nan-env.toml",
@@ -164,7 +164,252 @@ fn invert_separate_and_factor_refuse_bad_input() {
         "missing node",
         &env,
     );
-    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "", &env);
+    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "same node", &env);
+}
+
+fn reflect_out(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Files in `dir` whose name marks a temporary output.
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp"))
+        .collect()
+}
+
+/// Renders `toml` (GOOD with replacements) to `dir/name`, through the binary.
+fn render_to(dir: &Path, name: &str, toml: &str) -> String {
+    let scene = dir.join(format!("{name}.toml"));
+    std::fs::write(&scene, toml).unwrap();
+    let out = dir.join(name);
+    let (code, err) = reflect(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+    assert_eq!(code, 0, "{err}");
+    out.to_str().unwrap().to_string()
+}
+
+fn probe_toml(theta_o: f64, phi_o: f64, brdf: &str) -> String {
+    GOOD.replace("width = 8", "width = 32")
+        .replace("height = 8", "height = 16")
+        .replace(
+            "type = \"orthographic\"",
+            &format!("type = \"normal-probe\"\ntheta_o_deg = {theta_o:?}\nphi_o_deg = {phi_o:?}"),
+        )
+        .replace("from = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05\n", "")
+        .replace("brdf = { type = \"lambert\", albedo = 0.5 }", &format!("brdf = {brdf}"))
+}
+
+/// Every command that writes a file writes it whole or not at all: an output path that cannot be
+/// written (here an existing directory, so the temporary file can be written and only the final
+/// rename fails) gives exit 2, one line naming it, no output, and no temporary file left behind; a
+/// `--png` that cannot be written leaves no EXR either.
+#[test]
+fn outputs_are_atomic() {
+    let d = temp_dir("cli-atomic");
+    let blocker = d.join("a-directory");
+    std::fs::create_dir(&blocker).unwrap();
+    std::fs::write(blocker.join("keep"), "x").unwrap();
+    let b = blocker.to_str().unwrap();
+    let scene = d.join("good.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let s = scene.to_str().unwrap();
+    let exr = d.join("out.exr");
+    let e = exr.to_str().unwrap();
+
+    // render --png to an unwritable path: the EXR must not be left behind.
+    let (code, out, err) = reflect_out(&["render", s, "--out", e, "--png", b, "--quiet"]);
+    assert_eq!(code, 2, "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("a-directory"), "{err}");
+    assert!(out.is_empty() && !exr.exists(), "the EXR was written although the PNG failed");
+    assert!(temporaries(&d).is_empty(), "temporaries left: {:?}", temporaries(&d));
+    // render --out onto a directory.
+    let bexr = d.join("b.exr");
+    std::fs::create_dir(&bexr).unwrap();
+    std::fs::write(bexr.join("keep"), "x").unwrap();
+    let (code, _, err) = reflect_out(&["render", s, "--out", bexr.to_str().unwrap(), "--quiet"]);
+    assert_eq!((code, err.trim().lines().count()), (2, 1), "{err}");
+    assert!(temporaries(&d).is_empty(), "temporaries left: {:?}", temporaries(&d));
+
+    // invert lighting / invert separate --output onto a directory.
+    let probe = render_to(&d, "probe.exr", &probe_toml(0.0, 0.0, "{ type = \"lambert\", albedo = 0.5 }"));
+    let (code, out, err) = reflect_out(&["invert", "lighting", &probe, "--lmax", "2", "--output", b]);
+    assert_eq!((code, err.trim().lines().count()), (2, 1), "{err}");
+    assert!(err.contains("a-directory") && out.is_empty(), "{err}");
+    assert!(temporaries(&d).is_empty(), "temporaries left: {:?}", temporaries(&d));
+    let mix = "{ type = \"mix\", layers = [ { weight = 0.5, brdf = { type = \"lambert\", albedo = 1.0 } }, { weight = 0.5, brdf = { type = \"mirror\" } } ] }";
+    let v0 = render_to(&d, "s0.exr", &probe_toml(0.0, 0.0, mix));
+    let v1 = render_to(&d, "s1.exr", &probe_toml(50.0, 0.0, mix));
+    let v2 = render_to(&d, "s2.exr", &probe_toml(50.0, 180.0, mix));
+    // The same command with a writable output succeeds (so the failure above is the output's).
+    let ok = d.join("sep.exr");
+    let (code, _, err) =
+        reflect_out(&["invert", "separate", &v0, &v1, &v2, "--lmax", "2", "--output", ok.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(ok.exists());
+    let (code, out, err) = reflect_out(&["invert", "separate", &v0, &v1, &v2, "--lmax", "2", "--output", b]);
+    assert_eq!((code, err.trim().lines().count()), (2, 1), "{err}");
+    assert!(err.contains("a-directory") && out.is_empty(), "{err}");
+    assert!(temporaries(&d).is_empty(), "temporaries left: {:?}", temporaries(&d));
+}
+
+/// Bad input to the analysis commands, through the binary: exit 2, one line naming the file or the
+/// argument, nothing on stdout.
+#[test]
+fn analysis_commands_refuse_bad_input() {
+    let d = temp_dir("cli-errors-analysis");
+    let missing = d.join("missing.exr");
+    let m = missing.to_str().unwrap();
+    let junk = d.join("junk.exr");
+    std::fs::write(&junk, b"v/1\x01 not an exr at all").unwrap();
+    let j = junk.to_str().unwrap();
+    let oblong = d.join("oblong.exr");
+    write_nan_exr(&oblong); // 8 × 4 with a NaN
+    let o = oblong.to_str().unwrap();
+    let probe = render_to(&d, "probe.exr", &probe_toml(0.0, 0.0, "{ type = \"lambert\", albedo = 0.5 }"));
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["analyze", m, "--lmax", "2"], "missing.exr"),
+        (vec!["analyze", j, "--lmax", "2"], "junk.exr"),
+        (vec!["analyze", &probe, "--lmax", "100000"], "lmax"),
+        (vec!["analyze", &probe, "--lmax", "2", "--lighting", m], "missing.exr"),
+        (vec!["sh", "project", m, "--lmax", "2"], "missing.exr"),
+        (vec!["sh", "project", j, "--lmax", "2"], "junk.exr"),
+        (vec!["sh", "project", o, "--lmax", "2"], "oblong.exr"),
+        (vec!["sh", "project", &probe, "--lmax", "2", "--mapping", "mercator"], "mercator"),
+        (vec!["sh", "transfer", "--brdf", "velvet", "--lmax", "2"], "velvet"),
+        (vec!["sh", "transfer", "--brdf", "phong", "--lmax", "2"], "--s"),
+        (vec!["sh", "transfer", "--brdf", "phong", "--s", "-1", "--lmax", "2"], "-1"),
+        (vec!["invert", "lighting", m, "--lmax", "2"], "missing.exr"),
+        (vec!["invert", "lighting", j, "--lmax", "2"], "junk.exr"),
+        (vec!["invert", "lighting", &probe, "--lmax", "2", "--brdf", "velvet"], "velvet"),
+        (vec!["invert", "brdf", m, "--model", "phong", "--lmax", "4"], "missing.exr"),
+        (vec!["invert", "brdf", &probe, "--model", "velvet", "--lmax", "4"], "velvet"),
+        (vec!["invert", "brdf", &probe, "--model", "phong", "--lmax", "4", "--lighting", m], "missing.exr"),
+    ];
+    for (args, names) in cases {
+        let (code, out, err) = reflect_out(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(names), "{args:?} should name {names}: {err}");
+        assert!(out.is_empty(), "{args:?} printed {out}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// clap's own usage errors and --threads 0 are bad input like any other: one line, exit 2.
+#[test]
+fn usage_errors_are_one_line() {
+    let d = temp_dir("cli-usage");
+    let scene = d.join("good.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let s = scene.to_str().unwrap();
+    let out = d.join("o.exr");
+    let o = out.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["render", s, "--out", o, "--no-such-flag"], "--no-such-flag"),
+        (vec!["render", s, "--out", o, "--spp", "many"], "many"),
+        (vec!["render", s, "--out", o, "--size", "37by23"], "37by23"),
+        (vec!["render", s, "--out", o, "--threads", "0"], "--threads"),
+        (vec!["verify", "--threads", "0", "--check", "mirror", "--out", o], "--threads"),
+        (vec!["sh", "transfer", "--brdf", "lambert"], "--lmax"),
+        (vec!["sh", "project"], "ENV"),
+        (vec!["analyze", "--lmax", "2"], "IMAGES"),
+        (vec!["no-such-command"], "no-such-command"),
+        (vec!["invert", "brdf", s, "--lmax", "2"], "--model"),
+    ];
+    for (args, names) in cases {
+        let (code, stdout, err) = reflect_out(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(names), "{args:?} should name {names}: {err}");
+        assert!(stdout.is_empty() && !out.exists(), "{args:?}");
+    }
+    // --help is not an error.
+    let (code, stdout, _) = reflect_out(&["render", "--help"]);
+    assert_eq!(code, 0);
+    assert!(stdout.contains("--threads"));
+}
+
+/// The same seed gives the same image bits whatever the thread count, through `reflect render`, on a
+/// size that is not a multiple of the tile (37 × 23), for both samplers and the jittered
+/// normal-probe camera; the EXR files' pixel layers are compared.
+#[test]
+fn same_bits_for_1_3_7_threads_through_the_binary() {
+    let d = temp_dir("cli-threads");
+    let env = format!("type = \"envmap\"\nfile = \"{}\"\nmapping = \"angular\"", grace().display());
+    let ts = "{ type = \"torrance-sparrow\", sigma = 0.2 }";
+    let scenes = [
+        (
+            "sobol",
+            GOOD.replace("spp = 2", "spp = 4\nsampler = \"sobol\"").replace("type = \"uniform\"\nradiance = 1.0", &env),
+        ),
+        (
+            "independent",
+            GOOD.replace("spp = 2", "spp = 4\nsampler = \"independent\"")
+                .replace("type = \"uniform\"\nradiance = 1.0", &env),
+        ),
+        (
+            "probe-jitter",
+            probe_toml(30.0, 90.0, ts)
+                .replace("phi_o_deg = 90.0", "phi_o_deg = 90.0\njitter = true")
+                .replace("type = \"uniform\"\nradiance = 1.0", &env),
+        ),
+    ];
+    for (name, toml) in scenes {
+        let scene = d.join(format!("{name}.toml"));
+        std::fs::write(&scene, &toml).unwrap();
+        let images: Vec<analysis::image::Image> = ["1", "3", "7"]
+            .iter()
+            .map(|t| {
+                let out = d.join(format!("{name}-{t}.exr"));
+                let (code, err) = reflect(&[
+                    "render",
+                    scene.to_str().unwrap(),
+                    "--out",
+                    out.to_str().unwrap(),
+                    "--threads",
+                    t,
+                    "--size",
+                    "37x23",
+                    "--quiet",
+                ]);
+                assert_eq!(code, 0, "{err}");
+                analysis::image::read_image(&out).unwrap()
+            })
+            .collect();
+        assert_eq!((images[0].width, images[0].height), (37, 23));
+        assert!(images[0].channels.len() >= 10, "{:?}", images[0].channels.keys());
+        for img in &images[1..] {
+            assert_eq!(img.channels.keys().collect::<Vec<_>>(), images[0].channels.keys().collect::<Vec<_>>());
+            for (k, v) in &images[0].channels {
+                let same = v.iter().zip(&img.channels[k]).all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same, "{name}: channel {k} differs between thread counts");
+            }
+        }
+        // Not vacuous: the image has content and another seed changes it.
+        let out = d.join(format!("{name}-seed.exr"));
+        let (code, err) = reflect(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--size",
+            "37x23",
+            "--seed",
+            "9",
+            "--quiet",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let other = analysis::image::read_image(&out).unwrap();
+        assert!(images[0].channels["R"].iter().zip(&other.channels["R"]).any(|(a, b)| a != b), "{name}");
+    }
 }
 
 /// Mesh files of the kinds in `../shared/cases` (issue 9): forbidden glTF index types, node graphs

@@ -84,8 +84,19 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
     let (code, stdout, stderr) = verify(&["--quick", "--json", "--wrong-prediction", "--out", d]);
     assert_eq!(code, 1, "{stderr}");
     let doc: Value = serde_json::from_str(&stdout).unwrap();
+    // "Failed" must mean: it ran, and a deciding comparison with a finite measurement fell outside its
+    // tolerance. An error (a crashed render, a refused input) would also read `passed = false` and
+    // prove nothing about the check's power.
     for c in doc["checks"].as_array().unwrap() {
-        assert_eq!(c["passed"], false, "check {} did not detect the wrong prediction", c["name"]);
+        let name = &c["name"];
+        assert_eq!(c["errored"], false, "check {name} errored instead of running: {}", c["error"]);
+        assert!(c["error"].is_null(), "check {name}: {}", c["error"]);
+        assert_eq!(c["passed"], false, "check {name} did not detect the wrong prediction");
+        let rows = c["rows"].as_array().unwrap();
+        let decided = rows.iter().any(|r| {
+            r["informative"] == false && r["passed"] == false && r["measured"].as_f64().is_some_and(f64::is_finite)
+        });
+        assert!(decided, "check {name} failed without a deciding row outside its tolerance: {rows:?}");
     }
 }
 

@@ -546,10 +546,21 @@ pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into_iter().collect()),
     );
-    exr::prelude::Image::from_layer(layer)
+    // Atomic: written to a hidden temporary file next to `path`, then renamed onto it, so a failed
+    // write leaves neither a partial file nor a temporary behind (and never truncates an old file).
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out.exr".into());
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let written = exr::prelude::Image::from_layer(layer)
         .write()
-        .to_file(path)
+        .to_file(&tmp)
         .map_err(|e| Error::file(path, format!("cannot write OpenEXR: {e}")))
+        .and_then(|()| {
+            std::fs::rename(&tmp, path).map_err(|e| Error::file(path, format!("cannot move output into place: {e}")))
+        });
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 #[cfg(test)]

@@ -2,6 +2,9 @@
 //!
 //! - [`erfc`]: the complementary error function for x ≥ 0 (Beckmann's Smith Λ, Gaussian tail
 //!   probabilities). Not on any hot path: the renderer keeps its own f32-path approximation.
+//! - [`sidak_k`], [`pixel_family_k`]: k of a k·σ rule over many comparisons (Šidák, Student t).
+//! - [`chi2_survival`], [`gamma_q`], [`ln_gamma`]: χ² tail probabilities (the renderer's sampling
+//!   χ² tests, the separation's consistency p-value, two-sided χ² bounds in tests).
 
 use std::f64::consts::PI;
 
@@ -28,9 +31,139 @@ pub fn erfc(x: f64) -> f64 {
     }
 }
 
+/// Two-sided Gaussian tail P(|Z| > k) = erfc(k/√2).
+pub fn normal_two_sided_tail(k: f64) -> f64 {
+    erfc(k / std::f64::consts::SQRT_2)
+}
+
+/// The k of a two-sided k·σ rule applied to `n` independent comparisons such that all pass with
+/// probability 1 − `alpha` when every null hypothesis holds (Šidák: per-comparison tail
+/// 1 − (1 − α)^{1/n}), for Gaussian errors with known σ. Bisection on [0, 40], to f64 precision.
+pub fn sidak_k(n: usize, alpha: f64) -> f64 {
+    let per_row = 1.0 - (1.0 - alpha).powf(1.0 / n.max(1) as f64);
+    let (mut lo, mut hi) = (0.0, 40.0);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if normal_two_sided_tail(mid) > per_row { lo = mid } else { hi = mid }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Student-t quantile with ν degrees of freedom at the same tail probability as the Gaussian
+/// quantile z, by the Cornish–Fisher expansion (Abramowitz & Stegun 26.7.5, terms to ν⁻³):
+/// the k to use when σ is itself estimated from ν + 1 samples (a pixel's standard error from its
+/// spp samples). Accurate to < 1e-3 for ν ≥ 30 and z ≤ 6.
+pub fn student_t_from_normal(z: f64, nu: f64) -> f64 {
+    let (z3, z5, z7) = (z.powi(3), z.powi(5), z.powi(7));
+    z + (z3 + z) / (4.0 * nu)
+        + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * nu * nu)
+        + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * nu.powi(3))
+}
+
+/// k for `n` per-pixel comparisons of a pixel mean with a known value, each pixel's σ estimated from
+/// `spp` independent samples: Šidák's k for family-wise false-alarm rate `alpha`, widened to the
+/// Student-t quantile with spp − 1 degrees of freedom.
+pub fn pixel_family_k(n: usize, spp: u32, alpha: f64) -> f64 {
+    student_t_from_normal(sidak_k(n, alpha), spp.saturating_sub(1).max(1) as f64)
+}
+
+/// P(χ²_k > x): the regularized upper incomplete gamma Q(k/2, x/2).
+pub fn chi2_survival(x: f64, k: f64) -> f64 {
+    if !x.is_finite() {
+        return 0.0;
+    }
+    gamma_q(0.5 * k, 0.5 * x)
+}
+
+/// ln Γ(x) for x > 0.
+pub fn ln_gamma(x: f64) -> f64 {
+    // Lanczos approximation (g = 7, n = 9), accurate to ~1e-15 for x > 0.
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        let pi = std::f64::consts::PI;
+        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let mut a = C[0];
+    let t = x + 7.5;
+    for (i, c) in C.iter().enumerate().skip(1) {
+        a += c / (x + i as f64);
+    }
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// Regularized upper incomplete gamma function Q(a, x) (series / continued fraction).
+pub fn gamma_q(a: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    let lg = ln_gamma(a);
+    if x < a + 1.0 {
+        let (mut sum, mut term, mut ap) = (1.0 / a, 1.0 / a, a);
+        for _ in 0..10_000 {
+            ap += 1.0;
+            term *= x / ap;
+            sum += term;
+            if term.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        1.0 - sum * (-x + a * x.ln() - lg).exp()
+    } else {
+        // Lentz's continued fraction.
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        (-x + a * x.ln() - lg).exp() * h
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sidak_and_student_t_reference_values() {
+        // One comparison at α = 6.334e-5 is the 4σ rule; Šidák for n = 81 keeps the family rate.
+        assert!((sidak_k(1, 6.334_248_366_623_996e-5) - 4.0).abs() < 1e-9);
+        let k = sidak_k(81, 1e-3);
+        assert!(((1.0 - normal_two_sided_tail(k)).powi(81) - (1.0 - 1e-3)).abs() < 1e-12);
+        // Student t quantiles: by quadrature of the t density: ν = 63, two-sided 1e-3 → 3.45177; ν = 30, 1e-4 → 4.48242.
+        let z = sidak_k(1, 1e-3);
+        assert!((student_t_from_normal(z, 63.0) - 3.45177).abs() < 1e-3, "{}", student_t_from_normal(z, 63.0));
+        let z = sidak_k(1, 1e-4);
+        assert!((student_t_from_normal(z, 30.0) - 4.48242).abs() < 1e-3, "{}", student_t_from_normal(z, 30.0));
+    }
 
     #[test]
     fn erfc_reference_values() {

@@ -38,6 +38,13 @@ fn sh_lighting(lmax: usize, seed: u64) -> Vec<[f64; 3]> {
     c
 }
 
+/// Two-sided χ² test at level 1e-3: P(χ²_ν ≥ x) must lie in [5e-4, 1 − 5e-4]. The lower quantile
+/// matters: standard errors too large by any factor make χ² small, and must fail too.
+fn assert_chi2_two_sided(chi2: f64, dof: f64, what: &str) {
+    let p = analysis::special::chi2_survival(chi2, dof);
+    assert!((5e-4..=1.0 - 5e-4).contains(&p), "{what}: χ² = {chi2:.1} for {dof} dof, P(χ² ≥ x) = {p:.2e}");
+}
+
 fn max_err(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |ch| (x[ch] - y[ch]).abs())).fold(0.0, f64::max)
 }
@@ -143,7 +150,7 @@ fn normal_probe_projection_with_standard_errors() {
     }
     let (got, se) = project_normal_probe(&img, lmax).unwrap();
     let se = se.expect("stderr layer present");
-    // Each coefficient: error/σ_k is N(0,1) (plus a 1e-4 quadrature bias); χ² over all of them.
+    // Each coefficient: error/σ_k is N(0,1) (plus a 1e-4 quadrature bias, 0.1σ); χ² over all of them.
     let mut chi2 = 0.0;
     for k in 0..got.len() {
         for ch in 0..3 {
@@ -151,8 +158,37 @@ fn normal_probe_projection_with_standard_errors() {
         }
     }
     let dof = (3 * got.len()) as f64;
-    // χ²_dof with dof = 75: mean 75, sd √150 ≈ 12.2; accept within 5 sd.
-    assert!((chi2 - dof).abs() < 5.0 * (2.0 * dof).sqrt(), "χ² = {chi2} for {dof} dof");
+    assert_chi2_two_sided(chi2, dof, "one draw");
+    // The propagated standard errors against the scatter over 100 independent noisy draws of a
+    // 128 × 64 image, errors taken about the projection of the noise-free image (so only the noise
+    // counts): Σ (Δ/σ_k)² is χ² with 100 · 75 dof, so a σ_k off by 5 % in either direction fails
+    // (relative sd of χ²/ν is √(2/7500) = 1.6 %; the 1e-3 two-sided band is ± 5.4 %).
+    let (w2, h2) = (128usize, 64usize);
+    let clean2 = latlong_image(&c, w2, h2);
+    let mut base = Image { width: w2, height: h2, ..Default::default() };
+    for (ch, name) in ["R", "G", "B"].iter().enumerate() {
+        base.channels.insert(name.to_string(), clean2.pixels.iter().map(|p| p[ch]).collect());
+    }
+    let (mean, _) = project_normal_probe(&base, lmax).unwrap();
+    let mut chi2 = 0.0;
+    let mut rng = Rng(7);
+    let draws = 100;
+    for _ in 0..draws {
+        let mut img = base.clone();
+        for (ch, name) in ["R", "G", "B"].iter().enumerate() {
+            img.channels
+                .insert(name.to_string(), clean2.pixels.iter().map(|p| p[ch] + sigma * rng.normal() as f32).collect());
+            img.channels.insert(format!("stderr.{name}"), vec![sigma; w2 * h2]);
+        }
+        let (got, se) = project_normal_probe(&img, lmax).unwrap();
+        let se = se.unwrap();
+        for k in 0..got.len() {
+            for ch in 0..3 {
+                chi2 += ((got[k][ch] - mean[k][ch]) / se[k][ch]).powi(2);
+            }
+        }
+    }
+    assert_chi2_two_sided(chi2, (draws * 3 * got.len()) as f64, "100 draws");
     // And the standard error of L_00 in closed form: σ² Y_00² Σ ΔΩ², with ΔΩ ≈ (2π/W)(π/H) sin θ
     // so Σ ΔΩ² ≈ (2π²/WH) ∫ sin θ dω = 2π⁴/(WH): se = σ √(π³ / (2 W H)).
     let expect = sigma as f64 * (PI.powi(3) / (2.0 * (w * h) as f64)).sqrt();
@@ -319,8 +355,24 @@ fn least_squares_standard_errors_match_the_noise() {
         }
     }
     let dof = (3 * c.len()) as f64;
-    // χ² with 48 dof: sd √96 ≈ 9.8; accept within 5 sd.
-    assert!((chi2 - dof).abs() < 5.0 * (2.0 * dof).sqrt(), "χ² = {chi2} for {dof} dof");
+    assert_chi2_two_sided(chi2, dof, "one draw");
+    // Against the scatter over 40 independent draws (errors about the noise-free fit, so only the
+    // noise counts): χ² with 40 · 48 dof; relative sd of χ²/ν is √(2/1920) = 3.2 %, so standard
+    // errors off by 10 % in either direction fail the 1e-3 two-sided band (± 10.6 % on χ²/ν).
+    let clean = ortho_image(&c, &cam, &sphere, Param::Reflection, 128, None);
+    let mean = fit_orthographic(&[OrthoView { image: &clean, camera: cam }], &sphere, Param::Reflection, lmax).unwrap();
+    let draws = 40;
+    let mut chi2 = 0.0;
+    for seed in 0..draws {
+        let img = ortho_image(&c, &cam, &sphere, Param::Reflection, 128, Some((sigma, 100 + seed)));
+        let f = fit_orthographic(&[OrthoView { image: &img, camera: cam }], &sphere, Param::Reflection, lmax).unwrap();
+        for k in 0..c.len() {
+            for ch in 0..3 {
+                chi2 += ((f.coefficients[k][ch] - mean.coefficients[k][ch]) / f.stderr[k][ch]).powi(2);
+            }
+        }
+    }
+    assert_chi2_two_sided(chi2, (draws as usize * 3 * c.len()) as f64, "40 draws");
     // Without the stderr layer the residual-based σ must come out ≈ the true σ.
     let mut img2 = img.clone();
     for n in ["stderr.R", "stderr.G", "stderr.B"] {

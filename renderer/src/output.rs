@@ -53,24 +53,52 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
-/// Writes `write(tmp)` then renames onto `path`; removes the temporary file on failure.
-fn atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+/// An output written under a hidden temporary name next to its destination, not yet in place.
+/// [`Staged::commit`] renames it onto the destination; dropping it uncommitted removes it. Several
+/// outputs of one command are staged first and committed together, so a failure in any of them
+/// leaves none behind.
+#[must_use = "a staged output is removed unless committed"]
+pub struct Staged {
+    tmp: PathBuf,
+    path: PathBuf,
+    committed: bool,
+}
+
+impl Staged {
+    /// Moves the staged file into place.
+    pub fn commit(mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path)
+            .map_err(|e| Error::file(&self.path, format!("cannot move output into place: {e}")))?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes `write(tmp)` to a temporary file next to `path`; removes it on failure.
+fn stage(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<Staged> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::file(path, format!("cannot create output directory: {e}")))?;
     }
-    let tmp = temp_path(path);
-    if let Err(m) = write(&tmp) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::file(path, m));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::file(path, format!("cannot move output into place: {e}"))
-    })
+    let staged = Staged { tmp: temp_path(path), path: path.to_path_buf(), committed: false };
+    write(&staged.tmp).map_err(|m| Error::file(path, m))?;
+    Ok(staged)
 }
 
-/// Writes the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B.
+/// Writes the film as 32-bit float OpenEXR (atomically, see [`stage_exr`]).
 pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<()> {
+    stage_exr(path, film, attributes)?.commit()
+}
+
+/// Stages the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B.
+pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<Staged> {
     use exr::prelude::*;
     let (w, h) = (film.width as usize, film.height as usize);
     let chan = |name: &str, f: &dyn Fn(&crate::film::Pixel) -> f32| {
@@ -95,7 +123,7 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
         }
     }
     let image = Image::from_layer(layer);
-    atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))
+    stage(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))
 }
 
 /// sRGB transfer of a linear value in [0, 1].
@@ -103,8 +131,13 @@ fn srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
-/// Writes a preview PNG: linear radiance × `exposure`, clamped, sRGB-encoded. Not for analysis.
+/// Writes a preview PNG (atomically, see [`stage_png`]).
 pub fn write_png(path: &Path, film: &Film, exposure: f32) -> Result<()> {
+    stage_png(path, film, exposure)?.commit()
+}
+
+/// Stages a preview PNG: linear radiance × `exposure`, clamped, sRGB-encoded. Not for analysis.
+pub fn stage_png(path: &Path, film: &Film, exposure: f32) -> Result<Staged> {
     let mut buf = Vec::with_capacity(film.pixels.len() * 3);
     for p in &film.pixels {
         for c in p.rgb {
@@ -113,7 +146,5 @@ pub fn write_png(path: &Path, film: &Film, exposure: f32) -> Result<()> {
     }
     let img =
         image::RgbImage::from_raw(film.width, film.height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
-    atomically(path, |tmp| {
-        img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}"))
-    })
+    stage(path, |tmp| img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}")))
 }

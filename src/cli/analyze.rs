@@ -40,7 +40,7 @@ pub struct AnalyzeArgs {
     /// Rendered images (OpenEXR): one normal-probe image, or one or more orthographic views.
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// Scene file (.toml, its [lighting] table) or environment map giving the lighting.
+    /// Scene file (.toml, its `[lighting]` table) or environment map giving the lighting.
     #[arg(long)]
     pub lighting: Option<PathBuf>,
     /// Mapping of an environment map given with --lighting (default: inferred from aspect ratio).

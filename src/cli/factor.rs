@@ -18,7 +18,7 @@
 //!   the normal-exitance filter.
 //! - `reflect invert factor --scene SCENE.toml --nodes N_MUxN_PHI --lmax L [--size 96x48]`: renders
 //!   the light field in memory: the scene's camera is replaced by a `normal-probe` at every node and
-//!   once at θ_o = 0 (objects[0] must be a sphere; `jitter` off; `[render]` spp, seed, sampler and
+//!   once at θ_o = 0 (`objects[0]` must be a sphere; `jitter` off; `[render]` spp, seed, sampler and
 //!   max_depth are kept, width × height is `--size`). Prints the render count and wall time.
 //! - `reflect invert factor --print-nodes N_MUxN_PHI [--json]`: the nodes to render, one
 //!   `THETA_O_DEG PHI_O_DEG` line each (the explanation goes to stderr), for a shell loop over

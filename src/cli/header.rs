@@ -85,7 +85,7 @@ pub fn first_sphere(img: &Image) -> Result<(Option<Sphere>, Option<Value>, usize
     Ok((Some(sphere), o.get("brdf").cloned(), objs.len()))
 }
 
-/// The lighting to compare with: `--lighting` (a scene TOML's [lighting] table, or an environment
+/// The lighting to compare with: `--lighting` (a scene TOML's `[lighting]` table, or an environment
 /// map with `--mapping` or a mapping inferred from its aspect ratio), else the `reflect:lighting`
 /// header of the first image (a relative file there is taken relative to that image).
 pub fn lighting_of(

@@ -41,7 +41,7 @@ pub enum InvertCommand {
     Lighting(LightingArgs),
     /// Estimate Λ_l ρ̂_l and fit Phong s or Torrance–Sparrow σ from renders under known lighting (eq. 16).
     Brdf(BrdfArgs),
-    /// Diffuse + specular separation (sec. 3.5, ref. [17]): lighting from a lambert + mirror sphere.
+    /// Diffuse + specular separation (sec. 3.5, the paper's reference 17): lighting from a lambert + mirror sphere.
     Separate(super::separate::SeparateArgs),
     /// Factor a sphere's 4D reflected light field into lighting and BRDF up to global scale (eq. 18, 23).
     Factor(super::factor::FactorArgs),
@@ -89,7 +89,7 @@ pub struct BrdfArgs {
     /// Rendered images (OpenEXR): one normal-probe image, or orthographic views.
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// Scene file (.toml, its [lighting] table) or environment map (default: the header's lighting).
+    /// Scene file (.toml, its `[lighting]` table) or environment map (default: the header's lighting).
     #[arg(long)]
     pub lighting: Option<PathBuf>,
     /// Mapping of an environment map given with --lighting (default: from the aspect ratio).

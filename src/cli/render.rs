@@ -13,7 +13,7 @@ use std::process::ExitCode;
 pub struct RenderArgs {
     /// Scene file (TOML, CONVENTIONS §6). Without it, the built-in default scene.
     pub scene: Option<PathBuf>,
-    /// Output OpenEXR file [default: out/<scene name>.exr].
+    /// Output OpenEXR file [default: out/SCENE_NAME.exr].
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Samples per pixel (overrides render.spp).
@@ -23,7 +23,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Worker threads [default: all cores]. The image does not depend on it.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Also write a tone-mapped PNG preview here.
     #[arg(long)]
@@ -37,6 +37,15 @@ pub struct RenderArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// `--threads N`: at least 1, refused while parsing the arguments (before any work or output).
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(0) => Err("must be at least 1".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err("expected a positive integer".into()),
+    }
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -120,9 +129,16 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     }
     let opts = RenderOptions { progress: !a.quiet };
     let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
-    renderer::output::write_exr(&out, &film, &renderer::output::header_attributes(&scene))?;
-    if let Some(png) = &a.png {
-        renderer::output::write_png(png, &film, 1.0)?;
+    // Both outputs are staged before either is moved into place: a PNG that cannot be written
+    // leaves no EXR behind (and no temporary file).
+    let exr = renderer::output::stage_exr(&out, &film, &renderer::output::header_attributes(&scene))?;
+    let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, 1.0)).transpose()?;
+    exr.commit()?;
+    if let Some(png) = png
+        && let Err(e) = png.commit()
+    {
+        let _ = std::fs::remove_file(&out);
+        return Err(e);
     }
     if !a.quiet {
         eprintln!("wrote {}: {stats}", out.display());

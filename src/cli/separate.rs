@@ -1,6 +1,6 @@
 //! `reflect invert separate DIFFUSE.exr SPECULAR.exr… [--kd X --ks Y] [--lmax L] [--channel r|g|b]
 //! [--scan] [--output ENV.exr --width W] [--json]`: diffuse + specular separation (sec. 3.5, the
-//! algorithm of reference [17]; library `analysis::inverse::separation`).
+//! algorithm of reference \[17\]; library `analysis::inverse::separation`).
 //!
 //! The surface is ρ̂ = k_d · lambert (unit albedo) + k_s · mirror (unit k_r). The inputs are
 //! `normal-probe` renders of it (CONVENTIONS §6, with the `reflect:camera` header): the *diffuse
@@ -11,7 +11,7 @@
 //! the lighting L_lm, l ≤ `lmax`, by least squares weighted by the pixels' exact solid angles about
 //! R (`probe_samples`). The consistency d_lm = L̂_lm − c_lm (l ≤ 2) with its χ² (9 dof) tests the
 //! split and the 9-term approximation; `--scan` scans the diffuse fraction k_d / (k_d + k_s) at
-//! fixed k_d + k_s for the χ² minimum (how [17] fixes the split).
+//! fixed k_d + k_s for the χ² minimum (how \[17\] fixes the split).
 //!
 //! Parameters: `--kd`, `--ks` (one number or r,g,b; default: the header's BRDF when it is a `mix`
 //! of one `lambert` and one `mirror` layer, k_d = weight × albedo, k_s = weight × k_r), `--lmax`

@@ -1,10 +1,11 @@
-//! `reflect verify [--quick] [--check NAME] [--json] [--out DIR] [--seed N] [--threads N]`
+//! `reflect verify [--quick] [--check NAME] [--json] [--out DIR] [--data DIR] [--seed N] [--threads N]`
 //!
 //! Renders, projects into SH and compares with the paper's analytic predictions (issue 4); see
 //! `src/verify/`. Prints a table on stdout (or, with `--json`, the JSON document of CONVENTIONS §7
 //! on stdout and the table on stderr), progress on stderr, and writes `report.md`, `report.html`,
 //! `report.json` and SVG plots into `--out` (default `out/verify/`). Exit status 1 when a check
-//! fails, 2 for bad input (an unknown check name, an unwritable folder).
+//! fails, 2 for bad input (an unknown check name, an unwritable folder, no data folder: see
+//! `crate::verify::data`).
 
 use super::Error;
 use crate::verify::{self, CHECKS, Ctx, report};
@@ -32,8 +33,12 @@ pub struct VerifyArgs {
     /// Base random seed of the renders.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Data folder holding grace_probe.hdr [default: $REFLECT_DATA, else ../shared/data from the
+    /// current directory, else from the executable's checkout].
+    #[arg(long, value_name = "DIR")]
+    pub data: Option<PathBuf>,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = super::render::parse_threads)]
     pub threads: Option<usize>,
     /// Testing aid: compare every check with a deliberately wrong prediction (each must then fail).
     #[arg(long, hide = true)]
@@ -59,9 +64,11 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
         }
         None => CHECKS.iter().collect(),
     };
+    // Before any output: a missing probe is bad input (exit 2, one line naming every place looked at).
+    let data = verify::data::resolve(a.data.as_deref()).map_err(Error::new)?;
     std::fs::create_dir_all(&a.out)
         .map_err(|e| Error::file(&a.out, format!("cannot create the report folder: {e}")))?;
-    let ctx = Ctx { quick: a.quick, wrong: a.wrong_prediction, seed: a.seed, out: a.out.clone(), verbose: true };
+    let ctx = Ctx { quick: a.quick, wrong: a.wrong_prediction, seed: a.seed, out: a.out.clone(), verbose: true, data };
     let t = std::time::Instant::now();
     let checks = super::render::with_threads(a.threads, || {
         selected

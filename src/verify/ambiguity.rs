@@ -20,15 +20,15 @@
 //!   χ²/N = (1/N) Σ_p d_p²/σ̂_p². Because σ̂ is itself estimated from n samples, t_p = d_p/σ̂_p is a
 //!   Student t with ν = n − 1 (one noisy image; Gaussian samples), or, for two noisy images,
 //!   approximately with the Welch–Satterthwaite ν_p = (v_X + v_A)² / (v_X²/ν_X + v_A²/ν_A)
-//!   (exact, ν = 2(n−1), when the two variances are equal). Then E[t²] = ν/(ν−2) and
-//!   Var[t²] = E[t⁴] − E[t²]² = 3ν²/((ν−2)(ν−4)) − ν²/(ν−2)² = 2ν²(ν−1)/((ν−2)²(ν−4)), so the
-//!   row expects mean_p E[t_p²] with σ = √(Σ_p Var[t_p²]) / N (independent pixels), 4σ rule.
-//!   Non-Gaussian samples: to first order in 1/n, E[t²] = 1 + 2(1 + γ²)/n with γ the per-sample
-//!   skewness (the kurtosis cancels between E[x̄² s²] and Var s²), i.e. an unmodelled excess
+//!   (exact, ν = 2(n−1), when the two variances are equal). Then E\[t²\] = ν/(ν−2) and
+//!   Var\[t²\] = E\[t⁴\] − E\[t²\]² = 3ν²/((ν−2)(ν−4)) − ν²/(ν−2)² = 2ν²(ν−1)/((ν−2)²(ν−4)), so the
+//!   row expects mean_p E\[t_p²\] with σ = √(Σ_p Var\[t_p²\]) / N (independent pixels), 4σ rule.
+//!   Non-Gaussian samples: to first order in 1/n, E\[t²\] = 1 + 2(1 + γ²)/n with γ the per-sample
+//!   skewness (the kurtosis cancels between E\[x̄² s²\] and Var s²), i.e. an unmodelled excess
 //!   2γ²/n — reported in a note, ≤ 0.021 (quick, 96 spp) and ≤ 0.006 (full, 320 spp)
 //!   for |γ| ≤ 1, against 4σ ≈ 0.086 (N = 96 × 48 pixels).
 //! - per-order content about R: weighted least squares of each image on S_l(R_p), l ≤ LMAX
-//!   ([`fit::fit_filter_at`]): g_l ± σ, exact for band-limited light; the row is the worst
+//!   ([`super::fit::fit_filter_at`]): g_l ± σ, exact for band-limited light; the row is the worst
 //!   |g_l^X − g_l^A| against 4·√(σ_X² + σ_A²) (linear in the pixels: the two fits are independent).
 //!   This targeted test has far more power than the omnibus χ² against a per-order mismatch.
 //!
@@ -84,7 +84,7 @@ pub fn lightings(light: Vec<f64>, s_blur: f64) -> Lightings {
     Lightings { l: light, blurred, rescaled }
 }
 
-/// E[t²] and Var[t²] of a Student t with ν degrees of freedom (ν = ∞: the normal, 1 and 2).
+/// E\[t²\] and Var\[t²\] of a Student t with ν degrees of freedom (ν = ∞: the normal, 1 and 2).
 pub fn t2_moments(nu: f64) -> (f64, f64) {
     if nu.is_infinite() {
         (1.0, 2.0)
@@ -102,15 +102,15 @@ pub struct PixelChi2 {
     pub skipped: usize,
     /// (1/N) Σ d_p²/σ̂_p².
     pub chi2: f64,
-    /// (1/N) Σ E[t_p²].
+    /// (1/N) Σ E\[t_p²\].
     pub expected: f64,
-    /// √(Σ Var[t_p²]) / N.
+    /// √(Σ Var\[t_p²\]) / N.
     pub sd: f64,
 }
 
 /// Compares two images whose σ̂ were estimated with ν_a, ν_b degrees of freedom (spp − 1; ∞ for a
 /// known σ). Returns None when the images differ in size, no pixel has σ̂ > 0, or some ν ≤ 4
-/// (Var[t²] is infinite).
+/// (Var\[t²\] is infinite).
 pub fn compare(a: &Channel, nu_a: f64, b: &Channel, nu_b: f64) -> Option<PixelChi2> {
     if a.value.len() != b.value.len() || nu_a <= 4.0 || nu_b <= 4.0 {
         return None;

@@ -13,7 +13,7 @@
 //! when all its rows pass. Rows marked `informative` are reported but do not decide the verdict
 //! (e.g. the Gaussian approximation eq. 46 where it is known not to hold).
 
-use analysis::special::erfc;
+use analysis::special::{normal_two_sided_tail, sidak_k};
 use serde_json::{Value, json};
 
 /// k of the k·σ rule for a check with at most [`FAMILY_ROWS`] noisy deciding rows: a two-sided 4σ
@@ -32,16 +32,8 @@ pub fn k_sigma_for(n: usize) -> f64 {
     if n <= FAMILY_ROWS {
         return K_SIGMA;
     }
-    // Two-sided tail P(|Z| > k) = erfc(k/√2).
-    let tail = |k: f64| erfc(k / std::f64::consts::SQRT_2);
-    let alpha = 1.0 - (1.0 - tail(K_SIGMA)).powi(FAMILY_ROWS as i32);
-    let per_row = 1.0 - (1.0 - alpha).powf(1.0 / n as f64);
-    let (mut lo, mut hi) = (K_SIGMA, 10.0);
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if tail(mid) > per_row { lo = mid } else { hi = mid }
-    }
-    0.5 * (lo + hi)
+    let alpha = 1.0 - (1.0 - normal_two_sided_tail(K_SIGMA)).powi(FAMILY_ROWS as i32);
+    sidak_k(n, alpha)
 }
 
 /// Relative rounding floor of f32 rendering for noise-free quantities (≈ 100 ulp of f32).
@@ -227,6 +219,9 @@ impl Check {
             })).collect::<Vec<_>>(),
             "details": self.details,
             "error": self.error,
+            // True when the check could not run (its rows, if any, decide nothing): a failure that
+            // is not a verdict on the claim.
+            "errored": self.error.is_some(),
             "seconds": self.seconds,
         })
     }
@@ -235,6 +230,7 @@ impl Check {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use analysis::special::erfc;
 
     #[test]
     fn tolerance_rule() {

@@ -217,11 +217,19 @@ mod tests {
 
     #[test]
     fn differences_and_wrong_predictions_fail() {
+        // Three independent paths: eq. 38/π's closed values (CONVENTIONS §4), each with its own
+        // scatter of ±σ (σ = 0.005), so both the per-path rows and the difference rows see noise.
+        let exact = [1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0, 0.0, 1.0 / 64.0];
+        let path = |shift: usize| {
+            let a: Vec<f64> = (0..=LMAX).map(|l| exact[l] + 0.005 * [-1.0, 1.0, 0.5, -0.5][(l + shift) % 4]).collect();
+            Measured { sigma: vec![0.005; a.len()], a }
+        };
+        let (probe, ortho, mesh) = (path(0), path(1), path(2));
         let a = transfer::lambert(LMAX);
-        let m = Measured { a: a.clone(), sigma: vec![0.005; a.len()] };
-        assert!(evaluate(&m, &m, &m, &a).passed());
+        assert!(evaluate(&probe, &ortho, &mesh, &a).passed());
+        let m = probe.clone();
         let wrong: Vec<f64> = a.iter().map(|v| v * 1.05).collect();
-        assert!(!evaluate(&m, &m, &m, &wrong).passed());
+        assert!(!evaluate(&probe, &ortho, &mesh, &wrong).passed());
         // A mesh path that reflects differently (e.g. flat-shaded facets) fails the difference rows.
         let mut other = m.clone();
         other.a[2] += 0.05;

@@ -28,7 +28,7 @@ impl Measured {
     }
 }
 
-/// One row per order: `prefix l=L`, expected `pred[l]`, tolerance k·σ + approx[l].
+/// One row per order: `prefix l=L`, expected `pred[l]`, tolerance k·σ + `approx[l]`.
 pub fn rows(check: &mut Check, prefix: &str, m: &Measured, pred: &[f64], approx: Option<&[f64]>, informative: bool) {
     for l in 0..m.a.len().min(pred.len()) {
         let mut r = Row::new(format!("{prefix} l={l}"), pred[l], m.a[l], m.sigma[l]);

@@ -7,9 +7,11 @@
 //! use Grace fit Lambert's low-pass filter, whose coefficients there are < 0.2 %, so this is far
 //! below their noise.
 
+use super::Ctx;
 use super::scenes::grace_path;
 use analysis::sh::{ShBasis, num_coefficients};
 use std::f64::consts::PI;
+use std::path::Path;
 use std::sync::OnceLock;
 
 /// Largest order projected.
@@ -21,14 +23,15 @@ pub const CHANNEL: usize = 1;
 static COEFFS: OnceLock<Result<Vec<f64>, String>> = OnceLock::new();
 
 /// L_lm of the green channel, l ≤ [`LMAX`].
-pub fn coefficients() -> Result<Vec<f64>, String> {
-    COEFFS.get_or_init(project).clone()
+/// Computed once per process: the data folder does not change during a run.
+pub fn coefficients(ctx: &Ctx) -> Result<Vec<f64>, String> {
+    COEFFS.get_or_init(|| project(&grace_path(ctx))).clone()
 }
 
-fn project() -> Result<Vec<f64>, String> {
-    let img = analysis::image::read_rgb(grace_path()).map_err(|e| e.to_string())?;
+fn project(path: &Path) -> Result<Vec<f64>, String> {
+    let img = analysis::image::read_rgb(path).map_err(|e| e.to_string())?;
     if img.width != img.height {
-        return Err(format!("{}: the angular probe must be square", grace_path()));
+        return Err(format!("{}: the angular probe must be square", path.display()));
     }
     let w = img.width;
     let n = num_coefficients(LMAX);

@@ -162,7 +162,7 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
-    let lg = grace::coefficients()?;
+    let lg = grace::coefficients(ctx)?;
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
     let ch = Channel::from_film(&film, grace::CHANNEL);

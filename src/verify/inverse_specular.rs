@@ -233,7 +233,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         spec.width, spec.height
     ));
     // Phong under Grace.
-    let lg = grace::coefficients()?;
+    let lg = grace::coefficients(ctx)?;
     let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}");
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), &brdf);
     let film = render_spec(ctx, &spec)?;

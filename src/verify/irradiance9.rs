@@ -84,7 +84,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         EQUATION,
         "9-term (l ≤ 2) approximation of Lambertian reflection under Grace; energy share 127/128",
     );
-    let lg = grace::coefficients()?;
+    let lg = grace::coefficients(ctx)?;
     let spec = Spec::probe(ctx, ctx.spp(256, 512), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let ch = Channel::from_film(&render_spec(ctx, &spec)?, grace::CHANNEL);
     let m = nine_term_error(&ch).ok_or("non-positive pixel or singular fit")?;

@@ -41,7 +41,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let sh = Measured::from_fit(&fit, LMAX);
 
     // Grace: fit orders up to grace::LMAX so the (small) l > 8 content is modelled, report l ≤ 8.
-    let lg = grace::coefficients()?;
+    let lg = grace::coefficients(ctx)?;
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
     let gfit = fit_filter_probe(&Channel::from_film(&film, grace::CHANNEL), &lg, grace::LMAX).ok_or("singular fit")?;

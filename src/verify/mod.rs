@@ -16,6 +16,7 @@ pub mod associativity;
 pub mod axial;
 pub mod check;
 pub mod convex_shape;
+pub mod data;
 pub mod directional;
 pub mod factorization;
 pub mod filter;
@@ -34,6 +35,8 @@ pub mod plot;
 pub mod report;
 pub mod scenes;
 pub mod separation;
+#[cfg(test)]
+mod testutil;
 pub mod torrance_sparrow;
 pub mod transfer;
 pub mod uniform;
@@ -50,6 +53,8 @@ pub struct Ctx {
     pub seed: u64,
     pub out: PathBuf,
     pub verbose: bool,
+    /// The data folder (holds [`data::GRACE_FILE`]), resolved at run time by [`data::resolve`].
+    pub data: PathBuf,
 }
 
 impl Ctx {

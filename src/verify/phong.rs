@@ -99,9 +99,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 mod tests {
     use super::*;
 
-    /// Measured = truth with the σ of a quick run (≈ 0.01 per order).
+    /// Measured = the Phong lobe's Legendre coefficients by quadrature (independent of the eq. 43
+    /// product formula under test), with a ±σ scatter of the size of a quick run (σ ≈ 0.01 per order).
     fn fake(s: f64, sigma: f64) -> Measured {
-        let a = transfer::phong(s, LMAX);
+        let a = super::super::testutil::scatter(&super::super::testutil::phong_by_quadrature(s, LMAX), sigma);
         Measured { sigma: vec![sigma; a.len()], a }
     }
 
@@ -117,6 +118,11 @@ mod tests {
 
     #[test]
     fn a_nonzero_exact_zero_fails() {
+        // The exact zeros of eq. 43 (l ≥ s + 2, l ≡ s mod 2) are zeros of the quadrature too.
+        for (s, l) in [(1.0, 3), (1.0, 11), (8.0, 10), (8.0, 12)] {
+            let q = super::super::testutil::phong_by_quadrature(s, LMAX)[l];
+            assert!(q.abs() < 1e-9 && transfer::phong(s, LMAX)[l] == 0.0, "s {s} l {l}: {q}");
+        }
         let mut m = fake(1.0, 0.005);
         m.a[5] = 0.03;
         assert!(!evaluate(&[(1.0, m)], false).passed());

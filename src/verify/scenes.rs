@@ -8,11 +8,11 @@ use renderer::film::Film;
 use renderer::render::{RenderOptions, render};
 use renderer::scene::{Scene, SceneFile};
 use std::fmt::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// The Grace Cathedral probe (angular map, 1000 × 1000), resolved from the checkout.
-pub fn grace_path() -> String {
-    concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/grace_probe.hdr").to_string()
+/// The Grace Cathedral probe (angular map, 1000 × 1000) in the run's data folder (see [`super::data`]).
+pub fn grace_path(ctx: &Ctx) -> PathBuf {
+    ctx.data.join(super::data::GRACE_FILE)
 }
 
 /// Camera of a scene.
@@ -85,7 +85,7 @@ impl Spec {
     }
 
     /// The scene file text.
-    pub fn toml(&self) -> String {
+    pub fn toml(&self, ctx: &Ctx) -> String {
         let mut s = String::new();
         let _ = writeln!(
             s,
@@ -137,7 +137,7 @@ impl Spec {
                 let _ = writeln!(
                     s,
                     "[lighting]\ntype = \"envmap\"\nfile = {:?}\nmapping = \"angular\"\nscale = {scale:?}\n",
-                    grace_path()
+                    grace_path(ctx).display().to_string()
                 );
             }
         }
@@ -162,7 +162,7 @@ impl Spec {
 /// and a panic inside the renderer (an unfinished piece) is caught and reported as an error so
 /// one broken check does not take the others down.
 pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
-    let text = spec.toml();
+    let text = spec.toml(ctx);
     let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
     let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();

@@ -1,4 +1,4 @@
-//! Check "separation" (sec. 3.5, eq. 38–39; the algorithm of reference [17]; issue 5): recover the
+//! Check "separation" (sec. 3.5, eq. 38–39; the algorithm of reference \[17\]; issue 5): recover the
 //! Grace lighting at high angular resolution from a sphere with ρ̂ = k_d·lambert + k_s·mirror by
 //! subtracting the 9-term diffuse part, and test the consistency of the low orders of both sides.
 //!
@@ -296,8 +296,8 @@ pub fn grace_lookup(img: &analysis::image::RgbImage) -> impl Fn([f64; 3]) -> f64
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
-    let lg = grace::coefficients()?;
-    let img = analysis::image::read_rgb(grace_path()).map_err(|e| e.to_string())?;
+    let lg = grace::coefficients(ctx)?;
+    let img = analysis::image::read_rgb(grace_path(ctx)).map_err(|e| e.to_string())?;
     let lmax = if ctx.quick { 8 } else { 12 };
     let brdf = format!(
         "{{ type = \"mix\", layers = [ {{ weight = {KD:?}, brdf = {{ type = \"lambert\", albedo = 1.0 }} }}, {{ weight = {KS:?}, brdf = {{ type = \"mirror\" }} }} ] }}"

@@ -193,7 +193,11 @@ mod tests {
     #[test]
     fn sigma_off_by_20_percent_and_albedo_off_by_5_percent_fail() {
         for sigma in SIGMAS {
-            let a = transfer::torrance_sparrow(sigma, LMAX);
+            // Measured: eq. 50's integrand by an independent Simpson rule, with ±σ scatter.
+            let a = super::super::testutil::scatter(
+                &super::super::testutil::torrance_sparrow_by_quadrature(sigma, LMAX),
+                0.01,
+            );
             let m = Measured { sigma: vec![0.01; a.len()], a };
             let mut ok = Check::default();
             evaluate_normal(&mut ok, sigma, &m, false);

@@ -1,4 +1,4 @@
-//! Diffuse + specular separation (sec. 3.5, the algorithm of reference [17]): recover the lighting
+//! Diffuse + specular separation (sec. 3.5, the algorithm of reference \[17\]): recover the lighting
 //! at high angular resolution from a surface ρ̂ = k_d · lambert + k_s · mirror, by subtracting the
 //! 9-term diffuse part (eq. 38–39: Λ_l ρ̂_l ≈ 0 beyond l = 2) and treating the rest as a gazing
 //! sphere, with the consistency condition between the low orders of both sides.
@@ -14,7 +14,7 @@
 //! Algorithm: s_p = (B_p − k_d Σ_{l≤2} Λ_l ρ̂_l L̂_lm Y_lm(n_p)) / k_s is the lighting at R_p up to
 //! the 9-term residual r(n_p) = (k_d/k_s) Σ_{l≥3} Λ_l ρ̂_l L_lm Y_lm(n_p) ([`nine_term_residual`];
 //! |Λ_4 ρ̂_4| = 1/24 of order 0, eq. 39). The recovered lighting is the weighted least-squares fit
-//! c = argmin Σ_p w_p (s_p − Σ_k c_k Y_k(R_p))², k < (lmax+1)². The consistency condition of [17]
+//! c = argmin Σ_p w_p (s_p − Σ_k c_k Y_k(R_p))², k < (lmax+1)². The consistency condition of \[17\]
 //! is d_j = L̂_j − c_j ≈ 0 for the 9 coefficients j of l ≤ 2.
 //!
 //! Why two views: on one view at normal exitance d ≡ 0 whatever the split (the subtraction and the
@@ -387,7 +387,7 @@ impl Separation {
 
     /// The consistency χ² as a function of the diffuse fraction x = k_d / (k_d + k_s) at fixed
     /// k_d + k_s = `total`: [(x, χ²)] (fractions giving k_s ≤ 0 or a singular covariance are skipped).
-    /// In [17] the condition is what fixes the split: χ² is minimal near the true fraction.
+    /// In \[17\] the condition is what fixes the split: χ² is minimal near the true fraction.
     pub fn scan_split(&self, total: f64, fractions: &[f64]) -> Vec<(f64, f64)> {
         fractions
             .iter()

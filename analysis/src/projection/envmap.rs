@@ -530,8 +530,8 @@ impl RowFourier {
 /// Exact projection of a lat-long map (CONVENTIONS §2) as the renderer lights with it: radiance
 /// constant over each pixel's cell θ ∈ [πr/H, π(r+1)/H], φ ∈ [2πc/W, 2π(c+1)/W] (nearest pixel).
 /// L_lm = Σ_pixels L_p ∫_cell Y_lm dω, with both integrals in closed form: the φ integral of
-/// cos mφ / sin mφ over a column ([`RowFourier`]) and the θ integral of K_lm P_l^m(cosθ) sinθ over
-/// a row ([`LegendreIntegrals`]). So every order l is the exact expansion of the piecewise-constant
+/// cos mφ / sin mφ over a column (`RowFourier`) and the θ integral of K_lm P_l^m(cosθ) sinθ over
+/// a row (`LegendreIntegrals`). So every order l is the exact expansion of the piecewise-constant
 /// map (no aliasing, no order limit), to rounding.
 ///
 /// By summation by parts the sum over rows becomes a sum over the H + 1 cell edges,

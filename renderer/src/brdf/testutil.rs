@@ -82,6 +82,32 @@ pub fn integrate_zoomed<G: Fn(Vec3) -> f64>(g: G, axis: Vec3, k: f32, n: usize) 
     integrate_sphere(|dz| g(f.to_world(zoom(dz, 1.0 / k))) * zoom_density_factor(dz, k), n)
 }
 
+/// [`integrate_zoomed`] with its stated error: |I_n − I_{n/2}| (the n-point rule's own error is
+/// |I_n − I_{n/2}| / (2^p − 1) for a rule converging at order p ≥ 1, so this bounds it) plus
+/// `f32_rel`·|I_n| for the f32 evaluation of g, which does not converge away: 1e-6 for smooth
+/// lobes, s·ε_f32 for a power cosˢ of a dot product of unit vectors (their lengths are 1 only to
+/// ε_f32, and the power multiplies that relative error by s). Replaces a fixed "quadrature
+/// allowance" by the rule's measured error.
+pub fn integrate_zoomed_err<G: Fn(Vec3) -> f64>(g: G, axis: Vec3, k: f32, n: usize, f32_rel: f64) -> (f64, f64) {
+    let fine = integrate_zoomed(&g, axis, k, n);
+    let coarse = integrate_zoomed(&g, axis, k, n / 2);
+    (fine, (fine - coarse).abs() + f32_rel * fine.abs())
+}
+
+/// [`albedo_quadrature_zoomed`] with its stated error per channel, as [`integrate_zoomed_err`].
+pub fn albedo_quadrature_zoomed_err<B: Bxdf>(
+    b: &B,
+    wo: Vec3,
+    axis: Vec3,
+    k: f32,
+    n: usize,
+    f32_rel: f64,
+) -> (DVec3, DVec3) {
+    let c = |i: usize| integrate_zoomed_err(|wi| b.eval(wo, wi)[i] as f64, axis, k, n, f32_rel);
+    let (r, g, bl) = (c(0), c(1), c(2));
+    (DVec3::new(r.0, g.0, bl.0), DVec3::new(r.1, g.1, bl.1))
+}
+
 /// Fraction of draws `sample` does not refuse, with its binomial standard error.
 pub fn sampled_fraction<B: Bxdf>(b: &B, wo: Vec3, n: usize, seed: u64) -> (f64, f64) {
     let mut rng = TestRng::new(seed);

@@ -169,14 +169,11 @@ mod tests {
     }
 
     #[test]
-    fn level_8_is_large_and_fast() {
-        let t0 = std::time::Instant::now();
+    fn level_8_is_large() {
+        // Speed belongs in `benches/`, not in a test's verdict.
         let m = icosphere(8);
-        let dt = t0.elapsed();
         assert_eq!(m.triangles.len(), 1_310_720);
         assert_eq!(m.positions.len(), 655_362);
         assert!(m.positions.iter().all(|p| (p.length() - 1.0).abs() < 1e-6));
-        // Generous bound for a shared 2-core machine; typically ~0.2 s.
-        assert!(dt.as_secs_f32() < 5.0, "icosphere(8) took {dt:?}");
     }
 }

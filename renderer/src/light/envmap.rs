@@ -8,7 +8,7 @@
 //! the direction (nearest pixel). Sampling follows the same pixels:
 //! - lat-long: a pixel is chosen with probability ∝ max-channel radiance × its exact solid angle
 //!   (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within it
-//!   ([`LatLongGrid`]), so p(ω) ∝ the pixel's max channel exactly;
+//!   (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's max channel exactly;
 //! - angular map: a continuous point (a, b) ∈ [−1, 1]² of the image plane is drawn from a
 //!   [`PiecewiseConstant2D`] with pixel weights ∝ max channel × sinθ/θ at the pixel centre (∝ its solid
 //!   angle, 0 for pixels whose centre lies outside the disc ρ ≤ 1), mapped by θ = πρ,
@@ -458,10 +458,20 @@ mod tests {
             .filter_map(|_| rot.sample(Vec2::new(rng.next_f32(), rng.next_f32())))
             .filter(|s| s.wi.dot(Vec3::Y) > 0.99)
             .count();
-        let mass_spot = 8.9 * (2.0 * PI / 64.0) * (PI / 32.0); // ≈ its share of max-channel × ΔΩ
-        let mass_rest = 0.1 * 4.0 * PI;
-        let expect = 2000.0 * mass_spot / (mass_spot + mass_rest);
-        assert!((near as f32) > 0.5 * expect, "{near} samples near +y, expected ≈ {expect}");
+        // Lat-long sampling picks a pixel ∝ max channel × its exact solid angle and is uniform in solid
+        // angle within it, so P(ω·y > 0.99) is exact: the bright pixel (θ ∈ [90°, 95.6°], φ ∈ [90°,
+        // 95.6°] after the rotation: every point within 7.95° < acos 0.99 = 8.1° of +y) lies wholly in
+        // the cap, and the dim pixels contribute their share of the rest of the cap's 2π(1 − 0.99).
+        let t = std::f64::consts::PI / h as f64;
+        let d_omega =
+            2.0 * std::f64::consts::PI / w as f64 * ((t * (h / 2) as f64).cos() - (t * (h / 2 + 1) as f64).cos());
+        let cap = 2.0 * std::f64::consts::PI * (1.0 - 0.99);
+        let (m_spot, m_rest) = (9.0 * d_omega, 0.1 * (4.0 * std::f64::consts::PI - d_omega));
+        let p = (m_spot + 0.1 * (cap - d_omega)) / (m_spot + m_rest);
+        let (n, expect) = (2000.0, 2000.0 * p);
+        // Binomial: 4σ (one comparison).
+        let sd = (n * p * (1.0 - p)).sqrt();
+        assert!((near as f64 - expect).abs() <= 4.0 * sd, "{near} samples near +y, expected {expect:.1} ± {sd:.1}");
     }
 
     #[test]

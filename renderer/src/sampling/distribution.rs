@@ -11,8 +11,8 @@
 //!
 //! **Inversion in O(1) expected time, monotone in u.** The CDF is searched from a guide table
 //! (the "cutpoint" method of Chen & Asau 1974; Devroye, *Non-Uniform Random Variate Generation*,
-//! §III.2.4): guide[j] is the cell holding u = j/n, and the search for u starts at
-//! guide[⌊u n⌋] and walks forward. With n guide entries for n cells the expected number of steps
+//! §III.2.4): guide\[j\] is the cell holding u = j/n, and the search for u starts at
+//! guide\[⌊u n⌋\] and walks forward. With n guide entries for n cells the expected number of steps
 //! is at most 1 + n/n = 2 whatever the function, and the answer is exactly the cell a binary
 //! search finds. Unlike an alias table, the map u ↦ x stays monotone, so the stratification of
 //! the sampler's points (Sobol (0, m, 2)-nets) carries over to the sampled directions.

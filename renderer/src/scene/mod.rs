@@ -1,4 +1,4 @@
-//! Scenes: the TOML file format of CONVENTIONS §6 ([`file`]) and the runtime scene built from it
+//! Scenes: the TOML file format of CONVENTIONS §6 ([`file`](mod@file)) and the runtime scene built from it
 //! ([`build`]).
 
 pub mod build;
