@@ -1,5 +1,5 @@
 //! Check "microfacet-ambiguity" (sec. 3.7.3; issue 19): "we may blur the illumination while sharpening
-//! the BRDF. However, … these ambiguities are exact for Phong and mirror BRDFs, [but] only a good
+//! the BRDF. However, … these ambiguities are exact for Phong and mirror BRDFs, \[but\] only a good
 //! approximation for microfacet BRDFs since equation 57 does not hold at grazing angles or for
 //! high-frequency lighting distributions. In these cases, the ambiguity can be broken."
 //!
@@ -16,9 +16,9 @@
 //! the `mirror` check verifies the renderer's mirror to f32 rounding). Renders: `normal-probe` at
 //! θ_o ∈ [`THETA_O_DEG`].
 //!
-//! Measured per (lighting, θ_o): D² = Σ_p w_p [(A_p − B'_p)² − σ_p²] / Σ_p w_p B'_p², the squared
+//! Measured per (lighting, θ_o): D² = Σ_p w_p \[(A_p − B'_p)² − σ_p²\] / Σ_p w_p B'_p², the squared
 //! relative rms difference of the pair over the sphere's normals (w_p: pixel solid angle), with the
-//! renders' noise σ_p² subtracted (E[(d + n)²] = d² + σ², unbiased; the directional and mirror renders
+//! renders' noise σ_p² subtracted (E\[(d + n)²\] = d² + σ², unbiased; the directional and mirror renders
 //! are deterministic, σ = 0). σ(D²) = √(Σ_p w_p² (4 d_p² σ_p² + 2 σ_p⁴)) / Σ_p w_p B'_p².
 //! Expected: the same D² with the Torrance–Sparrow image predicted without any approximation — the
 //! closed-form BRDF under the directional source; direct numerical integration of eq. 48

@@ -1,4 +1,4 @@
-//! Check "positive-bound" (sec. 3.5; ref. [1]; issue 19): "By considering the fact that the lighting
+//! Check "positive-bound" (sec. 3.5; ref. \[1\]; issue 19): "By considering the fact that the lighting
 //! must remain positive everywhere, similar worst-case bounds can be shown for the approximation of
 //! the reflected light field by l ≤ 2."
 //!
@@ -15,7 +15,7 @@
 //! and Σ_{l≤2} = 127/48), and with E_{≤2} ≥ A_0² L_00² = L_00²:
 //!
 //!   R = E_{>2} / E_00 ≤ 1/48  (attained by a directional source),
-//!   share = E_{≤2} / ∫B² ≥ 1 / (1 + 1/48) = 48/49 ≈ 0.9796  (the 97.96 % of ref. [1]).
+//!   share = E_{≤2} / ∫B² ≥ 1 / (1 + 1/48) = 48/49 ≈ 0.9796  (the 97.96 % of ref. \[1\]).
 //!
 //! The share bound is not attained: a directional source gives 127/128, and an antipodal pair
 //! (odd orders cancel) gives 63/64 ≈ 0.984 — lower, so the directional source is the extreme of R,
@@ -25,7 +25,7 @@
 //! single directional sources, antipodal pairs and positive sums of 3–12 directional sources (sums
 //! of deterministic 1-spp renders; rendering is linear in the lighting), non-negative random SH fields
 //! (l ≤ 4, from `subspace`), Grace and uniform light (Monte Carlo). Per lighting, by lat-long quadrature
-//! with exact pixel solid angles: share and R, debiased by the pixel noise (E[B²] = B² + σ²), σ to
+//! with exact pixel solid angles: share and R, debiased by the pixel noise (E\[B²\] = B² + σ²), σ to
 //! first order (δshare = (2/T) Σ_p w_p n_p (B₉_p − share·B_p)). Expected for each: the same quadrature
 //! of the analytic image on the same grid (so the grid's error cancels), and the quadrature's own
 //! error against the exact values (127/128, 63/64, 1/48) is stated where those are compared.

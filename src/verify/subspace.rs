@@ -1,4 +1,4 @@
-//! Check "subspace" (sec. 3.5; refs. [1], [6], [7]; issue 19): "images of a diffuse object under all
+//! Check "subspace" (sec. 3.5; refs. \[1\], \[6\], \[7\]; issue 19): "images of a diffuse object under all
 //! possible illumination conditions lie close to a 9D subspace."
 //!
 //! Image sets: a Lambertian (albedo 1) sphere through the `normal-probe` camera (pixels weighted by
@@ -13,7 +13,7 @@
 //! Rows, per object (X: the P × N image matrix, W the pixel weights):
 //! - e_k, the energy captured by the first k principal components (uncentred PCA: eigenvalues of
 //!   the Gram matrix XᵀWX, whose diagonal is debiased by the renders' noise Σ_p w_p σ_pj²), for
-//!   k = 5, 9, 15 (deciding). σ to first order: δe_k = (2/T) Σ_jp w_p n_pj [(XQ_k)_pj − e_k X_pj]
+//!   k = 5, 9, 15 (deciding). σ to first order: δe_k = (2/T) Σ_jp w_p n_pj \[(XQ_k)_pj − e_k X_pj\]
 //!   with Q_k the projector on the first k eigenvectors and T the trace.
 //! - ρ, the energy fraction of the images outside the span of Y_lm (l ≤ 2) sampled at the pixels'
 //!   normals (weighted least squares; deciding), debiased by the noise outside the span
@@ -128,7 +128,7 @@ pub fn lightings(quick: bool, seed: u64) -> Vec<Light> {
 pub struct ImageSet {
     pub weight: Vec<f64>,
     pub normal: Vec<[f64; 3]>,
-    /// images[j][p]
+    /// images\[j\]\[p\]
     pub images: Vec<Vec<f64>>,
     pub sigma: Vec<Vec<f64>>,
 }
@@ -160,7 +160,7 @@ pub fn pca(s: &ImageSet) -> Pca {
 }
 
 /// (value, σ) of a fraction f = Σ_j ||Π x_j||² / Σ_j ||x_j||² where `proj(j)` is the part of image j
-/// the fraction counts (Π x_j, or (I − Π) x_j): δf = (2/T) Σ_jp w_p n_pj [proj_pj − f x_pj].
+/// the fraction counts (Π x_j, or (I − Π) x_j): δf = (2/T) Σ_jp w_p n_pj \[proj_pj − f x_pj\].
 fn fraction_sigma(s: &ImageSet, f: f64, total: f64, proj: &[Vec<f64>]) -> f64 {
     let mut var = 0.0;
     for (j, x) in s.images.iter().enumerate() {
@@ -289,7 +289,7 @@ pub fn stats(s: &ImageSet) -> Stats {
 }
 
 /// Rows of one object: measured vs predicted statistics (`approx`: stated prediction error per
-/// statistic, [e_5, e_9, e_15, ρ]).
+/// statistic, \[e_5, e_9, e_15, ρ\]).
 pub fn rows(c: &mut Check, object: &str, m: &Stats, pred: &Stats, approx: [f64; 4], iso: &[f64]) {
     for (i, &k) in KS.iter().enumerate() {
         let (v, s) = m.captured[i];
