@@ -12,7 +12,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     common::reflect_out(&[&["verify"], args].concat())
 }
 
-const NAMES: [&str; 21] = [
+const NAMES: [&str; 22] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -34,6 +34,7 @@ const NAMES: [&str; 21] = [
     "microfacet-ambiguity",
     "subspace",
     "positive-bound",
+    "texture-ambiguity",
 ];
 
 #[test]
@@ -74,6 +75,7 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "subspace_sphere.svg",
         "subspace_mesh.svg",
         "positive_bound.svg",
+        "texture_ambiguity.svg",
     ] {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));

@@ -40,6 +40,7 @@ pub mod separation;
 pub mod subspace;
 #[cfg(test)]
 mod testutil;
+pub mod texture_ambiguity;
 pub mod torrance_sparrow;
 pub mod transfer;
 pub mod uniform;
@@ -110,6 +111,7 @@ pub const CHECKS: &[Entry] = &[
     },
     Entry { name: subspace::NAME, equation: subspace::EQUATION, run: subspace::run },
     Entry { name: positive_bound::NAME, equation: positive_bound::EQUATION, run: positive_bound::run },
+    Entry { name: texture_ambiguity::NAME, equation: texture_ambiguity::EQUATION, run: texture_ambiguity::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.

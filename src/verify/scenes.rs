@@ -52,6 +52,8 @@ pub enum Lighting {
 #[derive(Clone, Debug)]
 pub enum Shape {
     Sphere,
+    /// The unit sphere with a grey albedo texture T(n) given by SH coefficients (index order k).
+    TexturedSphere(Vec<f64>),
     /// A mesh file (absolute path).
     Mesh(String),
 }
@@ -161,6 +163,17 @@ impl Spec {
                     "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {}",
                     self.brdf
                 );
+            }
+            Shape::TexturedSphere(t) => {
+                let _ = write!(
+                    s,
+                    "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {}\ntexture = {{ type = \"sh\", coefficients = [",
+                    self.brdf
+                );
+                for (k, v) in t.iter().enumerate() {
+                    let _ = write!(s, "{}[{v:?}, {v:?}, {v:?}]", if k > 0 { ", " } else { "" });
+                }
+                let _ = writeln!(s, "] }}");
             }
             Shape::Mesh(file) => {
                 let _ =

@@ -100,6 +100,11 @@ impl<'a> PathTracer<'a> {
         let mut depth = 1u32;
         loop {
             let brdf = &scene.brdfs[object as usize];
+            // An albedo texture scales the BRDF at this vertex (f → T(n) f): every contribution
+            // from here on carries it, and no sampling density changes.
+            if let Some(t) = &scene.textures[object as usize] {
+                beta *= t.eval(n);
+            }
             // Smooth meshes: keep ω_o above the shading hemisphere (Keller et al. 2017).
             n = adapt_shading_normal(n, ng, wo_world);
             let frame = Frame::from_normal(n);

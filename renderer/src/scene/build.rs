@@ -35,6 +35,8 @@ pub struct Scene {
     pub geometry: SceneGeometry,
     /// BRDF of object i.
     pub brdfs: Vec<Brdf>,
+    /// Albedo texture of object i (None: untextured).
+    pub textures: Vec<Option<crate::texture::ShTexture>>,
     /// The parsed description (with paths made absolute), written into the EXR header.
     pub description: SceneFile,
     /// Where the scene came from (None for the built-in default).
@@ -95,6 +97,7 @@ impl Scene {
         // Objects.
         let mut shapes = Vec::with_capacity(file.objects.len());
         let mut brdfs = Vec::with_capacity(file.objects.len());
+        let mut textures = Vec::with_capacity(file.objects.len());
         for (i, obj) in file.objects.iter_mut().enumerate() {
             let ctx = |m: String| Error::new(format!("objects[{i}]: {m}"));
             match obj {
@@ -150,6 +153,12 @@ impl Scene {
                 }
             }
             brdfs.push(build_brdf(obj.brdf()).map_err(ctx)?);
+            textures.push(match obj.texture() {
+                Some(super::file::TextureSection::Sh { coefficients }) => {
+                    Some(crate::texture::ShTexture::new(coefficients).map_err(|e| ctx(format!("texture: {e}")))?)
+                }
+                None => None,
+            });
         }
 
         // Camera.
@@ -163,7 +172,7 @@ impl Scene {
         // Lighting.
         let light = build_light(&mut file.lighting, base)?;
         let geometry = SceneGeometry::new(shapes);
-        Ok(Scene { settings, camera, light, geometry, brdfs, description: file, path: None })
+        Ok(Scene { settings, camera, light, geometry, brdfs, textures, description: file, path: None })
     }
 }
 

@@ -138,6 +138,9 @@ pub enum ObjectSection {
         center: [f32; 3],
         #[serde(default = "one_f")]
         radius: f32,
+        /// Albedo texture T(n) multiplying the BRDF (`renderer::texture`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        texture: Option<TextureSection>,
         brdf: BrdfSection,
     },
     Mesh {
@@ -150,6 +153,9 @@ pub enum ObjectSection {
         scale: f32,
         #[serde(default)]
         rotate_deg: [f32; 3],
+        /// Albedo texture T(n) multiplying the BRDF (`renderer::texture`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        texture: Option<TextureSection>,
         brdf: BrdfSection,
     },
     /// A tessellated sphere built in memory (`geometry::icosphere`: 20·4ⁿ triangles, vertex
@@ -164,11 +170,30 @@ pub enum ObjectSection {
         radius: f32,
         #[serde(default = "yes")]
         smooth: bool,
+        /// Albedo texture T(n) multiplying the BRDF (`renderer::texture`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        texture: Option<TextureSection>,
         brdf: BrdfSection,
     },
 }
 
+/// An albedo texture (CONVENTIONS §6 extension, README "Scene files").
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum TextureSection {
+    /// T(n) = Σ_k T_k Y_k(n): RGB triples in index order k, l ≤ 16.
+    Sh { coefficients: Vec<[f32; 3]> },
+}
+
 impl ObjectSection {
+    pub fn texture(&self) -> Option<&TextureSection> {
+        match self {
+            ObjectSection::Sphere { texture, .. }
+            | ObjectSection::Mesh { texture, .. }
+            | ObjectSection::Icosphere { texture, .. } => texture.as_ref(),
+        }
+    }
+
     pub fn brdf(&self) -> &BrdfSection {
         match self {
             ObjectSection::Sphere { brdf, .. }
