@@ -4,10 +4,13 @@ pub mod analyze;
 pub mod factor;
 pub mod header;
 pub mod invert;
+pub mod merge;
+pub mod passes;
 pub mod png;
 pub mod render;
 pub mod separate;
 pub mod sh;
+pub mod slurm;
 pub mod verify;
 
 use clap::{Parser, Subcommand};
@@ -36,6 +39,11 @@ pub enum Command {
     Invert(invert::InvertCommand),
     /// Render, analyse and check the paper's claims; report with error bars.
     Verify(verify::VerifyArgs),
+    /// Merge partial renders (shards) into the image a single render writes, bit for bit.
+    Merge(merge::MergeArgs),
+    /// Run renders on a Slurm cluster (a job array of shards and a merge job).
+    #[command(subcommand)]
+    Slurm(slurm::SlurmCommand),
     /// Tone-mapped sRGB PNG preview of an image (not an analysis input).
     Png(png::PngArgs),
 }
@@ -48,6 +56,8 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Invert(c) => invert::run(c),
         Command::Verify(a) => verify::run(a),
         Command::Png(a) => png::run(a),
+        Command::Merge(a) => merge::run(a),
+        Command::Slurm(c) => slurm::run(c),
     }
 }
 
