@@ -183,7 +183,7 @@ fn target_error_render_equals_a_plain_render_of_the_spp_reached() {
     let dir = common::temp_dir("target");
     let scene = scene_file(&dir, 16, 16, 4096);
     let out = dir.join("target.exr");
-    let err = ok(&["render", s(&scene), "--out", s(&out), "--target-rel-error", "0.02"]);
+    let err = ok(&["render", s(&scene), "--out", s(&out), "--target-rel-error", "0.05"]);
     let line = err.lines().find(|l| l.starts_with("progressive: ")).unwrap_or_else(|| panic!("{err}"));
     let n: u32 = line["progressive: ".len()..].split_whitespace().next().unwrap().parse().unwrap();
     assert!(line.contains("reached"), "{line}");

@@ -8,9 +8,9 @@
 //! `{"version", "scene", "seed", "spp", "start", "end", "width", "height", "batch_log2", "blocks"}`
 //! where `scene` is the [`scene_fingerprint`] and `blocks` the `[start, log2]` pairs of the range.
 
+use crate::Result;
 use crate::film::{Block, NSTAT, Partial, Stats, canonical_blocks};
 use crate::scene::Scene;
-use crate::Result;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::Path;
@@ -120,7 +120,8 @@ pub fn write_partial(path: &Path, p: &Partial, header: &PartialHeader, attribute
     }
     let mut layer =
         Layer::new((w.max(1), h.max(1)), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
-    let json = serde_json::to_string(header).map_err(|e| crate::Error::file(path, format!("cannot encode header: {e}")))?;
+    let json =
+        serde_json::to_string(header).map_err(|e| crate::Error::file(path, format!("cannot encode header: {e}")))?;
     for (k, v) in attributes.iter().map(|(k, v)| (k.as_str(), v.as_str())).chain([(PARTIAL_ATTRIBUTE, json.as_str())]) {
         if let (Some(k), Some(v)) = (Text::new_or_none(k), Text::new_or_none(v)) {
             layer.attributes.other.insert(k, AttributeValue::Text(v));

@@ -229,6 +229,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     });
     let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
     exr.commit()?;
+    if let Some(ck) = &a.checkpoint {
+        // The final image is in place: the checkpoint has served.
+        let _ = std::fs::remove_file(ck);
+    }
     if let Some(png) = png
         && let Err(e) = png.commit()
     {
