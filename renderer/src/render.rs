@@ -9,6 +9,8 @@ use crate::sampling::Sampler;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Side of the square tiles that are the unit of parallel work.
@@ -52,6 +54,9 @@ impl std::fmt::Display for RenderStats {
 pub struct RenderOptions {
     /// Show a progress bar on stderr (only drawn when stderr is a terminal).
     pub progress: bool,
+    /// Set to stop the render early (e.g. on Ctrl-C in the Python package): tiles not yet started
+    /// are skipped and left black, so the film of a cancelled render is incomplete.
+    pub cancel: Option<Arc<AtomicBool>>,
 }
 
 /// Renders `scene` on the current rayon pool.
@@ -76,6 +81,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> (Film, RenderStats) {
     let tiles: Vec<(Vec<Pixel>, u64)> = (0..ntiles)
         .into_par_iter()
         .map(|t| {
+            if opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return (Vec::new(), 0);
+            }
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let r =
                 render_tile(scene, &tracer, tx * TILE, ty * TILE, (tx * TILE + TILE).min(w), (ty * TILE + TILE).min(h));

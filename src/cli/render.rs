@@ -127,7 +127,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let opts = RenderOptions { progress: !a.quiet };
+    let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
     let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
     // leaves no EXR behind (and no temporary file).
