@@ -16,7 +16,7 @@ CLI's one-line message.
 from __future__ import annotations
 
 import os
-from typing import Dict, Optional, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -29,10 +29,12 @@ __all__ = [
     "RenderResult",
     "Scene",
     "__version__",
+    "list_checks",
     "load_scene",
     "read_image",
     "render",
     "sh",
+    "verify",
 ]
 
 
@@ -104,6 +106,43 @@ class Image:
 
     def __repr__(self) -> str:
         return f"<reflect.Image channels {sorted(self.channels)}>"
+
+
+def list_checks() -> List[Tuple[str, str]]:
+    """The checks :func:`verify` can run, as ``reflect verify --list`` prints them: (name, equations)."""
+    return _reflect.verify_checks()
+
+
+def verify(
+    quick: bool = True,
+    checks: Union[None, str, Sequence[str]] = None,
+    seed: Optional[int] = None,
+    *,
+    data: Union[None, str, "os.PathLike[str]"] = None,
+    out: Union[None, str, "os.PathLike[str]"] = None,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Renders, projects into SH and checks the paper's claims, as ``reflect verify [--quick]``.
+
+    Returns the document of ``reflect verify --json``: ``{"checks": [{"name", "equation",
+    "passed", "measured", "expected", "tolerance", …}, …], "passed", "quick", "k_sigma",
+    "seconds"}``, where each check's tolerance is k·σ (σ the standard error of the measurement)
+    plus the stated approximation error. ``checks``: one name or several (see
+    :func:`list_checks`; default all). ``seed``: base seed of the renders (default 1, as the
+    CLI). ``data``: the folder holding ``grace_probe.hdr`` (default: ``$REFLECT_DATA``, else
+    ``../shared/data`` from the current directory). ``out``: also write the report folder
+    (report.md/html/json and SVG plots) there. The GIL is released; a Ctrl-C takes effect when
+    the running checks finish. A failed check is a result (``passed`` false), not an exception.
+    """
+    names = [checks] if isinstance(checks, str) else None if checks is None else list(checks)
+    return _reflect.verify(
+        quick,
+        names,
+        seed,
+        None if data is None else os.fspath(data),
+        None if out is None else os.fspath(out),
+        threads,
+    )
 
 
 from . import sh  # noqa: E402  (after render: sh imports nothing from here but keeps the order readable)

@@ -69,9 +69,22 @@ def sh_evaluate(coeffs: npt.NDArray[np.float64], directions: npt.NDArray[np.floa
 
 def sh_transfer(
     brdf: str, lmax: int, s: Optional[float] = None, sigma: Optional[float] = None, theta_o_deg: Optional[float] = None
-) -> Tuple[npt.NDArray[np.float64], str, Optional[Tuple[str, npt.NDArray[np.float64]]]]:
-    """(Λ_l ρ̂_l for l = 0 … lmax as (lmax+1,) float64, the method, and the paper's approximation
+) -> Tuple[npt.NDArray[np.float64], Optional[Tuple[str, npt.NDArray[np.float64]]]]:
+    """(Λ_l ρ̂_l for l = 0 … lmax as (lmax+1,) float64, and the paper's approximation
     (equation name, values) where it has one: eq. 46 Phong, eq. 57/59 Torrance–Sparrow)."""
 
 def sh_rotate(coeffs: npt.NDArray[np.float64], rotation: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Coefficients of f(Rᵀω) for coefficients ((L+1)², 3) and a 3 × 3 rotation R: ((L+1)², 3) float64."""
+
+def verify_checks() -> List[Tuple[str, str]]:
+    """The checks of ``reflect verify --list``: (name, equations)."""
+
+def verify(
+    quick: bool = True,
+    checks: Optional[List[str]] = None,
+    seed: Optional[int] = None,
+    data: Optional[str] = None,
+    out: Optional[str] = None,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Runs the checks of ``reflect verify`` and returns the document of ``verify --json``."""

@@ -92,7 +92,7 @@ def transfer(
     ``sigma`` in radians (eq. 50 by numerical integration; at exitance angle ``theta_o_deg``
     the q = 0 coefficient of eq. 49). As ``reflect sh transfer --json``'s ``lambda_rho``.
     """
-    f, _method, _approx = _reflect.sh_transfer(brdf, int(lmax), s, sigma, theta_o_deg)
+    f, _approx = _reflect.sh_transfer(brdf, int(lmax), s, sigma, theta_o_deg)
     return f
 
 

@@ -13,6 +13,7 @@
 mod convert;
 mod render;
 mod sh;
+mod verify;
 
 use pyo3::prelude::*;
 
@@ -29,5 +30,7 @@ fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sh::sh_transfer, m)?)?;
     m.add_function(wrap_pyfunction!(sh::sh_rotate, m)?)?;
     m.add_function(wrap_pyfunction!(sh::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(verify::verify, m)?)?;
+    m.add_function(wrap_pyfunction!(verify::verify_checks, m)?)?;
     Ok(())
 }

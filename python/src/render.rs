@@ -107,21 +107,6 @@ fn apply_overrides(
     }
 }
 
-/// Runs `f` on a rayon pool of `threads` workers (the global pool, all cores, when None).
-fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T, Error> {
-    match threads {
-        None => Ok(f()),
-        Some(0) => Err(Error::new("threads must be at least 1")),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
-            Ok(pool.install(f))
-        }
-    }
-}
-
 /// Renders on another thread while this one, without the GIL, waits for it; every 50 ms it takes
 /// the GIL back to run Python's signal handlers, so Ctrl-C (KeyboardInterrupt) sets the cancel
 /// flag and the render stops at its next tile.
@@ -138,7 +123,7 @@ fn render_interruptibly(
     let rx = std::sync::Mutex::new(rx);
     std::thread::scope(|s| {
         let worker = s.spawn(move || {
-            let r = with_threads(threads, || renderer::render::render(scene, &opts));
+            let r = reflect::cli::render::with_threads(threads, || renderer::render::render(scene, &opts));
             let _ = tx.send(());
             r
         });

@@ -8,22 +8,11 @@ use analysis::image::{RgbImage, read_rgb};
 use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::rotation::{Rotation, rotate_coefficients};
 use analysis::sh::{Reconstructor, lmax_of};
-use analysis::transfer::TransferModel;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
+use reflect::cli::sh::{check_lmax, model_from_args};
 use std::path::PathBuf;
-
-/// Largest l_max accepted (as the CLI's `--lmax`): the basis is accurate far beyond, this guards
-/// against accidental huge allocations.
-pub const MAX_LMAX: usize = 200;
-
-fn check_lmax(lmax: usize) -> Result<(), Error> {
-    if lmax > MAX_LMAX {
-        return Err(Error::new(format!("--lmax {lmax} is above the supported maximum {MAX_LMAX}")));
-    }
-    Ok(())
-}
 
 fn coeffs_array(c: Vec<[f64; 3]>) -> Array2<f64> {
     let n = c.len();
@@ -136,59 +125,11 @@ pub fn sh_transfer<'py>(
     s: Option<f64>,
     sigma: Option<f64>,
     theta_o_deg: Option<f64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, String, Option<(String, Bound<'py, PyArray1<f64>>)>)> {
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Option<(String, Bound<'py, PyArray1<f64>>)>)> {
     check_lmax(lmax).py()?;
-    let model = model(brdf, s, sigma, theta_o_deg).py()?;
+    let model = model_from_args(brdf, s, sigma, theta_o_deg).py()?;
     let (f, approx) = py.detach(|| (model.lambda_rho(lmax), model.approximation(lmax)));
-    let method = match model {
-        TransferModel::Lambert => "eq. 38 closed form",
-        TransferModel::Phong { .. } => "eq. 43 exact",
-        TransferModel::Mirror => "eq. 33",
-        TransferModel::TorranceSparrow { theta_o: 0.0, .. } => "eq. 50 numerical integration",
-        TransferModel::TorranceSparrow { .. } => {
-            "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)"
-        }
-    };
-    Ok((
-        Array1::from(f).into_pyarray(py),
-        method.to_string(),
-        approx.map(|(name, v)| (name.to_string(), Array1::from(v).into_pyarray(py))),
-    ))
-}
-
-/// The transfer model named `brdf` with its parameters checked (the CLI's rules and messages).
-fn model(brdf: &str, s: Option<f64>, sigma: Option<f64>, theta_o_deg: Option<f64>) -> Result<TransferModel, Error> {
-    let unused = |name: &str, v: Option<f64>| match v {
-        Some(_) => Err(Error::new(format!("{name} does not apply to brdf '{brdf}'"))),
-        None => Ok(()),
-    };
-    let m = match brdf {
-        "lambert" | "mirror" => {
-            unused("s", s)?;
-            unused("sigma", sigma)?;
-            unused("theta_o_deg", theta_o_deg)?;
-            if brdf == "lambert" { TransferModel::Lambert } else { TransferModel::Mirror }
-        }
-        "phong" => {
-            unused("sigma", sigma)?;
-            unused("theta_o_deg", theta_o_deg)?;
-            TransferModel::Phong { s: s.ok_or_else(|| Error::new("brdf 'phong' needs s"))? }
-        }
-        "torrance-sparrow" => {
-            unused("s", s)?;
-            TransferModel::TorranceSparrow {
-                sigma: sigma.ok_or_else(|| Error::new("brdf 'torrance-sparrow' needs sigma"))?,
-                theta_o: theta_o_deg.unwrap_or(0.0).to_radians(),
-            }
-        }
-        other => {
-            return Err(Error::new(format!(
-                "unknown brdf '{other}' (expected lambert, phong, mirror or torrance-sparrow)"
-            )));
-        }
-    };
-    m.validate()?;
-    Ok(m)
+    Ok((Array1::from(f).into_pyarray(py), approx.map(|(name, v)| (name.to_string(), Array1::from(v).into_pyarray(py)))))
 }
 
 /// Coefficients of f_R(ω) = f(Rᵀω) for a 3 × 3 rotation matrix R (orthonormal, det +1).
