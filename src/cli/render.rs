@@ -175,6 +175,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             Some(n) => eprintln!("{n}"),
             None => eprintln!("noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
         }
+        let flagged = film.unreliable_count();
+        if flagged > 0 {
+            eprintln!("{flagged} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)");
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
