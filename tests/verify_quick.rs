@@ -7,16 +7,9 @@
 mod common;
 
 use serde_json::Value;
-use std::process::Command;
 
 fn verify(args: &[&str]) -> (i32, String, String) {
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_reflect")).arg("verify").args(args).output().expect("run reflect verify");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::reflect_out(&[&["verify"], args].concat())
 }
 
 const NAMES: [&str; 17] = [
