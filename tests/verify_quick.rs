@@ -12,7 +12,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     common::reflect_out(&[&["verify"], args].concat())
 }
 
-const NAMES: [&str; 17] = [
+const NAMES: [&str; 21] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -30,6 +30,10 @@ const NAMES: [&str; 17] = [
     "separation",
     "factorization",
     "ambiguity",
+    "uniform-factorization",
+    "microfacet-ambiguity",
+    "subspace",
+    "positive-bound",
 ];
 
 #[test]
@@ -65,6 +69,11 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "inverse_lighting.svg",
         "inverse_brdf_profile.svg",
         "inverse_specular_error.svg",
+        "uniform_factorization.svg",
+        "microfacet_ambiguity.svg",
+        "subspace_sphere.svg",
+        "subspace_mesh.svg",
+        "positive_bound.svg",
     ] {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));
