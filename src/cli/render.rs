@@ -37,6 +37,9 @@ pub struct RenderArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print the render's statistics as one JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `--threads N`: at least 1, refused while parsing the arguments (before any work or output).
@@ -140,8 +143,68 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         let _ = std::fs::remove_file(&out);
         return Err(e);
     }
+    let report = RenderReport {
+        scene: scene.path.as_ref().map(|p| p.display().to_string()),
+        output: out.display().to_string(),
+        png: a.png.as_ref().map(|p| p.display().to_string()),
+        width: s.width,
+        height: s.height,
+        spp: s.spp,
+        seed: s.seed,
+        threads: stats.threads,
+        seconds: stats.wall.as_secs_f64(),
+        samples: stats.samples,
+        samples_per_sec: stats.samples_per_sec(),
+        rays: stats.rays,
+        rays_per_sec: stats.rays_per_sec(),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
+    }
     if !a.quiet {
-        eprintln!("wrote {}: {stats}", out.display());
+        eprintln!("{report}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The output of `reflect render` (`--json` prints it on stdout; `Display` is the line on stderr).
+/// Times and rates are of the render loop alone (scene loading and file writing excluded).
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct RenderReport {
+    /// The scene file (null for the built-in default scene).
+    pub scene: Option<String>,
+    /// The OpenEXR file written.
+    pub output: String,
+    /// The PNG preview written, if any.
+    pub png: Option<String>,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    /// Worker threads of the render loop.
+    pub threads: usize,
+    /// Wall time of the render loop, seconds.
+    pub seconds: f64,
+    /// Camera samples taken (pixels × spp).
+    pub samples: u64,
+    pub samples_per_sec: f64,
+    /// Rays traced.
+    pub rays: u64,
+    pub rays_per_sec: f64,
+}
+
+impl std::fmt::Display for RenderReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "wrote {}: {:.3} s, {} samples ({:.2} M samples/s), {} rays ({:.2} M rays/s), {} threads",
+            self.output,
+            self.seconds,
+            self.samples,
+            self.samples_per_sec / 1e6,
+            self.rays,
+            self.rays_per_sec / 1e6,
+            self.threads
+        )
+    }
 }

@@ -31,6 +31,7 @@ pub mod lambert;
 pub mod mirror;
 pub mod oblique;
 pub mod phong;
+pub mod picture;
 pub mod plot;
 pub mod report;
 pub mod scenes;
