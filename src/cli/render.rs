@@ -1,7 +1,9 @@
 //! `reflect render [SCENE.toml] [--out FILE.exr] [--spp N] [--seed N] [--threads N] [--png FILE]`
 //!
 //! Renders a scene file (or the built-in default: a Lambertian sphere under a built-in sky) to a
-//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints wall time, samples/s and rays/s.
+//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints the stats line (render-loop time,
+//! samples/s, rays/s; see `RenderStats`), the load / render / save / whole-command times, and the
+//! noise summary of the object's pixels (`renderer::noise`).
 
 use super::Error;
 use renderer::render::{RenderOptions, render};
@@ -25,9 +27,12 @@ pub struct RenderArgs {
     /// Worker threads [default: all cores]. The image does not depend on it.
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
-    /// Also write a tone-mapped PNG preview here.
+    /// Also write a tone-mapped PNG preview here (see `reflect png`).
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// Exposure of the --png preview in stops [default: the object's median luminance → 0.18].
+    #[arg(long, allow_hyphen_values = true, requires = "png")]
+    pub exposure: Option<f64>,
     /// Sampler: sobol or independent (overrides render.sampler).
     #[arg(long)]
     pub sampler: Option<String>,
@@ -107,7 +112,9 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
 }
 
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
+    let t_start = std::time::Instant::now();
     let scene = load_scene(&a)?;
+    let t_load = t_start.elapsed();
     let stem = a
         .scene
         .as_ref()
@@ -117,6 +124,9 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.exr")));
     if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
         return Err(Error::file(&out, "output file must end in .exr"));
+    }
+    if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
+        return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
     let s = &scene.settings;
     if !a.quiet {
@@ -132,10 +142,16 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     }
     let opts = RenderOptions { progress: !a.quiet };
     let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
+    let t_save = std::time::Instant::now();
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
     // leaves no EXR behind (and no temporary file).
     let exr = renderer::output::stage_exr(&out, &film, &renderer::output::header_attributes(&scene))?;
-    let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, 1.0)).transpose()?;
+    let ev = a.exposure.unwrap_or_else(|| {
+        let px: Vec<[f32; 3]> = film.pixels.iter().map(|p| p.rgb).collect();
+        let mask: Vec<f32> = film.pixels.iter().map(|p| p.mask).collect();
+        renderer::output::auto_exposure(&px, Some(&mask))
+    });
+    let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
     exr.commit()?;
     if let Some(png) = png
         && let Err(e) = png.commit()
@@ -143,32 +159,42 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         let _ = std::fs::remove_file(&out);
         return Err(e);
     }
+    let t_save = t_save.elapsed();
     let report = RenderReport {
         scene: scene.path.as_ref().map(|p| p.display().to_string()),
         output: out.display().to_string(),
-        png: a.png.as_ref().map(|p| p.display().to_string()),
+        png: a.png.as_ref().map(|p| PngReport {
+            file: p.display().to_string(),
+            exposure_ev: ev,
+            automatic: a.exposure.is_none(),
+        }),
         width: s.width,
         height: s.height,
         spp: s.spp,
         seed: s.seed,
         threads: stats.threads,
-        seconds: stats.wall.as_secs_f64(),
         samples: stats.samples,
         samples_per_sec: stats.samples_per_sec(),
         rays: stats.rays,
         rays_per_sec: stats.rays_per_sec(),
+        load_seconds: t_load.as_secs_f64(),
+        render_seconds: stats.wall.as_secs_f64(),
+        save_seconds: t_save.as_secs_f64(),
+        total_seconds: t_start.elapsed().as_secs_f64(),
+        noise: renderer::noise::summarize(&film),
     };
     if a.json {
         println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
     }
     if !a.quiet {
-        eprintln!("{report}");
+        eprint!("{report}");
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// The output of `reflect render` (`--json` prints it on stdout; `Display` is the line on stderr).
-/// Times and rates are of the render loop alone (scene loading and file writing excluded).
+/// The output of `reflect render` (`--json` prints it on stdout; `Display` is the text on stderr).
+/// samples = pixels × spp (misses included), rays = rays traced (skipped shadow rays not counted),
+/// both per second of the render loop alone (`render_seconds`: loading and saving excluded).
 #[derive(Clone, Debug, serde::Serialize, PartialEq)]
 pub struct RenderReport {
     /// The scene file (null for the built-in default scene).
@@ -176,35 +202,63 @@ pub struct RenderReport {
     /// The OpenEXR file written.
     pub output: String,
     /// The PNG preview written, if any.
-    pub png: Option<String>,
+    pub png: Option<PngReport>,
     pub width: u32,
     pub height: u32,
     pub spp: u32,
     pub seed: u64,
     /// Worker threads of the render loop.
     pub threads: usize,
-    /// Wall time of the render loop, seconds.
-    pub seconds: f64,
-    /// Camera samples taken (pixels × spp).
+    /// Camera samples taken (pixels × spp, misses included).
     pub samples: u64,
     pub samples_per_sec: f64,
-    /// Rays traced.
+    /// Rays traced (camera, shadow and bounce rays; skipped shadow rays not counted).
     pub rays: u64,
     pub rays_per_sec: f64,
+    /// Scene, meshes and environment tables, seconds.
+    pub load_seconds: f64,
+    /// The render loop, seconds (the time the rates divide by).
+    pub render_seconds: f64,
+    /// Writing the EXR (and PNG), seconds.
+    pub save_seconds: f64,
+    /// The whole command, seconds.
+    pub total_seconds: f64,
+    /// Relative standard error of the object's pixels (null when no object pixel is > 0).
+    pub noise: Option<renderer::noise::NoiseSummary>,
+}
+
+/// The PNG preview of a render.
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct PngReport {
+    pub file: String,
+    /// Exposure applied before the tone curve x/(1+x), in stops (EV).
+    pub exposure_ev: f64,
+    /// True when chosen automatically (the object's median → 0.18), false when set by `--exposure`.
+    pub automatic: bool,
 }
 
 impl std::fmt::Display for RenderReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
+        if let Some(p) = &self.png {
+            let how = if p.automatic { "automatic: object's median → 0.18" } else { "set by --exposure" };
+            writeln!(f, "wrote {}: exposure {:+.2} EV ({how}), tone curve x/(1+x), sRGB", p.file, p.exposure_ev)?;
+        }
+        writeln!(f, "wrote {}", self.output)?;
+        let stats = renderer::render::RenderStats {
+            wall: std::time::Duration::from_secs_f64(self.render_seconds),
+            samples: self.samples,
+            rays: self.rays,
+            threads: self.threads,
+        };
+        writeln!(f, "{stats}")?;
+        writeln!(
             f,
-            "wrote {}: {:.3} s, {} samples ({:.2} M samples/s), {} rays ({:.2} M rays/s), {} threads",
-            self.output,
-            self.seconds,
-            self.samples,
-            self.samples_per_sec / 1e6,
-            self.rays,
-            self.rays_per_sec / 1e6,
-            self.threads
-        )
+            "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
+            self.load_seconds, self.render_seconds, self.save_seconds, self.total_seconds
+        )?;
+        match &self.noise {
+            Some(n) => writeln!(f, "{n}"),
+            None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
+        }
     }
 }

@@ -66,7 +66,7 @@ fn opt(v: Option<f64>) -> String {
     v.map_or_else(|| "-".into(), fmt)
 }
 
-fn verdict(c: &CheckDoc) -> &'static str {
+fn result_word(c: &CheckDoc) -> &'static str {
     match (c.passed, c.errored) {
         (true, _) => "PASS",
         (false, true) => "ERROR",
@@ -83,7 +83,7 @@ impl std::fmt::Display for Report {
             "check", "equation", "expected", "measured", "σ", "tolerance", "result"
         )?;
         for c in &self.checks {
-            let v = verdict(c);
+            let v = result_word(c);
             match (worst(c), &c.error) {
                 (_, Some(e)) => writeln!(
                     f,
@@ -187,10 +187,64 @@ fn rule_text() -> String {
     )
 }
 
+/// How a check bears on the paper's claims, for the verdict paragraph.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Standing {
+    /// Every deciding row within k·σ (+ f32 floor): the claim holds to the noise.
+    Holds,
+    /// Passes, but some deciding row needs a stated approximation error (the paper's formula is
+    /// itself an approximation), or an informative row is outside its tolerance (a formula used
+    /// outside its range of validity): the claim holds within a stated range.
+    HoldsWithinRange,
+    Fails,
+}
+
+fn standing(c: &Check) -> Standing {
+    if !c.passed() {
+        Standing::Fails
+    } else if c.rows.iter().any(|r| (!r.informative && r.approx > 0.0) || (r.informative && !r.passed())) {
+        Standing::HoldsWithinRange
+    } else {
+        Standing::Holds
+    }
+}
+
+/// The one-paragraph verdict that opens report.md and report.html (plain text, check names in
+/// backquotes).
+pub fn verdict(checks: &[Check]) -> String {
+    let names = |st: Standing| -> Vec<String> {
+        checks.iter().filter(|c| standing(c) == st).map(|c| format!("`{}` ({})", c.name, c.equation)).collect()
+    };
+    let list = |v: Vec<String>| if v.is_empty() { "none".to_string() } else { v.join(", ") };
+    let failed: Vec<String> = checks
+        .iter()
+        .filter(|c| standing(c) == Standing::Fails)
+        .map(|c| match (&c.error, c.worst()) {
+            (Some(e), _) => format!("`{}` ({}; could not run: {})", c.name, c.equation, e.lines().next().unwrap_or("")),
+            (None, Some(r)) => {
+                format!("`{}` ({}; worst row {}: |Δ|/tolerance = {:.2})", c.name, c.equation, r.label, r.ratio())
+            }
+            (None, None) => format!("`{}` ({}; nothing compared)", c.name, c.equation),
+        })
+        .collect();
+    let n_fail = failed.len();
+    format!(
+        "Verdict: {} of {} checks pass. Hold to the noise (every deciding row within k·σ): {}. Hold within a stated \
+         range (a deciding row allows the stated error of an approximate formula, or an informative row shows the \
+         formula outside its range of validity; the rows and notes state the range): {}. Fail: {}.",
+        checks.len() - n_fail,
+        checks.len(),
+        list(names(Standing::Holds)),
+        list(names(Standing::HoldsWithinRange)),
+        list(failed)
+    )
+}
+
 /// `report.md`: the summary table, then per check its pictures, plots, notes and every row.
 pub fn markdown(checks: &[Check], quick: bool, seconds: f64) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# reflect verify — report\n");
+    let _ = writeln!(s, "{}\n", verdict(checks));
     let _ = writeln!(s, "Mode: {}. Wall time {seconds:.1} s. {}\n", mode(quick), rule_text());
     let rep = Report::new(checks, quick, seconds);
     let _ =
@@ -204,7 +258,7 @@ pub fn markdown(checks: &[Check], quick: bool, seconds: f64) -> String {
             c.name,
             c.name,
             c.equation,
-            verdict(c),
+            result_word(c),
             cell(&w.map_or_else(|| c.error.clone().unwrap_or_default(), |r| r.label.clone())),
             opt(w.and_then(|r| r.expected)),
             opt(w.and_then(|r| r.measured)),
@@ -215,7 +269,7 @@ pub fn markdown(checks: &[Check], quick: bool, seconds: f64) -> String {
     let failed = rep.checks.iter().filter(|c| !c.passed).count();
     let _ = writeln!(s, "\n{} checks, {} passed, {failed} failed.\n", rep.checks.len(), rep.checks.len() - failed);
     for c in checks {
-        let _ = writeln!(s, "<a id=\"{}\"></a>\n## {} ({}) — {}\n", c.name, c.name, c.equation, verdict(&c.doc()));
+        let _ = writeln!(s, "<a id=\"{}\"></a>\n## {} ({}) — {}\n", c.name, c.name, c.equation, result_word(&c.doc()));
         if !c.description.is_empty() {
             let _ = writeln!(s, "{}\n", c.description);
         }
@@ -276,6 +330,19 @@ pub fn markdown(checks: &[Check], quick: bool, seconds: f64) -> String {
     s
 }
 
+/// `name` → <code>name</code> (the verdict is written with Markdown backquotes).
+fn md_code_to_html(s: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in s.split('`').enumerate() {
+        if i % 2 == 1 {
+            let _ = write!(out, "<code>{part}</code>");
+        } else {
+            out.push_str(part);
+        }
+    }
+    out
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
@@ -294,7 +361,8 @@ span.pass,span.fail,span.error{padding:0 6px;border-radius:3px}\
 .pics figcaption{font-size:12px;text-align:center}p.caption{font-size:12px;margin:2px 0 14px 0;color:#444}\
 .scale{font-size:12px;display:flex;align-items:center;gap:6px;margin:4px 0}.scale img{width:256px;height:12px;border:1px solid #999}\
 .plots{display:flex;flex-wrap:wrap;gap:8px}.plots img{width:calc(50% - 8px);min-width:420px}\
-details summary{cursor:pointer;font-size:13px;margin:4px 0}";
+details summary{cursor:pointer;font-size:13px;margin:4px 0}\
+p.verdict{font-size:15px;border-left:4px solid #888;padding-left:8px}";
 
 /// `report.html`: a summary table with pass/fail colours, then per check the pictures of its
 /// renders (measured, predicted, z map), its plots, notes and every row.
@@ -302,7 +370,7 @@ pub fn html(checks: &[Check], quick: bool, seconds: f64) -> String {
     let mut s = format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>reflect verify</title><style>{CSS}</style></head><body>\n"
     );
-    let _ = writeln!(s, "<h1>reflect verify</h1>");
+    let _ = writeln!(s, "<h1>reflect verify</h1><p class=\"verdict\">{}</p>", md_code_to_html(&esc(&verdict(checks))));
     let _ = writeln!(s, "<p>Mode: {}; wall time {seconds:.1} s. {}</p>", mode(quick), esc(&rule_text()));
     let rep = Report::new(checks, quick, seconds);
     let _ = writeln!(
@@ -312,7 +380,7 @@ pub fn html(checks: &[Check], quick: bool, seconds: f64) -> String {
     );
     for c in &rep.checks {
         let w = worst(c);
-        let v = verdict(c);
+        let v = result_word(c);
         let _ = writeln!(
             s,
             "<tr><td><a href=\"#{}\">{}</a></td><td>{}</td><td class=\"label\">{}</td><td class=\"{}\">{v}</td>\
@@ -338,7 +406,7 @@ pub fn html(checks: &[Check], quick: bool, seconds: f64) -> String {
         rep.checks.len() - failed
     );
     for (c, d) in checks.iter().zip(&rep.checks) {
-        let v = verdict(d);
+        let v = result_word(d);
         let _ = writeln!(
             s,
             "<h2 id=\"{}\">{} ({}) <span class=\"{}\">{v}</span></h2><p>{}</p>",
@@ -446,4 +514,53 @@ pub fn write_folder(dir: &Path, checks: &[Check], quick: bool, seconds: f64) -> 
     w("report.html", html(checks, quick, seconds))?;
     w("report.json", serde_json::to_string_pretty(&Report::new(checks, quick, seconds)).unwrap_or_default())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn checks() -> Vec<Check> {
+        let mut exact = Check::new("mirror", "30, 33", "");
+        exact.push(Row::new("B_00", 1.0, 1.01, 0.01));
+        let mut approx = Check::new("phong", "41–46", "");
+        approx.push(Row::new("eq. 46 l = 4", 0.5, 0.52, 0.001).approx(0.03));
+        let mut outside = Check::new("torrance-sparrow", "50–59", "");
+        outside.push(Row::new("eq. 58 θ_o = 30°", 0.9, 0.9, 0.01));
+        outside.push(Row::new("eq. 59 θ_o = 60°", 0.9, 0.5, 0.01).informative());
+        let mut failing = Check::new("lambert", "34, 38", "");
+        failing.push(Row::new("l = 2", 0.25, 0.5, 0.01));
+        vec![exact, approx, outside, failing]
+    }
+
+    #[test]
+    fn verdict_names_each_kind_of_check() {
+        let v = verdict(&checks());
+        assert!(v.starts_with("Verdict: 3 of 4 checks pass."), "{v}");
+        let holds = v.split("Hold to the noise").nth(1).unwrap().split("Hold within").next().unwrap();
+        assert!(holds.contains("`mirror`") && !holds.contains("`phong`"), "{v}");
+        let within = v.split("Hold within a stated").nth(1).unwrap().split("Fail:").next().unwrap();
+        assert!(within.contains("`phong`") && within.contains("`torrance-sparrow`"), "{v}");
+        let fail = v.split("Fail:").nth(1).unwrap();
+        assert!(fail.contains("`lambert`") && fail.contains("worst row l = 2"), "{v}");
+    }
+
+    #[test]
+    fn reports_open_with_the_verdict_and_show_informative_rows_as_such() {
+        let c = checks();
+        let md = markdown(&c, true, 1.0);
+        let first_para = md.split("\n\n").nth(1).unwrap();
+        assert!(first_para.starts_with("Verdict:"), "{md}");
+        assert!(!md.contains("FAIL (info)") && !md.contains("(info)"), "{md}");
+        assert!(md.contains("| info: outside tolerance (does not decide) |"), "{md}");
+        let html = html(&c, true, 1.0);
+        assert!(html.contains("<p class=\"verdict\">Verdict:"), "{html}");
+        assert!(html.contains("<code>mirror</code>"), "{html}");
+        assert!(html.contains("<td class=\"info\">info: outside tolerance (does not decide)</td>"), "{html}");
+        assert!(!html.contains("(info)"), "{html}");
+        // The deciding failure is still red.
+        assert!(html.contains("<td class=\"fail\">FAIL</td>"), "{html}");
+        // The summary is an HTML table with a coloured verdict cell per check.
+        assert!(html.contains("<table class=\"summary\">") && html.contains("<td class=\"fail\">FAIL</td>"), "{html}");
+    }
 }
