@@ -186,6 +186,7 @@ fn verify_schema() {
             ".checks[].pictures[].measured_png: string",
             ".checks[].pictures[].predicted_png: string",
             ".checks[].pictures[].z_png: string",
+            ".checks[].pictures[].black: number",
             ".checks[].pictures[].white: number",
             ".checks[].pictures[].z: object",
             ".checks[].pictures[].z.pixels: number",

@@ -72,10 +72,25 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "inverse_lighting.svg",
         "inverse_brdf_profile.svg",
         "inverse_specular_error.svg",
+        "lambert_sh_measured.png",
+        "lambert_sh_predicted.png",
+        "lambert_sh_z.png",
+        "zscale.png",
     ] {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));
         assert!(meta.len() > 200, "{} is empty", p.display());
+    }
+    // Every check that renders an image it can predict pixel by pixel shows it in the report
+    // (factorization renders single nodes of a directional source: no picture).
+    for c in checks {
+        let pictures = c["pictures"].as_array().unwrap();
+        assert!(pictures.len() >= usize::from(c["name"] != "factorization"), "{} shows no render", c["name"]);
+        for p in pictures {
+            // The z summary is a number (σ > 0 somewhere), not NaN.
+            let rms = p["z"]["rms"].as_f64().unwrap();
+            assert!(rms.is_finite(), "{}: {p}", c["name"]);
+        }
     }
     let svg = std::fs::read_to_string(dir.join("fig3_lambert.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("measured"));

@@ -97,8 +97,8 @@ fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
     let report = ProjectReport {
         file: a.env.display().to_string(),
         mapping: mapping.name().to_string(),
-        width: img.width as usize,
-        height: img.height as usize,
+        width: img.width,
+        height: img.height,
         lmax: a.lmax,
         integration: PROJECT_INTEGRATION.to_string(),
         coefficients: c,

@@ -137,6 +137,9 @@ pub enum Legend {
 /// A plot attached to a check (rendered to SVG by the report).
 #[derive(Clone, Debug, Default)]
 pub struct Plot {
+    /// No longer used for placement: the legend is drawn in a strip below the chart, where it
+    /// cannot cover data. Kept so that checks setting it need not change.
+    #[allow(dead_code)]
     pub legend: Legend,
     pub file: String,
     pub title: String,

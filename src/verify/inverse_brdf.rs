@@ -28,10 +28,10 @@
 //! "only the lowest-frequency terms of the BRDF can be found").
 //! Wrong prediction: s off by 20 % (1.2 s).
 
-use super::picture::Picture;
 use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, Fit, fit_filter_probe};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::brdf::{BrdfFit, Model, fit_model_gls};
 use analysis::sh::{index, lambda, num_coefficients};

@@ -14,11 +14,11 @@
 //!
 //! Wrong prediction: the Grace L_lm × 1.05.
 
-use super::picture::Picture;
 use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, latlong_dir, order_rms, project_probe};
 use super::grace;
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Status, invert_lighting};
 use analysis::sh::{ShBasis, index, lm, num_coefficients};

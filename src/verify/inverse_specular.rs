@@ -21,12 +21,12 @@
 //!
 //! Wrong prediction: the true lightings × 1.05.
 
-use super::picture::Picture;
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, lsq, order_rms, project_probe, sh_design};
 use super::grace;
 use super::inverse_lighting::predicted_quadrature_with;
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, InverseLighting, Status, invert_lighting};
 use analysis::sh::{index, lm, num_coefficients};

@@ -116,8 +116,24 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     ));
     let wrong = if ctx.wrong { 1.05 } else { 1.0 };
     c.push(Row::new("rms relative error of B₉ (noise-debiased)", wrong * p.rms(), m.rms(), m.sigma_rms()));
-    c.push(Row::new("mean |B − B₉|/B", p.mean_abs, m.mean_abs, 0.0).informative());
-    c.push(Row::new("max |B − B₉|/B", p.max_abs, m.max_abs, 0.0).informative());
+    c.push(
+        Row::new(
+            "mean |B − B₉|/B of the render (measured) vs of the predicted image (expected)",
+            p.mean_abs,
+            m.mean_abs,
+            0.0,
+        )
+        .informative(),
+    );
+    c.push(
+        Row::new(
+            "max |B − B₉|/B of the render (measured) vs of the predicted image (expected)",
+            p.max_abs,
+            m.max_abs,
+            0.0,
+        )
+        .informative(),
+    );
 
     // Energy share on the directional (impulse-response) render.
     let spec = Spec::probe(

@@ -22,8 +22,8 @@
 //! of the prediction (e.g. the f32 rounding floor of a noise-free mirror render). A pixel with
 //! σ = 0 and a non-zero difference shows at full saturation; with σ = 0 and no difference, white.
 //!
-//! Scales (stated in the report's captions): measured and predicted share one linear exposure,
-//! white at the 99.5th percentile of the predicted values, sRGB-encoded, negative values black;
+//! Scales (stated in the report's captions): measured and predicted share one linear grey scale
+//! ([`Picture::grey_scale`]: black and white at the 0.5th and 99.5th percentiles of the prediction);
 //! the z map uses ColorBrewer's diverging RdBu map (blue z < 0, white z = 0, red z > 0), saturated
 //! at |z| = [`Z_SCALE`].
 
@@ -85,7 +85,9 @@ pub struct PictureDoc {
     pub predicted_png: String,
     pub z_png: String,
     pub z: ZStats,
-    /// Linear radiance drawn white in the measured and predicted PNGs.
+    /// Radiance drawn black in the measured and predicted PNGs (linear grey scale).
+    pub black: f64,
+    /// Radiance drawn white.
     pub white: f64,
 }
 
@@ -210,15 +212,25 @@ impl Picture {
         }
     }
 
-    /// Linear radiance drawn white: the 99.5th percentile of the finite predicted values (of the
-    /// measured ones when nothing is predicted), at least the smallest positive f32.
-    pub fn white(&self) -> f64 {
+    /// Radiances drawn black and white (linear grey scale between): the 0.5th and 99.5th
+    /// percentiles of the finite predicted values (of the measured ones when nothing is predicted),
+    /// so the structure of the image fills the scale; when those are (nearly) equal, as for a
+    /// constant prediction, black = 0 and white = 1.25 × the value.
+    pub fn grey_scale(&self) -> (f64, f64) {
         let pick = |v: &[f64]| {
             let mut f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
             f.sort_by(f64::total_cmp);
-            f.get(((f.len() as f64 - 1.0) * 0.995).round().max(0.0) as usize).copied()
+            let at = |q: f64| f[((f.len() as f64 - 1.0) * q).round() as usize];
+            (!f.is_empty()).then(|| (at(0.005), at(0.995)))
         };
-        pick(&self.predicted).or_else(|| pick(&self.measured)).unwrap_or(1.0).max(f32::MIN_POSITIVE as f64)
+        let (lo, hi) = pick(&self.predicted).or_else(|| pick(&self.measured)).unwrap_or((0.0, 1.0));
+        if hi - lo > 1e-3 * hi.abs().max(lo.abs()) {
+            (lo, hi)
+        } else if hi > 0.0 {
+            (0.0, 1.25 * hi)
+        } else {
+            (lo - 1.0, hi + 1.0)
+        }
     }
 
     /// Names of the three files (measured, predicted, z).
@@ -238,18 +250,19 @@ impl Picture {
             predicted_png: p,
             z_png: z,
             z: self.z_stats(),
-            white: self.white(),
+            black: self.grey_scale().0,
+            white: self.grey_scale().1,
         }
     }
 
     /// Writes the three PNG files into `dir`.
     pub fn write_png(&self, dir: &Path) -> Result<(), String> {
-        let white = self.white();
+        let (black, white) = self.grey_scale();
         let tone = |v: f64| -> Rgba<u8> {
             if !v.is_finite() {
                 return Rgba([0, 0, 0, 0]);
             }
-            let g = (srgb_encode((v / white).clamp(0.0, 1.0)) * 255.0).round() as u8;
+            let g = (((v - black) / (white - black)).clamp(0.0, 1.0) * 255.0).round() as u8;
             Rgba([g, g, g, 255])
         };
         let [fm, fp, fz] = self.files();
@@ -291,11 +304,6 @@ pub const Z_SCALE_FILE: &str = "zscale.png";
 
 fn scale_factor(w: usize, h: usize) -> usize {
     MIN_SIDE.div_ceil(w.min(h).max(1)).clamp(1, 16)
-}
-
-/// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
-fn srgb_encode(v: f64) -> f64 {
-    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! a strip below the chart so it never covers data; drawn with `plotters` (SVG backend).
 //! [`Plot::legend`] is no longer used for placement.
 
-use super::check::{Legend, Plot};
+use super::check::Plot;
 use plotters::prelude::*;
 use std::path::Path;
 

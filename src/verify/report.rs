@@ -127,11 +127,6 @@ impl std::fmt::Display for Report {
     }
 }
 
-/// The one-line-per-check table (the `Display` of [`Report`]).
-pub fn table(checks: &[Check]) -> String {
-    Report::new(checks, false, 0.0).to_string()
-}
-
 /// What a row's result cell says, and its CSS class: deciding rows pass or FAIL; informative
 /// rows say so (and whether they fall within the tolerance), never "FAIL".
 fn row_result(r: &Row) -> (&'static str, String) {
@@ -160,11 +155,12 @@ fn z_scale_text() -> String {
 fn picture_caption(p: &picture::Picture) -> String {
     let z = p.z_stats();
     format!(
-        "{}. Predicted: {}. Measured and predicted: linear radiance, white = {}, sRGB-encoded. z over {} pixels: \
-         mean {:+.2}, rms {:.2}, max |z| {:.1}, {:.2} % above 3 (0.27 % for Gaussian noise).",
+        "{}. Predicted: {}. Measured and predicted: one linear grey scale, black = {}, white = {} (radiance). z over \
+         {} pixels: mean {:+.2}, rms {:.2}, max |z| {:.1}, {:.2} % above 3 (0.27 % for Gaussian noise).",
         p.title,
         p.model,
-        fmt(p.white()),
+        fmt(p.grey_scale().0),
+        fmt(p.grey_scale().1),
         z.pixels,
         z.mean,
         z.rms,

@@ -166,10 +166,20 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                         .informative(),
                 );
                 c.push(
-                    Row::new(format!("σ={sigma} θo={t}° l={l}: q=0 term vs eq. 50 (θo=0)"), e50[l], q0[l], 0.0)
-                        .informative(),
+                    Row::new(
+                        format!("σ={sigma} θo={t}° l={l}: q=0 term (measured column) vs eq. 50 at θo=0 (expected)"),
+                        e50[l],
+                        q0[l],
+                        0.0,
+                    )
+                    .informative(),
                 );
-                let row = Row::new(format!("σ={sigma} θo={t}° l={l}: eq. 59 vs q=0 term"), q0[l], e59[l], 0.0);
+                let row = Row::new(
+                    format!("σ={sigma} θo={t}° l={l}: eq. 59 (measured column) vs q=0 term by quadrature (expected)"),
+                    q0[l],
+                    e59[l],
+                    0.0,
+                );
                 c.push(if t > EQ59_MAX_THETA_O_DEG { row.outside_range(EQ59_RANGE) } else { row.informative() });
             }
             let dep = (0..=LOBL).map(|l| q0[l] - e50[l]).fold(0.0f64, |a, b| if b.abs() > a.abs() { b } else { a });
