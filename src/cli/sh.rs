@@ -232,7 +232,7 @@ pub struct ProjectReport {
     pub lmax: usize,
     /// How the coefficients were integrated.
     pub integration: String,
-    /// L_lm as [r, g, b], (lmax + 1)² triples in index order k = l² + l + m (CONVENTIONS §3).
+    /// L_lm as `[r, g, b]`, (lmax + 1)² triples in index order k = l² + l + m (CONVENTIONS §3).
     pub coefficients: Vec<[f64; 3]>,
 }
 

@@ -139,7 +139,6 @@ pub enum Legend {
 pub struct Plot {
     /// No longer used for placement: the legend is drawn in a strip below the chart, where it
     /// cannot cover data. Kept so that checks setting it need not change.
-    #[allow(dead_code)]
     pub legend: Legend,
     pub file: String,
     pub title: String,
