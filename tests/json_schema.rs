@@ -122,14 +122,35 @@ fn render_schema() {
             ".spp: number",
             ".seed: number",
             ".threads: number",
-            ".seconds: number",
             ".samples: number",
             ".samples_per_sec: number",
             ".rays: number",
             ".rays_per_sec: number",
+            ".load_seconds: number",
+            ".render_seconds: number",
+            ".save_seconds: number",
+            ".total_seconds: number",
+            ".noise: object",
+            ".noise.pixels: number",
+            ".noise.black: number",
+            ".noise.median: number",
+            ".noise.p95: number",
         ],
     );
     assert_eq!(doc["samples"], 8 * 8 * 2);
+    // With a PNG preview, `png` is an object.
+    let png = dir.join("s.png");
+    let doc = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    assert!(doc["png"]["exposure_ev"].is_number() && doc["png"]["automatic"] == true, "{doc}");
 }
 
 #[test]
