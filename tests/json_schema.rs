@@ -135,6 +135,7 @@ fn render_schema() {
             ".noise.black: number",
             ".noise.median: number",
             ".noise.p95: number",
+            ".unreliable_pixels: number",
         ],
     );
     assert_eq!(doc["samples"], 8 * 8 * 2);

@@ -140,7 +140,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let opts = RenderOptions { progress: !a.quiet };
+    let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
     let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
     let t_save = std::time::Instant::now();
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
@@ -182,6 +182,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         save_seconds: t_save.as_secs_f64(),
         total_seconds: t_start.elapsed().as_secs_f64(),
         noise: renderer::noise::summarize(&film),
+        unreliable_pixels: film.unreliable_count(),
     };
     if a.json {
         println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
@@ -225,6 +226,8 @@ pub struct RenderReport {
     pub total_seconds: f64,
     /// Relative standard error of the object's pixels (null when no object pixel is > 0).
     pub noise: Option<renderer::noise::NoiseSummary>,
+    /// Pixels whose error bar is unreliable (`stderr_flag.Y` = 1: one rare sample dominates).
+    pub unreliable_pixels: usize,
 }
 
 /// The PNG preview of a render.
@@ -257,8 +260,16 @@ impl std::fmt::Display for RenderReport {
             self.load_seconds, self.render_seconds, self.save_seconds, self.total_seconds
         )?;
         match &self.noise {
-            Some(n) => writeln!(f, "{n}"),
-            None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
+            Some(n) => writeln!(f, "{n}")?,
+            None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)")?,
         }
+        if self.unreliable_pixels > 0 {
+            writeln!(
+                f,
+                "{} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)",
+                self.unreliable_pixels
+            )?;
+        }
+        Ok(())
     }
 }

@@ -122,7 +122,7 @@ impl Picture {
 
     /// A `normal-probe` render (lat-long in the normal, CONVENTIONS §2) of a radially symmetric
     /// BRDF under the SH lighting `light` (coefficients in index order k): predicted
-    /// B(n) = Σ_l filter[l] Σ_m L_lm Y_lm(n) for l < filter.len(). `extra_sigma(i)` is added in
+    /// B(n) = Σ_l filter\[l\] Σ_m L_lm Y_lm(n) for l < filter.len(). `extra_sigma(i)` is added in
     /// quadrature to the render's σ of pixel i (the prediction's own error; `|_| 0.0` for none).
     pub fn probe_filter(
         stem: impl Into<String>,
@@ -150,7 +150,7 @@ impl Picture {
     }
 
     /// Any render with a `normal` layer (e.g. an orthographic view of a convex object) of a radially
-    /// symmetric BRDF under the SH lighting `light`: predicted B(n_p) = Σ_l filter[l] Σ_m L_lm Y_lm(n_p)
+    /// symmetric BRDF under the SH lighting `light`: predicted B(n_p) = Σ_l filter\[l\] Σ_m L_lm Y_lm(n_p)
     /// at each pixel's normal n_p; pixels the object does not fully cover (mask < 1) have no data.
     pub fn normals_filter(
         stem: impl Into<String>,
