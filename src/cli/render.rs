@@ -252,6 +252,8 @@ impl std::fmt::Display for RenderReport {
             samples: self.samples,
             rays: self.rays,
             threads: self.threads,
+            // `reflect render` never cancels its render.
+            cancelled: false,
         };
         writeln!(f, "{stats}")?;
         writeln!(
