@@ -48,6 +48,12 @@ impl Report {
     }
 }
 
+/// The JSON document of [`Report`] as a `serde_json::Value`, for callers that walk it generically
+/// (the Python package converts it to Python objects).
+pub fn json(checks: &[Check], quick: bool, seconds: f64) -> serde_json::Value {
+    serde_json::to_value(Report::new(checks, quick, seconds)).unwrap_or(serde_json::Value::Null)
+}
+
 /// |Δ|/tolerance of a row (∞ for a difference with zero tolerance).
 fn ratio(r: &RowDoc) -> f64 {
     match (r.measured, r.expected, r.tolerance) {
