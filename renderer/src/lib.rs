@@ -25,5 +25,5 @@ pub mod scene;
 
 /// The one user-facing error type of the project (shared with `analysis`): it names the file and
 /// the problem on one line.
-pub use analysis::Error;
+pub use vocab::Error;
 pub type Result<T> = std::result::Result<T, Error>;

@@ -28,9 +28,9 @@ pub struct RenderArgs {
     /// Also write a tone-mapped PNG preview here.
     #[arg(long)]
     pub png: Option<PathBuf>,
-    /// Sampler: sobol or independent (overrides render.sampler).
-    #[arg(long)]
-    pub sampler: Option<String>,
+    /// Sampler (overrides render.sampler).
+    #[arg(long, value_enum)]
+    pub sampler: Option<vocab::Sampler>,
     /// Image width × height, e.g. 256x256 (overrides render.width/height).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
@@ -73,8 +73,8 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
     if let Some(s) = a.seed {
         file.render.seed = s;
     }
-    if let Some(s) = &a.sampler {
-        file.render.sampler = s.clone();
+    if let Some(s) = a.sampler {
+        file.render.sampler = s;
     }
     if let Some((w, h)) = a.size {
         file.render.width = w;
