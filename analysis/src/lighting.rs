@@ -12,7 +12,7 @@ use crate::image::read_rgb;
 use crate::projection::{Mapping, project_envmap};
 use crate::sh::{Rotation, ShBasis, num_coefficients, rotate_coefficients};
 use std::path::{Path, PathBuf};
-use vocab::scene::{Color, LightingSection};
+use vocab::scene::{Color, LightingSection, decimal, decimal3};
 
 /// A distant lighting environment.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,7 +29,7 @@ impl Lighting {
     /// a non-empty coefficient list); `axial` is refused (its profile is the renderer's).
     pub fn from_section(section: &LightingSection, base: Option<&Path>) -> Result<Lighting> {
         let rgb = |c: &Color, key: &str| -> Result<[f64; 3]> {
-            let v = c.rgb().map(f64::from);
+            let v = decimal3(c.rgb());
             if v.iter().all(|x| x.is_finite()) {
                 Ok(v)
             } else {
@@ -39,7 +39,7 @@ impl Lighting {
         Ok(match section {
             LightingSection::Uniform { radiance } => Lighting::Uniform { radiance: rgb(radiance, "radiance")? },
             LightingSection::Directional { direction, irradiance } => {
-                let d = direction.map(f64::from);
+                let d = decimal3(*direction);
                 let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 if !(n > 0.0) || !n.is_finite() {
                     return Err(Error::new("lighting.direction must be a non-zero vector"));
@@ -53,7 +53,7 @@ impl Lighting {
                 if coefficients.is_empty() {
                     return Err(Error::new("lighting.coefficients is empty"));
                 }
-                let coefficients: Vec<[f64; 3]> = coefficients.iter().map(|c| c.map(f64::from)).collect();
+                let coefficients: Vec<[f64; 3]> = coefficients.iter().map(|c| decimal3(*c)).collect();
                 if coefficients.iter().flatten().any(|x| !x.is_finite()) {
                     return Err(Error::new("lighting.coefficients must be finite"));
                 }
@@ -64,12 +64,7 @@ impl Lighting {
                     Some(b) if Path::new(file).is_relative() => b.join(file),
                     _ => PathBuf::from(file),
                 };
-                Lighting::Envmap {
-                    file,
-                    mapping: *mapping,
-                    scale: f64::from(*scale),
-                    rotate_deg: rotate_deg.map(f64::from),
-                }
+                Lighting::Envmap { file, mapping: *mapping, scale: decimal(*scale), rotate_deg: decimal3(*rotate_deg) }
             }
             LightingSection::Axial { .. } => {
                 return Err(Error::new("lighting type 'axial' is not supported by the analysis"));

@@ -8,7 +8,8 @@ use std::fmt;
 use std::str::FromStr;
 
 /// Defines a closed set: a fieldless enum with one spelling per variant, serde and (feature `clap`)
-/// `clap::ValueEnum` under that spelling, [`fmt::Display`], [`FromStr`] (an error lists the names),
+/// `clap::ValueEnum` under that spelling, [`fmt::Display`], [`FromStr`] and `Deserialize` (an error
+/// names the set and lists the names),
 /// `name()` and `ALL`.
 macro_rules! closed_set {
     (
@@ -16,7 +17,7 @@ macro_rules! closed_set {
         $what:literal, $name:ident { $( $(#[$vmeta:meta])* $variant:ident = $text:literal ),+ $(,)? }
     ) => {
         $(#[$meta])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
         #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
         pub enum $name {
             $(
@@ -36,6 +37,15 @@ macro_rules! closed_set {
                 match self {
                     $($name::$variant => $text,)+
                 }
+            }
+        }
+
+        /// By name; an unknown name is an error naming the set and listing its names (so a scene
+        /// file's message says which key holds the bad value).
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                s.parse().map_err(|e: Error| serde::de::Error::custom(e.message))
             }
         }
 
@@ -211,6 +221,9 @@ mod tests {
         let e = "mercator".parse::<Mapping>().unwrap_err().to_string();
         assert!(e.contains("mercator") && e.contains("\"latlong\" | \"angular\""), "{e}");
         assert_eq!(Sampler::default(), Sampler::Sobol);
+        // A bad value in a file names the key's set, not just "unknown variant".
+        let e = serde_json::from_str::<Sampler>("\"halton\"").unwrap_err().to_string();
+        assert!(e.contains("sampler") && e.contains("halton") && e.contains("\"sobol\""), "{e}");
         assert_eq!(Horizon::default(), Horizon::Clamp);
     }
 }

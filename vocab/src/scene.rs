@@ -300,3 +300,15 @@ impl BrdfSection {
         }
     }
 }
+
+/// An f32 scene value as the decimal it was written as (its shortest round-trip form, as TOML,
+/// JSON and the `reflect:*` headers spell it), so an analysis takes `s = 0.1` as 0.1, not as the
+/// f32 nearest to it (0.10000000149…): the renderer needs f32, the analysis the stated number.
+pub fn decimal(x: f32) -> f64 {
+    if x.is_finite() { x.to_string().parse().unwrap_or(f64::from(x)) } else { f64::from(x) }
+}
+
+/// [`decimal`] of each component.
+pub fn decimal3(v: [f32; 3]) -> [f64; 3] {
+    v.map(decimal)
+}
