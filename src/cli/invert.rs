@@ -62,8 +62,8 @@ pub struct LightingArgs {
     #[arg(long)]
     pub sigma: Option<f64>,
     /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's, else 1).
-    #[arg(long, value_delimiter = ',', num_args = 1)]
-    pub albedo: Option<Vec<f64>>,
+    #[arg(long, value_parser = super::flags::parse_rgb)]
+    pub albedo: Option<[f64; 3]>,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -240,12 +240,7 @@ fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(Tr
         (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
     };
     model.validate()?;
-    let albedo = match &a.albedo {
-        Some(v) if v.len() == 1 => [v[0]; 3],
-        Some(v) if v.len() == 3 => [v[0], v[1], v[2]],
-        Some(_) => return Err(Error::new("--albedo takes one number or r,g,b")),
-        None => header_albedo.unwrap_or([1.0; 3]),
-    };
+    let albedo = a.albedo.or(header_albedo).unwrap_or([1.0; 3]);
     if albedo.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         return Err(Error::new(format!("albedo must be > 0, got {albedo:?}")));
     }
@@ -469,6 +464,20 @@ mod tests {
     use analysis::sh::{Reconstructor, index, latlong_direction, num_coefficients};
     use std::path::Path;
 
+    /// `invert brdf IMAGE --model phong --lmax L --json`.
+    fn phong_args(image: PathBuf, lmax: usize) -> BrdfArgs {
+        BrdfArgs {
+            images: vec![image],
+            lighting: None,
+            mapping: None,
+            model: "phong".into(),
+            lmax,
+            min: None,
+            max: None,
+            json: true,
+        }
+    }
+
     fn tmp(name: &str) -> PathBuf {
         crate::cli::test_path("invert", name)
     }
@@ -566,7 +575,7 @@ mod tests {
             }
         }
         a.width = 64;
-        a.albedo = Some(vec![1.0]);
+        a.albedo = Some([1.0; 3]);
         a.output = None;
         let wrong = lighting_doc(&a).unwrap();
         assert!((wrong["coefficients"][0][0].as_f64().unwrap() - 0.5 * l[0][0]).abs() < 1e-3);
@@ -592,16 +601,7 @@ mod tests {
         let s = 24.0;
         let path = tmp("phong.exr");
         probe(&path, &l, &analysis::transfer::phong::phong(s, lmax), [0.8; 3], r#"{"type":"phong","s":24,"ks":0.8}"#);
-        let a = BrdfArgs {
-            images: vec![path.clone()],
-            lighting: None,
-            mapping: None,
-            model: "phong".into(),
-            lmax,
-            min: None,
-            max: None,
-            json: true,
-        };
+        let a = phong_args(path.clone(), lmax);
         let doc = brdf_doc(&a).unwrap();
         // No stderr layer: unit weights rescaled by the residual scatter. The only error is the
         // quadrature's, ≈ 3e-5 l² relative (1/2 % at l = 12); d ln Λρ̂_l / d ln s ≈ l²/2s ≈ 3 there,
@@ -654,16 +654,7 @@ mod tests {
             );
             let path = tmp(&format!("noisy{trial}.exr"));
             write_exr(&path, &img).unwrap();
-            let a = BrdfArgs {
-                images: vec![path.clone()],
-                lighting: None,
-                mapping: None,
-                model: "phong".into(),
-                lmax,
-                min: None,
-                max: None,
-                json: true,
-            };
+            let a = phong_args(path.clone(), lmax);
             let doc = brdf_doc(&a).unwrap();
             assert!(doc["fit"].as_str().unwrap().starts_with("generalised"), "{}", doc["fit"]);
             assert_eq!(doc["channels"].as_array().unwrap().len(), 3);
@@ -695,16 +686,7 @@ mod tests {
             );
             let path = tmp("clean.exr");
             write_exr(&path, &img).unwrap();
-            let a = BrdfArgs {
-                images: vec![path],
-                lighting: None,
-                mapping: None,
-                model: "phong".into(),
-                lmax,
-                min: None,
-                max: None,
-                json: true,
-            };
+            let a = phong_args(path, lmax);
             brdf_doc(&a).unwrap()["estimate"].as_f64().unwrap()
         };
         assert!((clean_fit / s_true - 1.0).abs() < 1e-2, "quadrature bias {clean_fit}");

@@ -41,6 +41,11 @@ pub enum Lighting {
     },
     /// The Grace probe with a scale.
     Grace(f64),
+    /// The Grace probe with a scale, rotated by `rotate_deg` (about x, then y, then z; CONVENTIONS §6).
+    GraceRotated {
+        scale: f64,
+        rotate_deg: [f64; 3],
+    },
 }
 
 /// The object.
@@ -140,6 +145,14 @@ impl Spec {
                     grace_path(ctx).display().to_string()
                 );
             }
+            Lighting::GraceRotated { scale, rotate_deg } => {
+                let _ = writeln!(
+                    s,
+                    "[lighting]\ntype = \"envmap\"\nfile = {:?}\nmapping = \"angular\"\nscale = {scale:?}\nrotate_deg = {}\n",
+                    grace_path(ctx).display().to_string(),
+                    v3(*rotate_deg)
+                );
+            }
         }
         match &self.shape {
             Shape::Sphere => {
@@ -166,8 +179,9 @@ pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
     let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
     let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();
-    let out =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(&scene, &RenderOptions { progress: false })));
+    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        render(&scene, &RenderOptions { progress: false, ..Default::default() })
+    }));
     match out {
         Ok((film, stats)) => {
             if ctx.verbose {
