@@ -23,9 +23,10 @@ pub mod output;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod shard;
 pub mod texture;
 
 /// The one user-facing error type of the project (shared with `analysis`): it names the file and
 /// the problem on one line.
-pub use analysis::Error;
+pub use vocab::Error;
 pub type Result<T> = std::result::Result<T, Error>;

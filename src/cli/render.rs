@@ -1,7 +1,7 @@
 //! `reflect render [SCENE.toml] [--out FILE.exr] [--spp N] [--seed N] [--threads N] [--png FILE]`
 //!
 //! Renders a scene file (or the built-in default: a Lambertian sphere under a built-in sky) to a
-//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints the stats line (render-loop time,
+//! float OpenEXR with the AOVs of README "Output images", and prints the stats line (render-loop time,
 //! samples/s, rays/s; see `RenderStats`), the load / render / save / whole-command times, and the
 //! noise summary of the object's pixels (`renderer::noise`).
 
@@ -13,7 +13,7 @@ use std::process::ExitCode;
 
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct RenderArgs {
-    /// Scene file (TOML, CONVENTIONS §6). Without it, the built-in default scene.
+    /// Scene file (TOML; README "Scene files"). Without it, the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Output OpenEXR file [default: out/SCENE_NAME.exr].
     #[arg(long)]
@@ -33,15 +33,36 @@ pub struct RenderArgs {
     /// Exposure of the --png preview in stops [default: the object's median luminance → 0.18].
     #[arg(long, allow_hyphen_values = true, requires = "png")]
     pub exposure: Option<f64>,
-    /// Sampler: sobol or independent (overrides render.sampler).
-    #[arg(long)]
-    pub sampler: Option<String>,
+    /// Sampler (overrides render.sampler).
+    #[arg(long, value_enum)]
+    pub sampler: Option<vocab::Sampler>,
     /// Image width × height, e.g. 256x256 (overrides render.width/height).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print the render's statistics as one JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Render only shard I of N (e.g. 0/4): the samples [I·spp/N, (I+1)·spp/N) of every pixel, written
+    /// as a partial render for `reflect merge`.
+    #[arg(long, value_parser = super::passes::parse_shard)]
+    pub shard: Option<(u32, u32)>,
+    /// Resume from FILE if it exists (refusing one of another scene), save progress to it atomically
+    /// every --checkpoint-every seconds and on SIGINT/SIGTERM, and remove it after the final output.
+    #[arg(long)]
+    pub checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoint saves [default: 60].
+    #[arg(long, requires = "checkpoint")]
+    pub checkpoint_every: Option<f64>,
+    /// Render in passes until the 95th percentile of the object pixels' relative standard error (worst
+    /// channel) is at most X (e.g. 0.01); spp is then the most samples per pixel to take.
+    #[arg(long)]
+    pub target_rel_error: Option<f64>,
+    /// Stop after the last pass that fits in SECS seconds of rendering (spp is then the most to take).
+    #[arg(long)]
+    pub time_limit: Option<f64>,
 }
 
 /// `--threads N`: at least 1, refused while parsing the arguments (before any work or output).
@@ -78,8 +99,8 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
     if let Some(s) = a.seed {
         file.render.seed = s;
     }
-    if let Some(s) = &a.sampler {
-        file.render.sampler = s.clone();
+    if let Some(s) = a.sampler {
+        file.render.sampler = s;
     }
     if let Some((w, h)) = a.size {
         file.render.width = w;
@@ -110,7 +131,7 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
 
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let t_start = std::time::Instant::now();
-    let scene = load_scene(&a)?;
+    let mut scene = load_scene(&a)?;
     let t_load = t_start.elapsed();
     let stem = a
         .scene
@@ -125,7 +146,21 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
-    let s = &scene.settings;
+    if a.shard.is_some() && (a.target_rel_error.is_some() || a.time_limit.is_some() || a.png.is_some()) {
+        return Err(Error::new(
+            "--shard renders a partial render: it takes no --target-rel-error, --time-limit or --png",
+        ));
+    }
+    for (name, v) in [
+        ("--target-rel-error", a.target_rel_error),
+        ("--time-limit", a.time_limit),
+        ("--checkpoint-every", a.checkpoint_every),
+    ] {
+        if let Some(v) = v.filter(|v| !v.is_finite() || *v < 0.0 || (*v == 0.0 && name != "--checkpoint-every")) {
+            return Err(Error::new(format!("{name} must be a positive number, got {v}")));
+        }
+    }
+    let s = scene.settings.clone();
     if !a.quiet {
         eprintln!(
             "rendering {} ({}×{}, {} spp, max_depth {}, seed {})",
@@ -137,8 +172,75 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
-    let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
+    let range = a.shard.map_or((0, s.spp as u64), |(i, n)| super::passes::shard_range(i, n, s.spp));
+    let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
+    let plain = a.shard.is_none() && a.checkpoint.is_none() && !progressive;
+    let mut progressive_report = None;
+    let (film, stats) = if plain {
+        let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
+        with_threads(a.threads, || render(&scene, &opts))?
+    } else {
+        let attrs = renderer::output::header_attributes(&scene);
+        match super::passes::run_passes(&scene, &a, range, &attrs)? {
+            super::passes::Outcome::Interrupted { spp_done } => {
+                let ck = a.checkpoint.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+                eprintln!(
+                    "interrupted: {ck} holds samples [{}, {spp_done}) of [{}, {}); run the same command to resume",
+                    range.0, range.0, range.1
+                );
+                return Ok(ExitCode::from(130));
+            }
+            super::passes::Outcome::Done { mut state, stats, passes, progressive: prog } => {
+                if a.shard.is_some() {
+                    let header = renderer::shard::partial_header(&scene, &state);
+                    renderer::shard::write_partial(&out, &state, &header, &attrs)?;
+                    if let Some(ck) = &a.checkpoint {
+                        let _ = std::fs::remove_file(ck);
+                    }
+                    if !a.quiet {
+                        eprintln!(
+                            "wrote {} (partial render: samples [{}, {}) of {}): {stats}",
+                            out.display(),
+                            range.0,
+                            range.1,
+                            s.spp
+                        );
+                    }
+                    return Ok(ExitCode::SUCCESS);
+                }
+                if let Some(p) = prog {
+                    // The image is a plain render of the samples taken: spp = what was reached.
+                    let n = state.end as u32;
+                    state.spp = n;
+                    scene.settings.spp = n;
+                    scene.description.render.spp = n;
+                    let e = super::passes::percent(p.rel_error);
+                    let note = match (p.stop, a.target_rel_error, a.time_limit) {
+                        (super::passes::Stop::Target, Some(x), _) => {
+                            format!("reached: 95th-percentile relative stderr {e} ≤ {:.4} %", 100.0 * x)
+                        }
+                        (super::passes::Stop::TimeLimit, _, Some(t)) => {
+                            format!("time limit of {t} s reached; 95th-percentile relative stderr {e}")
+                        }
+                        _ => format!("all {} spp rendered; 95th-percentile relative stderr {e}", s.spp),
+                    };
+                    if !a.quiet {
+                        eprintln!("progressive: {n} spp in {passes} passes; {note}");
+                    }
+                    progressive_report = Some(ProgressiveReport {
+                        target_rel_error: a.target_rel_error,
+                        time_limit_seconds: a.time_limit,
+                        spp_cap: s.spp,
+                        passes,
+                        stopped_by: p.stop.name().to_string(),
+                        target_reached: a.target_rel_error.map(|_| p.stop == super::passes::Stop::Target),
+                        rel_error_p95: Some(p.rel_error).filter(|e| e.is_finite()),
+                    });
+                }
+                (state.finish(), stats)
+            }
+        }
+    };
     let t_save = std::time::Instant::now();
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
     // leaves no EXR behind (and no temporary file).
@@ -150,35 +252,156 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     });
     let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
     exr.commit()?;
+    if let Some(ck) = &a.checkpoint {
+        // The final image is in place: the checkpoint has served.
+        let _ = std::fs::remove_file(ck);
+    }
     if let Some(png) = png
         && let Err(e) = png.commit()
     {
         let _ = std::fs::remove_file(&out);
         return Err(e);
     }
-    if let (Some(png), false) = (&a.png, a.quiet) {
-        let how = if a.exposure.is_some() { "set by --exposure" } else { "automatic: object's median → 0.18" };
-        eprintln!("wrote {}: exposure {ev:+.2} EV ({how}), tone curve x/(1+x), sRGB", png.display());
-    }
     let t_save = t_save.elapsed();
+    let report = RenderReport {
+        scene: scene.path.as_ref().map(|p| p.display().to_string()),
+        output: out.display().to_string(),
+        png: a.png.as_ref().map(|p| PngReport {
+            file: p.display().to_string(),
+            exposure_ev: ev,
+            automatic: a.exposure.is_none(),
+        }),
+        width: s.width,
+        height: s.height,
+        // The spp reached (a render to a target error or time limit stops at or below the cap).
+        spp: scene.settings.spp,
+        seed: s.seed,
+        threads: stats.threads,
+        samples: stats.samples,
+        samples_per_sec: stats.samples_per_sec(),
+        rays: stats.rays,
+        rays_per_sec: stats.rays_per_sec(),
+        load_seconds: t_load.as_secs_f64(),
+        render_seconds: stats.wall.as_secs_f64(),
+        save_seconds: t_save.as_secs_f64(),
+        total_seconds: t_start.elapsed().as_secs_f64(),
+        noise: renderer::noise::summarize(&film),
+        unreliable_pixels: film.unreliable_count(),
+        progressive: progressive_report,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
+    }
     if !a.quiet {
-        eprintln!("wrote {}", out.display());
-        eprintln!("{stats}");
-        eprintln!(
-            "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
-            t_load.as_secs_f64(),
-            stats.wall.as_secs_f64(),
-            t_save.as_secs_f64(),
-            t_start.elapsed().as_secs_f64()
-        );
-        match renderer::noise::summarize(&film) {
-            Some(n) => eprintln!("{n}"),
-            None => eprintln!("noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
-        }
-        let flagged = film.unreliable_count();
-        if flagged > 0 {
-            eprintln!("{flagged} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)");
-        }
+        eprint!("{report}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The output of `reflect render` (`--json` prints it on stdout; `Display` is the text on stderr).
+/// samples = pixels × spp (misses included), rays = rays traced (skipped shadow rays not counted),
+/// both per second of the render loop alone (`render_seconds`: loading and saving excluded).
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct RenderReport {
+    /// The scene file (null for the built-in default scene).
+    pub scene: Option<String>,
+    /// The OpenEXR file written.
+    pub output: String,
+    /// The PNG preview written, if any.
+    pub png: Option<PngReport>,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel of the image written: with `--target-rel-error` / `--time-limit` the spp
+    /// reached (the cap is `progressive.spp_cap`).
+    pub spp: u32,
+    pub seed: u64,
+    /// Worker threads of the render loop.
+    pub threads: usize,
+    /// Camera samples taken (pixels × spp, misses included).
+    pub samples: u64,
+    pub samples_per_sec: f64,
+    /// Rays traced (camera, shadow and bounce rays; skipped shadow rays not counted).
+    pub rays: u64,
+    pub rays_per_sec: f64,
+    /// Scene, meshes and environment tables, seconds.
+    pub load_seconds: f64,
+    /// The render loop, seconds (the time the rates divide by).
+    pub render_seconds: f64,
+    /// Writing the EXR (and PNG), seconds.
+    pub save_seconds: f64,
+    /// The whole command, seconds.
+    pub total_seconds: f64,
+    /// Relative standard error of the object's pixels (null when no object pixel is > 0).
+    pub noise: Option<renderer::noise::NoiseSummary>,
+    /// Pixels whose error bar is unreliable (`stderr_flag.Y` = 1: one rare sample dominates).
+    pub unreliable_pixels: usize,
+    /// How a render to a target error or a time limit went (null for other renders).
+    pub progressive: Option<ProgressiveReport>,
+}
+
+/// A render in passes to `--target-rel-error` and/or `--time-limit` (see `cli::passes`).
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct ProgressiveReport {
+    /// The relative standard error asked (`--target-rel-error`; null without one).
+    pub target_rel_error: Option<f64>,
+    /// `--time-limit` in seconds (null without one).
+    pub time_limit_seconds: Option<f64>,
+    /// The most samples per pixel allowed (the scene's spp, or `--spp`).
+    pub spp_cap: u32,
+    /// Passes rendered by this command (a resumed checkpoint's earlier passes not counted).
+    pub passes: u32,
+    /// Why it stopped: "target", "time-limit" or "spp-cap".
+    pub stopped_by: String,
+    /// Whether the target was reached (null without `--target-rel-error`).
+    pub target_reached: Option<bool>,
+    /// The error reached, as the target measures it: the 95th percentile over the object's pixels of the
+    /// worst channel's stderr / value, flagged pixels (`stderr_flag.Y` = 1) counting as infinite; 0 when
+    /// no object pixel is > 0, null when infinite (more than 5 % of the object's pixels flagged).
+    pub rel_error_p95: Option<f64>,
+}
+
+/// The PNG preview of a render.
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct PngReport {
+    pub file: String,
+    /// Exposure applied before the tone curve x/(1+x), in stops (EV).
+    pub exposure_ev: f64,
+    /// True when chosen automatically (the object's median → 0.18), false when set by `--exposure`.
+    pub automatic: bool,
+}
+
+impl std::fmt::Display for RenderReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(p) = &self.png {
+            let how = if p.automatic { "automatic: object's median → 0.18" } else { "set by --exposure" };
+            writeln!(f, "wrote {}: exposure {:+.2} EV ({how}), tone curve x/(1+x), sRGB", p.file, p.exposure_ev)?;
+        }
+        writeln!(f, "wrote {}", self.output)?;
+        let stats = renderer::render::RenderStats {
+            wall: std::time::Duration::from_secs_f64(self.render_seconds),
+            samples: self.samples,
+            rays: self.rays,
+            threads: self.threads,
+            // `reflect render` never cancels its render.
+            cancelled: false,
+        };
+        writeln!(f, "{stats}")?;
+        writeln!(
+            f,
+            "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
+            self.load_seconds, self.render_seconds, self.save_seconds, self.total_seconds
+        )?;
+        match &self.noise {
+            Some(n) => writeln!(f, "{n}")?,
+            None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)")?,
+        }
+        if self.unreliable_pixels > 0 {
+            writeln!(
+                f,
+                "{} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)",
+                self.unreliable_pixels
+            )?;
+        }
+        Ok(())
+    }
 }
