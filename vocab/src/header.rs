@@ -94,7 +94,7 @@ impl Header {
     /// The first sphere among the objects: (centre, radius, BRDF).
     pub fn first_sphere(&self) -> Option<([f32; 3], f32, &BrdfSection)> {
         self.objects.iter().flatten().find_map(|o| match o {
-            ObjectSection::Sphere { center, radius, brdf } => Some((*center, *radius, brdf)),
+            ObjectSection::Sphere { center, radius, brdf, .. } => Some((*center, *radius, brdf)),
             _ => None,
         })
     }
