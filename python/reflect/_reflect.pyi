@@ -1,8 +1,9 @@
 """Type stub of the native module ``reflect._reflect`` (Rust, PyO3).
 
 The public API is the package ``reflect`` (``reflect/__init__.py``, ``reflect/sh.py``, …), which
-shapes arguments and calls these functions. Conventions: CONVENTIONS.md of the project (frame
-§1, environment maps §2, SH §3, BRDFs §4, images §5, scene files §6, JSON §7). Every function
+shapes arguments and calls these functions. Conventions: the project's README (sections
+"Frames and directions", "Environment maps and `rotate_deg`", "Spherical harmonics: the terms the
+commands print", "BRDFs", "Output images", "Scene files", "Command line"). Every function
 raises ``ValueError`` with the CLI's one-line message on bad input, ``FileNotFoundError`` when a
 named input file does not exist.
 """
@@ -15,7 +16,7 @@ import numpy.typing as npt
 __version__: str
 
 class RenderResult:
-    """A finished render (CONVENTIONS §5), row 0 at the top of the image."""
+    """A finished render (README "Output images"), row 0 at the top of the image."""
 
     @property
     def rgb(self) -> npt.NDArray[np.float32]:
@@ -30,12 +31,17 @@ class RenderResult:
     def mask(self) -> npt.NDArray[np.float32]:
         """Fraction of each pixel's samples that hit an object, in [0, 1]: (H, W) float32."""
     @property
+    def stderr_flag(self) -> npt.NDArray[np.bool_]:
+        """The ``stderr_flag.Y`` layer: (H, W) bool, True where the pixel's error bar cannot be trusted
+        (one rare sample dominates its variance: the largest batch deviation squared exceeds half the
+        sum of squared deviations, judged from 16 samples on; the same flag ``reflect render`` writes)."""
+    @property
     def stats(self) -> Dict[str, Any]:
         """``wall_seconds``, ``samples``, ``rays``, ``threads``, ``samples_per_sec``, ``rays_per_sec``,
         and the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``."""
     def save(self, path: str) -> None:
         """Writes the OpenEXR file ``reflect render`` writes (32-bit float R, G, B, normal.X/Y/Z,
-        mask.Y, stderr.R/G/B, the scene in the header), atomically. ``path`` must end in ``.exr``."""
+        mask.Y, stderr.R/G/B, stderr_flag.Y, the scene in the header), atomically. ``path`` must end in ``.exr``."""
 
 def render(
     kind: str,

@@ -90,8 +90,8 @@ fn apply_overrides(
     spp: Option<u32>,
     seed: Option<u64>,
     size: Option<(u32, u32)>,
-    sampler: Option<String>,
-) {
+    sampler: Option<&str>,
+) -> PyResult<()> {
     if let Some(s) = spp {
         file.render.spp = s;
     }
@@ -99,12 +99,14 @@ fn apply_overrides(
         file.render.seed = s;
     }
     if let Some(s) = sampler {
-        file.render.sampler = s;
+        // The closed set's own parse (vocab): the message lists the names, as a scene file's does.
+        file.render.sampler = s.parse().map_err(|e: Error| PyValueError::new_err(format!("render.sampler: {e}")))?;
     }
     if let Some((w, h)) = size {
         file.render.width = w;
         file.render.height = h;
     }
+    Ok(())
 }
 
 /// Renders on another thread while this one, without the GIL, waits for it; every 50 ms it takes
@@ -173,7 +175,7 @@ pub fn render(
     progress: bool,
 ) -> PyResult<RenderResult> {
     let Source { mut file, base, path } = source(kind, value, base)?;
-    apply_overrides(&mut file, spp, seed, size, sampler);
+    apply_overrides(&mut file, spp, seed, size, sampler.as_deref())?;
     let mut scene = py
         .detach(|| {
             Scene::build(file, &base).map_err(|e| match &path {
@@ -187,7 +189,7 @@ pub fn render(
     RenderResult::new(py, &scene, film, &stats)
 }
 
-/// A finished render: the AOVs of CONVENTIONS §5 as NumPy arrays, and the film to save.
+/// A finished render: the AOVs of README "Output images" as NumPy arrays, and the film to save.
 #[pyclass(module = "reflect._reflect", frozen)]
 pub struct RenderResult {
     /// Linear RGB radiance, float32 (H, W, 3), row 0 at the top.
@@ -202,6 +204,10 @@ pub struct RenderResult {
     /// Fraction of each pixel's samples that hit an object, float32 (H, W).
     #[pyo3(get)]
     mask: Py<PyArray2<f32>>,
+    /// The `stderr_flag.Y` layer as bool (H, W): True where the pixel's error bar cannot be trusted
+    /// (one rare sample dominates its variance).
+    #[pyo3(get)]
+    stderr_flag: Py<PyArray2<bool>>,
     /// Throughput and settings of the render.
     #[pyo3(get)]
     stats: Py<PyDict>,
@@ -228,6 +234,8 @@ impl RenderResult {
         let stderr = rgb3(|p| p.stderr)?;
         let normal = rgb3(|p| p.normal)?;
         let mask = layer(py, &film, |p| [p.mask])?.reshape([h, w])?.unbind();
+        let flags: Vec<bool> = film.pixels.iter().map(|p| p.unreliable).collect();
+        let stderr_flag = PyArray1::from_vec(py, flags).reshape([h, w])?.unbind();
         let s = &scene.settings;
         let d = PyDict::new(py);
         d.set_item("wall_seconds", stats.wall.as_secs_f64())?;
@@ -241,15 +249,15 @@ impl RenderResult {
         d.set_item("spp", s.spp)?;
         d.set_item("seed", s.seed)?;
         d.set_item("max_depth", s.max_depth)?;
-        d.set_item("sampler", &scene.description.render.sampler)?;
+        d.set_item("sampler", scene.description.render.sampler.name())?;
         let attributes = renderer::output::header_attributes(scene);
-        Ok(RenderResult { rgb, stderr, normal, mask, stats: d.unbind(), film, attributes })
+        Ok(RenderResult { rgb, stderr, normal, mask, stderr_flag, stats: d.unbind(), film, attributes })
     }
 }
 
 #[pymethods]
 impl RenderResult {
-    /// Writes the render as the CLI does: 32-bit float OpenEXR with the layers of CONVENTIONS §5
+    /// Writes the render as the CLI does: 32-bit float OpenEXR with the layers of README "Output images"
     /// and the scene in the header, atomically.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         if path.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {

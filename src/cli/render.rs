@@ -1,7 +1,7 @@
 //! `reflect render [SCENE.toml] [--out FILE.exr] [--spp N] [--seed N] [--threads N] [--png FILE]`
 //!
 //! Renders a scene file (or the built-in default: a Lambertian sphere under a built-in sky) to a
-//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints the stats line (render-loop time,
+//! float OpenEXR with the AOVs of README "Output images", and prints the stats line (render-loop time,
 //! samples/s, rays/s; see `RenderStats`), the load / render / save / whole-command times, and the
 //! noise summary of the object's pixels (`renderer::noise`).
 
@@ -13,7 +13,7 @@ use std::process::ExitCode;
 
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct RenderArgs {
-    /// Scene file (TOML, CONVENTIONS §6). Without it, the built-in default scene.
+    /// Scene file (TOML; README "Scene files"). Without it, the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Output OpenEXR file [default: out/SCENE_NAME.exr].
     #[arg(long)]
@@ -33,9 +33,9 @@ pub struct RenderArgs {
     /// Exposure of the --png preview in stops [default: the object's median luminance → 0.18].
     #[arg(long, allow_hyphen_values = true, requires = "png")]
     pub exposure: Option<f64>,
-    /// Sampler: sobol or independent (overrides render.sampler).
-    #[arg(long)]
-    pub sampler: Option<String>,
+    /// Sampler (overrides render.sampler).
+    #[arg(long, value_enum)]
+    pub sampler: Option<vocab::Sampler>,
     /// Image width × height, e.g. 256x256 (overrides render.width/height).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
@@ -99,8 +99,8 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
     if let Some(s) = a.seed {
         file.render.seed = s;
     }
-    if let Some(s) = &a.sampler {
-        file.render.sampler = s.clone();
+    if let Some(s) = a.sampler {
+        file.render.sampler = s;
     }
     if let Some((w, h)) = a.size {
         file.render.width = w;
