@@ -19,7 +19,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-const NAMES: [&str; 17] = [
+const NAMES: [&str; 18] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -30,6 +30,7 @@ const NAMES: [&str; 17] = [
     "uniform",
     "associativity",
     "convex-shape",
+    "single-view",
     "horizon",
     "inverse-lighting",
     "inverse-lighting-specular",
