@@ -563,6 +563,30 @@ pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
     written
 }
 
+/// The string attributes of an OpenEXR file's header, read without its pixels (e.g.
+/// `reflect:camera`, which a render carries); empty for anything that is not OpenEXR. Errors say
+/// why the header could not be read, without the file name (callers add it).
+pub fn header_attributes(path: impl AsRef<Path>) -> Result<BTreeMap<String, String>> {
+    use std::io::Read;
+    let path = path.as_ref();
+    let mut f = std::fs::File::open(path).map_err(|e| Error::new(format!("cannot read file: {e}")))?;
+    let mut magic = [0u8; 4];
+    if f.read_exact(&mut magic).is_err() || magic != [0x76, 0x2f, 0x31, 0x01] {
+        return Ok(BTreeMap::new());
+    }
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| Error::new(format!("corrupt OpenEXR header: {e}")))?;
+    let mut out = BTreeMap::new();
+    for h in meta.headers.iter() {
+        for (k, v) in h.shared_attributes.other.iter().chain(h.own_attributes.other.iter()) {
+            if let exr::prelude::AttributeValue::Text(t) = v {
+                out.insert(k.to_string(), t.to_string());
+            }
+        }
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -67,7 +67,7 @@ def run_reflect(binary, scene, spp, seed, threads, out):
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:
         sys.exit(f"reflect failed: {' '.join(cmd)}\n{p.stderr}")
-    m = re.search(r"wrote .*?: ([0-9.]+) s,", p.stderr)
+    m = re.search(r"render loop ([0-9.]+) s on", p.stderr)
     if not m:
         sys.exit(f"cannot find the render time in reflect's output:\n{p.stderr}")
     return float(m.group(1))

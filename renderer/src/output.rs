@@ -131,20 +131,94 @@ fn srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
-/// Writes a preview PNG (atomically, see [`stage_png`]).
-pub fn write_png(path: &Path, film: &Film, exposure: f32) -> Result<()> {
-    stage_png(path, film, exposure)?.commit()
+/// Tone map of the PNG previews (`reflect png`, `reflect render --png`), per channel: the linear
+/// value v is scaled by 2^EV, compressed by Reinhard's x/(1 + x) (so nothing clips: highlights
+/// approach white smoothly, 1.0 maps to 0.5), then sRGB-encoded and quantized to 8 bits (round
+/// to nearest). Negative values show as 0. Not for analysis (CONVENTIONS §5).
+pub fn tone_map(v: f32, exposure_ev: f64) -> u8 {
+    let x = (v as f64 * exposure_ev.exp2()).max(0.0);
+    let y = if x.is_finite() { x / (1.0 + x) } else { 1.0 };
+    (srgb(y as f32) * 255.0 + 0.5).clamp(0.0, 255.0) as u8
 }
 
-/// Stages a preview PNG: linear radiance × `exposure`, clamped, sRGB-encoded. Not for analysis.
-pub fn stage_png(path: &Path, film: &Film, exposure: f32) -> Result<Staged> {
-    let mut buf = Vec::with_capacity(film.pixels.len() * 3);
-    for p in &film.pixels {
-        for c in p.rgb {
-            buf.push((srgb((c * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8);
-        }
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(rgb: [f32; 3]) -> f64 {
+    0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
+}
+
+/// The automatic exposure of the previews: the EV that maps the median luminance of the object's
+/// pixels (`mask` > 0 where a mask is given, every pixel otherwise) to 0.18, photographic mid-grey
+/// (before the Reinhard curve, which shows 0.18 as 0.153, sRGB 110). 0 when that median is ≤ 0.
+/// Median: nearest rank (`noise::nearest_rank`).
+pub fn auto_exposure(pixels: &[[f32; 3]], mask: Option<&[f32]>) -> f64 {
+    let mut y: Vec<f64> = pixels
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| mask.is_none_or(|m| m[*i] > 0.0))
+        .map(|(_, p)| luminance(*p))
+        .filter(|v| v.is_finite())
+        .collect();
+    y.sort_by(f64::total_cmp);
+    match crate::noise::nearest_rank(&y, 0.5) {
+        Some(m) if m > 0.0 => (0.18 / m).log2(),
+        _ => 0.0,
     }
-    let img =
-        image::RgbImage::from_raw(film.width, film.height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
+}
+
+/// Stages a W × H preview PNG (8-bit sRGB, [`tone_map`] at `exposure_ev`): written to a temporary
+/// file beside `path`, moved onto it by [`Staged::commit`]. Not for analysis.
+pub fn stage_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure_ev: f64) -> Result<Staged> {
+    let buf: Vec<u8> = pixels.iter().flat_map(|p| p.map(|c| tone_map(c, exposure_ev))).collect();
+    let img = image::RgbImage::from_raw(width, height, buf).ok_or_else(|| Error::file(path, "bad image size"))?;
     stage(path, |tmp| img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}")))
+}
+
+/// Writes a W × H preview PNG atomically (see [`stage_png_rgb`]).
+pub fn write_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure_ev: f64) -> Result<()> {
+    stage_png_rgb(path, width, height, pixels, exposure_ev)?.commit()
+}
+
+/// Stages a film's preview PNG at `exposure_ev` (see [`stage_png_rgb`]).
+pub fn stage_png(path: &Path, film: &Film, exposure_ev: f64) -> Result<Staged> {
+    let px: Vec<[f32; 3]> = film.pixels.iter().map(|p| p.rgb).collect();
+    stage_png_rgb(path, film.width, film.height, &px, exposure_ev)
+}
+
+/// Writes a film's preview PNG at `exposure_ev` (see [`write_png_rgb`]).
+pub fn write_png(path: &Path, film: &Film, exposure_ev: f64) -> Result<()> {
+    let px: Vec<[f32; 3]> = film.pixels.iter().map(|p| p.rgb).collect();
+    write_png_rgb(path, film.width, film.height, &px, exposure_ev)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Known values by hand: 0.25 at EV +2 is x = 1, Reinhard 0.5, sRGB 1.055·0.5^(1/2.4) − 0.055
+    /// = 0.735357, × 255 = 187.5 → 188; 1.0 at EV −1 is x = 0.5, 1/3, sRGB 0.612475 → 156.
+    #[test]
+    fn tone_map_known_values() {
+        assert_eq!(tone_map(0.25, 2.0), 188);
+        assert_eq!(tone_map(1.0, -1.0), 156);
+        assert_eq!(tone_map(0.0, 5.0), 0);
+        assert_eq!(tone_map(-3.0, 0.0), 0);
+        // No clamp at 1: 1, 4 and 16 stay distinguishable; only an enormous value reaches white.
+        let (a, b, c) = (tone_map(1.0, 0.0), tone_map(4.0, 0.0), tone_map(16.0, 0.0));
+        assert!(a < b && b < c && c < 255, "{a} {b} {c}");
+        assert_eq!(tone_map(1e30, 0.0), 255);
+    }
+
+    /// The object's median luminance goes to 0.18: grey 0.72 needs EV −2; background pixels
+    /// (mask 0) do not count.
+    #[test]
+    fn auto_exposure_maps_the_median_to_mid_grey() {
+        let mut px = vec![[0.72f32; 3]; 5];
+        px.extend([[100.0f32; 3]; 6]);
+        let mut mask = vec![1.0f32; 5];
+        mask.extend([0.0f32; 6]);
+        assert!((auto_exposure(&px, Some(&mask)) + 2.0).abs() < 1e-6);
+        // Without the mask the bright background is the median: log2(0.18/100).
+        assert!((auto_exposure(&px, None) - (0.18f64 / 100.0).log2()).abs() < 1e-6);
+        assert_eq!(auto_exposure(&[[0.0; 3]; 4], None), 0.0);
+    }
 }

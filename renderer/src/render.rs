@@ -32,18 +32,26 @@ impl RenderStats {
     }
 }
 
+/// The stats line. samples = pixels × spp (every camera sample, misses included); rays = rays
+/// actually traced (camera rays, and shadow and bounce rays that were not skipped: above a single
+/// sphere's horizon nothing can occlude, so no shadow ray is traced there); both are divided by
+/// `wall`, the render loop alone (scene loading and image writing are not in it).
 impl std::fmt::Display for RenderStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{:.3} s, {} samples ({:.2} M samples/s), {} rays ({:.2} M rays/s), {} threads",
+            "render loop {:.3} s on {} threads: {} samples (pixels × spp, misses included) = {:.2} M samples/s, ",
             self.wall.as_secs_f64(),
+            self.threads,
             self.samples,
             self.samples_per_sec() / 1e6,
-            self.rays,
-            self.rays_per_sec() / 1e6,
-            self.threads
-        )
+        )?;
+        if self.rays == 0 {
+            // A normal-probe camera hands the integrator its first hit, and a single sphere needs no shadow ray.
+            write!(f, "no rays traced (the camera gives the first hit; no shadow ray was needed)")
+        } else {
+            write!(f, "{} rays traced = {:.2} M rays/s", self.rays, self.rays_per_sec() / 1e6)
+        }
     }
 }
 

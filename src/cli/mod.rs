@@ -4,6 +4,7 @@ pub mod analyze;
 pub mod factor;
 pub mod header;
 pub mod invert;
+pub mod png;
 pub mod render;
 pub mod separate;
 pub mod sh;
@@ -35,6 +36,8 @@ pub enum Command {
     Invert(invert::InvertCommand),
     /// Render, analyse and check the paper's claims; report with error bars.
     Verify(verify::VerifyArgs),
+    /// Tone-mapped sRGB PNG preview of an image (not an analysis input).
+    Png(png::PngArgs),
 }
 
 pub fn run(cli: Cli) -> Result<ExitCode, Error> {
@@ -44,6 +47,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Analyze(a) => analyze::run(a),
         Command::Invert(c) => invert::run(c),
         Command::Verify(a) => verify::run(a),
+        Command::Png(a) => png::run(a),
     }
 }
 

@@ -1,7 +1,9 @@
 //! `reflect render [SCENE.toml] [--out FILE.exr] [--spp N] [--seed N] [--threads N] [--png FILE]`
 //!
 //! Renders a scene file (or the built-in default: a Lambertian sphere under a built-in sky) to a
-//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints wall time, samples/s and rays/s.
+//! float OpenEXR with the AOVs of CONVENTIONS §5, and prints the stats line (render-loop time,
+//! samples/s, rays/s; see `RenderStats`), the load / render / save / whole-command times, and the
+//! noise summary of the object's pixels (`renderer::noise`).
 
 use super::Error;
 use renderer::render::{RenderOptions, render};
@@ -25,9 +27,12 @@ pub struct RenderArgs {
     /// Worker threads [default: all cores]. The image does not depend on it.
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
-    /// Also write a tone-mapped PNG preview here.
+    /// Also write a tone-mapped PNG preview here (see `reflect png`).
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// Exposure of the --png preview in stops [default: the object's median luminance → 0.18].
+    #[arg(long, allow_hyphen_values = true, requires = "png")]
+    pub exposure: Option<f64>,
     /// Sampler: sobol or independent (overrides render.sampler).
     #[arg(long)]
     pub sampler: Option<String>,
@@ -104,7 +109,9 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
 }
 
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
+    let t_start = std::time::Instant::now();
     let scene = load_scene(&a)?;
+    let t_load = t_start.elapsed();
     let stem = a
         .scene
         .as_ref()
@@ -114,6 +121,9 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.exr")));
     if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
         return Err(Error::file(&out, "output file must end in .exr"));
+    }
+    if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
+        return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
     let s = &scene.settings;
     if !a.quiet {
@@ -129,10 +139,16 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     }
     let opts = RenderOptions { progress: !a.quiet };
     let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
+    let t_save = std::time::Instant::now();
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
     // leaves no EXR behind (and no temporary file).
     let exr = renderer::output::stage_exr(&out, &film, &renderer::output::header_attributes(&scene))?;
-    let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, 1.0)).transpose()?;
+    let ev = a.exposure.unwrap_or_else(|| {
+        let px: Vec<[f32; 3]> = film.pixels.iter().map(|p| p.rgb).collect();
+        let mask: Vec<f32> = film.pixels.iter().map(|p| p.mask).collect();
+        renderer::output::auto_exposure(&px, Some(&mask))
+    });
+    let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
     exr.commit()?;
     if let Some(png) = png
         && let Err(e) = png.commit()
@@ -140,8 +156,25 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         let _ = std::fs::remove_file(&out);
         return Err(e);
     }
+    if let (Some(png), false) = (&a.png, a.quiet) {
+        let how = if a.exposure.is_some() { "set by --exposure" } else { "automatic: object's median → 0.18" };
+        eprintln!("wrote {}: exposure {ev:+.2} EV ({how}), tone curve x/(1+x), sRGB", png.display());
+    }
+    let t_save = t_save.elapsed();
     if !a.quiet {
-        eprintln!("wrote {}: {stats}", out.display());
+        eprintln!("wrote {}", out.display());
+        eprintln!("{stats}");
+        eprintln!(
+            "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
+            t_load.as_secs_f64(),
+            stats.wall.as_secs_f64(),
+            t_save.as_secs_f64(),
+            t_start.elapsed().as_secs_f64()
+        );
+        match renderer::noise::summarize(&film) {
+            Some(n) => eprintln!("{n}"),
+            None => eprintln!("noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -84,9 +84,12 @@ pub fn check_lmax(lmax: usize) -> Result<(), Error> {
 
 fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
     check_lmax(a.lmax)?;
+    // Flags are checked before the file is read: a bad flag is named whatever the file holds.
+    let given = a.mapping.as_deref().map(Mapping::parse).transpose()?;
+    refuse_render(&a.env)?;
     let img = read_rgb(&a.env)?;
-    let mapping = match &a.mapping {
-        Some(m) => Mapping::parse(m)?,
+    let mapping = match given {
+        Some(m) => m,
         None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&a.env))?,
     };
     let c = project_envmap(&img, mapping, a.lmax).map_err(|e| e.in_file(&a.env))?;
@@ -111,6 +114,37 @@ fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Camera types whose image is an environment (radiance by direction), which `sh project` may
+/// take; any other `reflect:camera` is a render of an object.
+const ENVIRONMENT_CAMERAS: [&str; 4] = ["environment", "envmap", "latlong", "angular"];
+
+/// `sh project` reads its input as lighting by direction. A reflect render (its EXR header has a
+/// `reflect:camera` whose type is not an environment) is an object seen by a camera: projecting
+/// it as an environment map gives numbers with no meaning, so it is refused, naming the camera
+/// and the command that does take it. An unreadable header is left to the image reader.
+fn refuse_render(path: &std::path::Path) -> Result<(), Error> {
+    let Ok(attrs) = analysis::image::header_attributes(path) else { return Ok(()) };
+    let Some(camera) = attrs.get("reflect:camera") else { return Ok(()) };
+    let ty = serde_json::from_str::<serde_json::Value>(camera)
+        .ok()
+        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(str::to_string));
+    match ty {
+        Some(t) if ENVIRONMENT_CAMERAS.contains(&t.as_str()) => Ok(()),
+        Some(t) => Err(Error::file(
+            path,
+            format!(
+                "this is a render (header reflect:camera type \"{t}\"), not an environment map: `sh project` takes lighting \
+                 by direction; project a render with `reflect analyze`"
+            ),
+        )),
+        None => Err(Error::file(
+            path,
+            "the header has a reflect:camera attribute without a camera type, so this may be a render, not an environment \
+             map; `sh project` refuses it",
+        )),
+    }
 }
 
 /// The transfer model named on the command line, with its parameters checked.
