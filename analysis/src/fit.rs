@@ -282,6 +282,55 @@ pub fn fit_filter_grid(
     fit_filter(dirs, value, sigma, &weight, light, lmax_fit)
 }
 
+/// 9-term relative error statistics of a probe image.
+#[derive(Clone, Copy, Debug)]
+pub struct NineTerm {
+    /// Solid-angle mean of e² = ((B − B₉)/B)², with the noise's contribution σ_p²/B² subtracted
+    /// (E[(e + n)²] = e² + σ², so this is unbiased), and its standard error.
+    pub mean_sq: f64,
+    pub sigma_mean_sq: f64,
+    /// Solid-angle mean of |e| and max |e| (biased upward by noise: informative).
+    pub mean_abs: f64,
+    pub max_abs: f64,
+}
+
+impl NineTerm {
+    pub fn rms(&self) -> f64 {
+        self.mean_sq.max(0.0).sqrt()
+    }
+    /// σ(rms) = σ(mean_sq) / (2 rms).
+    pub fn sigma_rms(&self) -> f64 {
+        self.sigma_mean_sq / (2.0 * self.rms().max(1e-12))
+    }
+}
+
+/// The 9-term (l ≤ 2) approximation's relative error e = (B − B₉)/B over a W × H `normal-probe`
+/// channel (`value`, `sigma` row-major), B₉ the solid-angle weighted least-squares fit on Y_lm,
+/// l ≤ 2 ([`sh_design`], [`lsq`]) — the quantity of sec. 3.5 (eq. 38–39). `None` when a pixel is
+/// ≤ 0 (e is undefined) or the fit is singular.
+pub fn nine_term_error(value: &[f64], sigma: &[f64], w: usize, h: usize) -> Option<NineTerm> {
+    let (rows, weight) = sh_design(w, h, 2);
+    let fit = lsq(&rows, &value, &sigma, &weight)?;
+    let (mut ms, mut var, mut tot, mut mabs, mut max) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
+    for i in 0..w * h {
+        let b9: f64 = (0..9).map(|k| rows[i][k] * fit.coef[k]).sum();
+        let b = value[i];
+        if b <= 0.0 {
+            return None;
+        }
+        let e = (b - b9) / b;
+        // Relative noise of e (delta method: de/db = b9/b²).
+        let s = b9.abs() / (b * b) * sigma[i];
+        ms += weight[i] * (e * e - s * s);
+        // Var((e+n)²) = 4e²s² + 2s⁴.
+        var += weight[i] * weight[i] * (4.0 * e * e * s * s + 2.0 * s.powi(4));
+        mabs += weight[i] * e.abs();
+        tot += weight[i];
+        max = max.max(e.abs());
+    }
+    Some(NineTerm { mean_sq: ms / tot, sigma_mean_sq: var.sqrt() / tot, mean_abs: mabs / tot, max_abs: max })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
