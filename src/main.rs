@@ -7,6 +7,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let args = match cli::Cli::try_parse() {
         Ok(a) => a,
         // --help and --version print in full and exit 0.
@@ -33,5 +34,18 @@ fn main() -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// Restores the default action of SIGPIPE (terminate quietly), as every Unix filter has it: the
+/// Rust runtime ignores SIGPIPE, so a write to a closed pipe (`reflect sh project … | head -1`)
+/// returns EPIPE and `println!` panics with a message. With the default action the process ends
+/// silently at the first write after the reader has gone, like `cat` or `yes`.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any other thread exists; `signal` with
+    // `SIG_DFL` only changes the disposition of one signal.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

@@ -207,3 +207,32 @@ fn sh_project_numbers_against_closed_forms() {
 fn exists_any_tmp(dir: &Path) -> bool {
     std::fs::read_dir(dir).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().contains(".tmp"))
 }
+
+/// Output into a pipe whose reader has gone (`reflect sh project … | head -1`) ends the process
+/// quietly: no panic, nothing on stderr, killed by SIGPIPE (as `cat` or `yes` are) or exit 0. The
+/// pipe's read end is closed before the child starts, so its first write fails with EPIPE.
+#[cfg(unix)]
+#[test]
+fn closed_stdout_pipe_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let d = temp_dir("cli-outputs-pipe");
+    let env = d.join("env.exr");
+    let l: [[f64; 3]; 9] = std::array::from_fn(|k| [1.0 / (1 + k) as f64; 3]);
+    write_exr(&env, &sh_image(&l, 32, 16)).unwrap();
+    let e = env.to_str().unwrap();
+    let runs: [&[&str]; 5] = [
+        &["sh", "project", e, "--lmax", "4"],
+        &["sh", "project", e, "--lmax", "4", "--json"],
+        &["sh", "transfer", "--brdf", "lambert", "--lmax", "8"],
+        &["sh", "transfer", "--brdf", "phong", "--s", "8", "--lmax", "20", "--json"],
+        &["--help"],
+    ];
+    for args in runs {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).stdout(writer).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.is_empty(), "{args:?}: stderr {stderr:?}");
+        assert!(out.status.success() || out.status.signal() == Some(13), "{args:?}: {:?} (SIGPIPE is 13)", out.status);
+    }
+}
