@@ -105,7 +105,9 @@ fn report_schemas_are_pinned() {
     }
     assert_eq!(order["estimate"].as_array().unwrap().len(), 3, "every channel");
     let fit = &a["filter_fit"][0];
-    for k in ["chi2", "dof", "chi2_per_dof", "p_value", "stderr_scale", "fitted_orders", "covariance"] {
+    for k in
+        ["chi2", "dof", "chi2_per_dof", "robust_chi2_per_dof", "p_value", "stderr_scale", "fitted_orders", "covariance"]
+    {
         assert!(fit.get(k).is_some(), "analyze.filter_fit[0].{k}: {fit}");
     }
 
@@ -126,6 +128,10 @@ fn report_schemas_are_pinned() {
             ("lm", "array"),
             ("coefficients", "array"),
             ("stderr", "array"),
+            ("stderr_noise", "array|null"),
+            ("truncation", "array|null"),
+            ("coefficient_amplification", "array|null"),
+            ("channel_fits", "array|null"),
             ("regularised", "object"),
             ("output", "string|null"),
             ("warnings", "array"),

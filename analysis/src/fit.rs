@@ -158,6 +158,29 @@ pub fn lsq(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64]) -> O
     })
 }
 
+/// Robust χ²/ν: median over pixels with σ_p > 0 (and weight ≠ 0) of (residual_p / σ_p)², divided
+/// by the median of χ²₁ (0.454936). ≈ 1 for a right model; unlike Σ z²/ν it is hardly moved by a
+/// few pixels whose Monte Carlo σ_p underestimates a heavy-tailed error (a bright light source hit
+/// by few samples), while a model mismatch (a rotated lighting, a wrong camera) shifts every
+/// residual and raises it. `None` without such pixels.
+pub fn robust_chi2(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64], coef: &[f64]) -> Option<f64> {
+    let mut z2: Vec<f64> = rows
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| weight[i] != 0.0 && sigma[i] > 0.0)
+        .map(|(i, a)| {
+            let r = value[i] - a.iter().zip(coef).map(|(x, c)| x * c).sum::<f64>();
+            (r / sigma[i]).powi(2)
+        })
+        .collect();
+    if z2.is_empty() {
+        return None;
+    }
+    let mid = z2.len() / 2;
+    let (_, m, _) = z2.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(*m / 0.454_936_423_119_572_8)
+}
+
 /// Gauss–Jordan inverse with partial pivoting of a small p × p row-major matrix; `None` when a
 /// pivot falls below 1e-13 × the largest diagonal entry (singular for practical purposes).
 pub fn invert(a: &[f64], p: usize) -> Option<Vec<f64>> {

@@ -40,7 +40,7 @@ use super::header::{header_json, probe_exitance_deg};
 use super::sh::check_lmax;
 use analysis::image::{Image, read_image};
 use analysis::inverse::factorization::{
-    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, OutgoingNode, check_nodes, directional_lighting,
+    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, check_nodes, directional_lighting,
     filter_from_lighting, fmt_node, hemisphere_nodes, match_nodes, node_degrees, project,
 };
 use analysis::projection::latlong_max_order;
@@ -55,7 +55,7 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-pub use analysis::inverse::factorization::{MAX_MU, MAX_NODES, MAX_PHI, NODE_TOL_DEG};
+pub use analysis::inverse::factorization::NODE_TOL_DEG;
 /// Largest accepted `--size` side.
 pub const MAX_SIDE: u32 = 4096;
 

@@ -22,12 +22,15 @@
 use super::Error;
 use super::header::{first_sphere, header_json, json_rgb, json_vec3, lighting_of, probe_theta_o_deg};
 use super::sh::{check_lmax, model_from_args};
+use analysis::filter::ChannelFit;
 use analysis::image::{Image, read_image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
+use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
 use analysis::projection::{
-    OrthoCamera, OrthoView, Param, check_latlong, fit_orthographic, latlong_max_order, project_normal_probe,
+    OrthoCamera, OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples,
+    project_normal_probe,
 };
 use analysis::sh::{lm, reconstruct_latlong};
 use analysis::transfer::TransferModel;
@@ -140,6 +143,8 @@ struct Projected {
     probe: bool,
     /// The highest order the input carries (`project` refuses an l_max above it).
     lmax_carried: usize,
+    /// Orthographic views: their used pixels and whether every view has a `stderr` layer.
+    samples: Option<(Vec<Sample>, bool)>,
 }
 
 fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Error> {
@@ -185,6 +190,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             first,
             probe: true,
             lmax_carried,
+            samples: None,
         });
     }
     let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
@@ -195,6 +201,8 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         .map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
     let method =
         format!("weighted least squares over {} orthographic view(s), {} parameterization", views.len(), param.name());
+    let samples =
+        ortho_samples(&views, &sphere, param).map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
     drop(views);
     let first = images.into_iter().next().unwrap_or_default();
     Ok(Projected {
@@ -205,6 +213,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         first,
         probe: false,
         lmax_carried: fit.lmax_carried,
+        samples: Some(samples),
     })
 }
 
@@ -286,9 +295,19 @@ pub struct InvertLightingReport {
     pub max_amplification: f64,
     pub orders: Vec<LightingOrder>,
     pub lm: Vec<(usize, i64)>,
-    /// L_lm = B_lm / (albedo Λ_l ρ̂_l) (eq. 17); null where unobservable.
+    /// L_lm (eq. 17); null where unobservable. A normal-probe render: B_lm / (albedo Λ_l ρ̂_l);
+    /// orthographic views: fitted in pixel space (`analysis::inverse::views`).
     pub coefficients: Vec<Option<[f64; 3]>>,
+    /// Total standard error (noise ⊕ truncation for orthographic views).
     pub stderr: Vec<Option<[f64; 3]>>,
+    /// Orthographic views: the noise part (scaled by √(χ²/ν) when above 1).
+    pub stderr_noise: Option<Vec<Option<[f64; 3]>>>,
+    /// Orthographic views: the estimated truncation bias (fit to l_max + 2).
+    pub truncation: Option<Vec<Option<[f64; 3]>>>,
+    /// Orthographic views: amplification per coefficient (filter × design).
+    pub coefficient_amplification: Option<Vec<Option<f64>>>,
+    /// Orthographic views: χ², ν, χ²/ν, p-value, error scale, covariance per channel.
+    pub channel_fits: Option<Vec<ChannelFit>>,
     pub regularised: RegularisedReport,
     /// The lat-long EXR written with `--output`.
     pub output: Option<String>,
@@ -334,11 +353,49 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         write_exr(out, &img)?;
     }
     let mut warnings = Vec::new();
-    if !p.probe && a.images.len() == 1 {
+    let mut orders: Vec<LightingOrder> = inv
+        .orders
+        .iter()
+        .map(|o| LightingOrder {
+            l: o.l,
+            lambda_rho: o.filter,
+            amplification: o.amplification,
+            status: o.status.name().into(),
+        })
+        .collect();
+    let (mut coefficients, mut stderr) = (inv.coefficients, inv.stderr);
+    let (mut stderr_noise, mut truncation, mut coefficient_amplification, mut channel_fits) = (None, None, None, None);
+    if let Some((samples, have_sigma)) = &p.samples {
+        // Views that see part of the sphere: L_lm fitted in pixel space, with the conditioning of
+        // the actual design and the truncation bias (issue 16).
+        let v = invert_lighting_views(
+            samples,
+            *have_sigma,
+            &model.lambda_rho(a.lmax + 2),
+            albedo,
+            a.lmax,
+            a.max_amplification,
+        )
+        .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
+        orders = v
+            .orders
+            .iter()
+            .map(|o| LightingOrder {
+                l: o.l,
+                lambda_rho: o.lambda_rho,
+                amplification: o.amplification,
+                status: o.status.clone(),
+            })
+            .collect();
+        coefficients = v.coefficients;
+        stderr = v.stderr;
+        stderr_noise = Some(v.stderr_noise);
+        truncation = Some(v.truncation);
+        coefficient_amplification = Some(v.amplification);
+        channel_fits = Some(v.channels);
+        warnings.extend(v.warnings);
         warnings.push(
-            "one orthographic view sees one hemisphere of normals: B above l_max aliases into the fitted B_lm, so the \
-             recovered L_lm carry a bias the standard errors do not include (add the opposite view or render a \
-             normal-probe)"
+            "the regularised lighting is the Tikhonov solution on the B_lm fitted to these views (not the pixel-space fit)"
                 .to_string(),
         );
     }
@@ -352,19 +409,14 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         lambda_rho: filter,
         albedo,
         max_amplification: a.max_amplification,
-        orders: inv
-            .orders
-            .iter()
-            .map(|o| LightingOrder {
-                l: o.l,
-                lambda_rho: o.filter,
-                amplification: o.amplification,
-                status: o.status.name().into(),
-            })
-            .collect(),
-        lm: (0..inv.coefficients.len()).map(lm).collect(),
-        coefficients: inv.coefficients,
-        stderr: inv.stderr,
+        orders,
+        lm: (0..coefficients.len()).map(lm).collect(),
+        coefficients,
+        stderr,
+        stderr_noise,
+        truncation,
+        coefficient_amplification,
+        channel_fits,
         regularised: RegularisedReport {
             rule: rule.name().into(),
             lambda: inv.regularised.lambda,

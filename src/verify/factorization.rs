@@ -119,7 +119,7 @@ pub fn measure(
     Ok(Slice { factor, normal_b, factor_mid, normal_b_mid, renders: renders + 1 })
 }
 
-pub use analysis::transfer::microfacet::{beckmann_lambda, beckmann_normal_exitance, beckmann_normal_lobe};
+pub use analysis::transfer::microfacet::beckmann_normal_exitance;
 
 /// The source rotated by `deg` about an axis perpendicular to it (the wrong prediction).
 pub fn rotated(s: [f64; 3], deg: f64) -> [f64; 3] {
@@ -415,6 +415,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 mod tests {
     use super::super::fit::latlong_dir;
     use super::*;
+    use analysis::transfer::microfacet::beckmann_lambda;
 
     /// Closed-form images of a unit directional source: B = ρ̂ (Beckmann α, F = 1, or Lambert).
     fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f64>, String> {
