@@ -238,6 +238,7 @@ pub fn fit_filter_pixels(
                 chi2: 0.0,
                 dof: 0,
                 chi2_per_dof: None,
+                robust_chi2_per_dof: None,
                 p_value: None,
                 stderr_scale: 1.0,
                 fitted_orders: vec![],
