@@ -1,9 +1,7 @@
 //! `reflect`: render, analyse and verify (see README.md).
 
-mod cli;
-mod verify;
-
 use clap::Parser;
+use reflect::cli;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {

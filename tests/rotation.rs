@@ -151,3 +151,162 @@ fn rotated_environment_matches_the_rotated_coefficients() {
     // Able to fail: the unrotated coefficients are far outside that tolerance.
     assert!((1..got.len()).any(|k| (got[k][0] - c[k][0]).abs() > 10.0 * tol));
 }
+
+/// Λ_l ρ̂_l of a Lambertian of albedo 1 for l ≤ 4 (CONVENTIONS §4; eq. 26 of the paper).
+const LAMBERT: [f64; 5] = [1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0];
+
+/// Solid angle of a lat-long row r of an H-row map, per column of a W-column map.
+fn cell_solid_angle(r: usize, w: usize, h: usize) -> f64 {
+    2.0 * PI / w as f64 * ((PI * r as f64 / h as f64).cos() - (PI * (r + 1) as f64 / h as f64).cos())
+}
+
+/// The map's own SH coefficients for l ≤ LMAX: the map is piecewise constant (nearest pixel), so
+/// L_lm = Σ_pixels v ∫_pixel Y_lm dω exactly; each pixel integral by 3 × 3 Gauss–Legendre in (θ, φ)
+/// with the sin θ weight (Y_lm is analytic in θ and φ, the error is O(Δ⁶) per pixel: ~1e-13). Also
+/// ‖map‖² = Σ v² ΔΩ, exact.
+fn map_coefficients(img: &Image) -> (Vec<[f64; 3]>, [f64; 3]) {
+    let (w, h) = (img.width, img.height);
+    let (x3, w3) = gauss_legendre(3);
+    let basis = ShBasis::new(LMAX);
+    let n = num_coefficients(LMAX);
+    let (mut c, mut norm2) = (vec![[0.0; 3]; n], [0.0; 3]);
+    let mut y = vec![0.0; n];
+    for r in 0..h {
+        // ∫_pixel Y dω for every column at once would need a φ shift per Y; do it per pixel.
+        let (t0, dt) = (PI * r as f64 / h as f64, PI / h as f64);
+        for col in 0..w {
+            let (p0, dp) = (2.0 * PI * col as f64 / w as f64, 2.0 * PI / w as f64);
+            let mut integral = vec![0.0; n];
+            for (xt, wt) in x3.iter().zip(&w3) {
+                let t = t0 + 0.5 * dt * (xt + 1.0);
+                for (xp, wp) in x3.iter().zip(&w3) {
+                    let p = p0 + 0.5 * dp * (xp + 1.0);
+                    basis.eval_into([t.sin() * p.cos(), t.sin() * p.sin(), t.cos()], &mut y);
+                    let q = 0.25 * dt * dp * wt * wp * t.sin();
+                    for k in 0..n {
+                        integral[k] += q * y[k];
+                    }
+                }
+            }
+            for (ch, name) in ["R", "G", "B"].iter().enumerate() {
+                let v = img.channels[*name][r * w + col] as f64;
+                for k in 0..n {
+                    c[k][ch] += v * integral[k];
+                }
+                norm2[ch] += v * v * cell_solid_angle(r, w, h);
+            }
+        }
+    }
+    (c, norm2)
+}
+
+/// The renderer's sampling and rotation of an environment map, quantitatively: a Lambertian
+/// normal probe (albedo 1, max_depth 1, pixel centres, next-event estimation from the map's
+/// importance sampling with MIS) under the rotated map must be B(n) = Σ_l Λ_l ρ̂_l Σ_m L'_lm Y_lm(n)
+/// (eq. 26) with L' = rotate_coefficients(L_map, R), the analysis crate's rotation of the map's own
+/// coefficients. The map's content above l = 4 (its nearest-pixel steps) adds at most
+/// T = ‖map_{>4}‖ · ‖K_{>4}‖ at any normal (Cauchy–Schwarz), with ‖K_{>4}‖² = 2/(3π) − Σ_{l≤4}
+/// (2l+1) (Λ_l ρ̂_l)²/4π from Funk–Hecke (∫ K² dω = 2/(3π) for K = max(cos, 0)/π). Checked:
+/// every pixel within k σ + T (Šidák–Student over the pixels), and the SH projection of the
+/// render against that of the prediction on the same grid within k σ_proj + T Σ|w Y|
+/// (σ_proj² = Σ (w Y)² σ², Šidák over the coefficients). Also the light's sampling density is
+/// p(ω) = g / Σ g ΔΩ, g the max channel of the map pixel containing Rᵀω (an importance sampler that
+/// drops ΔΩ from its weights is unbiased, so only this catches it).
+#[test]
+fn rotated_environment_render_projects_to_the_rotated_coefficients() {
+    let d = temp_dir("rotation-render");
+    let path = d.join("env.exr");
+    let (_, img) = environment(&path);
+    let (lmap, norm2) = map_coefficients(&img);
+    let r = Rotation::from_xyz_deg(ROT);
+    let lrot = rotate_coefficients(&lmap, &r);
+    let a = |k: usize| LAMBERT[analysis::sh::lm(k).0];
+    let kernel_tail = (2.0 / (3.0 * PI)
+        - (0..=LMAX).map(|l| (2 * l + 1) as f64 * LAMBERT[l] * LAMBERT[l] / (4.0 * PI)).sum::<f64>())
+    .sqrt();
+    let tail: [f64; 3] = std::array::from_fn(|ch| {
+        let in_band: f64 = lmap.iter().map(|v| v[ch] * v[ch]).sum();
+        (norm2[ch] - in_band).max(0.0).sqrt() * kernel_tail
+    });
+
+    let (w, h, spp) = (64u32, 32u32, 64u32);
+    let toml = format!(
+        "[render]\nwidth = {w}\nheight = {h}\nspp = {spp}\nseed = 11\nmax_depth = 1\n[camera]\ntype = \"normal-probe\"\n\
+         [lighting]\ntype = \"envmap\"\nfile = \"{}\"\nmapping = \"latlong\"\nrotate_deg = [{:?}, {:?}, {:?}]\n\
+         [[objects]]\nshape = \"sphere\"\nbrdf = {{ type = \"lambert\", albedo = 1.0 }}\n",
+        path.display(),
+        ROT[0],
+        ROT[1],
+        ROT[2]
+    );
+    let s = scene(&toml);
+    let film = render_scene(&s);
+
+    let basis = ShBasis::new(LMAX);
+    let n = num_coefficients(LMAX);
+    let k_pix = analysis::special::pixel_family_k(3 * (w * h) as usize, spp, 1e-3);
+    let (mut proj, mut proj_exp, mut var, mut abs_w) =
+        (vec![[0.0; 3]; n], vec![[0.0; 3]; n], vec![[0.0; 3]; n], vec![0.0; n]);
+    let mut y = vec![0.0; n];
+    for row in 0..h as usize {
+        let t = PI * (row as f64 + 0.5) / h as f64;
+        for col in 0..w as usize {
+            let p = 2.0 * PI * (col as f64 + 0.5) / w as f64;
+            basis.eval_into([t.sin() * p.cos(), t.sin() * p.sin(), t.cos()], &mut y);
+            let px = film.get(row as u32, col as u32);
+            let wgt = cell_solid_angle(row, w as usize, h as usize);
+            for ch in 0..3 {
+                let expect: f64 = (0..n).map(|k| a(k) * lrot[k][ch] * y[k]).sum();
+                let (got, sd) = (px.rgb[ch] as f64, px.stderr[ch] as f64);
+                assert!(
+                    (got - expect).abs() <= k_pix * sd + tail[ch] + 1e-5 * expect,
+                    "pixel ({row},{col}) ch {ch}: {got} ± {sd} vs B = {expect} (k {k_pix:.2}, T {:.1e})",
+                    tail[ch]
+                );
+                for k in 0..n {
+                    proj[k][ch] += wgt * y[k] * got;
+                    proj_exp[k][ch] += wgt * y[k] * expect;
+                    var[k][ch] += (wgt * y[k] * sd).powi(2);
+                }
+            }
+            for k in 0..n {
+                abs_w[k] += (wgt * y[k]).abs();
+            }
+        }
+    }
+    let k_proj = analysis::special::sidak_k(3 * n, 1e-3);
+    for k in 0..n {
+        for ch in 0..3 {
+            let tol = k_proj * var[k][ch].sqrt() + tail[ch] * abs_w[k] + 1e-6 * proj_exp[0][ch].abs();
+            assert!(
+                (proj[k][ch] - proj_exp[k][ch]).abs() <= tol,
+                "B_{k} ch {ch}: render projects to {} , rotated coefficients predict {} (± {tol:.2e})",
+                proj[k][ch],
+                proj_exp[k][ch]
+            );
+        }
+    }
+
+    // The sampling density: p(ω) = g(pixel ∋ Rᵀω) / Σ g ΔΩ (f32: relative 1e-4).
+    let (iw, ih) = (img.width, img.height);
+    let g: Vec<f64> =
+        (0..iw * ih).map(|i| ["R", "G", "B"].iter().map(|c| img.channels[*c][i] as f64).fold(0.0, f64::max)).collect();
+    let total: f64 = (0..iw * ih).map(|i| g[i] * cell_solid_angle(i / iw, iw, ih)).sum();
+    let rt = r.transpose();
+    for j in 0..200 {
+        // Golden-spiral directions, kept away from pixel edges (f32 lookups may pick the neighbour).
+        let z = 1.0 - 2.0 * (j as f64 + 0.5) / 200.0;
+        let ph = j as f64 * 2.399_963_229_728_653;
+        let om = [(1.0 - z * z).sqrt() * ph.cos(), (1.0 - z * z).sqrt() * ph.sin(), z];
+        let dd = rt.apply(om);
+        let (t, p) = (dd[2].clamp(-1.0, 1.0).acos(), dd[1].atan2(dd[0]).rem_euclid(2.0 * PI));
+        let (rf, cf) = (t / PI * ih as f64, p / (2.0 * PI) * iw as f64);
+        if (rf - rf.round()).abs() < 1e-3 || (cf - cf.round()).abs() < 1e-3 {
+            continue;
+        }
+        let i = (rf as usize).min(ih - 1) * iw + (cf as usize).min(iw - 1);
+        let expect = g[i] / total;
+        let got = s.light.pdf(Vec3::new(om[0] as f32, om[1] as f32, om[2] as f32)) as f64;
+        assert!((got - expect).abs() <= 1e-4 * expect, "ω {om:?}: light pdf {got} vs g/Σ g ΔΩ = {expect}");
+    }
+}

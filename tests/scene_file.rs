@@ -203,8 +203,12 @@ fn perspective_camera_geometry() {
 }
 
 /// A perspective render of a Lambertian sphere under uniform light: the covered pixels are exactly
-/// those whose centre ray is within asin(r/d) of the sphere's centre (mask 1 inside, 0 outside,
-/// partial coverage only on the silhouette), and every fully covered pixel is the albedo.
+/// those inside the sphere's silhouette (mask 1 inside, 0 outside, partial coverage only on the
+/// silhouette), and every fully covered pixel is the albedo. The reference is the closed-form
+/// pinhole projection, not the camera's ray generation: seen from distance d, a sphere of radius r
+/// centred on the optical axis fills the cone of half-angle α = asin(r/d), whose image on the plane
+/// at unit distance is the disc of radius tan α about the image centre; the image plane spans
+/// ±tan(fov/2) vertically and ±tan(fov/2)·W/H horizontally, row 0 at the top (CONVENTIONS §5).
 #[test]
 fn perspective_render_sees_the_sphere_where_geometry_says() {
     let (w, h) = (40, 30);
@@ -215,9 +219,13 @@ fn perspective_render_sees_the_sphere_where_geometry_says() {
         .replace("type = \"orthographic\"", "type = \"perspective\"")
         .replace("extent = 1.05", "fov_deg = 50.0");
     let film = render_scene(&scene(&toml));
-    let from = Vec3::new(3.0f32, 0.0, 1.0);
-    let half = (1.0 / from.length()).asin();
-    let cam = perspective(50.0, w, h);
+    // Camera at (3, 0, 1) looking at the unit sphere's centre, the origin.
+    let silhouette = (1.0 / 10f64.sqrt()).asin().tan();
+    let t = 25f64.to_radians().tan();
+    // Image-plane point of the pixel corner at (row, col) (fractional: corners are integers).
+    let plane = |r: u32, c: u32| {
+        (t * (w as f64 / h as f64) * (2.0 * c as f64 / w as f64 - 1.0), t * (1.0 - 2.0 * r as f64 / h as f64))
+    };
     let (mut inside, mut outside) = (0, 0);
     // Lambert under uniform light: B = albedo = 0.5; the estimator (MIS of light and BRDF samples)
     // has variance, so within Šidák–Student k of each pixel's σ (16 samples) + f32 rounding.
@@ -225,16 +233,18 @@ fn perspective_render_sees_the_sphere_where_geometry_says() {
     for r in 0..h {
         for c in 0..w {
             let p = film.get(r, c);
-            // The pixel's four corners: all within the cone → covered, all outside → empty.
-            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
-                .map(|(u, v)| cam.generate(r, c, Vec2::new(u, v)).dir.dot(-from.normalize()).clamp(-1.0, 1.0).acos());
-            if corners.iter().all(|a| *a < half - 1e-4) {
+            // The pixel is a square on the image plane and the silhouette a disc: all four corners
+            // inside → covered. All outside by more than the sagitta of a pixel edge under the
+            // disc's arc (0.031²/(8 · 0.333) ≈ 4·10⁻⁴) → no sliver of the disc enters the pixel.
+            let corners = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dr, dc)| {
+                let (x, y) = plane(r + dr, c + dc);
+                x.hypot(y)
+            });
+            if corners.iter().all(|&q| q < silhouette - 1e-4) {
                 inside += 1;
                 assert_eq!(p.mask, 1.0, "({r},{c})");
                 assert!((p.rgb[0] - 0.5).abs() <= k * p.stderr[0] + 1e-5, "({r},{c}): {} ± {}", p.rgb[0], p.stderr[0]);
-            } else if corners.iter().all(|a| *a > half + 0.04) {
-                // (0.04 rad exceeds the pixel's angular diagonal, ≈ 0.031 rad, so no sliver of the
-                // silhouette can cross the pixel between its corners.)
+            } else if corners.iter().all(|&q| q > silhouette + 2e-3) {
                 outside += 1;
                 assert_eq!(p.mask, 0.0, "({r},{c})");
             }

@@ -1,52 +1,266 @@
 //! The film: per-pixel estimates with their standard errors, and the AOVs of CONVENTIONS §5.
 //!
-//! Each pixel's samples are accumulated in f64 by one thread (a pixel never straddles tiles), with
-//! Welford's update for the variance, so the result does not depend on the thread count. The
-//! standard error is √(s²/n) of the pixel mean: exact for independent samples and conservative for
-//! the scrambled Sobol sampler (whose error decays faster than 1/√n).
+//! # Accumulation in a fixed dyadic tree (bit-exact shards)
+//!
+//! Floating-point addition is not associative, so an image merged from shards equals a single render
+//! bit for bit only if both add the same numbers in the same tree. Every pixel's samples are therefore
+//! combined in one fixed binary tree over the sample index: the statistics of an *aligned dyadic
+//! block* `[j·2^k, (j+1)·2^k)` are those of its left half combined with those of its right half
+//! ([`Stats::join`]), down to single samples. A block's value is thus the same bits whoever computed
+//! it. A render of the sample range `[a, b)` keeps the canonical decomposition of its range into
+//! maximal aligned blocks ([`canonical_blocks`]; a binary counter produces it while the samples
+//! arrive in increasing index order); merging ranges coalesces sibling blocks into parents
+//! ([`Partial::merge`]); and the image is the left-to-right fold of the canonical decomposition of
+//! `[0, spp)` ([`Partial::finish`]). A single render does exactly the same, so a merge of any
+//! partition of `[0, spp)` into ranges, in any order, equals the single render in every bit.
+//!
+//! # Standard error and its reliability flag
+//!
+//! Each block carries M2, the sum of squared deviations of its *batch sums*, where batches are the
+//! aligned blocks of `B = 2^batch_log2` samples, combined pairwise with Chan, Golub & LeVeque's update
+//! (1979) so that a constant pixel has exactly zero error and there is no cancellation; `stderr =
+//! √(M2 / (K (K−1))) / B` over the K full batches (the batch-means estimator; samples of a final
+//! partial batch count in the mean only). Renders use B = 1 ([`batch_log2`]), which is the sample
+//! standard error of the mean.
+//!
+//! Under a heavy-tailed estimator (a sun-like texel that light sampling misses in fewer than one
+//! sample in a hundred), no error bar computed from a pixel's own samples can be trusted when the
+//! rare event was drawn once or not at all. The first case is detected and *flagged*
+//! ([`Pixel::unreliable`], the `stderr_flag.Y` layer; rule at [`UNRELIABLE_SHARE`]); the second is a
+//! documented limit (README "Error bars", measured by tests/stderr_coverage.rs).
 
 use crate::math::{Rgb, Vec3};
 
-/// Running statistics of one pixel.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PixelAccumulator {
-    n: u32,
-    mean: [f64; 3],
-    m2: [f64; 3],
-    normal: [f64; 3],
-    hits: u32,
+/// Number of f64 statistics per block: Σ rgb, M2 of batch sums (rgb), Σ normal over hits, hits, and
+/// the largest and smallest batch sum per channel (for the reliability flag).
+pub const NSTAT: usize = 16;
+const SUM: usize = 0;
+const M2: usize = 3;
+const NORMAL: usize = 6;
+const HITS: usize = 9;
+const MAXB: usize = 10;
+const MINB: usize = 13;
+
+/// A pixel is flagged unreliable when, in some channel, one batch sum alone accounts for more than
+/// this share of the batch sums' squared deviations M2 (with at least [`UNRELIABLE_MIN_BATCHES`]
+/// batches). Its error bar then rests on one rare, heavy sample (a sun-like texel hit or missed): the
+/// estimate of the variance is itself dominated by one event and is not to be trusted. For normal
+/// batch means with 32 batches a share above ½ has probability ≈ 1e-4.
+pub const UNRELIABLE_SHARE: f64 = 0.5;
+/// The fewest batches for which the reliability flag is computed.
+pub const UNRELIABLE_MIN_BATCHES: f64 = 16.0;
+
+/// log2 of the batch size B of the standard error used by renders: 0, i.e. batches of one sample.
+///
+/// Batches of B > 1 samples were measured on the `env-sun` case (tests/stderr_coverage.rs, README
+/// "Error bars"): with the independent sampler the samples are already independent, so batching only
+/// removes degrees of freedom, and the coverage failures come from rare events that were never drawn,
+/// which no batching can see. A fixed B (not a function of spp) also keeps a render to a target error,
+/// whose final spp is unknown in advance, equal to a plain render of the spp it reached. The film
+/// supports any B ([`Partial::batch_log2`]) for estimators whose samples are correlated.
+pub const fn batch_log2(_spp: u32) -> u32 {
+    0
 }
 
-impl PixelAccumulator {
-    #[inline]
-    pub fn add(&mut self, radiance: Rgb, normal: Vec3, hit: bool) {
-        self.n += 1;
-        let inv = 1.0 / self.n as f64;
-        let v = [radiance.x as f64, radiance.y as f64, radiance.z as f64];
-        for ((x, mean), m2) in v.iter().zip(&mut self.mean).zip(&mut self.m2) {
-            let d = x - *mean;
-            *mean += d * inv;
-            *m2 += d * (x - *mean);
+/// An aligned dyadic block of sample indices: `[start, start + 2^log2)`, `start` a multiple of `2^log2`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Block {
+    pub start: u64,
+    pub log2: u32,
+}
+
+impl Block {
+    /// Number of samples in the block.
+    pub fn size(&self) -> u64 {
+        1 << self.log2
+    }
+    pub fn end(&self) -> u64 {
+        self.start + self.size()
+    }
+    /// Whether `self` is the left sibling of `right` (together they form their parent block).
+    pub fn is_left_sibling_of(&self, right: &Block) -> bool {
+        self.log2 == right.log2 && self.end() == right.start && self.start.is_multiple_of(2 * self.size())
+    }
+}
+
+/// The canonical decomposition of `[a, b)` into maximal aligned dyadic blocks, left to right.
+pub fn canonical_blocks(a: u64, b: u64) -> Vec<Block> {
+    let mut out = Vec::new();
+    let mut s = a;
+    while s < b {
+        let mut k = if s == 0 { 63 } else { s.trailing_zeros() };
+        while k > 0 && s + (1u64 << k) > b {
+            k -= 1;
         }
+        out.push(Block { start: s, log2: k });
+        s += 1 << k;
+    }
+    out
+}
+
+/// The statistics of one block of one pixel. Plain data: combined only by [`Stats::join`] (siblings)
+/// and [`Fold`] (the final left-to-right fold), both fixed functions of their inputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stats(pub [f64; NSTAT]);
+
+impl Stats {
+    /// The statistics of one sample.
+    #[inline]
+    pub fn sample(radiance: Rgb, normal: Vec3, hit: bool, batch_log2: u32) -> Stats {
+        let mut s = [0.0; NSTAT];
+        s[SUM] = radiance.x as f64;
+        s[SUM + 1] = radiance.y as f64;
+        s[SUM + 2] = radiance.z as f64;
         if hit {
-            self.hits += 1;
-            self.normal[0] += normal.x as f64;
-            self.normal[1] += normal.y as f64;
-            self.normal[2] += normal.z as f64;
+            s[NORMAL] = normal.x as f64;
+            s[NORMAL + 1] = normal.y as f64;
+            s[NORMAL + 2] = normal.z as f64;
+            s[HITS] = 1.0;
+        }
+        if batch_log2 == 0 {
+            for i in 0..3 {
+                s[MAXB + i] = s[SUM + i];
+                s[MINB + i] = s[SUM + i];
+            }
+        }
+        Stats(s)
+    }
+
+    /// The statistics of the parent of two sibling blocks of `2^log2` samples each (`self` left).
+    #[inline]
+    pub fn join(&self, r: &Stats, log2: u32, batch_log2: u32) -> Stats {
+        let (a, b) = (&self.0, &r.0);
+        let mut s = [0.0; NSTAT];
+        for i in 0..3 {
+            s[SUM + i] = a[SUM + i] + b[SUM + i];
+            s[NORMAL + i] = a[NORMAL + i] + b[NORMAL + i];
+        }
+        s[HITS] = a[HITS] + b[HITS];
+        if log2 + 1 == batch_log2 {
+            // The parent is one batch.
+            for i in 0..3 {
+                s[MAXB + i] = s[SUM + i];
+                s[MINB + i] = s[SUM + i];
+            }
+        } else if log2 >= batch_log2 {
+            // Chan et al.: M2 = M2_l + M2_r + (S_l − S_r)² / (2 k), k batches in each half.
+            let k = (1u64 << (log2 - batch_log2)) as f64;
+            for i in 0..3 {
+                let d = a[SUM + i] - b[SUM + i];
+                s[M2 + i] = a[M2 + i] + b[M2 + i] + d * d / (2.0 * k);
+                s[MAXB + i] = a[MAXB + i].max(b[MAXB + i]);
+                s[MINB + i] = a[MINB + i].min(b[MINB + i]);
+            }
+        }
+        Stats(s)
+    }
+}
+
+/// The left-to-right fold of a canonical decomposition of `[0, n)` (block sizes decreasing).
+#[derive(Clone, Copy, Debug, Default)]
+struct Fold {
+    all: [f64; NSTAT],
+    /// Σ rgb over the full batches only, and their number.
+    batch_sum: [f64; 3],
+    batches: f64,
+    m2: [f64; 3],
+    maxb: [f64; 3],
+    minb: [f64; 3],
+}
+
+impl Fold {
+    fn push(&mut self, s: &Stats, block: &Block, batch_log2: u32) {
+        let b = &s.0;
+        for i in 0..3 {
+            self.all[SUM + i] += b[SUM + i];
+            self.all[NORMAL + i] += b[NORMAL + i];
+        }
+        self.all[HITS] += b[HITS];
+        if block.log2 >= batch_log2 {
+            let kr = (1u64 << (block.log2 - batch_log2)) as f64;
+            if self.batches == 0.0 {
+                self.m2 = [b[M2], b[M2 + 1], b[M2 + 2]];
+                self.batch_sum = [b[SUM], b[SUM + 1], b[SUM + 2]];
+                self.maxb = [b[MAXB], b[MAXB + 1], b[MAXB + 2]];
+                self.minb = [b[MINB], b[MINB + 1], b[MINB + 2]];
+            } else {
+                let kl = self.batches;
+                for i in 0..3 {
+                    let d = self.batch_sum[i] / kl - b[SUM + i] / kr;
+                    self.m2[i] += b[M2 + i] + d * d * kl * kr / (kl + kr);
+                    self.batch_sum[i] += b[SUM + i];
+                    self.maxb[i] = self.maxb[i].max(b[MAXB + i]);
+                    self.minb[i] = self.minb[i].min(b[MINB + i]);
+                }
+            }
+            self.batches += kr;
         }
     }
 
-    pub fn finish(&self) -> Pixel {
-        let n = self.n.max(1) as f64;
-        let se = |c: usize| if self.n > 1 { (self.m2[c] / (n - 1.0) / n).sqrt() } else { 0.0 };
-        let nl = (self.normal[0].powi(2) + self.normal[1].powi(2) + self.normal[2].powi(2)).sqrt();
-        let normal = if nl > 0.0 { self.normal.map(|v| (v / nl) as f32) } else { [0.0; 3] };
+    fn finish(&self, n: u64, batch_log2: u32) -> Pixel {
+        let nf = n.max(1) as f64;
+        let k = self.batches;
+        let bsize = (1u64 << batch_log2) as f64;
+        let se = |c: usize| if k > 1.0 { (self.m2[c] / (k - 1.0) / k).sqrt() / bsize } else { 0.0 };
+        let a = &self.all;
+        let nl = (a[NORMAL].powi(2) + a[NORMAL + 1].powi(2) + a[NORMAL + 2].powi(2)).sqrt();
+        let normal =
+            if nl > 0.0 { [a[NORMAL], a[NORMAL + 1], a[NORMAL + 2]].map(|v| (v / nl) as f32) } else { [0.0; 3] };
+        let unreliable = k >= UNRELIABLE_MIN_BATCHES
+            && (0..3).any(|c| {
+                let mean = self.batch_sum[c] / k;
+                let dev = (self.maxb[c] - mean).max(mean - self.minb[c]);
+                self.m2[c] > 0.0 && dev * dev > UNRELIABLE_SHARE * self.m2[c]
+            });
         Pixel {
-            rgb: self.mean.map(|v| v as f32),
+            rgb: [a[SUM], a[SUM + 1], a[SUM + 2]].map(|v| (v / nf) as f32),
             stderr: [se(0) as f32, se(1) as f32, se(2) as f32],
             normal,
-            mask: (self.hits as f64 / n) as f32,
+            mask: (a[HITS] / nf) as f32,
+            unreliable,
         }
+    }
+}
+
+/// Combines one pixel's samples, arriving in increasing index order from `start`, into the
+/// canonical blocks of their range (a binary counter: a new block is joined with its left sibling
+/// while there is one).
+#[derive(Clone, Debug)]
+pub struct PixelAccumulator {
+    batch_log2: u32,
+    next: u64,
+    stack: Vec<(Block, Stats)>,
+}
+
+impl PixelAccumulator {
+    /// An accumulator for samples `start, start + 1, …`, with batches of `2^batch_log2` samples.
+    pub fn new(start: u64, batch_log2: u32) -> Self {
+        PixelAccumulator { batch_log2, next: start, stack: Vec::with_capacity(40) }
+    }
+
+    /// Adds the next sample.
+    #[inline]
+    pub fn add(&mut self, radiance: Rgb, normal: Vec3, hit: bool) {
+        let s = Stats::sample(radiance, normal, hit, self.batch_log2);
+        self.push(Block { start: self.next, log2: 0 }, s);
+        self.next += 1;
+    }
+
+    fn push(&mut self, mut block: Block, mut s: Stats) {
+        while let Some((top, ts)) = self.stack.last() {
+            if !top.is_left_sibling_of(&block) {
+                break;
+            }
+            s = ts.join(&s, block.log2, self.batch_log2);
+            block = Block { start: top.start, log2: block.log2 + 1 };
+            self.stack.pop();
+        }
+        self.stack.push((block, s));
+    }
+
+    /// The canonical blocks of the samples added so far, left to right.
+    pub fn blocks(&self) -> impl Iterator<Item = &(Block, Stats)> {
+        self.stack.iter()
     }
 }
 
@@ -57,6 +271,9 @@ pub struct Pixel {
     pub stderr: [f32; 3],
     pub normal: [f32; 3],
     pub mask: f32,
+    /// The error bar rests on one rare heavy contribution and must not be trusted (see
+    /// [`UNRELIABLE_SHARE`]); written as the `stderr_flag.Y` layer (1 = unreliable).
+    pub unreliable: bool,
 }
 
 /// A finished image, row 0 at the top.
@@ -76,25 +293,310 @@ impl Film {
     pub fn get(&self, row: u32, col: u32) -> &Pixel {
         &self.pixels[(row * self.width + col) as usize]
     }
+
+    /// Number of pixels flagged [`Pixel::unreliable`].
+    pub fn unreliable_count(&self) -> usize {
+        self.pixels.iter().filter(|p| p.unreliable).count()
+    }
+}
+
+/// The mergeable state of a render of the sample range `[start, end)` of every pixel of a
+/// `width × height` image at `spp` samples per pixel: per pixel, the [`Stats`] of the canonical
+/// blocks of the range (the same blocks for every pixel), pixel-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Partial {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// log2 of the batch size of the standard error (see [`batch_log2`]).
+    pub batch_log2: u32,
+    pub start: u64,
+    pub end: u64,
+    pub blocks: Vec<Block>,
+    pub stats: Vec<Stats>,
+}
+
+/// Why two partial renders cannot be merged.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MergeError {
+    /// Different image sizes or spp.
+    Mismatch(String),
+    /// Sample ranges that overlap.
+    Overlap { a: (u64, u64), b: (u64, u64) },
+    /// A gap between consecutive ranges.
+    Gap { from: u64, to: u64 },
+}
+
+impl std::fmt::Display for MergeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MergeError::Mismatch(m) => write!(f, "{m}"),
+            MergeError::Overlap { a, b } => {
+                write!(f, "sample range [{}, {}) overlaps [{}, {})", b.0, b.1, a.0, a.1)
+            }
+            MergeError::Gap { from, to } => write!(f, "samples [{from}, {to}) are in no part"),
+        }
+    }
+}
+
+impl Partial {
+    /// An empty range at `start` (the identity of [`Partial::merge`] for ranges starting there).
+    pub fn empty(width: u32, height: u32, spp: u32, batch_log2: u32, start: u64) -> Self {
+        Partial { width, height, spp, batch_log2, start, end: start, blocks: Vec::new(), stats: Vec::new() }
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// The blocks' statistics of pixel `p`.
+    pub fn pixel(&self, p: usize) -> &[Stats] {
+        let nb = self.blocks.len();
+        &self.stats[p * nb..(p + 1) * nb]
+    }
+
+    /// Whether this holds every sample of the render.
+    pub fn is_complete(&self) -> bool {
+        self.start == 0 && self.end == self.spp as u64
+    }
+
+    /// Merges partial renders whose ranges are contiguous and disjoint (any order), coalescing
+    /// sibling blocks. The result is the same bits as a render of the union range.
+    pub fn merge(mut parts: Vec<Partial>) -> Result<Partial, MergeError> {
+        if parts.is_empty() {
+            return Err(MergeError::Mismatch("nothing to merge".into()));
+        }
+        let (w, h, spp, bl) = (parts[0].width, parts[0].height, parts[0].spp, parts[0].batch_log2);
+        for p in &parts {
+            if (p.width, p.height, p.spp, p.batch_log2) != (w, h, spp, bl) {
+                return Err(MergeError::Mismatch(format!(
+                    "{}×{} at {} spp (batches of 2^{}), expected {w}×{h} at {spp} spp (batches of 2^{bl})",
+                    p.width, p.height, p.spp, p.batch_log2
+                )));
+            }
+        }
+        let first_start = parts.iter().map(|p| p.start).min().unwrap_or(0);
+        parts.retain(|p| p.end > p.start);
+        if parts.is_empty() {
+            return Ok(Partial::empty(w, h, spp, bl, first_start));
+        }
+        parts.sort_by_key(|p| (p.start, p.end));
+        for pair in parts.windows(2) {
+            let (a, b) = (&pair[0], &pair[1]);
+            if b.start < a.end {
+                return Err(MergeError::Overlap { a: (a.start, a.end), b: (b.start, b.end) });
+            }
+            if b.start > a.end {
+                return Err(MergeError::Gap { from: a.end, to: b.start });
+            }
+        }
+        if parts.len() == 1 {
+            return Ok(parts.swap_remove(0));
+        }
+        let (start, end) = (parts[0].start, parts[parts.len() - 1].end);
+        let npix = w as usize * h as usize;
+        let blocks = canonical_blocks(start, end);
+        let mut stats = Vec::with_capacity(npix * blocks.len());
+        let mut stack: Vec<(Block, Stats)> = Vec::with_capacity(64);
+        for px in 0..npix {
+            stack.clear();
+            for part in &parts {
+                for (b, s) in part.blocks.iter().zip(part.pixel(px)) {
+                    let (mut b, mut s) = (*b, *s);
+                    while let Some((top, ts)) = stack.last() {
+                        if !top.is_left_sibling_of(&b) {
+                            break;
+                        }
+                        s = ts.join(&s, b.log2, bl);
+                        b = Block { start: top.start, log2: b.log2 + 1 };
+                        stack.pop();
+                    }
+                    stack.push((b, s));
+                }
+            }
+            debug_assert!(stack.iter().map(|(b, _)| *b).eq(blocks.iter().copied()));
+            stats.extend(stack.iter().map(|(_, s)| *s));
+        }
+        Ok(Partial { width: w, height: h, spp, batch_log2: bl, start, end, blocks, stats })
+    }
+
+    /// The image of a complete render: per pixel, the left-to-right fold of the canonical blocks
+    /// of `[0, spp)`. Panics if the range is not complete (check [`Partial::is_complete`]).
+    pub fn finish(&self) -> Film {
+        assert!(self.is_complete(), "finish() of an incomplete range [{}, {})", self.start, self.end);
+        let bl = self.batch_log2;
+        let mut film = Film::new(self.width, self.height);
+        for (px, out) in film.pixels.iter_mut().enumerate() {
+            let mut f = Fold::default();
+            for (b, s) in self.blocks.iter().zip(self.pixel(px)) {
+                f.push(s, b, bl);
+            }
+            *out = f.finish(self.spp as u64, bl);
+        }
+        film
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn welford_matches_two_pass() {
-        let xs = [1.0f32, 2.0, 4.0, 8.0, 3.0];
-        let mut a = PixelAccumulator::default();
-        for &x in &xs {
-            a.add(Rgb::splat(x), Vec3::Z, x > 2.0);
+    fn acc_range(xs: &[f32], a: usize, b: usize, bl: u32) -> Vec<(Block, Stats)> {
+        let mut acc = PixelAccumulator::new(a as u64, bl);
+        for &x in &xs[a..b] {
+            acc.add(Rgb::new(x, 2.0 * x, 0.5), Vec3::Z, x > 2.0);
         }
-        let p = a.finish();
+        acc.blocks().copied().collect()
+    }
+
+    fn partial(xs: &[f32], a: usize, b: usize) -> Partial {
+        partial_b(xs, a, b, 0)
+    }
+
+    fn partial_b(xs: &[f32], a: usize, b: usize, bl: u32) -> Partial {
+        let spp = xs.len() as u32;
+        let v = acc_range(xs, a, b, bl);
+        Partial {
+            width: 1,
+            height: 1,
+            spp,
+            batch_log2: bl,
+            start: a as u64,
+            end: b as u64,
+            blocks: v.iter().map(|x| x.0).collect(),
+            stats: v.iter().map(|x| x.1).collect(),
+        }
+    }
+
+    #[test]
+    fn canonical_blocks_are_maximal_and_cover() {
+        for a in 0..40u64 {
+            for b in a..80u64 {
+                let bl = canonical_blocks(a, b);
+                let mut s = a;
+                for x in &bl {
+                    assert_eq!(x.start, s);
+                    assert_eq!(x.start % x.size(), 0);
+                    // Maximal: the parent is not inside [a, b).
+                    let p = Block { start: x.start - x.start % (2 * x.size()), log2: x.log2 + 1 };
+                    assert!(p.start < a || p.end() > b, "{a} {b} {x:?}");
+                    s = x.end();
+                }
+                assert_eq!(s, b);
+            }
+        }
+    }
+
+    #[test]
+    fn accumulator_produces_the_canonical_blocks() {
+        let xs: Vec<f32> = (0..77).map(|i| (i as f32 * 0.37).sin().abs() * 3.0).collect();
+        for (a, b) in [(0, 77), (3, 50), (13, 14), (16, 64)] {
+            let got: Vec<Block> = acc_range(&xs, a, b, 0).iter().map(|x| x.0).collect();
+            assert_eq!(got, canonical_blocks(a as u64, b as u64));
+        }
+    }
+
+    /// Any partition of [0, spp), merged in any order, gives the single render's bits.
+    #[test]
+    fn merge_of_any_partition_is_bit_identical() {
+        let mut rng = crate::sampling::chi2::TestRng::new(4);
+        for spp in [1usize, 7, 64, 100, 257, 1000] {
+            let xs: Vec<f32> = (0..spp).map(|_| rng.next_f32().powi(3) * 10.0).collect();
+            let bl = (spp as u32 / 32).max(1).ilog2();
+            let single = partial_b(&xs, 0, spp, bl).finish();
+            for _ in 0..20 {
+                let mut cuts: Vec<usize> =
+                    (0..rng.next_u64() % 6).map(|_| (rng.next_u64() as usize) % (spp + 1)).collect();
+                cuts.push(0);
+                cuts.push(spp);
+                cuts.sort();
+                let mut parts: Vec<Partial> = cuts.windows(2).map(|c| partial_b(&xs, c[0], c[1], bl)).collect();
+                // Shuffle.
+                for i in (1..parts.len()).rev() {
+                    parts.swap(i, rng.next_u64() as usize % (i + 1));
+                }
+                // Merge some pairs first (a part may be a merge of others), then the rest.
+                if parts.len() >= 3 {
+                    let (a, b) = (parts.remove(0), parts.remove(0));
+                    if a.end == b.start || b.end == a.start {
+                        parts.push(Partial::merge(vec![a, b]).unwrap());
+                    } else {
+                        parts.push(a);
+                        parts.push(b);
+                    }
+                }
+                let merged = Partial::merge(parts).unwrap();
+                assert!(merged.is_complete());
+                assert_eq!(merged.finish().pixels, single.pixels, "spp {spp} cuts {cuts:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn merge_refuses_overlaps_and_gaps() {
+        let xs = [1.0f32; 16];
+        let e = Partial::merge(vec![partial(&xs, 0, 8), partial(&xs, 6, 16)]).unwrap_err();
+        assert_eq!(e, MergeError::Overlap { a: (0, 8), b: (6, 16) });
+        let e = Partial::merge(vec![partial(&xs, 9, 16), partial(&xs, 0, 8)]).unwrap_err();
+        assert_eq!(e, MergeError::Gap { from: 8, to: 9 });
+    }
+
+    #[test]
+    fn sample_variance_when_batches_are_single_samples() {
+        let xs = [1.0f32, 2.0, 4.0, 8.0, 3.0];
+        let p = partial(&xs, 0, 5).finish().pixels[0];
         let mean = xs.iter().map(|&x| x as f64).sum::<f64>() / 5.0;
         let var = xs.iter().map(|&x| (x as f64 - mean).powi(2)).sum::<f64>() / 4.0;
         assert!((p.rgb[0] as f64 - mean).abs() < 1e-6);
-        assert!((p.stderr[1] as f64 - (var / 5.0).sqrt()).abs() < 1e-6);
+        assert!((p.stderr[0] as f64 - (var / 5.0).sqrt()).abs() < 1e-6);
+        assert!((p.stderr[1] as f64 - 2.0 * (var / 5.0).sqrt()).abs() < 1e-6);
+        assert_eq!(p.stderr[2], 0.0, "a constant channel has exactly zero error");
         assert!((p.mask - 0.6).abs() < 1e-6);
         assert_eq!(p.normal, [0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn batch_means_match_the_two_pass_formula() {
+        let mut rng = crate::sampling::chi2::TestRng::new(8);
+        let spp = 200usize; // B = 4 (50 batches), no tail
+        let xs: Vec<f32> = (0..spp).map(|_| rng.next_f32()).collect();
+        let p = partial_b(&xs, 0, spp, 2).finish().pixels[0];
+        let bs: Vec<f64> = xs.chunks(4).map(|c| c.iter().map(|&x| x as f64).sum::<f64>() / 4.0).collect();
+        let k = bs.len() as f64;
+        let m = bs.iter().sum::<f64>() / k;
+        let se = (bs.iter().map(|b| (b - m).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+        assert!((p.stderr[0] as f64 - se).abs() < 1e-6 * se, "{} vs {se}", p.stderr[0]);
+    }
+
+    /// One rare heavy sample (or one rare miss) among many comparable ones is flagged; uniform noise is not.
+    #[test]
+    fn one_dominant_batch_is_flagged() {
+        let mut xs = vec![1.0f32; 256];
+        assert!(!partial(&xs, 0, 256).finish().pixels[0].unreliable, "constant");
+        xs[77] = 300.0;
+        assert!(partial(&xs, 0, 256).finish().pixels[0].unreliable, "one sun hit");
+        xs[77] = 0.0;
+        assert!(partial(&xs, 0, 256).finish().pixels[0].unreliable, "one sun miss");
+        let mut rng = crate::sampling::chi2::TestRng::new(3);
+        let flagged = (0..200)
+            .filter(|_| {
+                let xs: Vec<f32> = (0..256).map(|_| rng.next_f32()).collect();
+                partial(&xs, 0, 256).finish().pixels[0].unreliable
+            })
+            .count();
+        assert_eq!(flagged, 0);
+    }
+
+    /// A tail shorter than a batch counts in the mean but not in the batch-means error.
+    #[test]
+    fn batches_with_a_tail() {
+        let xs: Vec<f32> = (0..70).map(|i| (i % 7) as f32).collect();
+        let p = partial_b(&xs, 0, 70, 3).finish().pixels[0];
+        let mean = xs.iter().map(|&x| x as f64).sum::<f64>() / 70.0;
+        assert!((p.rgb[0] as f64 - mean).abs() < 1e-6);
+        let bs: Vec<f64> = xs[..64].chunks(8).map(|c| c.iter().map(|&x| x as f64).sum::<f64>() / 8.0).collect();
+        let m = bs.iter().sum::<f64>() / 8.0;
+        let se = (bs.iter().map(|b| (b - m).powi(2)).sum::<f64>() / 7.0 / 8.0).sqrt();
+        assert!((p.stderr[0] as f64 - se).abs() < 1e-6 * se.max(1e-9));
     }
 }

@@ -2,13 +2,15 @@
 //! sampler so the image is bit-identical for any thread count, a progress bar on stderr when it is
 //! a terminal, and throughput statistics at the end.
 
-use crate::film::{Film, Pixel, PixelAccumulator};
+use crate::film::{Film, Partial, PixelAccumulator, Stats, batch_log2, canonical_blocks};
 use crate::integrator::PathTracer;
 use crate::math::Vec2;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::io::IsTerminal;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Side of the square tiles that are the unit of parallel work.
@@ -21,6 +23,8 @@ pub struct RenderStats {
     pub samples: u64,
     pub rays: u64,
     pub threads: usize,
+    /// The render was stopped through [`RenderOptions::cancel`]; its film is not valid.
+    pub cancelled: bool,
 }
 
 impl RenderStats {
@@ -60,12 +64,35 @@ impl std::fmt::Display for RenderStats {
 pub struct RenderOptions {
     /// Show a progress bar on stderr (only drawn when stderr is a terminal).
     pub progress: bool,
+    /// Set to true (e.g. from a Ctrl-C handler) to stop the render: it is checked before each tile,
+    /// so a render stops within one tile's work and reports [`RenderStats::cancelled`].
+    pub cancel: Option<Arc<AtomicBool>>,
 }
 
-/// Renders `scene` on the current rayon pool.
+impl RenderOptions {
+    fn cancelled(&self) -> bool {
+        self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed))
+    }
+}
+
+/// Renders `scene` on the current rayon pool: all `spp` samples of every pixel. If the render is
+/// cancelled (see [`RenderOptions::cancel`]) the film is black and `stats.cancelled` is set.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> (Film, RenderStats) {
     let s = &scene.settings;
+    match render_range(scene, opts, 0, s.spp as u64) {
+        (Some(p), stats) => (p.finish(), stats),
+        (None, stats) => (Film::new(s.width, s.height), stats),
+    }
+}
+
+/// Renders the samples `[start, end)` of every pixel (a shard, or one pass of a progressive render)
+/// and returns their mergeable statistics ([`Partial`]; `None` if cancelled). Merging the partials
+/// of any partition of `[0, spp)` gives exactly the bits of [`render`].
+pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -> (Option<Partial>, RenderStats) {
+    let s = &scene.settings;
     let (w, h) = (s.width, s.height);
+    let end = end.min(s.spp as u64);
+    let start = start.min(end);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
     let ntiles = (tiles_x * tiles_y) as usize;
@@ -80,49 +107,78 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> (Film, RenderStats) {
         indicatif::ProgressBar::hidden()
     };
     let tracer = PathTracer::new(scene);
-    let start = Instant::now();
-    let tiles: Vec<(Vec<Pixel>, u64)> = (0..ntiles)
+    let blocks = canonical_blocks(start, end);
+    let t0 = Instant::now();
+    let tiles: Vec<Option<(Vec<Stats>, u64)>> = (0..ntiles)
         .into_par_iter()
         .map(|t| {
+            if opts.cancelled() {
+                return None;
+            }
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-            let r =
-                render_tile(scene, &tracer, tx * TILE, ty * TILE, (tx * TILE + TILE).min(w), (ty * TILE + TILE).min(h));
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let r = render_tile(scene, &tracer, [x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h)], start, end);
             bar.inc(1);
-            r
+            Some(r)
         })
         .collect();
-    let wall = start.elapsed();
+    let wall = t0.elapsed();
     bar.finish_and_clear();
 
-    let mut film = Film::new(w, h);
+    let nb = blocks.len();
+    let mut stats = vec![Stats::default(); w as usize * h as usize * nb];
     let mut rays = 0;
-    for (t, (pixels, r)) in tiles.into_iter().enumerate() {
+    let mut cancelled = false;
+    for (t, tile) in tiles.into_iter().enumerate() {
+        let Some((pixels, r)) = tile else {
+            cancelled = true;
+            continue;
+        };
         rays += r;
         let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
         let (x0, y0) = (tx * TILE, ty * TILE);
         let tw = (x0 + TILE).min(w) - x0;
-        for (i, px) in pixels.into_iter().enumerate() {
+        for (i, px) in pixels.chunks(nb.max(1)).enumerate() {
             let (row, col) = (y0 + i as u32 / tw, x0 + i as u32 % tw);
-            film.pixels[(row * w + col) as usize] = px;
+            let p = (row * w + col) as usize;
+            stats[p * nb..(p + 1) * nb].copy_from_slice(&px[..nb]);
         }
     }
-    let stats =
-        RenderStats { wall, samples: w as u64 * h as u64 * s.spp as u64, rays, threads: rayon::current_num_threads() };
-    (film, stats)
+    let rstats = RenderStats {
+        wall,
+        samples: if cancelled { 0 } else { w as u64 * h as u64 * (end - start) },
+        rays,
+        threads: rayon::current_num_threads(),
+        cancelled,
+    };
+    if cancelled {
+        return (None, rstats);
+    }
+    (
+        Some(Partial { width: w, height: h, spp: s.spp, batch_log2: batch_log2(s.spp), start, end, blocks, stats }),
+        rstats,
+    )
 }
 
-fn render_tile(scene: &Scene, tracer: &PathTracer, x0: u32, y0: u32, x1: u32, y1: u32) -> (Vec<Pixel>, u64) {
+/// One tile's pixels, row-major, each as the statistics of the canonical blocks of `[start, end)`.
+fn render_tile(
+    scene: &Scene,
+    tracer: &PathTracer,
+    [x0, y0, x1, y1]: [u32; 4],
+    start: u64,
+    end: u64,
+) -> (Vec<Stats>, u64) {
     let s = &scene.settings;
     let mut sampler = Sampler::new(s.sampler, s.seed);
     let jitter = scene.camera.jitters();
-    let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize * 2);
     let mut rays = 0u64;
     for row in y0..y1 {
         for col in x0..x1 {
             let pixel_id = row as u64 * s.width as u64 + col as u64;
-            let mut acc = PixelAccumulator::default();
-            for i in 0..s.spp {
-                sampler.start(pixel_id, i);
+            let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
+            for i in start..end {
+                sampler.start(pixel_id, i as u32);
                 let u = sampler.next_2d();
                 let u = if jitter { u } else { Vec2::splat(0.5) };
                 let primary = scene.camera.generate(row, col, u);
@@ -130,7 +186,7 @@ fn render_tile(scene: &Scene, tracer: &PathTracer, x0: u32, y0: u32, x1: u32, y1
                 rays += r.rays as u64;
                 acc.add(r.radiance, r.normal, r.hit);
             }
-            out.push(acc.finish());
+            out.extend(acc.blocks().map(|(_, st)| *st));
         }
     }
     (out, rays)

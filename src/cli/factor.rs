@@ -377,8 +377,9 @@ fn render_view(
     let cam =
         NormalProbe::new(theta_deg as f32, phi_deg as f32, false, sphere.0, sphere.1, w, h).map_err(Error::new)?;
     scene.camera = Camera::NormalProbe(cam);
-    let out =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(scene, &RenderOptions { progress: false })));
+    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        render(scene, &RenderOptions { progress: false, ..Default::default() })
+    }));
     let (film, _) =
         out.map_err(|_| Error::new(format!("the renderer panicked at {}", fmt_node(theta_deg, phi_deg))))?;
     let v = film.pixels.iter().map(|p| p.rgb[ch] as f64).collect();
@@ -888,7 +889,7 @@ radius = 1.0
                 .replace("from = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nextent = 1.1\n", "")
                 .replace("width = 8\nheight = 8", "width = 24\nheight = 12");
             let sc = Scene::build(SceneFile::parse(&text).unwrap(), Path::new(".")).unwrap();
-            let (film, _) = render(&sc, &RenderOptions { progress: false });
+            let (film, _) = render(&sc, &RenderOptions { progress: false, ..Default::default() });
             let path = tmp("rendered").join(format!("n{j}.exr"));
             renderer::output::write_exr(&path, &film, &renderer::output::header_attributes(&sc)).unwrap();
             paths.push(path);

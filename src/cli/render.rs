@@ -137,7 +137,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let opts = RenderOptions { progress: !a.quiet };
+    let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
     let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
     let t_save = std::time::Instant::now();
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
@@ -174,6 +174,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         match renderer::noise::summarize(&film) {
             Some(n) => eprintln!("{n}"),
             None => eprintln!("noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
+        }
+        let flagged = film.unreliable_count();
+        if flagged > 0 {
+            eprintln!("{flagged} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)");
         }
     }
     Ok(ExitCode::SUCCESS)

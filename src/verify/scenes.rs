@@ -166,8 +166,9 @@ pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
     let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
     let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();
-    let out =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| render(&scene, &RenderOptions { progress: false })));
+    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        render(&scene, &RenderOptions { progress: false, ..Default::default() })
+    }));
     match out {
         Ok((film, stats)) => {
             if ctx.verbose {

@@ -316,7 +316,9 @@ fn build(
         }
         let children: Vec<gltf::Node> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
-        if node.mesh().is_some() {
+        // A node scaled to zero (a common way to hide an object) has no area to render, and its
+        // normal matrix would not exist.
+        if node.mesh().is_some() && glam::Mat3::from_mat4(world).determinant() != 0.0 {
             instances.push((node, world));
         }
     }
@@ -1015,6 +1017,18 @@ mod tests {
             let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
             assert!(e.contains(name) && e.contains(want), "{name}: {e}");
         }
+    }
+
+    #[test]
+    fn zero_scale_node_is_hidden_not_an_error() {
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
+        let json = tetra_json(Some(&uri), 3)
+            .replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [0, 2]}]"#)
+            .replace(r#"{"mesh": 0}"#, r#"{"mesh": 0, "scale": [0, 0, 0]}"#);
+        let p = temp_dir().join("zero_scale.gltf");
+        std::fs::write(&p, json).expect("write");
+        let (m, _) = load_gltf_with_warnings(&p, true).expect("zero scale");
+        check_tetra(&m, true);
     }
 
     #[test]

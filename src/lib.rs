@@ -1,0 +1,6 @@
+//! `reflect` as a library: the code of the `reflect` commands ([`cli`]) and of the verifier of the paper
+//! ([`verify`]), so that the binary (`src/main.rs`), the integration tests and the Python package run one
+//! implementation. The rendering and SH mathematics live in the `renderer` and `analysis` crates.
+
+pub mod cli;
+pub mod verify;
