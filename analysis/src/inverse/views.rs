@@ -273,8 +273,11 @@ mod tests {
         let h = invert_lighting_views(&half, true, &f, [1.0, 0.5, 2.0], 2, 10.0).unwrap();
         for k in 0..9 {
             assert!((h.coefficients[k].unwrap()[0] - light[k]).abs() < 1e-5, "k={k}");
-            assert!(h.amplification[k].unwrap() > r.amplification[k].unwrap() * 1.05, "k={k}");
+            // Never better than the whole sphere (yz stays orthogonal to the rest on x > 0).
+            assert!(h.amplification[k].unwrap() > r.amplification[k].unwrap() * 0.99, "k={k}");
         }
+        let worst = |v: &ViewsLighting| (0..9).map(|k| v.amplification[k].unwrap() * f[lm(k).0]).fold(0.0, f64::max);
+        assert!(worst(&h) > 1.5 * worst(&r), "{} vs {}", worst(&h), worst(&r));
     }
 
     #[test]
