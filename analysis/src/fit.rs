@@ -333,7 +333,7 @@ impl NineTerm {
 /// ≤ 0 (e is undefined) or the fit is singular.
 pub fn nine_term_error(value: &[f64], sigma: &[f64], w: usize, h: usize) -> Option<NineTerm> {
     let (rows, weight) = sh_design(w, h, 2);
-    let fit = lsq(&rows, &value, &sigma, &weight)?;
+    let fit = lsq(&rows, value, sigma, &weight)?;
     let (mut ms, mut var, mut tot, mut mabs, mut max) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
     for i in 0..w * h {
         let b9: f64 = (0..9).map(|k| rows[i][k] * fit.coef[k]).sum();
