@@ -611,3 +611,102 @@ fn analysis_at_the_edges() {
     let doc = reflect_json(&["analyze", &det, "--lmax", "4", "--json"]);
     assert_eq!(doc["stderr"][0][0].as_f64(), Some(0.0));
 }
+
+/// Issue 17: a flag that means one value per image (`analyze --from/--to/--up/--extent`) takes one
+/// per image, in the order of the images, and refuses a second image without its own; repeating a
+/// flag that means one value (`--albedo`, `--kd`, `--center`, `--lmax`, `--model`, …) is refused by
+/// clap as repeated, never concatenated into a wrong-length list with a misleading message. Every
+/// refusal: exit 2, one line naming the flag.
+#[test]
+fn per_image_and_repeated_flags() {
+    use analysis::image::{Image, write_exr};
+    let d = temp_dir("cli-per-image");
+    // Two headerless views of a sphere of constant radiance 1 (no camera in the header: the flags
+    // give it), 32 × 32 and 16 × 16.
+    let view = |name: &str, n: usize| {
+        let mut img = Image { width: n, height: n, ..Default::default() };
+        for ch in ["R", "G", "B"] {
+            img.channels.insert(ch.to_string(), vec![1.0; n * n]);
+        }
+        let p = d.join(name);
+        write_exr(&p, &img).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let (a, b) = (view("a.exr", 32), view("b.exr", 16));
+    // Pixels whose whole footprint is on the unit sphere (centre distance + half diagonal < 1) in
+    // an n × n view of half-width e looking at its centre: the analysis's rule, in closed form.
+    let covered = |n: usize, e: f64| {
+        let h = e / n as f64;
+        (0..n * n)
+            .filter(|i| {
+                let (x, y) = (
+                    e * (2.0 * ((i % n) as f64 + 0.5) / n as f64 - 1.0),
+                    e * (1.0 - 2.0 * ((i / n) as f64 + 0.5) / n as f64),
+                );
+                x.hypot(y) + h * 2f64.sqrt() < 1.0
+            })
+            .count() as u64
+    };
+    let analyze = |extra: &[&str]| {
+        let mut args = vec!["analyze", &a, &b, "--lmax", "2", "--json"];
+        args.extend_from_slice(extra);
+        let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(&args).output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // One value per image, in order: the first image is seen at extent 1.05, the second at 2.
+    let (code, stdout, stderr) = analyze(&[
+        "--from", "3,0,0", "--extent", "1.05", "--from", "0,3,0", "--extent", "2", "--to", "0,0,0", "--to", "0,0,0",
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let doc: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let (right, swapped) = (covered(32, 1.05) + covered(16, 2.0), covered(32, 2.0) + covered(16, 1.05));
+    assert_ne!(right, swapped);
+    assert_eq!(doc["pixels_used"].as_u64(), Some(right), "pixels used (swapped flags would give {swapped})");
+
+    let out = d.join("never.exr");
+    let lam = view("probe.exr", 16);
+    let cases: Vec<(Vec<&str>, &str, &str)> = vec![
+        // A second image without its own value.
+        (
+            vec!["analyze", &a, &b, "--lmax", "2", "--from", "3,0,0", "--extent", "1.05"],
+            "--from",
+            "1 time for 2 images",
+        ),
+        (
+            vec!["analyze", &a, &b, "--lmax", "2", "--from", "3,0,0", "--from", "0,3,0", "--extent", "1.05"],
+            "--extent",
+            "1 time for 2 images",
+        ),
+        (
+            vec!["analyze", &a, "--lmax", "2", "--from", "3,0,0", "--from", "0,3,0", "--extent", "1"],
+            "--from",
+            "2 times for 1 image",
+        ),
+        // Repeated one-value flags: refused as repeated.
+        (vec!["analyze", &a, "--lmax", "2", "--center", "0,0,0", "--center", "1,0,0"], "--center", "multiple times"),
+        (vec!["analyze", &a, "--lmax", "2", "--lmax", "3"], "--lmax", "multiple times"),
+        (
+            vec!["invert", "lighting", &lam, "--lmax", "2", "--albedo", "0.5", "--albedo", "0.6"],
+            "--albedo",
+            "multiple times",
+        ),
+        (
+            vec!["invert", "brdf", &lam, "--lmax", "2", "--model", "phong", "--model", "phong"],
+            "--model",
+            "multiple times",
+        ),
+        (vec!["invert", "separate", &lam, "--kd", "0.5", "--kd", "0.6"], "--kd", "multiple times"),
+        (vec!["invert", "separate", &lam, "--ks", "0.5", "--ks", "0.6"], "--ks", "multiple times"),
+        (vec!["invert", "factor", &lam, "--channel", "r", "--channel", "g"], "--channel", "multiple times"),
+        // A value of the wrong length is named as such.
+        (vec!["invert", "lighting", &lam, "--lmax", "2", "--albedo", "0.5,0.5"], "--albedo", "one number or r,g,b"),
+        (vec!["analyze", &a, "--lmax", "2", "--from", "3,0", "--extent", "1"], "--from", "three numbers"),
+    ];
+    for (args, names, mentions) in cases {
+        assert_bad_input(&args, names, mentions, &out);
+    }
+}

@@ -29,9 +29,9 @@
 //! l ≤ l_max + 2), with the design's noise amplification per order; orders the visible directions
 //! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
 //! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.
-use super::Error;
 use super::header::{first_sphere, json_rgb, json_vec3, lighting_of};
 use super::sh::check_lmax;
+use super::{Error, flags};
 use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, read_image};
 use analysis::projection::{
@@ -61,34 +61,43 @@ pub struct AnalyzeArgs {
     #[arg(long)]
     pub param: Option<String>,
     /// Sphere centre x,y,z when the header has no reflect:objects.
-    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
-    pub center: Option<Vec<f64>>,
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub center: Option<[f64; 3]>,
     /// Sphere radius when the header has no reflect:objects.
     #[arg(long)]
     pub radius: Option<f64>,
-    /// Orthographic camera position x,y,z when the header has no reflect:camera.
-    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
-    pub from: Option<Vec<f64>>,
-    /// Camera target x,y,z (default 0,0,0).
-    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
-    pub to: Option<Vec<f64>>,
-    /// Camera up x,y,z (default 0,0,1).
-    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
-    pub up: Option<Vec<f64>>,
-    /// Orthographic half-width of the view.
+    /// Orthographic camera position x,y,z of an image without reflect:camera; once per image, in
+    /// the order of the images (as --to, --up and --extent).
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub from: Vec<[f64; 3]>,
+    /// Camera target x,y,z, once per image (default 0,0,0).
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub to: Vec<[f64; 3]>,
+    /// Camera up x,y,z, once per image (default 0,0,1).
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub up: Vec<[f64; 3]>,
+    /// Orthographic half-width of the view, once per image.
     #[arg(long)]
-    pub extent: Option<f64>,
+    pub extent: Vec<f64>,
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
 }
 
-fn vec3(v: &Option<Vec<f64>>, name: &str, default: Option<[f64; 3]>) -> Result<Option<[f64; 3]>, Error> {
-    match v {
-        Some(x) if x.len() == 3 && x.iter().all(|v| v.is_finite()) => Ok(Some([x[0], x[1], x[2]])),
-        Some(_) => Err(Error::new(format!("--{name} needs three finite numbers x,y,z"))),
-        None => Ok(default),
-    }
+/// The camera flags of one image (`None` where the flag is not given).
+#[derive(Clone, Copy, Default)]
+struct CameraFlags {
+    from: Option<[f64; 3]>,
+    to: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    extent: Option<f64>,
+}
+
+/// The camera flags of each of the `n` images: each flag given not at all or once per image.
+fn camera_flags(a: &AnalyzeArgs, n: usize) -> Result<Vec<CameraFlags>, Error> {
+    let (from, to) = (flags::per_image(&a.from, "from", n)?, flags::per_image(&a.to, "to", n)?);
+    let (up, extent) = (flags::per_image(&a.up, "up", n)?, flags::per_image(&a.extent, "extent", n)?);
+    Ok((0..n).map(|i| CameraFlags { from: from[i], to: to[i], up: up[i], extent: extent[i] }).collect())
 }
 
 /// The camera of one image.
@@ -97,7 +106,7 @@ enum Camera {
     NormalProbe { theta_o_deg: f64 },
 }
 
-fn camera_of(img: &Image, a: &AnalyzeArgs) -> Result<Camera, Error> {
+fn camera_of(img: &Image, f: CameraFlags) -> Result<Camera, Error> {
     if let Some(text) = img.attributes.get("reflect:camera") {
         let v: Value =
             serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:camera is not JSON: {e}")))?;
@@ -120,12 +129,11 @@ fn camera_of(img: &Image, a: &AnalyzeArgs) -> Result<Camera, Error> {
             ))),
         };
     }
-    let from = vec3(&a.from, "from", None)?;
-    match (from, a.extent) {
+    match (f.from, f.extent) {
         (Some(from), Some(extent)) => Ok(Camera::Ortho(OrthoCamera {
             from,
-            to: vec3(&a.to, "to", Some([0.0; 3]))?.unwrap_or([0.0; 3]),
-            up: vec3(&a.up, "up", Some([0.0, 0.0, 1.0]))?.unwrap_or([0.0, 0.0, 1.0]),
+            to: f.to.unwrap_or([0.0; 3]),
+            up: f.up.unwrap_or([0.0, 0.0, 1.0]),
             extent,
         })),
         _ => Err(Error::new("no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera)")),
@@ -231,12 +239,13 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     let cameras: Vec<Camera> = images
         .iter()
         .zip(&a.images)
-        .map(|(img, p)| camera_of(img, a).map_err(|e| e.in_file(p)))
+        .zip(camera_flags(a, a.images.len())?)
+        .map(|((img, p), f)| camera_of(img, f).map_err(|e| e.in_file(p)))
         .collect::<Result<_, _>>()?;
     let mut warnings = Vec::new();
     let (header_sphere, brdf) = sphere_and_brdf(&images[0], &mut warnings).map_err(|e| e.in_file(&a.images[0]))?;
     let sphere = Sphere {
-        center: vec3(&a.center, "center", None)?.or(header_sphere.map(|s| s.center)).unwrap_or([0.0; 3]),
+        center: a.center.or(header_sphere.map(|s| s.center)).unwrap_or([0.0; 3]),
         radius: a.radius.or(header_sphere.map(|s| s.radius)).unwrap_or(1.0),
     };
     let param = match a.param.as_deref() {
@@ -489,10 +498,10 @@ mod tests {
             param: None,
             center: None,
             radius: None,
-            from: None,
-            to: None,
-            up: None,
-            extent: None,
+            from: vec![],
+            to: vec![],
+            up: vec![],
+            extent: vec![],
             json: true,
         }
     }

@@ -65,8 +65,8 @@ pub struct LightingArgs {
     #[arg(long)]
     pub sigma: Option<f64>,
     /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's, else 1).
-    #[arg(long, value_delimiter = ',', num_args = 1)]
-    pub albedo: Option<Vec<f64>>,
+    #[arg(long, value_parser = super::flags::parse_rgb)]
+    pub albedo: Option<[f64; 3]>,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -245,12 +245,7 @@ fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(Tr
         (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
     };
     model.validate()?;
-    let albedo = match &a.albedo {
-        Some(v) if v.len() == 1 => [v[0]; 3],
-        Some(v) if v.len() == 3 => [v[0], v[1], v[2]],
-        Some(_) => return Err(Error::new("--albedo takes one number or r,g,b")),
-        None => header_albedo.unwrap_or([1.0; 3]),
-    };
+    let albedo = a.albedo.or(header_albedo).unwrap_or([1.0; 3]);
     if albedo.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         return Err(Error::new(format!("albedo must be > 0, got {albedo:?}")));
     }
@@ -769,7 +764,7 @@ mod tests {
             }
         }
         a.width = 64;
-        a.albedo = Some(vec![1.0]);
+        a.albedo = Some([1.0; 3]);
         a.output = None;
         let wrong = lighting_doc(&a).unwrap();
         assert!((wrong["coefficients"][0][0].as_f64().unwrap() - 0.5 * l[0][0]).abs() < 1e-3);

@@ -2,6 +2,7 @@
 
 pub mod analyze;
 pub mod factor;
+pub mod flags;
 pub mod header;
 pub mod invert;
 pub mod png;

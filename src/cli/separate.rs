@@ -53,11 +53,11 @@ pub struct SeparateArgs {
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
     /// Weight k_d of the unit-albedo lambert part (one number, or r,g,b; default: the header's mix).
-    #[arg(long, value_delimiter = ',', num_args = 1)]
-    pub kd: Option<Vec<f64>>,
+    #[arg(long, value_parser = super::flags::parse_rgb)]
+    pub kd: Option<[f64; 3]>,
     /// Weight k_s of the unit mirror part (one number, or r,g,b; default: the header's mix).
-    #[arg(long, value_delimiter = ',', num_args = 1)]
-    pub ks: Option<Vec<f64>>,
+    #[arg(long, value_parser = super::flags::parse_rgb)]
+    pub ks: Option<[f64; 3]>,
     /// Highest SH order of the recovered lighting.
     #[arg(long, default_value_t = 8)]
     pub lmax: usize,
@@ -145,11 +145,9 @@ fn header_split(brdf: &Value) -> Option<([f64; 3], [f64; 3])> {
 }
 
 /// A per-channel weight from `--kd` / `--ks` (one number or r,g,b), else the header's.
-fn weight_arg(arg: Option<&[f64]>, header: Option<[f64; 3]>, flag: &str) -> Result<([f64; 3], bool), Error> {
+fn weight_arg(arg: Option<[f64; 3]>, header: Option<[f64; 3]>, flag: &str) -> Result<([f64; 3], bool), Error> {
     match arg {
-        Some([x]) => Ok(([*x; 3], true)),
-        Some([r, g, b]) => Ok(([*r, *g, *b], true)),
-        Some(_) => Err(Error::new(format!("--{flag} takes one number or r,g,b"))),
+        Some(v) => Ok((v, true)),
         None => header.map(|h| (h, false)).ok_or_else(|| {
             Error::new(format!(
                 "--{flag} is required: the first image's header BRDF is not a mix of one lambert and one mirror layer (pass --kd and --ks)"
@@ -247,8 +245,8 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
     check_order(a.lmax, carried, &format!("a {w}×{h} specular view"), LATLONG_REFLECTION_RULE)
         .map_err(|e| e.in_file(&a.images[0]))?;
     let hs = header_brdf.as_ref().and_then(header_split);
-    let (kd, kd_arg) = weight_arg(a.kd.as_deref(), hs.map(|s| s.0), "kd")?;
-    let (ks, ks_arg) = weight_arg(a.ks.as_deref(), hs.map(|s| s.1), "ks")?;
+    let (kd, kd_arg) = weight_arg(a.kd, hs.map(|s| s.0), "kd")?;
+    let (ks, ks_arg) = weight_arg(a.ks, hs.map(|s| s.1), "ks")?;
     for &c in &channels {
         if !(kd[c].is_finite() && kd[c] > 0.0 && ks[c].is_finite() && ks[c] > 0.0) {
             return Err(Error::new(format!(
@@ -790,8 +788,8 @@ mod tests {
         // A wrong split (0.6 : 0.4 instead of 0.5 : 0.5): χ²_9 > 100 has probability ≈ 1e-16 for a
         // consistent split. One channel: the coefficients are then numbers.
         let mut wrong = args(a.images.clone());
-        wrong.kd = Some(vec![0.6]);
-        wrong.ks = Some(vec![0.4]);
+        wrong.kd = Some([0.6; 3]);
+        wrong.ks = Some([0.4; 3]);
         wrong.channel = Some("g".into());
         let w = separate_doc(&wrong).unwrap();
         assert_eq!(w["split_source"], "command line");
@@ -857,17 +855,16 @@ mod tests {
             (args(vec![d0.clone()]), None, "at least one specular view"),
             (args(vec![lam.clone(), s1.clone(), s2.clone()]), None, "--kd is required"),
             (
-                SeparateArgs { kd: Some(vec![0.5]), ..args(vec![lam.clone(), s1.clone(), s2.clone()]) },
+                SeparateArgs { kd: Some([0.5; 3]), ..args(vec![lam.clone(), s1.clone(), s2.clone()]) },
                 None,
                 "--ks is required",
             ),
-            (SeparateArgs { kd: Some(vec![0.0]), ..args(ok.images.clone()) }, None, "must be > 0"),
+            (SeparateArgs { kd: Some([0.0; 3]), ..args(ok.images.clone()) }, None, "must be > 0"),
             (
-                SeparateArgs { ks: Some(vec![0.5, -1.0, 0.5]), channel: Some("g".into()), ..args(ok.images.clone()) },
+                SeparateArgs { ks: Some([0.5, -1.0, 0.5]), channel: Some("g".into()), ..args(ok.images.clone()) },
                 None,
                 "must be > 0",
             ),
-            (SeparateArgs { kd: Some(vec![0.5, 0.5]), ..args(ok.images.clone()) }, None, "one number or r,g,b"),
             (SeparateArgs { lmax: 1000, ..args(ok.images.clone()) }, None, "maximum"),
             // 16 rows cannot carry l = 8.
             (SeparateArgs { lmax: 8, ..args(ok.images.clone()) }, Some(&d0), "highest order"),
