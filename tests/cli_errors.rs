@@ -6,21 +6,6 @@ use common::*;
 use std::path::Path;
 use std::process::Command;
 
-fn reflect(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
-}
-
-fn assert_bad_input(args: &[&str], names: &str, mentions: &str, out: &Path) {
-    let (code, err) = reflect(args);
-    assert_eq!(code, 2, "exit code for {args:?}; stderr: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "one line expected for {args:?}, got: {err}");
-    assert!(lines[0].contains(names), "error should name {names}: {err}");
-    assert!(lines[0].to_lowercase().contains(&mentions.to_lowercase()), "error should mention {mentions:?}: {err}");
-    assert!(!out.exists(), "no output file may be written for {args:?}");
-}
-
 const GOOD: &str = r#"
 [render]
 width = 8
@@ -62,41 +47,23 @@ fn bad_scene_files_exit_2_with_one_line() {
         "cannot read",
         &out,
     );
-    let p = w(
-        "missing-env.toml",
-        &GOOD.replace(
-            "type = \"uniform\"\nradiance = 1.0",
-            "type = \"envmap\"\nfile = \"nowhere.hdr\"\nmapping = \"latlong\"",
-        ),
-    );
-    assert_bad_input(&["render", &p, "--out", o], "nowhere.hdr", "cannot read", &out);
+    // Environment maps that cannot be read, each named by the error.
     std::fs::write(d.join("corrupt.hdr"), b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 64 +X 64\n\x02\x02\x00").unwrap();
-    let p = w(
-        "corrupt-env.toml",
-        &GOOD.replace(
-            "type = \"uniform\"\nradiance = 1.0",
-            "type = \"envmap\"\nfile = \"corrupt.hdr\"\nmapping = \"latlong\"",
-        ),
-    );
-    assert_bad_input(&["render", &p, "--out", o], "corrupt.hdr", "corrupt", &out);
     std::fs::write(d.join("corrupt.exr"), b"v/1\x01 garbage that is not an exr").unwrap();
-    let p = w(
-        "corrupt-exr.toml",
-        &GOOD.replace(
-            "type = \"uniform\"\nradiance = 1.0",
-            "type = \"envmap\"\nfile = \"corrupt.exr\"\nmapping = \"latlong\"",
-        ),
-    );
-    assert_bad_input(&["render", &p, "--out", o], "corrupt.exr", "corrupt OpenEXR", &out);
     write_nan_exr(&d.join("nan.exr"));
-    let p = w(
-        "nan-env.toml",
-        &GOOD.replace(
-            "type = \"uniform\"\nradiance = 1.0",
-            "type = \"envmap\"\nfile = \"nan.exr\"\nmapping = \"latlong\"",
-        ),
-    );
-    assert_bad_input(&["render", &p, "--out", o], "nan.exr", "non-finite", &out);
+    for (i, (map, mentions)) in [
+        ("nowhere.hdr", "cannot read"),
+        ("corrupt.hdr", "corrupt"),
+        ("corrupt.exr", "corrupt OpenEXR"),
+        ("nan.exr", "non-finite"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let lighting = format!("type = \"envmap\"\nfile = \"{map}\"\nmapping = \"latlong\"");
+        let p = w(&format!("env-{i}.toml"), &GOOD.replace("type = \"uniform\"\nradiance = 1.0", &lighting));
+        assert_bad_input(&["render", &p, "--out", o], map, mentions, &out);
+    }
     let p = w("neg.toml", &GOOD.replace("albedo = 0.5", "albedo = -0.5"));
     assert_bad_input(&["render", &p, "--out", o], "neg.toml", "albedo", &out);
     // The good scene does render, and writes the file.
@@ -123,18 +90,7 @@ fn write_nan_exr(path: &Path) {
 #[test]
 fn invert_separate_and_factor_refuse_bad_input() {
     let d = temp_dir("cli-errors-invert");
-    let w = |name: &str, text: &str| {
-        let p = d.join(name);
-        std::fs::write(&p, text).unwrap();
-        p.to_str().unwrap().to_string()
-    };
-    let render = |toml: &str, exr: &str| {
-        let out = d.join(exr);
-        let (code, err) =
-            reflect(&["render", &w(&format!("{exr}.toml"), toml), "--out", out.to_str().unwrap(), "--quiet"]);
-        assert_eq!(code, 0, "{err}");
-        out.to_str().unwrap().to_string()
-    };
+    let render = |toml: &str, exr: &str| render_to(&d, exr, toml);
     let ortho = render(GOOD, "ortho.exr");
     // Normal-probe views at θ_o = 60° (the one ring of a 1 × 4 rule: μ = 1/2), φ_o = 0, 90, 180.
     let probe = |phi: u32| {
@@ -167,15 +123,6 @@ fn invert_separate_and_factor_refuse_bad_input() {
     assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "same node", &env);
 }
 
-fn reflect_out(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 /// Files in `dir` whose name marks a temporary output.
 fn temporaries(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
@@ -186,15 +133,6 @@ fn temporaries(dir: &Path) -> Vec<String> {
 }
 
 /// Renders `toml` (GOOD with replacements) to `dir/name`, through the binary.
-fn render_to(dir: &Path, name: &str, toml: &str) -> String {
-    let scene = dir.join(format!("{name}.toml"));
-    std::fs::write(&scene, toml).unwrap();
-    let out = dir.join(name);
-    let (code, err) = reflect(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
-    assert_eq!(code, 0, "{err}");
-    out.to_str().unwrap().to_string()
-}
-
 fn probe_toml(theta_o: f64, phi_o: f64, brdf: &str) -> String {
     GOOD.replace("width = 8", "width = 32")
         .replace("height = 8", "height = 16")
@@ -451,12 +389,6 @@ fn bad_mesh_files_exit_2_with_one_line() {
 }
 
 /// `reflect … --json` on good input: exit 0 and the JSON document.
-fn reflect_json(args: &[&str]) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    assert_eq!(out.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: not JSON: {e}"))
-}
-
 /// Issue 18, analysis at the edges: orders the input cannot carry, transfer coefficients at the
 /// limits of their parameters, exitance angles and BRDF parameters from headers, and degenerate
 /// `stderr` layers — each refused through the binary (exit 2, one line naming the file) or given
@@ -465,18 +397,7 @@ fn reflect_json(args: &[&str]) -> serde_json::Value {
 fn analysis_at_the_edges() {
     use analysis::image::{read_image, write_exr};
     let d = temp_dir("cli-edges");
-    let w = |name: &str, text: &str| {
-        let p = d.join(name);
-        std::fs::write(&p, text).unwrap();
-        p.to_str().unwrap().to_string()
-    };
-    let render = |toml: &str, exr: &str| {
-        let out = d.join(exr);
-        let (code, err) =
-            reflect(&["render", &w(&format!("{exr}.toml"), toml), "--out", out.to_str().unwrap(), "--quiet"]);
-        assert_eq!(code, 0, "{err}");
-        out.to_str().unwrap().to_string()
-    };
+    let render = |toml: &str, exr: &str| render_to(&d, exr, toml);
     let probe_toml = |w: u32, h: u32| {
         GOOD.replace("width = 8\nheight = 8", &format!("width = {w}\nheight = {h}")).replace(
             "type = \"orthographic\"\nfrom = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05",

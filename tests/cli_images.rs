@@ -11,25 +11,16 @@ fn cases() -> std::path::PathBuf {
     root().join("../shared/cases")
 }
 
-fn reflect(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 fn project(file: &Path, lmax: usize) -> Vec<[f64; 3]> {
     let args = ["sh", "project", file.to_str().unwrap(), "--mapping", "latlong", "--lmax", &lmax.to_string(), "--json"];
-    let (code, out, err) = reflect(&args);
+    let (code, out, err) = reflect_out(&args);
     assert_eq!(code, 0, "{file:?}: {err}");
     let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
     serde_json::from_value(doc["coefficients"].clone()).unwrap()
 }
 
 fn assert_refused(args: &[&str], names: &str) {
-    let (code, out, err) = reflect(args);
+    let (code, out, err) = reflect_out(args);
     assert_eq!(code, 2, "{args:?}: {err}");
     assert!(out.is_empty(), "{args:?} printed {out}");
     let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
@@ -68,7 +59,7 @@ fn env_coarse_renders_give_the_half_space_irradiance() {
     for (name, axis) in [("e_2x1", 1usize), ("f_1x2", 2)] {
         let out = d.join(format!("{name}.exr"));
         let scene = cases().join(format!("env-coarse/{name}.toml"));
-        let (code, _, err) = reflect(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
+        let (code, _, err) = reflect_out(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
         assert_eq!(code, 0, "{err}");
         let img = analysis::image::read_image(&out).unwrap();
         let (b, se) = (img.rgb().unwrap(), img.rgb_layer("stderr.").unwrap());
@@ -149,7 +140,7 @@ fn multi_part_exr_names_the_part_it_uses() {
         .write()
         .to_file(&f)
         .unwrap();
-    let (code, out, err) = reflect(&["sh", "project", f.to_str().unwrap(), "--lmax", "0", "--json"]);
+    let (code, out, err) = reflect_out(&["sh", "project", f.to_str().unwrap(), "--lmax", "0", "--json"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("parts.exr") && err.contains("part 1 ('beauty')"), "{err}");
     let doc: serde_json::Value = serde_json::from_str(&out).unwrap();

@@ -10,13 +10,6 @@ use std::f64::consts::PI;
 use std::path::Path;
 use std::process::Command;
 
-fn reflect_json(args: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: bad JSON ({e}): {stdout}"))
-}
-
 /// Y_lm, l ≤ 2, from the check values of CONVENTIONS §3 (k = l(l+1) + m).
 fn y9(d: [f64; 3]) -> [f64; 9] {
     let [x, y, z] = d;

@@ -6,21 +6,9 @@ mod common;
 use analysis::image::{Image, write_exr};
 use common::*;
 use std::path::Path;
-use std::process::Command;
-
-fn reflect(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
-}
 
 fn assert_refused(args: &[&str], names: &str, mentions: &str, no_output: &Path) {
-    let (code, err) = reflect(args);
-    assert_eq!(code, 2, "exit code for {args:?}; stderr: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "one line expected for {args:?}, got: {err}");
-    assert!(lines[0].contains(names), "error should name {names}: {err}");
-    assert!(lines[0].to_lowercase().contains(&mentions.to_lowercase()), "error should mention {mentions:?}: {err}");
-    assert!(!no_output.exists(), "no output may be written for {args:?}");
+    assert_bad_input(args, names, mentions, no_output);
     let dir = no_output.parent().unwrap();
     let stray: Vec<_> = std::fs::read_dir(dir)
         .unwrap()

@@ -7,19 +7,12 @@
 mod common;
 
 use serde_json::Value;
-use std::process::Command;
 
 fn verify(args: &[&str]) -> (i32, String, String) {
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_reflect")).arg("verify").args(args).output().expect("run reflect verify");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::reflect_out(&[&["verify"], args].concat())
 }
 
-const NAMES: [&str; 18] = [
+const NAMES: [&str; 22] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -38,6 +31,10 @@ const NAMES: [&str; 18] = [
     "separation",
     "factorization",
     "ambiguity",
+    "uniform-factorization",
+    "microfacet-ambiguity",
+    "subspace",
+    "positive-bound",
 ];
 
 #[test]
@@ -73,6 +70,11 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "inverse_lighting.svg",
         "inverse_brdf_profile.svg",
         "inverse_specular_error.svg",
+        "uniform_factorization.svg",
+        "microfacet_ambiguity.svg",
+        "subspace_sphere.svg",
+        "subspace_mesh.svg",
+        "positive_bound.svg",
     ] {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));

@@ -3,6 +3,7 @@
 //! lat-long projection of an analytic function converging as the image grows, the normal-probe
 //! projection with standard errors, and least-squares fits of synthetic orthographic views.
 
+mod common;
 use analysis::image::{Image, RgbImage};
 use analysis::projection::envmap::angular_pixel;
 use analysis::projection::{
@@ -10,23 +11,8 @@ use analysis::projection::{
     project_normal_probe,
 };
 use analysis::sh::{Reconstructor, latlong_direction, num_coefficients, reconstruct_latlong};
+use common::Rng;
 use std::f64::consts::PI;
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e3779b97f4a7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Standard normal (Box–Muller).
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.next().max(1e-300), self.next());
-        (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
-    }
-}
 
 /// A positive SH-defined lighting: a constant plus random low orders.
 fn sh_lighting(lmax: usize, seed: u64) -> Vec<[f64; 3]> {

@@ -1,28 +1,12 @@
 //! The SH basis: orthonormality by exact quadrature (l ≤ 30), the addition theorem (to l = 100),
 //! and rotation (round trips, agreement with the projection of the rotated function, deltas).
 
+mod common;
 use analysis::projection::project_function;
 use analysis::quadrature::{gauss_legendre, legendre_all};
 use analysis::sh::{Reconstructor, Rotation, ShBasis, index, lambda, num_coefficients, rotate_coefficients};
+use common::Rng;
 use std::f64::consts::PI;
-
-/// SplitMix64, for deterministic test inputs (no dependency on the renderer).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e3779b97f4a7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn dir(&mut self) -> [f64; 3] {
-        let z = 2.0 * self.next() - 1.0;
-        let phi = 2.0 * PI * self.next();
-        let s = (1.0 - z * z).sqrt();
-        [s * phi.cos(), s * phi.sin(), z]
-    }
-}
 
 #[test]
 fn orthonormal_up_to_l30_by_exact_quadrature() {

@@ -667,6 +667,20 @@ mod tests {
     use analysis::sh::{Reconstructor, index, latlong_direction, num_coefficients};
     use std::path::Path;
 
+    /// `invert brdf IMAGE --model phong --lmax L --json`.
+    fn phong_args(image: PathBuf, lmax: usize) -> BrdfArgs {
+        BrdfArgs {
+            images: vec![image],
+            lighting: None,
+            mapping: None,
+            model: "phong".into(),
+            lmax,
+            min: None,
+            max: None,
+            json: true,
+        }
+    }
+
     fn tmp(name: &str) -> PathBuf {
         crate::cli::test_path("invert", name)
     }
@@ -790,16 +804,7 @@ mod tests {
         let s = 24.0;
         let path = tmp("phong.exr");
         probe(&path, &l, &analysis::transfer::phong::phong(s, lmax), [0.8; 3], r#"{"type":"phong","s":24,"ks":0.8}"#);
-        let a = BrdfArgs {
-            images: vec![path.clone()],
-            lighting: None,
-            mapping: None,
-            model: "phong".into(),
-            lmax,
-            min: None,
-            max: None,
-            json: true,
-        };
+        let a = phong_args(path.clone(), lmax);
         let doc = brdf_doc(&a).unwrap();
         // No stderr layer: unit weights rescaled by the residual scatter. The only error is the
         // quadrature's, ≈ 3e-5 l² relative (1/2 % at l = 12); d ln Λρ̂_l / d ln s ≈ l²/2s ≈ 3 there,
@@ -852,16 +857,7 @@ mod tests {
             );
             let path = tmp(&format!("noisy{trial}.exr"));
             write_exr(&path, &img).unwrap();
-            let a = BrdfArgs {
-                images: vec![path.clone()],
-                lighting: None,
-                mapping: None,
-                model: "phong".into(),
-                lmax,
-                min: None,
-                max: None,
-                json: true,
-            };
+            let a = phong_args(path.clone(), lmax);
             let doc = brdf_doc(&a).unwrap();
             assert!(doc["fit"].as_str().unwrap().starts_with("generalised"), "{}", doc["fit"]);
             assert_eq!(doc["channels"].as_array().unwrap().len(), 3);
@@ -893,16 +889,7 @@ mod tests {
             );
             let path = tmp("clean.exr");
             write_exr(&path, &img).unwrap();
-            let a = BrdfArgs {
-                images: vec![path],
-                lighting: None,
-                mapping: None,
-                model: "phong".into(),
-                lmax,
-                min: None,
-                max: None,
-                json: true,
-            };
+            let a = phong_args(path, lmax);
             brdf_doc(&a).unwrap()["estimate"].as_f64().unwrap()
         };
         assert!((clean_fit / s_true - 1.0).abs() < 1e-2, "quadrature bias {clean_fit}");

@@ -28,19 +28,23 @@ pub mod inverse_lighting;
 pub mod inverse_specular;
 pub mod irradiance9;
 pub mod lambert;
+pub mod microfacet_ambiguity;
 pub mod mirror;
 pub mod oblique;
 pub mod phong;
 pub mod plot;
+pub mod positive_bound;
 pub mod report;
 pub mod scenes;
 pub mod separation;
 pub mod single_view;
+pub mod subspace;
 #[cfg(test)]
 mod testutil;
 pub mod torrance_sparrow;
 pub mod transfer;
 pub mod uniform;
+pub mod uniform_factorization;
 
 use check::Check;
 use std::path::PathBuf;
@@ -96,6 +100,18 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: separation::NAME, equation: separation::EQUATION, run: separation::run },
     Entry { name: factorization::NAME, equation: factorization::EQUATION, run: factorization::run },
     Entry { name: ambiguity::NAME, equation: ambiguity::EQUATION, run: ambiguity::run },
+    Entry {
+        name: uniform_factorization::NAME,
+        equation: uniform_factorization::EQUATION,
+        run: uniform_factorization::run,
+    },
+    Entry {
+        name: microfacet_ambiguity::NAME,
+        equation: microfacet_ambiguity::EQUATION,
+        run: microfacet_ambiguity::run,
+    },
+    Entry { name: subspace::NAME, equation: subspace::EQUATION, run: subspace::run },
+    Entry { name: positive_bound::NAME, equation: positive_bound::EQUATION, run: positive_bound::run },
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.

@@ -41,6 +41,11 @@ pub enum Lighting {
     },
     /// The Grace probe with a scale.
     Grace(f64),
+    /// The Grace probe with a scale, rotated by `rotate_deg` (about x, then y, then z; CONVENTIONS §6).
+    GraceRotated {
+        scale: f64,
+        rotate_deg: [f64; 3],
+    },
 }
 
 /// The object.
@@ -138,6 +143,14 @@ impl Spec {
                     s,
                     "[lighting]\ntype = \"envmap\"\nfile = {:?}\nmapping = \"angular\"\nscale = {scale:?}\n",
                     grace_path(ctx).display().to_string()
+                );
+            }
+            Lighting::GraceRotated { scale, rotate_deg } => {
+                let _ = writeln!(
+                    s,
+                    "[lighting]\ntype = \"envmap\"\nfile = {:?}\nmapping = \"angular\"\nscale = {scale:?}\nrotate_deg = {}\n",
+                    grace_path(ctx).display().to_string(),
+                    v3(*rotate_deg)
                 );
             }
         }

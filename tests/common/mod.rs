@@ -38,6 +38,52 @@ pub fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
+/// Runs the `reflect` binary: (exit code, −1 if killed; stdout; stderr).
+pub fn reflect_out(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Runs the `reflect` binary: (exit code, stderr).
+pub fn reflect(args: &[&str]) -> (i32, String) {
+    let (code, _, err) = reflect_out(args);
+    (code, err)
+}
+
+/// Runs the `reflect` binary, which must succeed, and parses its stdout as one JSON document.
+pub fn reflect_json(args: &[&str]) -> serde_json::Value {
+    let (code, stdout, stderr) = reflect_out(args);
+    assert_eq!(code, 0, "{args:?}: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: bad JSON ({e}): {stdout}"))
+}
+
+/// Bad input through the binary: exit 2, one line on stderr naming `names` and mentioning
+/// `mentions` (case-insensitive), and no file at `out`.
+pub fn assert_bad_input(args: &[&str], names: &str, mentions: &str, out: &Path) {
+    let (code, err) = reflect(args);
+    assert_eq!(code, 2, "exit code for {args:?}; stderr: {err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one line expected for {args:?}, got: {err}");
+    assert!(lines[0].contains(names), "error should name {names}: {err}");
+    assert!(lines[0].to_lowercase().contains(&mentions.to_lowercase()), "error should mention {mentions:?}: {err}");
+    assert!(!out.exists(), "no output file may be written for {args:?}");
+}
+
+/// Writes `toml` to `dir/NAME.toml` and renders it with the binary to `dir/NAME` (an `.exr` name);
+/// returns the EXR's path.
+pub fn render_to(dir: &Path, name: &str, toml: &str) -> String {
+    let scene = dir.join(format!("{name}.toml"));
+    std::fs::write(&scene, toml).unwrap();
+    let out = dir.join(name);
+    let (code, err) = reflect(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+    assert_eq!(code, 0, "{err}");
+    out.to_str().unwrap().to_string()
+}
+
 pub fn exists(p: &Path) -> bool {
     p.exists()
 }
