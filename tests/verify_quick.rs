@@ -70,6 +70,10 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         "inverse_lighting.svg",
         "inverse_brdf_profile.svg",
         "inverse_specular_error.svg",
+        "lambert_sh_measured.png",
+        "lambert_sh_predicted.png",
+        "lambert_sh_z.png",
+        "zscale.png",
         "uniform_factorization.svg",
         "microfacet_ambiguity.svg",
         "subspace_sphere.svg",
@@ -79,6 +83,36 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
         let p = dir.join(f);
         let meta = std::fs::metadata(&p).unwrap_or_else(|_| panic!("missing {}", p.display()));
         assert!(meta.len() > 200, "{} is empty", p.display());
+    }
+    // These checks show their renders beside the prediction in the report (factorization renders
+    // single nodes of a directional source: no picture; later checks may add theirs).
+    const PICTURED: [&str; 16] = [
+        "lambert",
+        "irradiance9",
+        "phong",
+        "torrance-sparrow",
+        "mirror",
+        "directional",
+        "axial",
+        "uniform",
+        "associativity",
+        "convex-shape",
+        "horizon",
+        "inverse-lighting",
+        "inverse-lighting-specular",
+        "inverse-brdf",
+        "separation",
+        "ambiguity",
+    ];
+    for c in checks {
+        let pictures = c["pictures"].as_array().unwrap();
+        let name = c["name"].as_str().unwrap();
+        assert!(!PICTURED.contains(&name) || !pictures.is_empty(), "{name} shows no render");
+        for p in pictures {
+            // The z summary is a number (σ > 0 somewhere), not NaN.
+            let rms = p["z"]["rms"].as_f64().unwrap();
+            assert!(rms.is_finite(), "{}: {p}", c["name"]);
+        }
     }
     let svg = std::fs::read_to_string(dir.join("fig3_lambert.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("measured"));

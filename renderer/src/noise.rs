@@ -12,7 +12,7 @@
 use crate::film::Film;
 
 /// Median and 95th percentile of the per-pixel relative standard error over the object's pixels.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct NoiseSummary {
     /// Object pixels (mask > 0) that entered the summary (value > 0 in some channel).
     pub pixels: usize,

@@ -42,6 +42,9 @@ pub struct RenderArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print the render's statistics as one JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `--threads N`: at least 1, refused while parsing the arguments (before any work or output).
@@ -156,29 +159,119 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         let _ = std::fs::remove_file(&out);
         return Err(e);
     }
-    if let (Some(png), false) = (&a.png, a.quiet) {
-        let how = if a.exposure.is_some() { "set by --exposure" } else { "automatic: object's median → 0.18" };
-        eprintln!("wrote {}: exposure {ev:+.2} EV ({how}), tone curve x/(1+x), sRGB", png.display());
-    }
     let t_save = t_save.elapsed();
+    let report = RenderReport {
+        scene: scene.path.as_ref().map(|p| p.display().to_string()),
+        output: out.display().to_string(),
+        png: a.png.as_ref().map(|p| PngReport {
+            file: p.display().to_string(),
+            exposure_ev: ev,
+            automatic: a.exposure.is_none(),
+        }),
+        width: s.width,
+        height: s.height,
+        spp: s.spp,
+        seed: s.seed,
+        threads: stats.threads,
+        samples: stats.samples,
+        samples_per_sec: stats.samples_per_sec(),
+        rays: stats.rays,
+        rays_per_sec: stats.rays_per_sec(),
+        load_seconds: t_load.as_secs_f64(),
+        render_seconds: stats.wall.as_secs_f64(),
+        save_seconds: t_save.as_secs_f64(),
+        total_seconds: t_start.elapsed().as_secs_f64(),
+        noise: renderer::noise::summarize(&film),
+        unreliable_pixels: film.unreliable_count(),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
+    }
     if !a.quiet {
-        eprintln!("wrote {}", out.display());
-        eprintln!("{stats}");
-        eprintln!(
-            "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
-            t_load.as_secs_f64(),
-            stats.wall.as_secs_f64(),
-            t_save.as_secs_f64(),
-            t_start.elapsed().as_secs_f64()
-        );
-        match renderer::noise::summarize(&film) {
-            Some(n) => eprintln!("{n}"),
-            None => eprintln!("noise: no object pixel with a value > 0 (nothing hit, or a black object)"),
-        }
-        let flagged = film.unreliable_count();
-        if flagged > 0 {
-            eprintln!("{flagged} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)");
-        }
+        eprint!("{report}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The output of `reflect render` (`--json` prints it on stdout; `Display` is the text on stderr).
+/// samples = pixels × spp (misses included), rays = rays traced (skipped shadow rays not counted),
+/// both per second of the render loop alone (`render_seconds`: loading and saving excluded).
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct RenderReport {
+    /// The scene file (null for the built-in default scene).
+    pub scene: Option<String>,
+    /// The OpenEXR file written.
+    pub output: String,
+    /// The PNG preview written, if any.
+    pub png: Option<PngReport>,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    /// Worker threads of the render loop.
+    pub threads: usize,
+    /// Camera samples taken (pixels × spp, misses included).
+    pub samples: u64,
+    pub samples_per_sec: f64,
+    /// Rays traced (camera, shadow and bounce rays; skipped shadow rays not counted).
+    pub rays: u64,
+    pub rays_per_sec: f64,
+    /// Scene, meshes and environment tables, seconds.
+    pub load_seconds: f64,
+    /// The render loop, seconds (the time the rates divide by).
+    pub render_seconds: f64,
+    /// Writing the EXR (and PNG), seconds.
+    pub save_seconds: f64,
+    /// The whole command, seconds.
+    pub total_seconds: f64,
+    /// Relative standard error of the object's pixels (null when no object pixel is > 0).
+    pub noise: Option<renderer::noise::NoiseSummary>,
+    /// Pixels whose error bar is unreliable (`stderr_flag.Y` = 1: one rare sample dominates).
+    pub unreliable_pixels: usize,
+}
+
+/// The PNG preview of a render.
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct PngReport {
+    pub file: String,
+    /// Exposure applied before the tone curve x/(1+x), in stops (EV).
+    pub exposure_ev: f64,
+    /// True when chosen automatically (the object's median → 0.18), false when set by `--exposure`.
+    pub automatic: bool,
+}
+
+impl std::fmt::Display for RenderReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(p) = &self.png {
+            let how = if p.automatic { "automatic: object's median → 0.18" } else { "set by --exposure" };
+            writeln!(f, "wrote {}: exposure {:+.2} EV ({how}), tone curve x/(1+x), sRGB", p.file, p.exposure_ev)?;
+        }
+        writeln!(f, "wrote {}", self.output)?;
+        let stats = renderer::render::RenderStats {
+            wall: std::time::Duration::from_secs_f64(self.render_seconds),
+            samples: self.samples,
+            rays: self.rays,
+            threads: self.threads,
+            // `reflect render` never cancels its render.
+            cancelled: false,
+        };
+        writeln!(f, "{stats}")?;
+        writeln!(
+            f,
+            "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
+            self.load_seconds, self.render_seconds, self.save_seconds, self.total_seconds
+        )?;
+        match &self.noise {
+            Some(n) => writeln!(f, "{n}")?,
+            None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)")?,
+        }
+        if self.unreliable_pixels > 0 {
+            writeln!(
+                f,
+                "{} pixels have an unreliable error bar (stderr_flag.Y = 1: one rare sample dominates)",
+                self.unreliable_pixels
+            )?;
+        }
+        Ok(())
+    }
 }

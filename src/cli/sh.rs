@@ -15,7 +15,8 @@ use analysis::image::read_rgb;
 use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::lm;
 use analysis::transfer::TransferModel;
-use serde_json::json;
+use serde::Serialize;
+use std::fmt;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -93,25 +94,19 @@ fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
         None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&a.env))?,
     };
     let c = project_envmap(&img, mapping, a.lmax).map_err(|e| e.in_file(&a.env))?;
-    const INTEGRATION: &str = "exact: each Y_lm integrated over each pixel of the piecewise-constant map the renderer \
-                               lights with, so every order is the exact expansion of that map";
+    let report = ProjectReport {
+        file: a.env.display().to_string(),
+        mapping: mapping.name().to_string(),
+        width: img.width,
+        height: img.height,
+        lmax: a.lmax,
+        integration: PROJECT_INTEGRATION.to_string(),
+        coefficients: c,
+    };
     if a.json {
-        let doc = json!({
-            "file": a.env.display().to_string(),
-            "mapping": mapping.name(),
-            "lmax": a.lmax,
-            "integration": INTEGRATION,
-            "coefficients": c,
-        });
-        println!("{doc}");
+        println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
     } else {
-        println!("# {} ({} {}×{}), l_max {}", a.env.display(), mapping.name(), img.width, img.height, a.lmax);
-        println!("# integration {INTEGRATION}");
-        println!("{:>4} {:>4} {:>14} {:>14} {:>14}", "l", "m", "R", "G", "B");
-        for (k, v) in c.iter().enumerate() {
-            let (l, m) = lm(k);
-            println!("{l:>4} {m:>4} {:>14.6e} {:>14.6e} {:>14.6e}", v[0], v[1], v[2]);
-        }
+        print!("{report}");
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -201,38 +196,101 @@ fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
             "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)"
         }
     };
+    let report = TransferReport {
+        brdf: a.brdf.clone(),
+        lmax: a.lmax,
+        s: a.s,
+        sigma: a.sigma,
+        theta_o_deg: a.theta_o,
+        method: method.to_string(),
+        lambda_rho: f,
+        approximation: approx
+            .map(|(equation, lambda_rho)| Approximation { equation: equation.to_string(), lambda_rho }),
+    };
     if a.json {
-        let mut doc = json!({
-            "brdf": a.brdf,
-            "lmax": a.lmax,
-            "method": method,
-            "lambda_rho": f,
-        });
-        if let Some(s) = a.s {
-            doc["s"] = json!(s);
-        }
-        if let Some(s) = a.sigma {
-            doc["sigma"] = json!(s);
-        }
-        if let Some(t) = a.theta_o {
-            doc["theta_o_deg"] = json!(t);
-        }
-        if let Some((name, v)) = &approx {
-            doc["approximation"] = json!({"equation": name, "lambda_rho": v});
-        }
-        println!("{doc}");
+        println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
     } else {
-        println!("# Λ_l ρ̂_l of {} ({method}), unit albedo / k_s", a.brdf);
-        match &approx {
-            Some((name, _)) => println!("{:>4} {:>22} {:>22}", "l", "Λ_l ρ̂_l", name),
-            None => println!("{:>4} {:>22}", "l", "Λ_l ρ̂_l"),
-        }
-        for l in 0..=a.lmax {
-            match &approx {
-                Some((_, v)) => println!("{l:>4} {:>22.15e} {:>22.15e}", f[l], v[l]),
-                None => println!("{l:>4} {:>22.15e}", f[l]),
-            }
-        }
+        print!("{report}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// How `sh project` integrates (printed with its output).
+pub const PROJECT_INTEGRATION: &str = "exact: each Y_lm integrated over each pixel of the piecewise-constant map the \
+                                       renderer lights with, so every order is the exact expansion of that map";
+
+/// The output of `reflect sh project` (`--json` prints it; CONVENTIONS §7). `Display` is the table.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ProjectReport {
+    /// The environment map, as given.
+    pub file: String,
+    /// `latlong` or `angular` (CONVENTIONS §2).
+    pub mapping: String,
+    /// Map size in pixels.
+    pub width: usize,
+    pub height: usize,
+    pub lmax: usize,
+    /// How the coefficients were integrated.
+    pub integration: String,
+    /// L_lm as `[r, g, b]`, (lmax + 1)² triples in index order k = l² + l + m (CONVENTIONS §3).
+    pub coefficients: Vec<[f64; 3]>,
+}
+
+impl fmt::Display for ProjectReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "# {} ({} {}×{}), l_max {}", self.file, self.mapping, self.width, self.height, self.lmax)?;
+        writeln!(f, "# integration {}", self.integration)?;
+        writeln!(f, "{:>4} {:>4} {:>14} {:>14} {:>14}", "l", "m", "R", "G", "B")?;
+        for (k, v) in self.coefficients.iter().enumerate() {
+            let (l, m) = lm(k);
+            writeln!(f, "{l:>4} {m:>4} {:>14.6e} {:>14.6e} {:>14.6e}", v[0], v[1], v[2])?;
+        }
+        Ok(())
+    }
+}
+
+/// The paper's approximation printed beside the exact transfer coefficients (eq. 46, 57, 59).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Approximation {
+    /// Which equation, e.g. "eq. 57 exp(−(σl)²)".
+    pub equation: String,
+    /// Its Λ_l ρ̂_l, l = 0..=lmax.
+    pub lambda_rho: Vec<f64>,
+}
+
+/// The output of `reflect sh transfer` (`--json` prints it; CONVENTIONS §7). `Display` is the table.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct TransferReport {
+    /// `lambert`, `phong`, `mirror` or `torrance-sparrow`.
+    pub brdf: String,
+    pub lmax: usize,
+    /// Phong exponent (null unless given).
+    pub s: Option<f64>,
+    /// Torrance–Sparrow roughness σ, radians (null unless given).
+    pub sigma: Option<f64>,
+    /// Exitance angle θ_o in degrees (null unless given; 0 is assumed).
+    pub theta_o_deg: Option<f64>,
+    /// How Λ_l ρ̂_l was computed (equation and method).
+    pub method: String,
+    /// Λ_l ρ̂_l for unit albedo / k_s, l = 0..=lmax.
+    pub lambda_rho: Vec<f64>,
+    /// The paper's approximation, where it has one.
+    pub approximation: Option<Approximation>,
+}
+
+impl fmt::Display for TransferReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "# Λ_l ρ̂_l of {} ({}), unit albedo / k_s", self.brdf, self.method)?;
+        match &self.approximation {
+            Some(a) => writeln!(f, "{:>4} {:>22} {:>22}", "l", "Λ_l ρ̂_l", a.equation)?,
+            None => writeln!(f, "{:>4} {:>22}", "l", "Λ_l ρ̂_l")?,
+        }
+        for (l, v) in self.lambda_rho.iter().enumerate() {
+            match &self.approximation {
+                Some(a) => writeln!(f, "{l:>4} {v:>22.15e} {:>22.15e}", a.lambda_rho[l])?,
+                None => writeln!(f, "{l:>4} {v:>22.15e}")?,
+            }
+        }
+        Ok(())
+    }
 }

@@ -1,15 +1,16 @@
-//! `reflect verify [--quick] [--check NAME] [--json] [--out DIR] [--data DIR] [--seed N] [--threads N]`
+//! `reflect verify [--quick] [--check NAME] [--json] [--verbose] [--out DIR] [--data DIR] [--seed N] [--threads N]`
 //!
 //! Renders, projects into SH and compares with the paper's analytic predictions (issue 4); see
 //! `src/verify/`. Prints a table on stdout (or, with `--json`, the JSON document of CONVENTIONS §7
-//! on stdout and the table on stderr), progress on stderr, and writes `report.md`, `report.html`,
-//! `report.json` and SVG plots into `--out` (default `out/verify/`). Exit status 1 when a check
+//! on stdout and the table on stderr), progress on stderr (a progress bar on a terminal, else one
+//! line per finished check; `--verbose`: a line per render too), and writes `report.md`,
+//! `report.html`, `report.json`, SVG plots and PNG pictures of the renders into `--out` (default `out/verify/`). Exit status 1 when a check
 //! fails, 2 for bad input (an unknown check name, an unwritable folder, no data folder: see
 //! `crate::verify::data`).
 
 use super::Error;
 use crate::verify::{self, CHECKS, Ctx, report};
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -40,6 +41,10 @@ pub struct VerifyArgs {
     /// Worker threads [default: all cores].
     #[arg(long, value_parser = super::render::parse_threads)]
     pub threads: Option<usize>,
+    /// Print a line per render and per check stage (default: a progress bar on a terminal, else one
+    /// line per finished check).
+    #[arg(long, short)]
+    pub verbose: bool,
     /// Testing aid: compare every check with a deliberately wrong prediction (each must then fail).
     #[arg(long, hide = true)]
     pub wrong_prediction: bool,
@@ -68,35 +73,59 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
     let data = verify::data::resolve(a.data.as_deref()).map_err(Error::new)?;
     std::fs::create_dir_all(&a.out)
         .map_err(|e| Error::file(&a.out, format!("cannot create the report folder: {e}")))?;
-    let ctx = Ctx { quick: a.quick, wrong: a.wrong_prediction, seed: a.seed, out: a.out.clone(), verbose: true, data };
+    let ctx =
+        Ctx { quick: a.quick, wrong: a.wrong_prediction, seed: a.seed, out: a.out.clone(), verbose: a.verbose, data };
     let t = std::time::Instant::now();
+    // On a terminal (and without --verbose) a progress bar naming the running check; otherwise one
+    // line per finished check on stderr (and, with --verbose, a line when each starts).
+    let bar = if !a.verbose && std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(selected.len() as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} checks, {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        Some(b)
+    } else {
+        None
+    };
     let checks = super::render::with_threads(a.threads, || {
         selected
             .iter()
             .map(|e| {
-                eprintln!("[{:6.1} s] {} ({}) …", t.elapsed().as_secs_f64(), e.name, e.equation);
+                match &bar {
+                    Some(b) => b.set_message(format!("{} ({})", e.name, e.equation)),
+                    None if a.verbose => {
+                        eprintln!("[{:6.1} s] {} ({}) …", t.elapsed().as_secs_f64(), e.name, e.equation)
+                    }
+                    None => {}
+                }
                 let c = verify::run_entry(&ctx, e);
-                eprintln!(
-                    "[{:6.1} s] {} {} ({:.1} s){}",
-                    t.elapsed().as_secs_f64(),
-                    e.name,
-                    if c.passed() { "PASS" } else { "FAIL" },
-                    c.seconds,
-                    c.error.as_ref().map(|m| format!(": {m}")).unwrap_or_default()
-                );
+                match &bar {
+                    Some(b) => b.inc(1),
+                    None => eprintln!(
+                        "[{:6.1} s] {} {} ({:.1} s){}",
+                        t.elapsed().as_secs_f64(),
+                        e.name,
+                        if c.passed() { "PASS" } else { "FAIL" },
+                        c.seconds,
+                        c.error.as_ref().map(|m| format!(": {m}")).unwrap_or_default()
+                    ),
+                }
                 c
             })
             .collect::<Vec<_>>()
     })?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
     let seconds = t.elapsed().as_secs_f64();
-    let table = report::table(&checks);
+    let doc = report::Report::new(&checks, a.quick, seconds);
     if a.json {
-        eprint!("{table}");
-        let doc = report::json(&checks, a.quick, seconds);
+        eprint!("{doc}");
         let mut out = std::io::stdout().lock();
         let _ = writeln!(out, "{}", serde_json::to_string_pretty(&doc).unwrap_or_default());
     } else {
-        print!("{table}");
+        print!("{doc}");
     }
     report::write_folder(&a.out, &checks, a.quick, seconds).map_err(|m| Error::file(&a.out, m))?;
     eprintln!("report: {} (wall time {seconds:.1} s)", a.out.join("report.html").display());

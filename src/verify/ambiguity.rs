@@ -43,6 +43,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, Fit, fit_filter_at, order_rms};
 use super::oblique::probe_geometry;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec, sh_lighting};
 use super::transfer;
 use analysis::sh::lm;
@@ -361,6 +362,24 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let clamp_pair = Some((theta_c, &others[0], &clamp));
         evaluate(&per_angle, clamp_pair, &lights).ok_or("comparison failed (sizes or ν)")?
     };
+    if let Some((theta, a, others)) = per_angle.last() {
+        // The claim: A (Phong s = 8 under L) and B (mirror under L blurred by the Phong filter) are
+        // the same image; B is A's prediction.
+        let b = &others[0];
+        let n = a.ch.value.len();
+        c.pictures.push(Picture::new(
+            "ambiguity",
+            format!(
+                "{} vs {} at θ_o = {theta}°, normal probe {}×{}, {spp} spp",
+                a.label, b.label, a.ch.width, a.ch.height
+            ),
+            format!("{}: the mirror under the blurred lighting (deterministic), eq. 47", b.label),
+            (a.ch.width, a.ch.height),
+            a.ch.value.clone(),
+            b.ch.value.clone(),
+            (0..n).map(|i| a.ch.sigma[i].hypot(b.ch.sigma[i]).hypot(F32_FLOOR * a.ch.value[i].abs())).collect(),
+        ));
+    }
     c.push(
         Row::new("max σ̂ of the mirror renders (deterministic)", 0.0, mirror_sigma, 0.0).floor(F32_FLOOR * mirror_max),
     );

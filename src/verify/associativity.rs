@@ -8,6 +8,7 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
 use super::fit::{Channel, latlong_dir, latlong_omega, lsq};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use super::transfer;
 use analysis::sh::{ShBasis, lm, num_coefficients};
@@ -66,6 +67,16 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let a = Channel::from_film(&render_spec(ctx, &pa)?, 0);
     let b = Channel::from_film(&render_spec(ctx, &pb)?, 0);
     let mut c = evaluate(&a, &b).ok_or("singular fit")?;
+    // The mirror render under the blurred lighting is the prediction of the Phong render.
+    c.pictures.push(Picture::new(
+        "associativity",
+        format!("Phong sphere s = {S} under L, normal probe {}×{}, {spp} spp", pa.width, pa.height),
+        "eq. 47: the mirror sphere rendered under L blurred by the Phong filter (4 spp, deterministic); σ of both renders and the f32 floor in quadrature",
+        (a.width, a.height),
+        a.value.clone(),
+        b.value.clone(),
+        (0..a.value.len()).map(|i| a.sigma[i].hypot(b.sigma[i]).hypot(F32_FLOOR * a.value[i].abs())).collect(),
+    ));
     c.note(format!("normal-probe {}×{}, Phong {spp} spp, mirror 4 spp (deterministic), s = {S}", pa.width, pa.height));
     Ok(c)
 }

@@ -10,6 +10,7 @@
 use super::Ctx;
 use super::check::{Check, Row};
 use super::fit::{Channel, latlong_dir, latlong_omega, lsq};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::sh::{ShBasis, lm, num_coefficients};
 
@@ -38,7 +39,16 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel) -> Option<()> {
     for k in 0..num_coefficients(LFIT) {
         let (l, m) = lm(k);
         if m == 0 {
-            c.push(Row::new(format!("{label}: B_{l}0"), fit.coef[k], fit.coef[k], fit.sigma[k]).informative());
+            // No prediction for the m = 0 terms: the row reports the fitted value in both columns.
+            c.push(
+                Row::new(
+                    format!("{label}: B_{l}0 as fitted (no prediction; shown in both columns)"),
+                    fit.coef[k],
+                    fit.coef[k],
+                    fit.sigma[k],
+                )
+                .informative(),
+            );
             continue;
         }
         let row = Row::new(format!("{label}: worst B_lm, m ≠ 0 (at l={l} m={m})"), 0.0, fit.coef[k], fit.sigma[k]);
@@ -48,6 +58,23 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel) -> Option<()> {
     }
     c.rows.extend(worst);
     Some(())
+}
+
+/// The render beside its azimuthal mean: eq. 24 predicts a B symmetric about z, i.e. constant
+/// along each row of the lat-long probe, so the prediction of pixel (r, c) is the mean of row r
+/// (whose own error, σ/√W, is neglected in the z map).
+fn symmetric_picture(stem: &str, title: &str, ch: &Channel) -> Picture {
+    let (w, h) = (ch.width, ch.height);
+    let mean: Vec<f64> = (0..h).map(|r| ch.value[r * w..(r + 1) * w].iter().sum::<f64>() / w as f64).collect();
+    Picture::new(
+        stem,
+        title,
+        "eq. 24: B symmetric about the lighting axis z, i.e. the azimuthal mean of each row of the probe",
+        (w, h),
+        ch.value.clone(),
+        (0..w * h).map(|i| mean[i / w]).collect(),
+        ch.sigma.clone(),
+    )
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
@@ -60,7 +87,13 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     ] {
         let spec = Spec::probe(ctx, ctx.spp(32, 256), Lighting::Axial { axis, profile: profile() }, brdf);
         let film = render_spec(ctx, &spec)?;
-        evaluate_into(&mut c, label, &Channel::from_film(&film, 0)).ok_or("singular fit")?;
+        let ch = Channel::from_film(&film, 0);
+        evaluate_into(&mut c, label, &ch).ok_or("singular fit")?;
+        c.pictures.push(symmetric_picture(
+            &format!("axial_{}", label.split(' ').next().unwrap_or(label)),
+            &format!("{label} sphere under axial lighting, normal probe {}×{}, {} spp", ch.width, ch.height, spec.spp),
+            &ch,
+        ));
     }
     c.note(format!("normal-probe {}×{}; axial profile {:?}", 2 * ctx.probe_height(), ctx.probe_height(), profile()));
     if ctx.wrong {

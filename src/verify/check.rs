@@ -13,8 +13,9 @@
 //! when all its rows pass. Rows marked `informative` are reported but do not decide the verdict
 //! (e.g. the Gaussian approximation eq. 46 where it is known not to hold).
 
+use super::picture::{Picture, PictureDoc};
 use analysis::special::{normal_two_sided_tail, sidak_k};
-use serde_json::{Value, json};
+use serde::Serialize;
 
 /// k of the k·σ rule for a check with at most [`FAMILY_ROWS`] noisy deciding rows: a two-sided 4σ
 /// threshold gives each row a 6.3e-5 chance of a spurious failure, so such a check fails a correct
@@ -52,11 +53,24 @@ pub struct Row {
     pub informative: bool,
     /// k of the k·σ rule: [`K_SIGMA`], or the Šidák value set by [`Check::apply_family_k`].
     pub k: f64,
+    /// Set (with `informative`) when the prediction is an approximation evaluated outside the
+    /// range of validity its source states: the stated range, e.g. "small θ_o (first order in θ_o)".
+    pub outside_range: Option<String>,
 }
 
 impl Row {
     pub fn new(label: impl Into<String>, expected: f64, measured: f64, sigma: f64) -> Row {
-        Row { label: label.into(), expected, measured, sigma, approx: 0.0, floor: 0.0, informative: false, k: K_SIGMA }
+        Row {
+            label: label.into(),
+            expected,
+            measured,
+            sigma,
+            approx: 0.0,
+            floor: 0.0,
+            informative: false,
+            k: K_SIGMA,
+            outside_range: None,
+        }
     }
     pub fn approx(mut self, a: f64) -> Row {
         self.approx = a.abs();
@@ -68,6 +82,13 @@ impl Row {
     }
     pub fn informative(mut self) -> Row {
         self.informative = true;
+        self
+    }
+    /// An informative row whose prediction is used outside its stated range of validity `range`
+    /// (the report labels it so instead of showing a failure).
+    pub fn outside_range(mut self, range: impl Into<String>) -> Row {
+        self.informative = true;
+        self.outside_range = Some(range.into());
         self
     }
     /// k·σ + approximation error + rounding floor.
@@ -116,6 +137,8 @@ pub enum Legend {
 /// A plot attached to a check (rendered to SVG by the report).
 #[derive(Clone, Debug, Default)]
 pub struct Plot {
+    /// No longer used for placement: the legend is drawn in a strip below the chart, where it
+    /// cannot cover data. Kept so that checks setting it need not change.
     pub legend: Legend,
     pub file: String,
     pub title: String,
@@ -137,6 +160,8 @@ pub struct Check {
     /// Free-form notes (what was rendered, the stated approximation errors, what is not checked).
     pub details: Vec<String>,
     pub plots: Vec<Plot>,
+    /// Pictures of the renders (measured, predicted, z map): see [`super::picture`].
+    pub pictures: Vec<Picture>,
     /// Wall time of the check (renders + analysis), seconds.
     pub seconds: f64,
     /// Set when the check could not run (e.g. a render failed): then it fails.
@@ -198,33 +223,105 @@ impl Check {
             .max_by(|a, b| a.ratio().partial_cmp(&b.ratio()).unwrap_or(std::cmp::Ordering::Equal))
     }
 
-    /// The JSON object of CONVENTIONS §7 (plus rows and details).
-    pub fn to_json(&self) -> Value {
-        let num = |v: f64| if v.is_finite() { json!(v) } else { Value::Null };
+    /// The typed JSON object of this check (CONVENTIONS §7 plus rows, details, files).
+    pub fn doc(&self) -> CheckDoc {
         let deciding: Vec<&Row> = self.rows.iter().filter(|r| !r.informative).collect();
-        json!({
-            "name": self.name,
-            "equation": self.equation,
-            "passed": self.passed(),
-            "measured": deciding.iter().map(|r| num(r.measured)).collect::<Vec<_>>(),
-            "expected": deciding.iter().map(|r| num(r.expected)).collect::<Vec<_>>(),
-            "tolerance": deciding.iter().map(|r| num(r.tolerance())).collect::<Vec<_>>(),
-            "sigma": deciding.iter().map(|r| num(r.sigma)).collect::<Vec<_>>(),
-            "labels": deciding.iter().map(|r| r.label.clone()).collect::<Vec<_>>(),
-            "k_sigma": self.k_sigma(),
-            "rows": self.rows.iter().map(|r| json!({
-                "label": r.label, "expected": num(r.expected), "measured": num(r.measured),
-                "sigma": num(r.sigma), "approx": num(r.approx), "floor": num(r.floor),
-                "tolerance": num(r.tolerance()), "passed": r.passed(), "informative": r.informative,
-            })).collect::<Vec<_>>(),
-            "details": self.details,
-            "error": self.error,
-            // True when the check could not run (its rows, if any, decide nothing): a failure that
-            // is not a verdict on the claim.
-            "errored": self.error.is_some(),
-            "seconds": self.seconds,
-        })
+        CheckDoc {
+            name: self.name.clone(),
+            equation: self.equation.clone(),
+            description: self.description.clone(),
+            passed: self.passed(),
+            measured: deciding.iter().map(|r| finite(r.measured)).collect(),
+            expected: deciding.iter().map(|r| finite(r.expected)).collect(),
+            tolerance: deciding.iter().map(|r| finite(r.tolerance())).collect(),
+            sigma: deciding.iter().map(|r| finite(r.sigma)).collect(),
+            labels: deciding.iter().map(|r| r.label.clone()).collect(),
+            k_sigma: self.k_sigma(),
+            rows: self.rows.iter().map(Row::doc).collect(),
+            details: self.details.clone(),
+            plots: self.plots.iter().map(|p| p.file.clone()).collect(),
+            pictures: self.pictures.iter().map(Picture::doc).collect(),
+            error: self.error.clone(),
+            errored: self.error.is_some(),
+            seconds: self.seconds,
+        }
     }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+impl Row {
+    /// The typed JSON object of this row.
+    pub fn doc(&self) -> RowDoc {
+        RowDoc {
+            label: self.label.clone(),
+            expected: finite(self.expected),
+            measured: finite(self.measured),
+            sigma: finite(self.sigma),
+            approx: finite(self.approx),
+            floor: finite(self.floor),
+            tolerance: finite(self.tolerance()),
+            passed: self.passed(),
+            informative: self.informative,
+            outside_range: self.outside_range.clone(),
+        }
+    }
+}
+
+/// One row of a check in `reflect verify --json` / `report.json`. Non-finite numbers are `null`.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct RowDoc {
+    pub label: String,
+    pub expected: Option<f64>,
+    pub measured: Option<f64>,
+    pub sigma: Option<f64>,
+    /// Stated approximation error of the prediction.
+    pub approx: Option<f64>,
+    /// f32 rounding floor (noise-free renders).
+    pub floor: Option<f64>,
+    /// k·σ + approx + floor.
+    pub tolerance: Option<f64>,
+    /// |measured − expected| ≤ tolerance (for an informative row: reported, not deciding).
+    pub passed: bool,
+    /// Reported but not part of the verdict.
+    pub informative: bool,
+    /// The stated range of validity of an approximation used outside it (then `informative`).
+    pub outside_range: Option<String>,
+}
+
+/// One check in `reflect verify --json` / `report.json` (CONVENTIONS §7: `name`, `equation`,
+/// `passed`, `measured`, `expected`, `tolerance` over the deciding rows, in row order).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct CheckDoc {
+    pub name: String,
+    pub equation: String,
+    /// The claim checked, in one line.
+    pub description: String,
+    pub passed: bool,
+    /// Deciding rows only, in order (also `sigma`, `labels`); null for a non-finite value.
+    pub measured: Vec<Option<f64>>,
+    pub expected: Vec<Option<f64>>,
+    pub tolerance: Vec<Option<f64>>,
+    pub sigma: Vec<Option<f64>>,
+    pub labels: Vec<String>,
+    /// k of the k·σ rule in this check (Šidák-corrected above [`FAMILY_ROWS`] noisy rows).
+    pub k_sigma: f64,
+    /// Every row, deciding and informative.
+    pub rows: Vec<RowDoc>,
+    pub details: Vec<String>,
+    /// SVG plot files in the report folder.
+    pub plots: Vec<String>,
+    /// Pictures of the renders (PNG files in the report folder, z-map summary).
+    pub pictures: Vec<PictureDoc>,
+    /// Why the check could not run.
+    pub error: Option<String>,
+    /// True when the check could not run (its rows, if any, decide nothing): a failure that is not
+    /// a verdict on the claim.
+    pub errored: bool,
+    /// Wall time of the check (renders + analysis), seconds.
+    pub seconds: f64,
 }
 
 #[cfg(test)]

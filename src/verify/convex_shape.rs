@@ -18,6 +18,7 @@ use super::Ctx;
 use super::check::{Check, Plot, Row};
 use super::filter::{self, Measured};
 use super::fit::{Channel, dot, fit_filter_probe, lsq, normalize, order_parts};
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
 use super::transfer;
 use analysis::sh::{ShBasis, num_coefficients};
@@ -153,9 +154,11 @@ pub fn write_icosphere(path: &std::path::Path, subdivisions: u32) -> Result<(), 
     std::fs::write(path, s).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<Measured, String> {
+/// The per-order fit over the six views, and the first view's render (for the report's picture).
+fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<(Measured, Channel), String> {
     let size = if ctx.quick { 64 } else { 128 };
     let mut d = Design::default();
+    let mut first = None;
     for (from, up) in views() {
         let spec = Spec {
             width: size,
@@ -169,10 +172,11 @@ fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<
         };
         let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
         add_view_rows(&ch, from, up, light, use_layer, &mut d);
+        first.get_or_insert(ch);
     }
     let weight = vec![1.0; d.rows.len()];
     let fit = lsq(&d.rows, &d.value, &d.sigma, &weight).ok_or("singular orthographic fit")?;
-    Ok(Measured::from_fit(&fit, LMAX))
+    Ok((Measured::from_fit(&fit, LMAX), first.unwrap_or_default()))
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
@@ -181,14 +185,26 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let film = render_spec(ctx, &spec)?;
     let probe =
         Measured::from_fit(&fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?, LMAX);
-    let ortho = fit_views(ctx, &light, Shape::Sphere, false)?;
+    let (ortho, _) = fit_views(ctx, &light, Shape::Sphere, false)?;
     std::fs::create_dir_all(&ctx.out).map_err(|e| format!("{}: {e}", ctx.out.display()))?;
     let obj = ctx.out.join("icosphere4.obj");
     write_icosphere(&obj, 4)?;
     let obj_abs = std::fs::canonicalize(&obj).map_err(|e| format!("{}: {e}", obj.display()))?;
-    let mesh = fit_views(ctx, &light, Shape::Mesh(obj_abs.display().to_string()), true)?;
+    let (mesh, view) = fit_views(ctx, &light, Shape::Mesh(obj_abs.display().to_string()), true)?;
     let pred: Vec<f64> = transfer::lambert(LMAX).iter().map(|v| v * if ctx.wrong { 1.05 } else { 1.0 }).collect();
     let mut c = evaluate(&probe, &ortho, &mesh, &pred);
+    c.pictures.push(Picture::normals_filter(
+        "convex_shape_icosphere",
+        format!(
+            "Lambertian icosphere (5120 triangles, smooth normals), orthographic view {0}×{0}, {1} spp",
+            view.width,
+            ctx.spp(32, 256)
+        ),
+        "eq. 38/π filter applied to the lighting at each pixel's normal layer (pixels the mesh fully covers)",
+        &view,
+        &light,
+        &pred,
+    ));
     c.note(format!(
         "Lambert under SH lighting l ≤ {LMAX}; six orthographic views {0}×{0}, {1} spp; icosphere: 4 subdivisions (5120 triangles) written to {2}",
         if ctx.quick { 64 } else { 128 },

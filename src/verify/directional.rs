@@ -13,6 +13,7 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, project_probe};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use super::transfer;
 use analysis::sh::index;
@@ -65,6 +66,15 @@ pub fn evaluate_into(c: &mut Check, label: &str, ch: &Channel, e: f64, rho: fn(f
         }
     }
     c.rows.extend(worst);
+    c.pictures.push(Picture::new(
+        format!("directional_{}", label.split([' ', '=']).next().unwrap_or(label)),
+        format!("{label} sphere under a directional source at +z (E = {e}), normal probe {w}×{h}"),
+        "eq. 19–22: B(n) = E ρ̂(angle(n, z)); σ = the render's σ and the f32 floor in quadrature",
+        (w, h),
+        ch.value.clone(),
+        pred.clone(),
+        (0..w * h).map(|i| ch.sigma[i].hypot(F32_FLOOR * (pred[i].abs() + 1e-3 * pmax))).collect(),
+    ));
     // Coefficients: quadrature of the render (σ: the pixel floor propagated) vs E ρ̂_l, with the
     // quadrature error of the same projection of the predicted image stated as approximation.
     let floor_ch = Channel { sigma: pred.iter().map(|p| F32_FLOOR * (p.abs() + 1e-3 * pmax)).collect(), ..ch.clone() };

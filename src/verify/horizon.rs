@@ -19,6 +19,7 @@
 use super::Ctx;
 use super::check::{Check, Plot, Row, Series};
 use super::fit::Channel;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::transfer;
 use rayon::prelude::*;
@@ -47,6 +48,30 @@ impl Table {
 }
 
 /// Per-bin (θ centre, measured mean, σ, predicted mean) of an orthographic render from +x.
+/// The prediction of pixel (r, c) of the orthographic view and its mean θ_o, by a 4 × 4 box
+/// average over the pixel; None for a pixel the sphere does not fully cover.
+pub fn pixel_prediction(ch: &Channel, pred: &dyn Fn(f64) -> f64, r: usize, c: usize) -> Option<(f64, f64)> {
+    let (w, h) = (ch.width, ch.height);
+    if ch.mask[r * w + c] < 0.999 {
+        return None;
+    }
+    let (mut p, mut tc) = (0.0, 0.0);
+    for a in 0..4 {
+        for b in 0..4 {
+            let x = EXTENT * (2.0 * (c as f64 + (b as f64 + 0.5) / 4.0) / w as f64 - 1.0);
+            let y = EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / 4.0) / h as f64);
+            let q = 1.0 - x * x - y * y;
+            if q <= 0.0 {
+                return None;
+            }
+            let t = q.sqrt().min(1.0).acos();
+            p += pred(t) / 16.0;
+            tc += t / 16.0;
+        }
+    }
+    Some((p, tc))
+}
+
 pub fn bins(ch: &Channel, pred: &dyn Fn(f64) -> f64) -> Vec<(f64, f64, f64, f64)> {
     let (w, h) = (ch.width, ch.height);
     let nb = (MAX_DEG / BIN_DEG) as usize;
@@ -54,29 +79,7 @@ pub fn bins(ch: &Channel, pred: &dyn Fn(f64) -> f64) -> Vec<(f64, f64, f64, f64)
     for r in 0..h {
         for c in 0..w {
             let i = r * w + c;
-            if ch.mask[i] < 0.999 {
-                continue;
-            }
-            let mut ok = true;
-            let (mut p, mut tc) = (0.0, 0.0);
-            for a in 0..4 {
-                for b in 0..4 {
-                    let x = EXTENT * (2.0 * (c as f64 + (b as f64 + 0.5) / 4.0) / w as f64 - 1.0);
-                    let y =
-                        EXTENT * (h as f64 / w as f64) * (1.0 - 2.0 * (r as f64 + (a as f64 + 0.5) / 4.0) / h as f64);
-                    let q = 1.0 - x * x - y * y;
-                    if q <= 0.0 {
-                        ok = false;
-                        continue;
-                    }
-                    let t = q.sqrt().min(1.0).acos();
-                    p += pred(t) / 16.0;
-                    tc += t / 16.0;
-                }
-            }
-            if !ok {
-                continue;
-            }
+            let Some((p, tc)) = pixel_prediction(ch, pred, r, c) else { continue };
             let bin = (tc.to_degrees() / BIN_DEG) as usize;
             if bin >= nb {
                 continue;
@@ -92,6 +95,35 @@ pub fn bins(ch: &Channel, pred: &dyn Fn(f64) -> f64) -> Vec<(f64, f64, f64, f64)
         .filter(|(_, a)| a.3 > 0)
         .map(|(b, a)| ((b as f64 + 0.5) * BIN_DEG, a.0 / a.3 as f64, a.1.sqrt() / a.3 as f64, a.2 / a.3 as f64))
         .collect()
+}
+
+/// The view beside the prediction per pixel (no data outside the fully covered disc and beyond
+/// the binned range [`MAX_DEG`]).
+fn picture(label: &str, ch: &Channel, pred: &dyn Fn(f64) -> f64, spp: u32) -> Picture {
+    let (w, h) = (ch.width, ch.height);
+    let mut measured = vec![f64::NAN; w * h];
+    let mut predicted = vec![f64::NAN; w * h];
+    for r in 0..h {
+        for c in 0..w {
+            if let Some((p, tc)) = pixel_prediction(ch, pred, r, c)
+                && tc.to_degrees() < MAX_DEG
+            {
+                measured[r * w + c] = ch.value[r * w + c];
+                predicted[r * w + c] = p;
+            }
+        }
+    }
+    Picture::new(
+        format!("horizon_{}", label.replace(' ', "_")),
+        format!("{label} sphere under uniform L = 1, orthographic {w}×{h} from +x, {spp} spp"),
+        format!(
+            "B(θ_o)/(k_s L) by quadrature with the {label} horizon, box-averaged over each pixel (θ_o < {MAX_DEG}°)"
+        ),
+        (w, h),
+        measured,
+        predicted,
+        ch.sigma.clone(),
+    )
 }
 
 pub fn evaluate_into(c: &mut Check, label: &str, bins: &[(f64, f64, f64, f64)]) {
@@ -151,6 +183,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
         let pred: &dyn Fn(f64) -> f64 = if ctx.wrong { wrong.as_ref() } else { right.as_ref() };
         let b = bins(&ch, pred);
+        c.pictures.push(picture(label, &ch, pred, spec.spp));
         evaluate_into(&mut c, label, &b);
         plot_points.push(Series {
             name: format!("measured, {label}"),

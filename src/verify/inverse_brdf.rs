@@ -31,6 +31,7 @@
 use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, Fit, fit_filter_probe};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::brdf::{BrdfFit, Model, fit_model_gls};
 use analysis::sh::{index, lambda, num_coefficients};
@@ -177,13 +178,28 @@ pub fn evaluate(f: &Fits, s_pred: f64) -> Check {
     c
 }
 
-fn fit_one(ctx: &Ctx, l_light: usize) -> Result<(Fit, Vec<f64>), String> {
+/// The pixel-space filter fit of one render, and its picture (render vs the eq. 43 filter of the
+/// true s on the same lighting).
+fn fit_one(ctx: &Ctx, l_light: usize) -> Result<(Fit, Picture), String> {
     let light = directional(l_light);
     let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}");
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
     let film = render_spec(ctx, &spec)?;
-    let fit = fit_filter_probe(&Channel::from_film(&film, 0), &light, l_light).ok_or("singular fit")?;
-    Ok((fit, light))
+    let ch = Channel::from_film(&film, 0);
+    let fit = fit_filter_probe(&ch, &light, l_light).ok_or("singular fit")?;
+    let picture = Picture::probe_filter(
+        format!("inverse_brdf_l{l_light}"),
+        format!(
+            "Phong sphere s = {S} under a directional source band-limited to l ≤ {l_light}, normal probe {}×{}, {} spp",
+            spec.width, spec.height, spec.spp
+        ),
+        "eq. 43 filter of the true s on the lighting's L_lm (the model whose s the check recovers)",
+        &ch,
+        &light,
+        &analysis::transfer::phong::phong(S, l_light),
+        |_| 0.0,
+    );
+    Ok((fit, picture))
 }
 
 /// GLS fit of s to orders 0 … lmax of a pixel-space filter fit, with their full covariance: the
@@ -203,8 +219,8 @@ fn fit_orders(fit: &Fit, lmax: usize) -> Result<BrdfFit, String> {
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
-    let (d, _) = fit_one(ctx, LMAX)?;
-    let (n9, _) = fit_one(ctx, 2)?;
+    let (d, pd) = fit_one(ctx, LMAX)?;
+    let (n9, p9) = fit_one(ctx, 2)?;
     let fits = Fits {
         dir: fit_orders(&d, LMAX)?,
         dir_l2: fit_orders(&d, 2)?,
@@ -213,6 +229,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         cov: d.cov.clone(),
     };
     let mut c = evaluate(&fits, if ctx.wrong { 1.2 * S } else { S });
+    c.pictures = vec![pd, p9];
     c.note(format!(
         "normal-probe {}×{}, {} spp, channel R; per-order σ of Λ_l ρ̂_l, directional render: {}",
         2 * ctx.probe_height(),

@@ -18,6 +18,7 @@ use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, latlong_dir, order_rms, project_probe};
 use super::grace;
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Status, invert_lighting};
 use analysis::sh::{ShBasis, index, lm, num_coefficients};
@@ -169,6 +170,15 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let (b, se) = project_probe(&ch, LMAX);
     let q = predicted_quadrature(&lg, ch.width, ch.height);
     let mut c = evaluate(&b, &se, &q, if ctx.wrong { 1.05 } else { 1.0 })?;
+    c.pictures.push(Picture::probe_filter(
+        "inverse_lighting",
+        format!("Lambertian sphere under Grace (green), normal probe {}×{}, {} spp", ch.width, ch.height, spec.spp),
+        format!("the forward model the inversion divides: eq. 38/π filter on the Grace L_lm, l ≤ {}", grace::LMAX),
+        &ch,
+        &lg,
+        &analysis::transfer::lambert::lambert(grace::LMAX),
+        |_| 0.0,
+    ));
     // The grid's own quadrature error on the recovered orders, for the record.
     let f = analysis::transfer::lambert::lambert(LMAX);
     let worst = (0..9).map(|k| (q[k] / f[lm(k).0] - lg[k]).abs()).fold(0.0, f64::max);

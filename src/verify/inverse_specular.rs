@@ -26,6 +26,7 @@ use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, lsq, order_rms, project_probe, sh_design};
 use super::grace;
 use super::inverse_lighting::predicted_quadrature_with;
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, InverseLighting, Status, invert_lighting};
 use analysis::sh::{index, lm, num_coefficients};
@@ -242,6 +243,15 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let fl = analysis::transfer::phong::phong(S, grace::LMAX);
     let q = predicted_quadrature_with(&lg, &fl, ch.width, ch.height, LMAX_PHONG);
     let ip = evaluate_phong(&mut c, &bp, &sep, &q, scale)?;
+    c.pictures.push(Picture::probe_filter(
+        "inverse_specular_phong",
+        format!("Phong sphere s = {S} under Grace (green), normal probe {}×{}, {} spp", ch.width, ch.height, spec.spp),
+        format!("the forward model the inversion divides: eq. 43 filter on the Grace L_lm, l ≤ {}", grace::LMAX),
+        &ch,
+        &lg,
+        &fl,
+        |_| 0.0,
+    ));
     let f = analysis::transfer::phong::phong(S, LMAX_PHONG);
     let worst = (0..num_coefficients(8)).map(|k| (q[k] / f[lm(k).0] - lg[k]).abs()).fold(0.0, f64::max);
     c.note(format!(

@@ -17,6 +17,7 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
 use super::fit::{Channel, latlong_dir, latlong_omega, order_parts, project_probe};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use super::{grace, transfer};
 use analysis::sh::{ShBasis, index, num_coefficients};
@@ -65,10 +66,35 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         ..ch.clone()
     };
     let p = nine_term_error(&pred).ok_or("prediction not positive")?;
+    c.pictures.push(Picture::probe_filter(
+        "irradiance9",
+        format!("Lambertian sphere under Grace (green), normal probe {}×{}, {} spp", ch.width, ch.height, spec.spp),
+        "the 9-term approximation B₉: eq. 38/π filter on the Grace L_lm, l ≤ 2 only (its error is the claim's few %)",
+        &ch,
+        &lg,
+        &a[..3],
+        |_| 0.0,
+    ));
     let wrong = if ctx.wrong { 1.05 } else { 1.0 };
     c.push(Row::new("rms relative error of B₉ (noise-debiased)", wrong * p.rms(), m.rms(), m.sigma_rms()));
-    c.push(Row::new("mean |B − B₉|/B", p.mean_abs, m.mean_abs, 0.0).informative());
-    c.push(Row::new("max |B − B₉|/B", p.max_abs, m.max_abs, 0.0).informative());
+    c.push(
+        Row::new(
+            "mean |B − B₉|/B of the render (measured) vs of the predicted image (expected)",
+            p.mean_abs,
+            m.mean_abs,
+            0.0,
+        )
+        .informative(),
+    );
+    c.push(
+        Row::new(
+            "max |B − B₉|/B of the render (measured) vs of the predicted image (expected)",
+            p.max_abs,
+            m.max_abs,
+            0.0,
+        )
+        .informative(),
+    );
 
     // Energy share on the directional (impulse-response) render.
     let spec = Spec::probe(

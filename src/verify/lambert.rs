@@ -9,6 +9,7 @@ use super::Ctx;
 use super::check::{Check, Plot};
 use super::filter::{self, Measured};
 use super::fit::{Channel, fit_filter_probe};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use super::{grace, transfer};
 
@@ -37,14 +38,16 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed);
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
-    let fit = fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?;
+    let sh_ch = Channel::from_film(&film, 0);
+    let fit = fit_filter_probe(&sh_ch, &light, LMAX).ok_or("singular fit")?;
     let sh = Measured::from_fit(&fit, LMAX);
 
     // Grace: fit orders up to grace::LMAX so the (small) l > 8 content is modelled, report l ≤ 8.
     let lg = grace::coefficients(ctx)?;
     let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
     let film = render_spec(ctx, &spec)?;
-    let gfit = fit_filter_probe(&Channel::from_film(&film, grace::CHANNEL), &lg, grace::LMAX).ok_or("singular fit")?;
+    let g_ch = Channel::from_film(&film, grace::CHANNEL);
+    let gfit = fit_filter_probe(&g_ch, &lg, grace::LMAX).ok_or("singular fit")?;
     let gm = Measured::from_fit(&gfit, LMAX);
 
     let pred = prediction(ctx.wrong);
@@ -67,6 +70,25 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
              model; the Grace σ(a_l) may be low by ≈ √χ² (a few %). They are not rescaled."
         ));
     }
+    let what = format!("Lambertian sphere (albedo 1), normal probe {}×{}, {} spp", spec.width, spec.height, spec.spp);
+    c.pictures.push(Picture::probe_filter(
+        "lambert_sh",
+        format!("{what}, SH lighting l ≤ {LMAX}"),
+        "eq. 38/π filter applied to the lighting's L_lm, l ≤ 8",
+        &sh_ch,
+        &light,
+        &prediction(ctx.wrong),
+        |_| 0.0,
+    ));
+    c.pictures.push(Picture::probe_filter(
+        "lambert_grace",
+        format!("{what}, Grace probe (green channel)"),
+        format!("eq. 38/π filter applied to the Grace L_lm, l ≤ {}", grace::LMAX),
+        &g_ch,
+        &lg,
+        &transfer::lambert(grace::LMAX).into_iter().map(|v| if ctx.wrong { 1.05 * v } else { v }).collect::<Vec<_>>(),
+        |_| 0.0,
+    ));
     c.plots.push(Plot {
         legend: super::check::Legend::UpperRight,
         file: "fig3_lambert.svg".into(),

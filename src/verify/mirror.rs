@@ -11,6 +11,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
 use super::filter::{self, Measured};
 use super::fit::{Channel, latlong_dir, lsq, order_parts};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use analysis::sh::{ShBasis, num_coefficients};
 
@@ -28,6 +29,7 @@ pub fn evaluate(ch: &Channel, light: &[f64], gain: f64) -> Check {
     let mut floors = vec![];
     let mut weight = vec![];
     let mut worst: Option<Row> = None;
+    let mut predicted = Vec::with_capacity(w * h);
     for r in 0..h {
         for col in 0..w {
             let i = r * w + col;
@@ -37,7 +39,11 @@ pub fn evaluate(ch: &Channel, light: &[f64], gain: f64) -> Check {
             let l_n: f64 = s.iter().sum();
             let abs_sum: f64 = (0..light.len().min(y.len())).map(|k| (light[k] * y[k]).abs()).sum();
             let floor = F32_FLOOR * abs_sum;
-            let row = Row::new("max over pixels of |B(n) − L(n)|", gain * l_n, ch.value[i], ch.sigma[i]).floor(floor);
+            // The worst pixel's two radiances: expected gain·L(n), measured B(n) (their difference is
+            // the row's |Δ|, compared with its f32 floor).
+            let label = format!("B(n) at the pixel (row {r}, col {col}) with the largest |B − L|/floor, vs L(n)");
+            let row = Row::new(label, gain * l_n, ch.value[i], ch.sigma[i]).floor(floor);
+            predicted.push(gain * l_n);
             if worst.as_ref().is_none_or(|wr| row.ratio() > wr.ratio()) {
                 worst = Some(row);
             }
@@ -49,6 +55,15 @@ pub fn evaluate(ch: &Channel, light: &[f64], gain: f64) -> Check {
     if let Some(wr) = worst {
         c.push(wr);
     }
+    c.pictures.push(Picture::new(
+        "mirror",
+        format!("mirror sphere (k_r = 1), normal probe {w}×{h}"),
+        format!("eq. 30/33: B(n) = {gain}·L(n); σ = f32 floor 1e-5·Σ_k |L_k Y_k(n)| (deterministic render)"),
+        (w, h),
+        ch.value.clone(),
+        predicted,
+        floors.clone(),
+    ));
     if let Some(fit) = lsq(&rows, &ch.value, &floors, &weight) {
         let m = Measured::from_fit(&fit, LMAX);
         filter::rows(&mut c, "B_lm/L_lm", &m, &[gain; LMAX + 1], None, false);

@@ -32,6 +32,7 @@ pub mod microfacet_ambiguity;
 pub mod mirror;
 pub mod oblique;
 pub mod phong;
+pub mod picture;
 pub mod plot;
 pub mod positive_bound;
 pub mod report;

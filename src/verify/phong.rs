@@ -11,6 +11,7 @@ use super::Ctx;
 use super::check::{Check, Plot};
 use super::filter::{self, Measured};
 use super::fit::{Channel, fit_filter_probe};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use super::transfer;
 
@@ -48,6 +49,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed + 1);
     let mut per_s = vec![];
     let mut fits = vec![];
+    let mut pictures = vec![];
     for s in EXPONENTS {
         if ctx.verbose {
             eprintln!("  phong s = {s}");
@@ -55,11 +57,25 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {s:?}, horizon = \"ignore\" }}");
         let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
         let film = render_spec(ctx, &spec)?;
-        let fit = fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?;
+        let ch = Channel::from_film(&film, 0);
+        let fit = fit_filter_probe(&ch, &light, LMAX).ok_or("singular fit")?;
         fits.push(fit.reduced_chi2);
+        pictures.push(Picture::probe_filter(
+            format!("phong_s{s}"),
+            format!(
+                "Phong sphere s = {s}, normal probe {}×{}, {} spp, SH lighting l ≤ {LMAX}",
+                spec.width, spec.height, spec.spp
+            ),
+            "eq. 43 filter applied to the lighting's L_lm",
+            &ch,
+            &light,
+            &prediction(s, ctx.wrong),
+            |_| 0.0,
+        ));
         per_s.push((s, Measured::from_fit(&fit, LMAX)));
     }
     let mut c = evaluate(&per_s, ctx.wrong);
+    c.pictures = pictures;
     c.note(format!(
         "normal-probe {}×{}, {} spp, SH lighting l ≤ {LMAX}, horizon = ignore",
         2 * ctx.probe_height(),

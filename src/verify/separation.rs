@@ -35,9 +35,11 @@
 
 use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
-use super::fit::{Channel, order_rms};
+use super::fit::{Channel, latlong_dir, order_rms};
 use super::grace;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, grace_path, render_spec};
+use super::transfer;
 use analysis::inverse::separation::{
     LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
 };
@@ -328,6 +330,27 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let lookup = grace_lookup(&img);
     let inp = separate(&dif, &spec, &lg, &lookup, lmax, kd, ks, KD / (KD + KS))?;
     let mut c = evaluate(&inp, &lg);
+    // The θ_o = 0 render beside the forward model the separation inverts: at normal exitance R = n,
+    // so B(n) = k_d Σ_l (Λ_l ρ̂_l)_Lambert Σ_m L_lm Y_lm(n) + k_s L(n) (the map's nearest pixel).
+    {
+        let ch = Channel::from_film(&films[0].0, grace::CHANNEL);
+        let diffuse = Picture::probe_filter("", "", "", &ch, &lg, &transfer::lambert(grace::LMAX), |_| 0.0);
+        let (w, h) = (ch.width, ch.height);
+        let predicted =
+            (0..w * h).map(|i| kd * diffuse.predicted[i] + ks * lookup(latlong_dir(i / w, i % w, w, h))).collect();
+        c.pictures.push(Picture::new(
+            "separation",
+            format!("{KD} Lambert + {KS} mirror sphere under Grace (green), θ_o = 0, normal probe {w}×{h}, {spp} spp"),
+            format!(
+                "k_d·(eq. 38/π filter on the Grace L_lm, l ≤ {}) + k_s·L(n) from the map (the forward model the separation inverts)",
+                grace::LMAX
+            ),
+            (w, h),
+            ch.value.clone(),
+            predicted,
+            ch.sigma.clone(),
+        ));
+    }
     let s = &films[0].1;
     c.note(format!(
         "three normal-probe renders {}×{}, {spp} spp, green: θ_o = 0 (diffuse side), θ_o = {THETA_O_DEG}° at φ_o = 0° and 180° (specular side); mix {KD} lambert + {KS} mirror; recovered to l = {lmax}",

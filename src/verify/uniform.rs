@@ -12,6 +12,7 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
 use super::fit::{Channel, lsq, sh_design};
+use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::sh::{lm, num_coefficients};
 
@@ -58,7 +59,21 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     ] {
         let spec = Spec::probe(ctx, ctx.spp(16, 64), Lighting::Uniform(RADIANCE), &brdf);
         let film = render_spec(ctx, &spec)?;
-        let m = evaluate_into(&mut c, label, &Channel::from_film(&film, 0), expected).ok_or("singular fit")?;
+        let ch = Channel::from_film(&film, 0);
+        let m = evaluate_into(&mut c, label, &ch, expected).ok_or("singular fit")?;
+        let n = ch.width * ch.height;
+        c.pictures.push(Picture::new(
+            format!("uniform_{}", label.split(' ').next().unwrap_or(label)),
+            format!(
+                "{label} sphere under uniform radiance {RADIANCE}, normal probe {}×{}, {} spp",
+                ch.width, ch.height, spec.spp
+            ),
+            format!("B = L ∫ρ̂ = {expected} everywhere; σ = the render's σ and the f32 floor in quadrature"),
+            (ch.width, ch.height),
+            ch.value.clone(),
+            vec![expected; n],
+            ch.sigma.iter().map(|s| s.hypot(F32_FLOOR * expected)).collect(),
+        ));
         means.push((label, m));
     }
     let (_, (ml, sl)) = means[0];

@@ -1,0 +1,90 @@
+"""Type stub of the native module ``reflect._reflect`` (Rust, PyO3).
+
+The public API is the package ``reflect`` (``reflect/__init__.py``, ``reflect/sh.py``, …), which
+shapes arguments and calls these functions. Conventions: CONVENTIONS.md of the project (frame
+§1, environment maps §2, SH §3, BRDFs §4, images §5, scene files §6, JSON §7). Every function
+raises ``ValueError`` with the CLI's one-line message on bad input, ``FileNotFoundError`` when a
+named input file does not exist.
+"""
+
+from typing import Any, Dict, List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class RenderResult:
+    """A finished render (CONVENTIONS §5), row 0 at the top of the image."""
+
+    @property
+    def rgb(self) -> npt.NDArray[np.float32]:
+        """Linear RGB radiance, the mean of each pixel's samples: (H, W, 3) float32."""
+    @property
+    def stderr(self) -> npt.NDArray[np.float32]:
+        """Standard error of each pixel mean, √(s²/n): (H, W, 3) float32 (conservative for Sobol)."""
+    @property
+    def normal(self) -> npt.NDArray[np.float32]:
+        """World-space normal of the first hit, averaged and renormalized; 0 on a miss: (H, W, 3) float32."""
+    @property
+    def mask(self) -> npt.NDArray[np.float32]:
+        """Fraction of each pixel's samples that hit an object, in [0, 1]: (H, W) float32."""
+    @property
+    def stats(self) -> Dict[str, Any]:
+        """``wall_seconds``, ``samples``, ``rays``, ``threads``, ``samples_per_sec``, ``rays_per_sec``,
+        and the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``."""
+    def save(self, path: str) -> None:
+        """Writes the OpenEXR file ``reflect render`` writes (32-bit float R, G, B, normal.X/Y/Z,
+        mask.Y, stderr.R/G/B, the scene in the header), atomically. ``path`` must end in ``.exr``."""
+
+def render(
+    kind: str,
+    value: Any,
+    base: Optional[str] = None,
+    spp: Optional[int] = None,
+    seed: Optional[int] = None,
+    size: Optional[Tuple[int, int]] = None,
+    threads: Optional[int] = None,
+    sampler: Optional[str] = None,
+    progress: bool = False,
+) -> RenderResult:
+    """Renders a scene: ``kind`` "path" (``value`` a file), "toml" (TOML text) or "dict" (the scene
+    tables); relative data paths from ``base`` (default: the file's folder, else the current
+    directory). The GIL is released; SIGINT cancels the render and raises KeyboardInterrupt."""
+
+def load_scene(kind: str, value: Any, base: Optional[str] = None) -> Tuple[Dict[str, Any], str, Optional[str]]:
+    """Checks a scene with the scene-file types and returns (tables as given, base folder, file)."""
+
+def read_image(path: str) -> Tuple[Dict[str, npt.NDArray[np.float32]], Dict[str, str]]:
+    """Every channel of an ``.exr``/``.hdr`` file as (H, W) float32, and the header's string attributes."""
+
+def sh_project_file(path: str, mapping: Optional[str], lmax: int) -> npt.NDArray[np.float64]:
+    """L_lm = ∫ L(ω) Y_lm(ω) dω of an environment map file, exact per pixel: ((lmax+1)², 3) float64."""
+
+def sh_project_array(env: npt.NDArray[np.float32], mapping: Optional[str], lmax: int) -> npt.NDArray[np.float64]:
+    """L_lm of an (H, W, 3) float32 C-contiguous array of linear radiance: ((lmax+1)², 3) float64."""
+
+def sh_evaluate(coeffs: npt.NDArray[np.float64], directions: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Σ_k c_k Y_k(ω) for coefficients ((L+1)², 3) at directions (N, 3) (normalized here): (N, 3) float64."""
+
+def sh_transfer(
+    brdf: str, lmax: int, s: Optional[float] = None, sigma: Optional[float] = None, theta_o_deg: Optional[float] = None
+) -> Tuple[npt.NDArray[np.float64], Optional[Tuple[str, npt.NDArray[np.float64]]]]:
+    """(Λ_l ρ̂_l for l = 0 … lmax as (lmax+1,) float64, and the paper's approximation
+    (equation name, values) where it has one: eq. 46 Phong, eq. 57/59 Torrance–Sparrow)."""
+
+def sh_rotate(coeffs: npt.NDArray[np.float64], rotation: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Coefficients of f(Rᵀω) for coefficients ((L+1)², 3) and a 3 × 3 rotation R: ((L+1)², 3) float64."""
+
+def verify_checks() -> List[Tuple[str, str]]:
+    """The checks of ``reflect verify --list``: (name, equations)."""
+
+def verify(
+    quick: bool = True,
+    checks: Optional[List[str]] = None,
+    seed: Optional[int] = None,
+    data: Optional[str] = None,
+    out: Optional[str] = None,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Runs the checks of ``reflect verify`` and returns the document of ``verify --json``."""

@@ -1,0 +1,36 @@
+//! The native half of the Python package `reflect` (module `reflect._reflect`).
+//!
+//! Thin bindings over the workspace's libraries: [`renderer`] for rendering, [`analysis`] for the
+//! SH tools, and the root crate's commands (`reflect::cli`, `reflect::verify`) for the reports, so
+//! Python gets the same numbers, the same files and the same one-line errors as the CLI. The
+//! public API, with argument handling and documentation, is the Python package beside this crate
+//! (`python/reflect/`); its stub `reflect/_reflect.pyi` documents this module.
+//!
+//! Errors: every [`analysis::Error`] becomes `ValueError` with the CLI's one-line message, or
+//! `FileNotFoundError` when the file it names does not exist. A panic in a render thread becomes
+//! `RuntimeError`; nothing unwinds into Python.
+
+mod convert;
+mod render;
+mod sh;
+mod verify;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+#[pyo3(name = "_reflect")]
+fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<render::RenderResult>()?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(sh::sh_project_file, m)?)?;
+    m.add_function(wrap_pyfunction!(sh::sh_project_array, m)?)?;
+    m.add_function(wrap_pyfunction!(sh::sh_evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(sh::sh_transfer, m)?)?;
+    m.add_function(wrap_pyfunction!(sh::sh_rotate, m)?)?;
+    m.add_function(wrap_pyfunction!(sh::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(verify::verify, m)?)?;
+    m.add_function(wrap_pyfunction!(verify::verify_checks, m)?)?;
+    Ok(())
+}

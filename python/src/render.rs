@@ -1,0 +1,265 @@
+//! `reflect.render` and `reflect.load_scene`: scenes from a path, TOML text or a dict, rendered
+//! exactly as `reflect render` renders them (same parsing, same overrides, same render loop, same
+//! EXR), with the GIL released and Ctrl-C honoured while the render runs.
+
+use crate::convert::{IntoPy, to_python};
+use analysis::Error;
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use renderer::film::{Film, Pixel};
+use renderer::render::{RenderOptions, RenderStats};
+use renderer::scene::{Scene, SceneFile};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::Duration;
+
+/// A scene description with where its relative paths are resolved from.
+struct Source {
+    file: SceneFile,
+    /// Folder that relative data paths (envmaps, meshes) are resolved against.
+    base: PathBuf,
+    /// The scene file, when there is one (named in errors, as the CLI does).
+    path: Option<PathBuf>,
+}
+
+fn read_text(path: &Path) -> Result<String, Error> {
+    std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))
+}
+
+/// Parses the scene given as `kind` = "path" | "toml" | "dict" (the Python side has decided which).
+fn source(kind: &str, value: &Bound<'_, PyAny>, base: Option<PathBuf>) -> PyResult<Source> {
+    let cwd = || std::env::current_dir().unwrap_or_default();
+    match kind {
+        "path" => {
+            let path: PathBuf = value.extract()?;
+            let text = read_text(&path).py()?;
+            let file = SceneFile::parse(&text).map_err(|m| Error::file(&path, m)).py()?;
+            let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            Ok(Source { file, base, path: Some(path) })
+        }
+        "toml" => {
+            let text: String = value.extract()?;
+            let file = SceneFile::parse(&text).map_err(|m| Error::new(format!("scene TOML: {m}"))).py()?;
+            Ok(Source { file, base: base.unwrap_or_else(cwd), path: None })
+        }
+        "dict" => {
+            // The same serde types as the TOML file: unknown keys are errors here too.
+            let file: SceneFile = pythonize::depythonize(value)
+                .map_err(|e| PyValueError::new_err(format!("scene dict: {}", e.to_string().replace('\n', " "))))?;
+            Ok(Source { file, base: base.unwrap_or_else(cwd), path: None })
+        }
+        other => Err(PyValueError::new_err(format!("unknown scene kind '{other}'"))),
+    }
+}
+
+/// `load_scene(kind, value, base)` → `(table, base, path)`: the scene as a dict of its TOML
+/// tables (only what the source gives; defaults are filled in at render time), after checking
+/// that it parses with the scene types.
+#[pyfunction]
+#[pyo3(signature = (kind, value, base=None))]
+pub fn load_scene<'py>(
+    py: Python<'py>,
+    kind: &str,
+    value: &Bound<'py, PyAny>,
+    base: Option<PathBuf>,
+) -> PyResult<(Bound<'py, PyAny>, PathBuf, Option<PathBuf>)> {
+    let src = source(kind, value, base)?;
+    let table = match kind {
+        "dict" => value.clone(),
+        _ => {
+            // The user's own values (not the f32-rounded parsed ones) as a TOML table.
+            let text = match &src.path {
+                Some(p) => read_text(p).py()?,
+                None => value.extract::<String>()?,
+            };
+            let t: toml::Table =
+                toml::from_str(&text).map_err(|e| PyValueError::new_err(format!("scene TOML: {}", e.message())))?;
+            to_python(py, &t)?
+        }
+    };
+    Ok((table, src.base, src.path))
+}
+
+/// The CLI's overrides (`--spp`, `--seed`, `--sampler`, `--size`), applied the same way.
+fn apply_overrides(
+    file: &mut SceneFile,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    size: Option<(u32, u32)>,
+    sampler: Option<String>,
+) {
+    if let Some(s) = spp {
+        file.render.spp = s;
+    }
+    if let Some(s) = seed {
+        file.render.seed = s;
+    }
+    if let Some(s) = sampler {
+        file.render.sampler = s;
+    }
+    if let Some((w, h)) = size {
+        file.render.width = w;
+        file.render.height = h;
+    }
+}
+
+/// Renders on another thread while this one, without the GIL, waits for it; every 50 ms it takes
+/// the GIL back to run Python's signal handlers, so Ctrl-C (KeyboardInterrupt) sets the cancel
+/// flag and the render stops at its next tile.
+fn render_interruptibly(
+    py: Python<'_>,
+    scene: &Scene,
+    threads: Option<usize>,
+    progress: bool,
+) -> PyResult<(Film, RenderStats)> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let opts = RenderOptions { progress, cancel: Some(cancel.clone()) };
+    let (tx, rx) = mpsc::channel::<()>();
+    // (A Receiver is not Sync; the wait below runs without the GIL, which asks for a Sync borrow.)
+    let rx = std::sync::Mutex::new(rx);
+    std::thread::scope(|s| {
+        let worker = s.spawn(move || {
+            let r = reflect::cli::render::with_threads(threads, || renderer::render::render(scene, &opts));
+            let _ = tx.send(());
+            r
+        });
+        let mut interrupted: Option<PyErr> = None;
+        loop {
+            let waited = py.detach(|| match rx.lock() {
+                Ok(r) => r.recv_timeout(Duration::from_millis(50)),
+                Err(_) => Err(mpsc::RecvTimeoutError::Disconnected),
+            });
+            match waited {
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    if interrupted.is_none()
+                        && let Err(e) = py.check_signals()
+                    {
+                        cancel.store(true, Ordering::Relaxed);
+                        interrupted = Some(e);
+                    }
+                }
+                _ => break,
+            }
+        }
+        let result = py.detach(|| worker.join());
+        if let Some(e) = interrupted {
+            return Err(e);
+        }
+        match result {
+            Ok(r) => r.py(),
+            Err(_) => Err(PyRuntimeError::new_err("the render thread panicked (a bug in reflect)")),
+        }
+    })
+}
+
+/// `render(kind, value, base, spp, seed, size, threads, sampler, progress)`: see `reflect.render`.
+#[pyfunction]
+#[pyo3(signature = (kind, value, base=None, spp=None, seed=None, size=None, threads=None, sampler=None, progress=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    py: Python<'_>,
+    kind: &str,
+    value: &Bound<'_, PyAny>,
+    base: Option<PathBuf>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    size: Option<(u32, u32)>,
+    threads: Option<usize>,
+    sampler: Option<String>,
+    progress: bool,
+) -> PyResult<RenderResult> {
+    let Source { mut file, base, path } = source(kind, value, base)?;
+    apply_overrides(&mut file, spp, seed, size, sampler);
+    let mut scene = py
+        .detach(|| {
+            Scene::build(file, &base).map_err(|e| match &path {
+                Some(p) => e.in_file(p),
+                None => e,
+            })
+        })
+        .py()?;
+    scene.path = path;
+    let (film, stats) = render_interruptibly(py, &scene, threads, progress)?;
+    RenderResult::new(py, &scene, film, &stats)
+}
+
+/// A finished render: the AOVs of CONVENTIONS §5 as NumPy arrays, and the film to save.
+#[pyclass(module = "reflect._reflect", frozen)]
+pub struct RenderResult {
+    /// Linear RGB radiance, float32 (H, W, 3), row 0 at the top.
+    #[pyo3(get)]
+    rgb: Py<PyArray3<f32>>,
+    /// Standard error of each pixel mean, float32 (H, W, 3).
+    #[pyo3(get)]
+    stderr: Py<PyArray3<f32>>,
+    /// World-space normal of the first hit (0 on a miss), float32 (H, W, 3).
+    #[pyo3(get)]
+    normal: Py<PyArray3<f32>>,
+    /// Fraction of each pixel's samples that hit an object, float32 (H, W).
+    #[pyo3(get)]
+    mask: Py<PyArray2<f32>>,
+    /// Throughput and settings of the render.
+    #[pyo3(get)]
+    stats: Py<PyDict>,
+    film: Film,
+    attributes: Vec<(String, String)>,
+}
+
+fn layer<'py, const N: usize>(
+    py: Python<'py>,
+    film: &Film,
+    f: impl Fn(&Pixel) -> [f32; N],
+) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    let v: Vec<f32> = film.pixels.iter().flat_map(f).collect();
+    Ok(PyArray1::from_vec(py, v))
+}
+
+impl RenderResult {
+    fn new(py: Python<'_>, scene: &Scene, film: Film, stats: &RenderStats) -> PyResult<Self> {
+        let (h, w) = (film.height as usize, film.width as usize);
+        let rgb3 = |f: fn(&Pixel) -> [f32; 3]| -> PyResult<Py<PyArray3<f32>>> {
+            Ok(layer(py, &film, f)?.reshape([h, w, 3])?.unbind())
+        };
+        let rgb = rgb3(|p| p.rgb)?;
+        let stderr = rgb3(|p| p.stderr)?;
+        let normal = rgb3(|p| p.normal)?;
+        let mask = layer(py, &film, |p| [p.mask])?.reshape([h, w])?.unbind();
+        let s = &scene.settings;
+        let d = PyDict::new(py);
+        d.set_item("wall_seconds", stats.wall.as_secs_f64())?;
+        d.set_item("samples", stats.samples)?;
+        d.set_item("rays", stats.rays)?;
+        d.set_item("threads", stats.threads)?;
+        d.set_item("samples_per_sec", stats.samples_per_sec())?;
+        d.set_item("rays_per_sec", stats.rays_per_sec())?;
+        d.set_item("width", s.width)?;
+        d.set_item("height", s.height)?;
+        d.set_item("spp", s.spp)?;
+        d.set_item("seed", s.seed)?;
+        d.set_item("max_depth", s.max_depth)?;
+        d.set_item("sampler", &scene.description.render.sampler)?;
+        let attributes = renderer::output::header_attributes(scene);
+        Ok(RenderResult { rgb, stderr, normal, mask, stats: d.unbind(), film, attributes })
+    }
+}
+
+#[pymethods]
+impl RenderResult {
+    /// Writes the render as the CLI does: 32-bit float OpenEXR with the layers of CONVENTIONS §5
+    /// and the scene in the header, atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        if path.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
+            return Err(PyValueError::new_err(Error::file(&path, "output file must end in .exr").to_string()));
+        }
+        py.detach(|| renderer::output::write_exr(&path, &self.film, &self.attributes))
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<reflect.RenderResult {}×{}>", self.film.width, self.film.height)
+    }
+}

@@ -1,0 +1,232 @@
+//! Pins the JSON schema (every key path and the JSON type at it) of each command's `--json`
+//! document: `render`, `sh project`, `sh transfer` and `verify`. These documents are the typed
+//! report structs (`RenderReport`, `ProjectReport`, `TransferReport`, `verify::report::Report`)
+//! serialized; a renamed, removed, added or retyped field fails here and must be a deliberate
+//! change of this list (and of the README / the Python package that read them).
+
+mod common;
+
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::process::Command;
+
+fn run(args: &[&str]) -> Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "reflect {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("reflect {args:?}: bad JSON ({e}): {stdout}"))
+}
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "bool",
+        Value::Number(_) => "number",
+        Value::String(_) => "string",
+        Value::Array(_) => "array",
+        Value::Object(_) => "object",
+    }
+}
+
+/// "path: type" for every node; array elements are merged under `path[]`.
+fn schema(v: &Value, path: &str, out: &mut BTreeSet<String>) {
+    out.insert(format!("{path}: {}", kind(v)));
+    match v {
+        Value::Object(m) => m.iter().for_each(|(k, x)| schema(x, &format!("{path}.{k}"), out)),
+        Value::Array(a) => a.iter().for_each(|x| schema(x, &format!("{path}[]"), out)),
+        _ => {}
+    }
+}
+
+fn assert_schema(doc: &Value, expected: &[&str]) {
+    let mut got = BTreeSet::new();
+    schema(doc, "", &mut got);
+    let want: BTreeSet<String> = expected.iter().map(|s| s.to_string()).collect();
+    let missing: Vec<_> = want.difference(&got).collect();
+    let extra: Vec<_> = got.difference(&want).collect();
+    assert!(missing.is_empty() && extra.is_empty(), "schema changed: missing {missing:#?}, new {extra:#?}");
+}
+
+#[test]
+fn sh_transfer_schema() {
+    let doc = run(&["sh", "transfer", "--brdf", "torrance-sparrow", "--sigma", "0.1", "--lmax", "3", "--json"]);
+    assert_schema(
+        &doc,
+        &[
+            ": object",
+            ".brdf: string",
+            ".lmax: number",
+            ".s: null",
+            ".sigma: number",
+            ".theta_o_deg: null",
+            ".method: string",
+            ".lambda_rho: array",
+            ".lambda_rho[]: number",
+            ".approximation: object",
+            ".approximation.equation: string",
+            ".approximation.lambda_rho: array",
+            ".approximation.lambda_rho[]: number",
+        ],
+    );
+    assert_eq!(doc["lambda_rho"].as_array().unwrap().len(), 4);
+    // Without an approximation (mirror), the key is null rather than absent.
+    let doc = run(&["sh", "transfer", "--brdf", "mirror", "--lmax", "2", "--json"]);
+    assert!(doc["approximation"].is_null() && doc["s"].is_null(), "{doc}");
+}
+
+#[test]
+fn sh_project_schema() {
+    let g = common::grace();
+    let doc = run(&["sh", "project", g.to_str().unwrap(), "--lmax", "1", "--json"]);
+    assert_schema(
+        &doc,
+        &[
+            ": object",
+            ".file: string",
+            ".mapping: string",
+            ".width: number",
+            ".height: number",
+            ".lmax: number",
+            ".integration: string",
+            ".coefficients: array",
+            ".coefficients[]: array",
+            ".coefficients[][]: number",
+        ],
+    );
+    assert_eq!(doc["coefficients"].as_array().unwrap().len(), 4);
+    assert_eq!(doc["mapping"], "angular");
+}
+
+#[test]
+fn render_schema() {
+    let dir = common::temp_dir("json-schema-render");
+    let scene = dir.join("s.toml");
+    std::fs::write(
+        &scene,
+        "[render]\nwidth = 8\nheight = 8\nspp = 2\n[camera]\ntype = \"orthographic\"\nfrom = [0.0, 0.0, 5.0]\n\
+         to = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\nextent = 2.5\n[lighting]\ntype = \"uniform\"\nradiance = 1.0\n\
+         [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = { type = \"lambert\", albedo = 0.5 }\n",
+    )
+    .unwrap();
+    let out = dir.join("s.exr");
+    let doc = run(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--json", "--quiet"]);
+    assert_schema(
+        &doc,
+        &[
+            ": object",
+            ".scene: string",
+            ".output: string",
+            ".png: null",
+            ".width: number",
+            ".height: number",
+            ".spp: number",
+            ".seed: number",
+            ".threads: number",
+            ".samples: number",
+            ".samples_per_sec: number",
+            ".rays: number",
+            ".rays_per_sec: number",
+            ".load_seconds: number",
+            ".render_seconds: number",
+            ".save_seconds: number",
+            ".total_seconds: number",
+            ".noise: object",
+            ".noise.pixels: number",
+            ".noise.black: number",
+            ".noise.median: number",
+            ".noise.p95: number",
+            ".unreliable_pixels: number",
+        ],
+    );
+    assert_eq!(doc["samples"], 8 * 8 * 2);
+    // With a PNG preview, `png` is an object.
+    let png = dir.join("s.png");
+    let doc = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    assert!(doc["png"]["exposure_ev"].is_number() && doc["png"]["automatic"] == true, "{doc}");
+}
+
+#[test]
+fn verify_schema() {
+    let dir = common::temp_dir("json-schema-verify");
+    let doc = run(&["verify", "--quick", "--check", "mirror", "--json", "--out", dir.to_str().unwrap()]);
+    assert_schema(
+        &doc,
+        &[
+            ": object",
+            ".passed: bool",
+            ".quick: bool",
+            ".k_sigma: number",
+            ".seconds: number",
+            ".checks: array",
+            ".checks[]: object",
+            ".checks[].name: string",
+            ".checks[].equation: string",
+            ".checks[].description: string",
+            ".checks[].passed: bool",
+            ".checks[].measured: array",
+            ".checks[].measured[]: number",
+            ".checks[].expected: array",
+            ".checks[].expected[]: number",
+            ".checks[].tolerance: array",
+            ".checks[].tolerance[]: number",
+            ".checks[].sigma: array",
+            ".checks[].sigma[]: number",
+            ".checks[].labels: array",
+            ".checks[].labels[]: string",
+            ".checks[].k_sigma: number",
+            ".checks[].rows: array",
+            ".checks[].rows[]: object",
+            ".checks[].rows[].label: string",
+            ".checks[].rows[].expected: number",
+            ".checks[].rows[].measured: number",
+            ".checks[].rows[].sigma: number",
+            ".checks[].rows[].approx: number",
+            ".checks[].rows[].floor: number",
+            ".checks[].rows[].tolerance: number",
+            ".checks[].rows[].passed: bool",
+            ".checks[].rows[].informative: bool",
+            ".checks[].rows[].outside_range: null",
+            ".checks[].details: array",
+            ".checks[].details[]: string",
+            ".checks[].plots: array",
+            ".checks[].plots[]: string",
+            ".checks[].pictures: array",
+            ".checks[].pictures[]: object",
+            ".checks[].pictures[].title: string",
+            ".checks[].pictures[].model: string",
+            ".checks[].pictures[].width: number",
+            ".checks[].pictures[].height: number",
+            ".checks[].pictures[].measured_png: string",
+            ".checks[].pictures[].predicted_png: string",
+            ".checks[].pictures[].z_png: string",
+            ".checks[].pictures[].black: number",
+            ".checks[].pictures[].white: number",
+            ".checks[].pictures[].z: object",
+            ".checks[].pictures[].z.pixels: number",
+            ".checks[].pictures[].z.mean: number",
+            ".checks[].pictures[].z.rms: number",
+            ".checks[].pictures[].z.max_abs: number",
+            ".checks[].pictures[].z.frac_above_3: number",
+            ".checks[].error: null",
+            ".checks[].errored: bool",
+            ".checks[].seconds: number",
+        ],
+    );
+    // The pictures the JSON lists are in the report folder, and the report links them.
+    let pic = &doc["checks"][0]["pictures"][0];
+    for key in ["measured_png", "predicted_png", "z_png"] {
+        let f = dir.join(pic[key].as_str().unwrap());
+        assert!(std::fs::metadata(&f).map(|m| m.len() > 100).unwrap_or(false), "{} missing", f.display());
+    }
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains(pic["z_png"].as_str().unwrap()) && html.contains("class=\"summary\""));
+}
