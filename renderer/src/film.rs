@@ -99,7 +99,7 @@ pub fn canonical_blocks(a: u64, b: u64) -> Vec<Block> {
 }
 
 /// The statistics of one block of one pixel. Plain data: combined only by [`Stats::join`] (siblings)
-/// and [`Fold`] (the final left-to-right fold), both fixed functions of their inputs.
+/// and the final left-to-right fold of [`Partial::finish`], both fixed functions of their inputs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Stats(pub [f64; NSTAT]);
 

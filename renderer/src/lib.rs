@@ -23,6 +23,7 @@ pub mod output;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod shard;
 
 /// The one user-facing error type of the project (shared with `analysis`): it names the file and
 /// the problem on one line.

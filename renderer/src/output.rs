@@ -83,7 +83,7 @@ impl Drop for Staged {
 }
 
 /// Writes `write(tmp)` to a temporary file next to `path`; removes it on failure.
-fn stage(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<Staged> {
+pub fn stage(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<Staged> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::file(path, format!("cannot create output directory: {e}")))?;
     }

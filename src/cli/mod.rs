@@ -5,10 +5,13 @@ pub mod factor;
 pub mod flags;
 pub mod header;
 pub mod invert;
+pub mod merge;
+pub mod passes;
 pub mod png;
 pub mod render;
 pub mod separate;
 pub mod sh;
+pub mod slurm;
 pub mod verify;
 
 use clap::{Parser, Subcommand};
@@ -37,6 +40,11 @@ pub enum Command {
     Invert(invert::InvertCommand),
     /// Render, analyse and check the paper's claims; report with error bars.
     Verify(verify::VerifyArgs),
+    /// Merge partial renders (shards) into the image a single render writes, bit for bit.
+    Merge(merge::MergeArgs),
+    /// Run renders on a Slurm cluster (a job array of shards and a merge job).
+    #[command(subcommand)]
+    Slurm(slurm::SlurmCommand),
     /// Tone-mapped sRGB PNG preview of an image (not an analysis input).
     Png(png::PngArgs),
 }
@@ -49,6 +57,8 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Invert(c) => invert::run(c),
         Command::Verify(a) => verify::run(a),
         Command::Png(a) => png::run(a),
+        Command::Merge(a) => merge::run(a),
+        Command::Slurm(c) => slurm::run(c),
     }
 }
 

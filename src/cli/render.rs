@@ -45,6 +45,24 @@ pub struct RenderArgs {
     /// Print the render's statistics as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Render only shard I of N (e.g. 0/4): the samples [I·spp/N, (I+1)·spp/N) of every pixel, written
+    /// as a partial render for `reflect merge`.
+    #[arg(long, value_parser = super::passes::parse_shard)]
+    pub shard: Option<(u32, u32)>,
+    /// Resume from FILE if it exists (refusing one of another scene), save progress to it atomically
+    /// every --checkpoint-every seconds and on SIGINT/SIGTERM, and remove it after the final output.
+    #[arg(long)]
+    pub checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoint saves [default: 60].
+    #[arg(long, requires = "checkpoint")]
+    pub checkpoint_every: Option<f64>,
+    /// Render in passes until the 95th percentile of the object pixels' relative standard error (worst
+    /// channel) is at most X (e.g. 0.01); spp is then the most samples per pixel to take.
+    #[arg(long)]
+    pub target_rel_error: Option<f64>,
+    /// Stop after the last pass that fits in SECS seconds of rendering (spp is then the most to take).
+    #[arg(long)]
+    pub time_limit: Option<f64>,
 }
 
 /// `--threads N`: at least 1, refused while parsing the arguments (before any work or output).
@@ -113,7 +131,7 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
 
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let t_start = std::time::Instant::now();
-    let scene = load_scene(&a)?;
+    let mut scene = load_scene(&a)?;
     let t_load = t_start.elapsed();
     let stem = a
         .scene
@@ -128,7 +146,21 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
-    let s = &scene.settings;
+    if a.shard.is_some() && (a.target_rel_error.is_some() || a.time_limit.is_some() || a.png.is_some()) {
+        return Err(Error::new(
+            "--shard renders a partial render: it takes no --target-rel-error, --time-limit or --png",
+        ));
+    }
+    for (name, v) in [
+        ("--target-rel-error", a.target_rel_error),
+        ("--time-limit", a.time_limit),
+        ("--checkpoint-every", a.checkpoint_every),
+    ] {
+        if let Some(v) = v.filter(|v| !v.is_finite() || *v < 0.0 || (*v == 0.0 && name != "--checkpoint-every")) {
+            return Err(Error::new(format!("{name} must be a positive number, got {v}")));
+        }
+    }
+    let s = scene.settings.clone();
     if !a.quiet {
         eprintln!(
             "rendering {} ({}×{}, {} spp, max_depth {}, seed {})",
@@ -140,8 +172,55 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
-    let (film, stats) = with_threads(a.threads, || render(&scene, &opts))?;
+    let range = a.shard.map_or((0, s.spp as u64), |(i, n)| super::passes::shard_range(i, n, s.spp));
+    let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
+    let plain = a.shard.is_none() && a.checkpoint.is_none() && !progressive;
+    let (film, stats) = if plain {
+        let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
+        with_threads(a.threads, || render(&scene, &opts))?
+    } else {
+        let attrs = renderer::output::header_attributes(&scene);
+        match super::passes::run_passes(&scene, &a, range, &attrs)? {
+            super::passes::Outcome::Interrupted { spp_done } => {
+                let ck = a.checkpoint.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+                eprintln!(
+                    "interrupted: {ck} holds samples [{}, {spp_done}) of [{}, {}); run the same command to resume",
+                    range.0, range.0, range.1
+                );
+                return Ok(ExitCode::from(130));
+            }
+            super::passes::Outcome::Done { mut state, stats, passes, note } => {
+                if a.shard.is_some() {
+                    let header = renderer::shard::partial_header(&scene, &state);
+                    renderer::shard::write_partial(&out, &state, &header, &attrs)?;
+                    if let Some(ck) = &a.checkpoint {
+                        let _ = std::fs::remove_file(ck);
+                    }
+                    if !a.quiet {
+                        eprintln!(
+                            "wrote {} (partial render: samples [{}, {}) of {}): {stats}",
+                            out.display(),
+                            range.0,
+                            range.1,
+                            s.spp
+                        );
+                    }
+                    return Ok(ExitCode::SUCCESS);
+                }
+                if progressive {
+                    // The image is a plain render of the samples taken: spp = what was reached.
+                    let n = state.end as u32;
+                    state.spp = n;
+                    scene.settings.spp = n;
+                    scene.description.render.spp = n;
+                    if !a.quiet {
+                        eprintln!("progressive: {n} spp in {passes} passes; {}", note.unwrap_or_default());
+                    }
+                }
+                (state.finish(), stats)
+            }
+        }
+    };
     let t_save = std::time::Instant::now();
     // Both outputs are staged before either is moved into place: a PNG that cannot be written
     // leaves no EXR behind (and no temporary file).
@@ -153,6 +232,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     });
     let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
     exr.commit()?;
+    if let Some(ck) = &a.checkpoint {
+        // The final image is in place: the checkpoint has served.
+        let _ = std::fs::remove_file(ck);
+    }
     if let Some(png) = png
         && let Err(e) = png.commit()
     {

@@ -37,7 +37,9 @@ fn project(path: &Path) -> Result<Vec<f64>, String> {
     let n = num_coefficients(LMAX);
     let basis = ShBasis::new(LMAX);
     use rayon::prelude::*;
-    let sum = (0..w)
+    // One partial sum per row, added in row order: rayon's reduce would pair them by work stealing,
+    // making the last bits depend on the thread schedule.
+    let rows: Vec<Vec<f64>> = (0..w)
         .into_par_iter()
         .map(|r| {
             let mut y = vec![0.0; n];
@@ -62,14 +64,12 @@ fn project(path: &Path) -> Result<Vec<f64>, String> {
             }
             acc
         })
-        .reduce(
-            || vec![0.0; n],
-            |mut a, b| {
-                for k in 0..n {
-                    a[k] += b[k];
-                }
-                a
-            },
-        );
+        .collect();
+    let sum = rows.iter().fold(vec![0.0; n], |mut a, b| {
+        for k in 0..n {
+            a[k] += b[k];
+        }
+        a
+    });
     Ok(sum)
 }

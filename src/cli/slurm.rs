@@ -1,0 +1,197 @@
+//! `reflect slurm render SCENE --tasks N --out FINAL.exr [--partition P] [--time T] [--dry-run]
+//! [--wait] [-- EXTRA_SBATCH_ARGS…]`: renders a scene on a Slurm cluster as a job array of N shard
+//! tasks (`reflect render --shard $SLURM_ARRAY_TASK_ID/N`) and a merge job that runs after all of
+//! them succeeded (`--dependency=afterok`, `--kill-on-invalid-dep=yes` so that a failed shard fails
+//! the merge instead of leaving it pending). The scripts, logs and parts go to `FINAL.slurm/` next to
+//! the output, which must be on a file system every node sees.
+
+use super::Error;
+use super::render::{RenderArgs, load_scene, parse_threads};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+#[derive(clap::Subcommand, Debug, Clone)]
+pub enum SlurmCommand {
+    /// Render a scene as a job array of shards and a merge job.
+    Render(SlurmRenderArgs),
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct SlurmRenderArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Number of shard tasks (at most the spp).
+    #[arg(long)]
+    pub tasks: u32,
+    /// The merged image (OpenEXR); scripts, logs and parts go to OUT's stem + `.slurm/` beside it.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Slurm partition (sbatch --partition).
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Time limit of each task (sbatch --time, e.g. 1:00:00).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// Threads per task (sbatch --cpus-per-task and reflect --threads) [default: the site's default].
+    #[arg(long, value_parser = parse_threads)]
+    pub threads: Option<usize>,
+    /// Samples per pixel (overrides render.spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed (overrides render.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Print the two job scripts and the sbatch commands; submit nothing, write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Block until the merge job has finished (exit 1 if it failed).
+    #[arg(long)]
+    pub wait: bool,
+    /// Further sbatch options for both jobs, after `--` (e.g. -- --account=proj --qos=normal).
+    #[arg(last = true)]
+    pub sbatch_args: Vec<String>,
+}
+
+/// `s` quoted for a POSIX shell.
+fn sh_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+fn abs(p: &Path) -> Result<PathBuf, Error> {
+    std::path::absolute(p).map_err(|e| Error::file(p, format!("cannot make the path absolute: {e}")))
+}
+
+/// The shard-array and merge scripts.
+fn scripts(a: &SlurmRenderArgs, exe: &Path, scene: &Path, dir: &Path, out: &Path) -> (String, String) {
+    let q = |p: &Path| sh_quote(&p.to_string_lossy());
+    let mut head = String::new();
+    if let Some(p) = &a.partition {
+        head += &format!("#SBATCH --partition={p}\n");
+    }
+    if let Some(t) = &a.time {
+        head += &format!("#SBATCH --time={t}\n");
+    }
+    let mut overrides = String::new();
+    if let Some(n) = a.threads {
+        head += &format!("#SBATCH --cpus-per-task={n}\n");
+        overrides += &format!(" --threads {n}");
+    }
+    if let Some(s) = a.spp {
+        overrides += &format!(" --spp {s}");
+    }
+    if let Some(s) = a.seed {
+        overrides += &format!(" --seed {s}");
+    }
+    let shard = format!(
+        "#!/bin/sh\n#SBATCH --job-name=reflect-shard\n#SBATCH --array=0-{last}\n#SBATCH --output={log}\n{head}\
+         # One shard of the render: samples [I·spp/N, (I+1)·spp/N) of every pixel.\n\
+         exec {exe} render {scene} --shard \"$SLURM_ARRAY_TASK_ID/{n}\" --out {dir}/part-\"$SLURM_ARRAY_TASK_ID\".exr --quiet{overrides}\n",
+        last = a.tasks - 1,
+        n = a.tasks,
+        log = dir.join("shard-%a.log").display(),
+        exe = q(exe),
+        scene = q(scene),
+        dir = q(dir),
+    );
+    let merge = format!(
+        "#!/bin/sh\n#SBATCH --job-name=reflect-merge\n#SBATCH --output={log}\n{head_merge}\
+         # Merge the shards into the image a single render writes (bit-identical).\n\
+         exec {exe} merge {dir}/part-*.exr --out {out}\n",
+        log = dir.join("merge.log").display(),
+        head_merge = a.partition.as_ref().map(|p| format!("#SBATCH --partition={p}\n")).unwrap_or_default(),
+        exe = q(exe),
+        dir = q(dir),
+        out = q(out),
+    );
+    (shard, merge)
+}
+
+fn sbatch(args: &[String], script: &Path) -> Result<String, Error> {
+    let out = Command::new("sbatch")
+        .args(args)
+        .arg(script)
+        .output()
+        .map_err(|e| Error::new(format!("cannot run sbatch (is Slurm installed and on PATH?): {e}")))?;
+    let stdout = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let err = err.lines().next().unwrap_or("").trim();
+        return Err(Error::file(script, format!("sbatch failed ({}): {err}", out.status)));
+    }
+    // --parsable prints "jobid" or "jobid;cluster".
+    Ok(stdout.lines().last().unwrap_or("").split(';').next().unwrap_or("").to_string())
+}
+
+pub fn run(c: SlurmCommand) -> Result<ExitCode, Error> {
+    let SlurmCommand::Render(a) = c;
+    // Refuse a bad scene here, not in N failed tasks.
+    let ra = RenderArgs { scene: Some(a.scene.clone()), spp: a.spp, seed: a.seed, quiet: true, ..Default::default() };
+    let scene = load_scene(&ra)?;
+    if a.tasks == 0 || a.tasks > scene.settings.spp {
+        return Err(Error::new(format!(
+            "--tasks must be between 1 and the spp ({}), got {}",
+            scene.settings.spp, a.tasks
+        )));
+    }
+    if a.out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
+        return Err(Error::file(&a.out, "output file must end in .exr"));
+    }
+    let out = abs(&a.out)?;
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "render".into());
+    let dir = out.with_file_name(format!("{stem}.slurm"));
+    let exe = std::env::current_exe().map_err(|e| Error::new(format!("cannot find the reflect executable: {e}")))?;
+    let scene_path = abs(&a.scene)?;
+    let (shard, merge) = scripts(&a, &exe, &scene_path, &dir, &out);
+    let (shard_path, merge_path) = (dir.join("shard.sh"), dir.join("merge.sh"));
+    let mut merge_args: Vec<String> = vec!["--parsable".into(), "--kill-on-invalid-dep=yes".into()];
+    if a.wait {
+        merge_args.push("--wait".into());
+    }
+    if a.dry_run {
+        println!("# {}\n{shard}", shard_path.display());
+        println!("# {}\n{merge}", merge_path.display());
+        let extra: String = a.sbatch_args.iter().map(|s| format!(" {}", sh_quote(s))).collect();
+        println!("# submit:\nJOB=$(sbatch --parsable{extra} {})", sh_quote(&shard_path.to_string_lossy()));
+        println!(
+            "sbatch {} --dependency=afterok:$JOB{extra} {}",
+            merge_args.join(" "),
+            sh_quote(&merge_path.to_string_lossy())
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| Error::file(&dir, format!("cannot create the job folder: {e}")))?;
+    // Parts of an earlier submission (maybe with another N) would overlap the new ones.
+    if let Ok(rd) = std::fs::read_dir(&dir) {
+        for e in rd.flatten() {
+            let n = e.file_name().to_string_lossy().into_owned();
+            if n.starts_with("part-") && n.ends_with(".exr") {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+    for (p, text) in [(&shard_path, &shard), (&merge_path, &merge)] {
+        std::fs::write(p, text).map_err(|e| Error::file(p, format!("cannot write the job script: {e}")))?;
+    }
+    let mut shard_args = vec!["--parsable".to_string()];
+    shard_args.extend(a.sbatch_args.iter().cloned());
+    let array = sbatch(&shard_args, &shard_path)?;
+    println!("submitted shard array job {array} ({} tasks)", a.tasks);
+    merge_args.push(format!("--dependency=afterok:{array}"));
+    merge_args.extend(a.sbatch_args.iter().cloned());
+    match sbatch(&merge_args, &merge_path) {
+        Ok(id) if a.wait => {
+            println!("merge job {id} finished: wrote {}", out.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Ok(id) => {
+            println!("submitted merge job {id} (after array {array}); the image will be {}", out.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) if a.wait => Err(Error::new(format!(
+            "{e}; see {} and {}",
+            dir.join("merge.log").display(),
+            dir.join("shard-*.log").display()
+        ))),
+        Err(e) => Err(e),
+    }
+}

@@ -1,0 +1,197 @@
+//! Issue 12: shards merged bit-exactly, refusals, checkpoint and resume after SIGKILL/SIGTERM, and
+//! renders to a target error (all through the `reflect` binary).
+
+mod common;
+
+use analysis::image::read_image;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn reflect(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().unwrap()
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = reflect(args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "reflect {args:?} failed: {err}");
+    err
+}
+
+/// Exit 2 with one line on stderr naming `file`.
+fn refused(args: &[&str], file: &Path) -> String {
+    let o = reflect(args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "reflect {args:?}: {err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains(&file.display().to_string()), "{err} does not name {}", file.display());
+    err
+}
+
+/// Every channel of two EXR files bit-identical.
+fn assert_same_image(a: &Path, b: &Path) {
+    let (x, y) = (read_image(a).unwrap(), read_image(b).unwrap());
+    assert_eq!(x.channels.keys().collect::<Vec<_>>(), y.channels.keys().collect::<Vec<_>>());
+    for (k, v) in &x.channels {
+        let w = &y.channels[k];
+        let diff = v.iter().zip(w).filter(|(p, q)| p.to_bits() != q.to_bits()).count();
+        assert_eq!(diff, 0, "channel {k}: {diff} pixels differ between {} and {}", a.display(), b.display());
+    }
+}
+
+/// A small scene file (the default sphere) in `dir`.
+fn scene_file(dir: &Path, w: u32, h: u32, spp: u32) -> PathBuf {
+    let mut f = renderer::scene::SceneFile::parse(renderer::scene::build::DEFAULT_SCENE).unwrap();
+    f.render.width = w;
+    f.render.height = h;
+    f.render.spp = spp;
+    let p = dir.join("scene.toml");
+    std::fs::write(&p, toml::to_string(&f).unwrap()).unwrap();
+    p
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn merged_shards_equal_the_single_render_bit_for_bit() {
+    let dir = common::temp_dir("shards");
+    let scene = scene_file(&dir, 21, 13, 13);
+    let single = dir.join("single.exr");
+    ok(&["render", s(&scene), "--out", s(&single), "--quiet"]);
+    for n in [1u32, 2, 3, 5, 13] {
+        let parts: Vec<PathBuf> = (0..n).map(|i| dir.join(format!("n{n}-part{i}.exr"))).collect();
+        for (i, p) in parts.iter().enumerate() {
+            ok(&["render", s(&scene), "--shard", &format!("{i}/{n}"), "--out", s(p), "--quiet"]);
+        }
+        // Parts in reverse order, and (for n ≥ 3) a merge of merges.
+        let merged = dir.join(format!("n{n}.exr"));
+        let mut args: Vec<&str> = vec!["merge"];
+        args.extend(parts.iter().rev().map(|p| s(p)));
+        args.extend(["--out", s(&merged), "--quiet"]);
+        ok(&args);
+        assert_same_image(&single, &merged);
+        if n >= 3 {
+            let mid = dir.join(format!("n{n}-mid.exr"));
+            ok(&["merge", s(&parts[2]), s(&parts[1]), "--partial", "--out", s(&mid), "--quiet"]);
+            let merged2 = dir.join(format!("n{n}-2.exr"));
+            let mut args: Vec<&str> = vec!["merge", s(&mid)];
+            args.extend(parts.iter().enumerate().filter(|(i, _)| *i != 1 && *i != 2).map(|(_, p)| s(p)));
+            args.extend(["--out", s(&merged2), "--quiet"]);
+            ok(&args);
+            assert_same_image(&single, &merged2);
+        }
+    }
+}
+
+#[test]
+fn merge_refuses_mismatched_overlapping_and_missing_parts() {
+    let dir = common::temp_dir("shard-refusals");
+    let scene = scene_file(&dir, 8, 8, 8);
+    let part = |name: &str, extra: &[&str]| {
+        let p = dir.join(name);
+        let mut args = vec!["render", s(&scene), "--out", s(&p), "--quiet"];
+        args.extend(extra);
+        ok(&args);
+        p
+    };
+    let a0 = part("a0.exr", &["--shard", "0/2"]);
+    let a1 = part("a1.exr", &["--shard", "1/2"]);
+    let seed = part("seed.exr", &["--shard", "1/2", "--seed", "7"]);
+    let spp = part("spp.exr", &["--shard", "1/2", "--spp", "16"]);
+    let size = part("size.exr", &["--shard", "1/2", "--size", "8x4"]);
+    let b0 = part("b0.exr", &["--shard", "0/3"]);
+    let out = dir.join("out.exr");
+    let o = s(&out);
+    assert!(refused(&["merge", s(&a0), s(&seed), "--out", o], &seed).contains("seed"));
+    assert!(refused(&["merge", s(&a0), s(&spp), "--out", o], &spp).contains("spp"));
+    assert!(refused(&["merge", s(&a0), s(&size), "--out", o], &size).contains("scene"));
+    assert!(refused(&["merge", s(&a0), s(&a1), s(&b0), "--out", o], &a0).contains("overlap"));
+    assert!(refused(&["merge", s(&a0), "--out", o], &a0).contains("missing"));
+    assert!(refused(&["merge", s(&a1), "--out", o], &a1).contains("missing"));
+    assert!(refused(&["merge", s(&scene), "--out", o], &scene).contains("OpenEXR"));
+    let plain = dir.join("plain.exr");
+    ok(&["render", s(&scene), "--out", s(&plain), "--quiet"]);
+    assert!(refused(&["merge", s(&plain), "--out", o], &plain).contains("not a partial render"));
+    assert!(!out.exists(), "no output after a refusal");
+    // A checkpoint of another scene is refused too.
+    let ck = dir.join("ck.exr");
+    std::fs::copy(&size, &ck).unwrap();
+    refused(&["render", s(&scene), "--checkpoint", s(&ck), "--out", o, "--quiet"], &ck);
+}
+
+/// The process is killed (SIGKILL) at pseudo-random moments and run again with the same command;
+/// the final image equals an uninterrupted render bit for bit, and the checkpoint is gone.
+#[test]
+fn killed_and_resumed_render_is_bit_identical() {
+    let dir = common::temp_dir("resume");
+    let scene = scene_file(&dir, 48, 48, 96);
+    let single = dir.join("single.exr");
+    ok(&["render", s(&scene), "--out", s(&single), "--quiet"]);
+    let out = dir.join("out.exr");
+    let ck = dir.join("ck.exr");
+    let args = ["render", s(&scene), "--out", s(&out), "--checkpoint", s(&ck), "--checkpoint-every", "0", "--quiet"];
+    // Delays from a fixed LCG: the moments differ between kills but not between runs of the test.
+    let mut x: u64 = 12345;
+    let mut killed_with_checkpoint = 0;
+    for _ in 0..4 {
+        x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let ms = 150 + (x >> 33) % 900;
+        let mut child = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).spawn().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+        let _ = child.kill(); // SIGKILL
+        let _ = child.wait();
+        killed_with_checkpoint += ck.exists() as u32;
+        if out.exists() {
+            break;
+        }
+    }
+    // SIGTERM once the process has saved a checkpoint (so its handler is installed): it saves and exits 130.
+    let t = std::time::SystemTime::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).spawn().unwrap();
+    let mut status = None;
+    for _ in 0..2000 {
+        status = child.try_wait().unwrap();
+        let saved = std::fs::metadata(&ck).and_then(|m| m.modified()).is_ok_and(|m| m > t);
+        if saved || status.is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    if status.is_none() {
+        sigterm(child.id());
+    }
+    let status = status.unwrap_or_else(|| child.wait().unwrap());
+    if !out.exists() {
+        assert_eq!(status.code(), Some(130), "SIGTERM exits 130 after saving");
+        assert!(ck.exists());
+    }
+    ok(&args);
+    assert!(!ck.exists(), "the checkpoint is removed after the final image");
+    assert_same_image(&single, &out);
+    eprintln!("kills that left a checkpoint: {killed_with_checkpoint}");
+}
+
+fn sigterm(pid: u32) {
+    let _ = Command::new("kill").args(["-TERM", &pid.to_string()]).status();
+}
+
+/// A render to a target error stops at some spp n and equals a plain render with --spp n.
+#[test]
+fn target_error_render_equals_a_plain_render_of_the_spp_reached() {
+    let dir = common::temp_dir("target");
+    let scene = scene_file(&dir, 16, 16, 4096);
+    let out = dir.join("target.exr");
+    let err = ok(&["render", s(&scene), "--out", s(&out), "--target-rel-error", "0.05"]);
+    let line = err.lines().find(|l| l.starts_with("progressive: ")).unwrap_or_else(|| panic!("{err}"));
+    let n: u32 = line["progressive: ".len()..].split_whitespace().next().unwrap().parse().unwrap();
+    assert!(line.contains("reached"), "{line}");
+    assert!(n < 4096 && n.is_power_of_two(), "{line}");
+    let plain = dir.join("plain.exr");
+    ok(&["render", s(&scene), "--out", s(&plain), "--spp", &n.to_string(), "--quiet"]);
+    assert_same_image(&plain, &out);
+    // The noise line of the plain render reports a 95th percentile at or below the target.
+    let e = ok(&["render", s(&scene), "--out", s(&plain), "--spp", &n.to_string()]);
+    assert!(e.contains("95th percentile"), "{e}");
+}
