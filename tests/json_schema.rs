@@ -97,6 +97,33 @@ fn sh_project_schema() {
     assert_eq!(doc["mapping"], "angular");
 }
 
+/// The keys of every `render --json` document (`progressive` is null or an object).
+const RENDER_KEYS: &[&str] = &[
+    ": object",
+    ".scene: string",
+    ".output: string",
+    ".png: null",
+    ".width: number",
+    ".height: number",
+    ".spp: number",
+    ".seed: number",
+    ".threads: number",
+    ".samples: number",
+    ".samples_per_sec: number",
+    ".rays: number",
+    ".rays_per_sec: number",
+    ".load_seconds: number",
+    ".render_seconds: number",
+    ".save_seconds: number",
+    ".total_seconds: number",
+    ".noise: object",
+    ".noise.pixels: number",
+    ".noise.black: number",
+    ".noise.median: number",
+    ".noise.p95: number",
+    ".unreliable_pixels: number",
+];
+
 #[test]
 fn render_schema() {
     let dir = common::temp_dir("json-schema-render");
@@ -110,35 +137,43 @@ fn render_schema() {
     .unwrap();
     let out = dir.join("s.exr");
     let doc = run(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--json", "--quiet"]);
-    assert_schema(
-        &doc,
-        &[
-            ": object",
-            ".scene: string",
-            ".output: string",
-            ".png: null",
-            ".width: number",
-            ".height: number",
-            ".spp: number",
-            ".seed: number",
-            ".threads: number",
-            ".samples: number",
-            ".samples_per_sec: number",
-            ".rays: number",
-            ".rays_per_sec: number",
-            ".load_seconds: number",
-            ".render_seconds: number",
-            ".save_seconds: number",
-            ".total_seconds: number",
-            ".noise: object",
-            ".noise.pixels: number",
-            ".noise.black: number",
-            ".noise.median: number",
-            ".noise.p95: number",
-            ".unreliable_pixels: number",
-        ],
-    );
+    let mut want: Vec<&str> = RENDER_KEYS.to_vec();
+    want.push(".progressive: null");
+    assert_schema(&doc, &want);
     assert_eq!(doc["samples"], 8 * 8 * 2);
+    // A render to a target error: `spp` is the spp reached, `progressive` says how it went.
+    let doc = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--spp",
+        "64",
+        "--size",
+        "16x16",
+        "--target-rel-error",
+        "1e-9",
+        "--json",
+        "--quiet",
+    ]);
+    let mut want: Vec<&str> = RENDER_KEYS.to_vec();
+    want.extend([
+        ".progressive: object",
+        ".progressive.target_rel_error: number",
+        ".progressive.time_limit_seconds: null",
+        ".progressive.spp_cap: number",
+        ".progressive.passes: number",
+        ".progressive.stopped_by: string",
+        ".progressive.target_reached: bool",
+        ".progressive.rel_error_p95: number",
+    ]);
+    assert_schema(&doc, &want);
+    // Passes of 1, 1, 2, 4, …, 32 spp: 7 to reach the cap of 64, never the target of 1e-9. (At 16²,
+    // 1 of the 45 object pixels is flagged, so the 95th percentile is finite: a number.)
+    assert_eq!((doc["spp"].as_u64(), doc["samples"].as_u64()), (Some(64), Some(16 * 16 * 64)), "{doc}");
+    let p = &doc["progressive"];
+    assert_eq!((p["spp_cap"].as_u64(), p["passes"].as_u64()), (Some(64), Some(7)), "{doc}");
+    assert_eq!((p["stopped_by"].as_str(), p["target_reached"].as_bool()), (Some("spp-cap"), Some(false)), "{doc}");
     // With a PNG preview, `png` is an object.
     let png = dir.join("s.png");
     let doc = run(&[

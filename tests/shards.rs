@@ -194,4 +194,20 @@ fn target_error_render_equals_a_plain_render_of_the_spp_reached() {
     // The noise line of the plain render reports a 95th percentile at or below the target.
     let e = ok(&["render", s(&scene), "--out", s(&plain), "--spp", &n.to_string()]);
     assert!(e.contains("95th percentile"), "{e}");
+    // --json reports the spp reached (not the cap of 4096), the target, the passes (1, 1, 2, 4, … spp:
+    // 1 + log2 n of them) and the error reached, which is at or below the target; one line per pass
+    // on stderr.
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["render", s(&scene), "--out", s(&out), "--target-rel-error", "0.05", "--json"])
+        .output()
+        .unwrap();
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let p = &doc["progressive"];
+    assert_eq!(doc["spp"].as_u64(), Some(n as u64), "{doc}");
+    assert_eq!((p["spp_cap"].as_u64(), p["target_rel_error"].as_f64()), (Some(4096), Some(0.05)), "{doc}");
+    assert_eq!(p["passes"].as_u64(), Some(1 + n.trailing_zeros() as u64), "{doc}");
+    assert_eq!((p["stopped_by"].as_str(), p["target_reached"].as_bool()), (Some("target"), Some(true)), "{doc}");
+    assert!(p["rel_error_p95"].as_f64().is_some_and(|e| e <= 0.05), "{doc}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().filter(|l| l.starts_with("pass ")).count() as u64, p["passes"].as_u64().unwrap(), "{err}");
 }

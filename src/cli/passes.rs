@@ -34,10 +34,41 @@ pub fn shard_range(i: u32, n: u32, spp: u32) -> (u64, u64) {
 /// The fewest samples per pixel at which `--target-rel-error` is checked.
 pub const MIN_TARGET_SPP: u64 = 16;
 
+/// Why a render to a target error or a time limit stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// The 95th-percentile relative stderr reached `--target-rel-error`.
+    Target,
+    /// The next pass would not have fit in `--time-limit`.
+    TimeLimit,
+    /// Every sample up to spp (the cap) was taken.
+    SppCap,
+}
+
+impl Stop {
+    /// The name in `render --json` (`progressive.stopped_by`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stop::Target => "target",
+            Stop::TimeLimit => "time-limit",
+            Stop::SppCap => "spp-cap",
+        }
+    }
+}
+
+/// How a render to a target error or a time limit went (`None` for other pass loops).
+#[derive(Clone, Debug)]
+pub struct Progressive {
+    pub stop: Stop,
+    /// The target's summary ([`p95_rel_error`]) of the final state.
+    pub rel_error: f64,
+}
+
 /// How a pass loop ended.
 pub enum Outcome {
-    /// All samples of the range (or the target/time limit) reached: the state to write.
-    Done { state: Partial, stats: RenderStats, passes: u32, note: Option<String> },
+    /// All samples of the range (or the target/time limit) reached: the state to write. `passes` counts
+    /// the passes of this run (not those of a resumed checkpoint).
+    Done { state: Partial, stats: RenderStats, passes: u32, progressive: Option<Progressive> },
     /// Stopped by SIGINT/SIGTERM; the state up to the last finished pass was saved.
     Interrupted { spp_done: u64 },
 }
@@ -48,8 +79,9 @@ fn pow2_floor(x: u64) -> u64 {
 }
 
 /// Relative-error summary used by `--target-rel-error`: the 95th percentile over the object's pixels
-/// of the worst channel's stderr / value (`renderer::noise`), flagged pixels counting as infinite.
-fn p95_rel_error(state: &Partial) -> f64 {
+/// of the worst channel's stderr / value (`renderer::noise`), flagged pixels counting as infinite
+/// (so it is +inf when more than 5 % of them are flagged); 0 when no object pixel has a value > 0.
+pub fn p95_rel_error(state: &Partial) -> f64 {
     let mut s = state.clone();
     s.spp = s.end as u32;
     let mut film = s.finish();
@@ -57,6 +89,15 @@ fn p95_rel_error(state: &Partial) -> f64 {
         p.stderr = [f32::INFINITY; 3];
     }
     renderer::noise::summarize(&film).map_or(0.0, |n| n.p95)
+}
+
+/// A relative error as a percentage, or "infinite" with the reason (see [`p95_rel_error`]).
+pub fn percent(e: f64) -> String {
+    if e.is_finite() {
+        format!("{:.4} %", 100.0 * e)
+    } else {
+        "infinite (over 5 % of the object's pixels have stderr_flag.Y = 1)".into()
+    }
 }
 
 fn check_resume(ck: &Path, h: &PartialHeader, want: &PartialHeader) -> Result<(), Error> {
@@ -116,33 +157,38 @@ pub fn run_passes(
             None => Ok(()),
         }
     };
-    let opts =
-        RenderOptions { progress: !a.quiet && !progressive && a.checkpoint.is_none(), cancel: Some(cancel.clone()) };
+    // The tile progress bar of each pass (drawn only on a terminal, cleared after the pass), as a plain
+    // render draws it: shown unless --quiet (--json does not silence stderr).
+    let opts = RenderOptions { progress: !a.quiet, cancel: Some(cancel.clone()) };
     let mut total = RenderStats { wall: Duration::ZERO, samples: 0, rays: 0, threads: 1, cancelled: false };
     let mut passes = 0;
     let mut last_save = Instant::now();
     // Samples per second of one pixel, from the last pass.
     let mut rate: Option<f64> = None;
-    let mut note = None;
+    let mut stop = Stop::SppCap;
+    // The target's summary of the state after the last pass, as (spp, value): computed once per pass.
+    let mut error_at: Option<(u64, f64)> = None;
+    let mut error_now = |state: &Partial| match error_at {
+        Some((end, e)) if end == state.end => e,
+        _ => {
+            let e = p95_rel_error(state);
+            error_at = Some((state.end, e));
+            e
+        }
+    };
     loop {
         let cur = state.end;
-        if cur >= range.1 {
-            if progressive {
-                note = Some(format!("all {} spp rendered", range.1));
-            }
-            break;
-        }
         // An error bar needs samples to mean anything (with 1 sample it is 0): the target is checked
-        // from MIN_TARGET_SPP on.
+        // from MIN_TARGET_SPP on (also after the last pass, so a cap that meets the target says so).
         if let Some(x) = a.target_rel_error
             && cur >= MIN_TARGET_SPP
+            && error_now(&state) <= x
         {
-            let e = p95_rel_error(&state);
-            if e <= x {
-                note =
-                    Some(format!("reached: 95th-percentile relative stderr {:.4} % ≤ {:.4} %", 100.0 * e, 100.0 * x));
-                break;
-            }
+            stop = Stop::Target;
+            break;
+        }
+        if cur >= range.1 {
+            break;
         }
         // Pass size: one plain pass without checkpoints or targets; otherwise passes that take about
         // the checkpoint interval (and fit the time limit), doubling the spp for a target error.
@@ -157,7 +203,7 @@ pub fn run_passes(
         if let Some(limit) = a.time_limit {
             let left = limit - t0.elapsed().as_secs_f64();
             if cur > 0 && (left <= 0.0 || budget(left) == 0 || rate.is_some_and(|r| r * left < 1.0)) {
-                note = Some(format!("time limit of {limit} s reached"));
+                stop = Stop::TimeLimit;
                 break;
             }
             if rate.is_some() {
@@ -184,6 +230,21 @@ pub fn run_passes(
         total.rays += st.rays;
         total.threads = st.threads;
         state = Partial::merge(vec![state, part]).map_err(|e| Error::new(format!("internal: {e}")))?;
+        if progressive && !a.quiet {
+            // One line per pass on stderr (unless --quiet), whether or not stderr is a terminal.
+            let err = if end >= MIN_TARGET_SPP {
+                let e = error_now(&state);
+                let target = a.target_rel_error.map(|x| format!(" (target {:.4} %)", 100.0 * x)).unwrap_or_default();
+                format!("95th-percentile relative stderr {}{target}", percent(e))
+            } else {
+                format!("error checked from {MIN_TARGET_SPP} spp on")
+            };
+            eprintln!(
+                "pass {passes}: samples [{cur}, {end}) in {:.2} s; {end} of at most {} spp, {err}",
+                st.wall.as_secs_f64(),
+                range.1
+            );
+        }
         if cancel.load(Ordering::Relaxed) {
             save(&state)?;
             return Ok(Outcome::Interrupted { spp_done: state.end });
@@ -193,5 +254,6 @@ pub fn run_passes(
             last_save = Instant::now();
         }
     }
-    Ok(Outcome::Done { state, stats: total, passes, note })
+    let progressive = progressive.then(|| Progressive { stop, rel_error: error_now(&state) });
+    Ok(Outcome::Done { state, stats: total, passes, progressive })
 }

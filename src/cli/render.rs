@@ -175,6 +175,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let range = a.shard.map_or((0, s.spp as u64), |(i, n)| super::passes::shard_range(i, n, s.spp));
     let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
     let plain = a.shard.is_none() && a.checkpoint.is_none() && !progressive;
+    let mut progressive_report = None;
     let (film, stats) = if plain {
         let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
         with_threads(a.threads, || render(&scene, &opts))?
@@ -189,7 +190,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                 );
                 return Ok(ExitCode::from(130));
             }
-            super::passes::Outcome::Done { mut state, stats, passes, note } => {
+            super::passes::Outcome::Done { mut state, stats, passes, progressive: prog } => {
                 if a.shard.is_some() {
                     let header = renderer::shard::partial_header(&scene, &state);
                     renderer::shard::write_partial(&out, &state, &header, &attrs)?;
@@ -207,15 +208,34 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                     }
                     return Ok(ExitCode::SUCCESS);
                 }
-                if progressive {
+                if let Some(p) = prog {
                     // The image is a plain render of the samples taken: spp = what was reached.
                     let n = state.end as u32;
                     state.spp = n;
                     scene.settings.spp = n;
                     scene.description.render.spp = n;
+                    let e = super::passes::percent(p.rel_error);
+                    let note = match (p.stop, a.target_rel_error, a.time_limit) {
+                        (super::passes::Stop::Target, Some(x), _) => {
+                            format!("reached: 95th-percentile relative stderr {e} ≤ {:.4} %", 100.0 * x)
+                        }
+                        (super::passes::Stop::TimeLimit, _, Some(t)) => {
+                            format!("time limit of {t} s reached; 95th-percentile relative stderr {e}")
+                        }
+                        _ => format!("all {} spp rendered; 95th-percentile relative stderr {e}", s.spp),
+                    };
                     if !a.quiet {
-                        eprintln!("progressive: {n} spp in {passes} passes; {}", note.unwrap_or_default());
+                        eprintln!("progressive: {n} spp in {passes} passes; {note}");
                     }
+                    progressive_report = Some(ProgressiveReport {
+                        target_rel_error: a.target_rel_error,
+                        time_limit_seconds: a.time_limit,
+                        spp_cap: s.spp,
+                        passes,
+                        stopped_by: p.stop.name().to_string(),
+                        target_reached: a.target_rel_error.map(|_| p.stop == super::passes::Stop::Target),
+                        rel_error_p95: Some(p.rel_error).filter(|e| e.is_finite()),
+                    });
                 }
                 (state.finish(), stats)
             }
@@ -253,7 +273,8 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         }),
         width: s.width,
         height: s.height,
-        spp: s.spp,
+        // The spp reached (a render to a target error or time limit stops at or below the cap).
+        spp: scene.settings.spp,
         seed: s.seed,
         threads: stats.threads,
         samples: stats.samples,
@@ -266,6 +287,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         total_seconds: t_start.elapsed().as_secs_f64(),
         noise: renderer::noise::summarize(&film),
         unreliable_pixels: film.unreliable_count(),
+        progressive: progressive_report,
     };
     if a.json {
         println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON: {e}")))?);
@@ -289,6 +311,8 @@ pub struct RenderReport {
     pub png: Option<PngReport>,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel of the image written: with `--target-rel-error` / `--time-limit` the spp
+    /// reached (the cap is `progressive.spp_cap`).
     pub spp: u32,
     pub seed: u64,
     /// Worker threads of the render loop.
@@ -311,6 +335,29 @@ pub struct RenderReport {
     pub noise: Option<renderer::noise::NoiseSummary>,
     /// Pixels whose error bar is unreliable (`stderr_flag.Y` = 1: one rare sample dominates).
     pub unreliable_pixels: usize,
+    /// How a render to a target error or a time limit went (null for other renders).
+    pub progressive: Option<ProgressiveReport>,
+}
+
+/// A render in passes to `--target-rel-error` and/or `--time-limit` (see `cli::passes`).
+#[derive(Clone, Debug, serde::Serialize, PartialEq)]
+pub struct ProgressiveReport {
+    /// The relative standard error asked (`--target-rel-error`; null without one).
+    pub target_rel_error: Option<f64>,
+    /// `--time-limit` in seconds (null without one).
+    pub time_limit_seconds: Option<f64>,
+    /// The most samples per pixel allowed (the scene's spp, or `--spp`).
+    pub spp_cap: u32,
+    /// Passes rendered by this command (a resumed checkpoint's earlier passes not counted).
+    pub passes: u32,
+    /// Why it stopped: "target", "time-limit" or "spp-cap".
+    pub stopped_by: String,
+    /// Whether the target was reached (null without `--target-rel-error`).
+    pub target_reached: Option<bool>,
+    /// The error reached, as the target measures it: the 95th percentile over the object's pixels of the
+    /// worst channel's stderr / value, flagged pixels (`stderr_flag.Y` = 1) counting as infinite; 0 when
+    /// no object pixel is > 0, null when infinite (more than 5 % of the object's pixels flagged).
+    pub rel_error_p95: Option<f64>,
 }
 
 /// The PNG preview of a render.
