@@ -533,8 +533,9 @@ fn analysis_at_the_edges() {
     assert_eq!(doc["stderr"][0][0].as_f64(), Some(0.0));
 }
 
-/// Issue 17: a flag that means one value per image (`analyze --from/--to/--up/--extent`) takes one
-/// per image, in the order of the images, and refuses a second image without its own; repeating a
+/// Issue 17: a flag that means one value per image (`analyze --from/--to/--up/--extent`) is given
+/// not at all (`--to`/`--up` then default to 0,0,0 / 0,0,1) or once per image, in the order of the
+/// images, and refuses a second image without its own; repeating a
 /// flag that means one value (`--albedo`, `--kd`, `--center`, `--lmax`, `--model`, …) is refused by
 /// clap as repeated, never concatenated into a wrong-length list with a misleading message. Every
 /// refusal: exit 2, one line naming the flag.
@@ -588,6 +589,31 @@ fn per_image_and_repeated_flags() {
     assert_ne!(right, swapped);
     assert_eq!(doc["pixels_used"].as_u64(), Some(right), "pixels used (swapped flags would give {swapped})");
 
+    // Not given at all, --to is 0,0,0 and --up 0,0,1 (world +z) for every image, as README and --help
+    // say; given for some images only, they are refused like --from (below). A view whose radiance
+    // varies by row tells a rotated up from the default; a shifted target moves the sphere.
+    let grad = {
+        let n = 24;
+        let mut img = Image { width: n, height: n, ..Default::default() };
+        for ch in ["R", "G", "B"] {
+            img.channels.insert(ch.to_string(), (0..n * n).map(|i| 1.0 + (i / n) as f32 / n as f32).collect());
+        }
+        let p = d.join("grad.exr");
+        write_exr(&p, &img).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let one = |extra: &[&str]| {
+        let mut args = vec!["analyze", &grad, "--lmax", "2", "--json", "--from", "3,0,0", "--extent", "1.05"];
+        args.extend_from_slice(extra);
+        let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(&args).output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let default = one(&[]);
+    assert_eq!(default, one(&["--to", "0,0,0", "--up", "0,0,1"]), "defaults --to 0,0,0 --up 0,0,1");
+    assert_ne!(default, one(&["--up", "0,1,0"]), "--up changes the analysis of this view");
+    assert_ne!(default, one(&["--to", "0,0.2,0"]), "--to changes the analysis of this view");
+
     let out = d.join("never.exr");
     let lam = view("probe.exr", 16);
     let cases: Vec<(Vec<&str>, &str, &str)> = vec![
@@ -606,6 +632,23 @@ fn per_image_and_repeated_flags() {
             vec!["analyze", &a, "--lmax", "2", "--from", "3,0,0", "--from", "0,3,0", "--extent", "1"],
             "--from",
             "2 times for 1 image",
+        ),
+        // --to / --up have defaults only when absent for every image: given for one of two, refused.
+        (
+            vec![
+                "analyze", &a, &b, "--lmax", "2", "--from", "3,0,0", "--from", "0,3,0", "--extent", "1", "--extent",
+                "1", "--to", "0,0,0",
+            ],
+            "--to",
+            "1 time for 2 images",
+        ),
+        (
+            vec![
+                "analyze", &a, &b, "--lmax", "2", "--from", "3,0,0", "--from", "0,3,0", "--extent", "1", "--extent",
+                "1", "--up", "0,0,1",
+            ],
+            "--up",
+            "1 time for 2 images",
         ),
         // Repeated one-value flags: refused as repeated.
         (vec!["analyze", &a, "--lmax", "2", "--center", "0,0,0", "--center", "1,0,0"], "--center", "multiple times"),

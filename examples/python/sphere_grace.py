@@ -1,5 +1,6 @@
 """Render a Lambertian sphere under the Grace Cathedral probe, project it into SH, and compare the
-measured B_lm with the prediction B_lm = albedo · Λ_l ρ̂_l · L_lm (eq. 15, CONVENTIONS §3).
+measured B_lm with the prediction B_lm = albedo · Λ_l ρ̂_l · L_lm (eq. 15; README "Spherical harmonics:
+the terms the commands print").
 
     pip install ./python matplotlib        # from the checkout
     python examples/python/sphere_grace.py [--out sphere_grace.png] [--lmax 6] [--spp 64]

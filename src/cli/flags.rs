@@ -45,7 +45,7 @@ pub fn per_image<T: Copy>(values: &[T], flag: &str, n: usize) -> Result<Vec<Opti
         0 => Ok(vec![None; n]),
         k if k == n => Ok(values.iter().map(|&v| Some(v)).collect()),
         k => Err(Error::new(format!(
-            "--{flag} is given {k} time{} for {n} image{}: give it once per image, in the order of the images",
+            "--{flag} is given {k} time{} for {n} image{}: give it once per image, in the order of the images, or not at all",
             if k == 1 { "" } else { "s" },
             if n == 1 { "" } else { "s" }
         ))),
