@@ -1,6 +1,7 @@
 //! The README's command-line summary cannot drift from the binary: for every subcommand, the long
 //! flags `reflect … --help` lists and the flags on that subcommand's lines of the README's
-//! "Command line" block are the same set, and every subcommand has a line there.
+//! "Command line" block are the same set, and every subcommand has a line there; and user-facing text
+//! cites only what a user of the repository can see.
 
 use std::collections::BTreeSet;
 use std::process::Command;
@@ -141,4 +142,61 @@ fn flag_extraction() {
     );
     let help = "Usage: x\n\nOptions:\n      --out <OUT>\n          Output (see --not-a-flag)\n  -q, --quiet\n          Quiet\n  -h, --help\n";
     assert_eq!(help_flags(help), ["--out", "--quiet"].iter().map(|s| s.to_string()).collect());
+}
+
+/// What a user reads (every `--help`, README.md, the scene files, the Python package's docstrings,
+/// the examples, the deployment example) refers only to what a user of the repository can see: no
+/// private contract (`CONVENTIONS`), tracker issue numbers or files that do not exist, and every
+/// `README "SECTION"` it cites names a heading of README.md.
+#[test]
+fn user_facing_text_cites_only_what_a_user_can_see() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut texts: Vec<(String, String)> = Vec::new();
+    let mut todo: Vec<Vec<String>> = vec![vec![]];
+    while let Some(path) = todo.pop() {
+        let args: Vec<&str> = path.iter().map(String::as_str).collect();
+        let text = help(&args);
+        for s in subcommands(&text) {
+            todo.push(path.iter().cloned().chain([s]).collect());
+        }
+        texts.push((format!("reflect {} --help", path.join(" ")), text));
+    }
+    let mut files = vec![root.join("README.md"), root.join("deploy/k8s-indexed-job.yaml")];
+    for dir in ["scenes", "python/reflect", "python/src", "examples", "examples/python", "benches", "benches/peers"] {
+        for e in std::fs::read_dir(root.join(dir)).unwrap_or_else(|e| panic!("{dir}: {e}")) {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| ["toml", "py", "pyi", "rs"].iter().any(|k| x == *k)) {
+                files.push(p);
+            }
+        }
+    }
+    for f in files {
+        texts.push((f.display().to_string(), std::fs::read_to_string(&f).unwrap()));
+    }
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let headings: Vec<&str> =
+        readme.lines().filter_map(|l| l.strip_prefix('#')).map(|l| l.trim_start_matches('#').trim()).collect();
+    let issue = |t: &str| {
+        let lower = t.to_lowercase();
+        lower.match_indices("issue ").any(|(i, m)| lower[i + m.len()..].starts_with(|c: char| c.is_ascii_digit()))
+    };
+    let mut bad = Vec::new();
+    for (name, text) in &texts {
+        for (n, line) in text.lines().enumerate() {
+            let at = format!("{name}:{}: {line}", n + 1);
+            if ["CONVENTIONS", "scenes/README", "PEERS.md", "HELPERS.md"].iter().any(|w| line.contains(w))
+                || issue(line)
+            {
+                bad.push(at.clone());
+            }
+            // `README "SECTION"` (a section name may continue on the next line: checked as a prefix).
+            for (i, _) in line.match_indices("README \"") {
+                let cited = line[i + 8..].split('"').next().unwrap_or("");
+                if !headings.iter().any(|h| h.trim_matches('`').starts_with(cited) || h.starts_with(cited)) {
+                    bad.push(format!("{at} (no README heading starts with \"{cited}\")"));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "references a user cannot see:\n{}", bad.join("\n"));
 }

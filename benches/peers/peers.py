@@ -9,7 +9,7 @@ Usage (from the repository root, after `cargo build --release`):
 
     python3 benches/peers/peers.py [--spp 64] [--runs 3] [--threads 2] [--scenes lambert-grace,...]
 
-Timing protocol (PEERS.md): scene loading is not counted. reflect: the render wall time it prints
+Timing protocol: scene loading is not counted. reflect: the render wall time it prints
 (`reflect render` excludes map loading and BVH construction). Mitsuba: one warm-up render (JIT), then
 `mi.render(scene, spp, seed)` plus the conversion to a numpy array. Median of `--runs`.
 
@@ -113,7 +113,7 @@ def write_ply(path, v, f, np):
 
 
 def corner_aligned(img, np):
-    """PEERS.md: Mitsuba's envmap rows are corner-aligned; a (2H+1)-row bitmap whose row m holds our
+    """Mitsuba's envmap rows are corner-aligned; a (2H+1)-row bitmap whose row m holds our
     bilinear value at v = m/(2H) makes it look up exactly our function."""
     h = img.shape[0]
     out = np.empty((2 * h + 1,) + img.shape[1:], np.float32)
