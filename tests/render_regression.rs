@@ -85,7 +85,7 @@ fn render_blocks(path: &Path) -> Vec<[(f64, f64); 3]> {
     file.render.height = SIZE;
     file.render.spp = SPP;
     file.render.seed = SEED;
-    file.render.sampler = "independent".into();
+    file.render.sampler = vocab::Sampler::Independent;
     let scene = Scene::build(file, path.parent().unwrap()).unwrap();
     let film = render(&scene, &RenderOptions::default()).0;
     let px = |r: usize, c: usize| film.get(r as u32, c as u32);

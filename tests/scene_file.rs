@@ -46,7 +46,7 @@ fn defaults_and_parse_errors() {
     let f = SceneFile::parse(BASE).unwrap();
     // CONVENTIONS §6 defaults: seed 0, max_depth 8, the Sobol sampler; sphere at the origin, radius 1.
     assert_eq!((f.render.width, f.render.height, f.render.spp, f.render.seed, f.render.max_depth), (8, 6, 2, 0, 8));
-    assert_eq!(f.render.sampler, "sobol");
+    assert_eq!(f.render.sampler, vocab::Sampler::Sobol);
     let s = build(BASE).unwrap();
     assert_eq!((s.settings.width, s.settings.height), (8, 6));
     // Unknown keys anywhere are errors, named.

@@ -18,10 +18,8 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-pub mod error;
 pub mod filter;
 pub mod fit;
-pub mod image;
 pub mod inverse;
 pub mod lighting;
 pub mod lsq;
@@ -31,5 +29,8 @@ pub mod quadrature;
 pub mod sh;
 pub mod special;
 pub mod transfer;
+
+/// The shared error type and image I/O live in `vocab` (re-exported under their old paths).
+pub use vocab::{error, image};
 
 pub use error::Error;

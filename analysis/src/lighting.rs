@@ -1,18 +1,18 @@
 //! Lighting descriptions (the `[lighting]` table of a scene, CONVENTIONS §6, or the
-//! `reflect:lighting` JSON of a render's header) and their SH coefficients L_lm.
+//! `reflect:lighting` JSON of a render's header, both read into `vocab`'s [`LightingSection`]) and
+//! their SH coefficients L_lm.
 //!
 //! Supported: `uniform` (L_00 = L √(4π)), `directional` (a delta of irradiance E toward `direction`:
 //! L_lm = E Y_lm(direction)), `sh` (given coefficients), `envmap` (projected, then scaled and rotated
 //! by `rotate_deg`, world = R_z R_y R_x · map). `axial` is not supported here (its profile format is
-//! the renderer's). Only the `[lighting]` table of a scene file is read, so this crate does not
-//! depend on the renderer.
+//! the renderer's). Only the `[lighting]` table of a scene file is read.
 
 use crate::error::{Error, Result};
 use crate::image::read_rgb;
 use crate::projection::{Mapping, project_envmap};
 use crate::sh::{Rotation, ShBasis, num_coefficients, rotate_coefficients};
-use serde_json::Value;
 use std::path::{Path, PathBuf};
+use vocab::scene::{Color, LightingSection, decimal, decimal3};
 
 /// A distant lighting environment.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,107 +23,74 @@ pub enum Lighting {
     Envmap { file: PathBuf, mapping: Option<Mapping>, scale: f64, rotate_deg: [f64; 3] },
 }
 
-fn rgb(v: &Value, key: &str) -> Result<[f64; 3]> {
-    match v {
-        Value::Number(n) => {
-            let x = n.as_f64().unwrap_or(f64::NAN);
-            Ok([x, x, x])
-        }
-        Value::Array(a) if a.len() == 3 => {
-            let mut o = [0.0; 3];
-            for (i, x) in a.iter().enumerate() {
-                o[i] = x.as_f64().ok_or_else(|| Error::new(format!("lighting.{key}: expected numbers")))?;
-            }
-            Ok(o)
-        }
-        _ => Err(Error::new(format!("lighting.{key}: expected a number or an [r, g, b] array"))),
-    }
-}
-
-fn field<'a>(t: &'a serde_json::Map<String, Value>, key: &str) -> Result<&'a Value> {
-    t.get(key).ok_or_else(|| Error::new(format!("lighting: missing key '{key}'")))
-}
-
 impl Lighting {
-    /// From the JSON form of a `[lighting]` table; relative `file` paths are resolved against `base`.
-    /// Unknown keys are an error (CONVENTIONS §6).
-    pub fn from_json(v: &Value, base: Option<&Path>) -> Result<Lighting> {
-        Lighting::from_json_with(v, base, true)
-    }
-
-    /// As [`Lighting::from_json`]; with `strict = false` unknown keys are ignored (for the
-    /// `reflect:lighting` header, which a renderer may annotate with extra fields).
-    pub fn from_json_with(v: &Value, base: Option<&Path>, strict: bool) -> Result<Lighting> {
-        let t = v.as_object().ok_or_else(|| Error::new("lighting: expected a table"))?;
-        let ty = field(t, "type")?.as_str().ok_or_else(|| Error::new("lighting.type: expected a string"))?;
-        let allowed: &[&str] = match ty {
-            "uniform" => &["type", "radiance"],
-            "directional" => &["type", "direction", "irradiance"],
-            "sh" => &["type", "coefficients"],
-            "envmap" => &["type", "file", "mapping", "scale", "rotate_deg"],
-            "axial" => return Err(Error::new("lighting type 'axial' is not supported by the analysis")),
-            other => return Err(Error::new(format!("unknown lighting type '{other}'"))),
+    /// From a scene's `[lighting]` table ([`LightingSection`], CONVENTIONS §6); a relative `file`
+    /// is resolved against `base`. Values are checked here (finite colours, a non-zero direction,
+    /// a non-empty coefficient list); `axial` is refused (its profile is the renderer's).
+    pub fn from_section(section: &LightingSection, base: Option<&Path>) -> Result<Lighting> {
+        let rgb = |c: &Color, key: &str| -> Result<[f64; 3]> {
+            let v = decimal3(c.rgb());
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(v)
+            } else {
+                Err(Error::new(format!("lighting.{key} must be finite, got {v:?}")))
+            }
         };
-        if let Some(k) = t.keys().find(|k| strict && !allowed.contains(&k.as_str())) {
-            return Err(Error::new(format!("lighting: unknown key '{k}' for type '{ty}'")));
-        }
-        let l = match ty {
-            "uniform" => Lighting::Uniform { radiance: rgb(field(t, "radiance")?, "radiance")? },
-            "directional" => {
-                let d = rgb(field(t, "direction")?, "direction")?;
+        Ok(match section {
+            LightingSection::Uniform { radiance } => Lighting::Uniform { radiance: rgb(radiance, "radiance")? },
+            LightingSection::Directional { direction, irradiance } => {
+                let d = decimal3(*direction);
                 let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 if !(n > 0.0) || !n.is_finite() {
                     return Err(Error::new("lighting.direction must be a non-zero vector"));
                 }
                 Lighting::Directional {
                     direction: [d[0] / n, d[1] / n, d[2] / n],
-                    irradiance: rgb(field(t, "irradiance")?, "irradiance")?,
+                    irradiance: rgb(irradiance, "irradiance")?,
                 }
             }
-            "sh" => {
-                let a = field(t, "coefficients")?
-                    .as_array()
-                    .ok_or_else(|| Error::new("lighting.coefficients: expected an array of [r, g, b]"))?;
-                let coefficients = a.iter().map(|c| rgb(c, "coefficients")).collect::<Result<Vec<_>>>()?;
+            LightingSection::Sh { coefficients } => {
                 if coefficients.is_empty() {
                     return Err(Error::new("lighting.coefficients is empty"));
                 }
+                let coefficients: Vec<[f64; 3]> = coefficients.iter().map(|c| decimal3(*c)).collect();
+                if coefficients.iter().flatten().any(|x| !x.is_finite()) {
+                    return Err(Error::new("lighting.coefficients must be finite"));
+                }
                 Lighting::Sh { coefficients }
             }
-            _ => {
-                let file = field(t, "file")?.as_str().ok_or_else(|| Error::new("lighting.file: expected a string"))?;
+            LightingSection::Envmap { file, mapping, scale, rotate_deg } => {
                 let file = match base {
                     Some(b) if Path::new(file).is_relative() => b.join(file),
                     _ => PathBuf::from(file),
                 };
-                let mapping = match t.get("mapping") {
-                    Some(m) => Some(Mapping::parse(
-                        m.as_str().ok_or_else(|| Error::new("lighting.mapping: expected a string"))?,
-                    )?),
-                    None => None,
-                };
-                let scale = match t.get("scale") {
-                    Some(s) => s.as_f64().ok_or_else(|| Error::new("lighting.scale: expected a number"))?,
-                    None => 1.0,
-                };
-                let rotate_deg = match t.get("rotate_deg") {
-                    Some(r) => rgb(r, "rotate_deg")?,
-                    None => [0.0; 3],
-                };
-                Lighting::Envmap { file, mapping, scale, rotate_deg }
+                Lighting::Envmap { file, mapping: *mapping, scale: decimal(*scale), rotate_deg: decimal3(*rotate_deg) }
             }
-        };
-        Ok(l)
+            LightingSection::Axial { .. } => {
+                return Err(Error::new("lighting type 'axial' is not supported by the analysis"));
+            }
+        })
+    }
+
+    /// From the JSON form of a `[lighting]` table (as in a `reflect:lighting` header); relative
+    /// `file` paths are resolved against `base`. Unknown keys and bad values are errors (CONVENTIONS §6).
+    pub fn from_json(v: &serde_json::Value, base: Option<&Path>) -> Result<Lighting> {
+        let section: LightingSection =
+            serde_json::from_value(v.clone()).map_err(|e| Error::new(format!("lighting: {e}")))?;
+        Lighting::from_section(&section, base)
     }
 
     /// The `[lighting]` table of a scene TOML file (other tables are not read).
     pub fn from_scene_file(path: &Path) -> Result<Lighting> {
+        #[derive(serde::Deserialize)]
+        struct OnlyLighting {
+            lighting: Option<LightingSection>,
+        }
         let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read file: {e}")))?;
-        let table: toml::Table =
-            text.parse().map_err(|e: toml::de::Error| Error::file(path, format!("invalid TOML: {e}")))?;
-        let lt = table.get("lighting").ok_or_else(|| Error::file(path, "scene has no [lighting] table"))?;
-        let v = serde_json::to_value(lt).map_err(|e| Error::file(path, format!("lighting: {e}")))?;
-        Lighting::from_json(&v, path.parent()).map_err(|e| e.in_file(path))
+        let t: OnlyLighting = toml::from_str(&text)
+            .map_err(|e| Error::file(path, format!("invalid TOML: {}", e.message().trim().replace('\n', " "))))?;
+        let section = t.lighting.ok_or_else(|| Error::file(path, "scene has no [lighting] table"))?;
+        Lighting::from_section(&section, path.parent()).map_err(|e| e.in_file(path))
     }
 
     /// An environment map file used directly as lighting.

@@ -90,8 +90,8 @@ fn apply_overrides(
     spp: Option<u32>,
     seed: Option<u64>,
     size: Option<(u32, u32)>,
-    sampler: Option<String>,
-) {
+    sampler: Option<&str>,
+) -> PyResult<()> {
     if let Some(s) = spp {
         file.render.spp = s;
     }
@@ -99,12 +99,14 @@ fn apply_overrides(
         file.render.seed = s;
     }
     if let Some(s) = sampler {
-        file.render.sampler = s;
+        // The closed set's own parse (vocab): the message lists the names, as a scene file's does.
+        file.render.sampler = s.parse().map_err(|e: Error| PyValueError::new_err(format!("render.sampler: {e}")))?;
     }
     if let Some((w, h)) = size {
         file.render.width = w;
         file.render.height = h;
     }
+    Ok(())
 }
 
 /// Renders on another thread while this one, without the GIL, waits for it; every 50 ms it takes
@@ -173,7 +175,7 @@ pub fn render(
     progress: bool,
 ) -> PyResult<RenderResult> {
     let Source { mut file, base, path } = source(kind, value, base)?;
-    apply_overrides(&mut file, spp, seed, size, sampler);
+    apply_overrides(&mut file, spp, seed, size, sampler.as_deref())?;
     let mut scene = py
         .detach(|| {
             Scene::build(file, &base).map_err(|e| match &path {
@@ -241,7 +243,7 @@ impl RenderResult {
         d.set_item("spp", s.spp)?;
         d.set_item("seed", s.seed)?;
         d.set_item("max_depth", s.max_depth)?;
-        d.set_item("sampler", &scene.description.render.sampler)?;
+        d.set_item("sampler", scene.description.render.sampler.name())?;
         let attributes = renderer::output::header_attributes(scene);
         Ok(RenderResult { rgb, stderr, normal, mask, stats: d.unbind(), film, attributes })
     }

@@ -81,7 +81,7 @@ def test_rotate():
     "call, match",
     [
         (lambda: sh.project(np.ones((4, 8, 3)), lmax=500), "--lmax 500 is above the supported maximum"),
-        (lambda: sh.project(np.ones((4, 8, 3)), "cubemap", lmax=2), "unknown mapping 'cubemap'"),
+        (lambda: sh.project(np.ones((4, 8, 3)), "cubemap", lmax=2), 'unknown mapping "cubemap"'),
         (lambda: sh.project(np.ones((4, 7, 3)), lmax=2), "cannot infer the mapping"),
         (lambda: sh.project(np.ones((4, 8)), lmax=2), r"shape \(H, W, 3\)"),
         (lambda: sh.project(np.full((4, 8, 3), np.nan), lmax=2), "non-finite"),

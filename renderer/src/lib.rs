@@ -27,5 +27,5 @@ pub mod shard;
 
 /// The one user-facing error type of the project (shared with `analysis`): it names the file and
 /// the problem on one line.
-pub use analysis::Error;
+pub use vocab::Error;
 pub type Result<T> = std::result::Result<T, Error>;

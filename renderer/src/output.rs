@@ -1,8 +1,8 @@
 //! Writing results: float OpenEXR with the layers of CONVENTIONS §5 and the scene's camera, render
 //! settings, lighting and objects as JSON string attributes in the header (`reflect:camera`,
-//! `reflect:render`, `reflect:lighting`, `reflect:objects`, and the whole scene as
-//! `reflect:scene`), so an analysis can read the geometry back from the file alone; and an
-//! optional tone-mapped sRGB PNG preview.
+//! `reflect:render`, `reflect:lighting`, `reflect:objects`, the whole scene as `reflect:scene` and
+//! `reflect:integrator`; written and read back by [`vocab::header`]), so an analysis can read the
+//! geometry back from the file alone; and an optional tone-mapped sRGB PNG preview.
 //!
 //! Files are written atomically: to a temporary file in the same directory, then renamed, so a
 //! failed or interrupted write never leaves a partial output.
@@ -12,40 +12,12 @@ use crate::scene::Scene;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
-/// JSON with every non-ASCII character escaped, because EXR text attributes are byte strings.
-fn ascii_json(v: &serde_json::Value) -> String {
-    let s = v.to_string();
-    let mut out = String::with_capacity(s.len());
-    for ch in s.chars() {
-        if ch.is_ascii() {
-            out.push(ch);
-        } else {
-            let mut buf = [0u16; 2];
-            for u in ch.encode_utf16(&mut buf) {
-                out.push_str(&format!("\\u{u:04x}"));
-            }
-        }
-    }
-    out
-}
+/// The integrator's description written as `reflect:integrator`.
+pub const INTEGRATOR: &str = "path (NEE + BRDF sampling, MIS power heuristic)";
 
-/// The header attributes describing how an image was made.
+/// The header attributes describing how an image was made ([`vocab::header::attributes`]).
 pub fn header_attributes(scene: &Scene) -> Vec<(String, String)> {
-    let d = &scene.description;
-    let j = |v: serde_json::Result<serde_json::Value>| ascii_json(&v.unwrap_or(serde_json::Value::Null));
-    let mut render = serde_json::to_value(&d.render).unwrap_or_default();
-    if let Some(o) = render.as_object_mut() {
-        o.insert("integrator".into(), "path (NEE + BRDF sampling, MIS power heuristic)".into());
-    }
-    let scene_toml = toml::to_string(d).unwrap_or_default();
-    let scene_toml: String = scene_toml.chars().map(|c| if c.is_ascii() { c } else { '?' }).collect();
-    vec![
-        ("reflect:camera".into(), j(serde_json::to_value(&d.camera))),
-        ("reflect:render".into(), ascii_json(&render)),
-        ("reflect:lighting".into(), j(serde_json::to_value(&d.lighting))),
-        ("reflect:objects".into(), j(serde_json::to_value(&d.objects))),
-        ("reflect:scene".into(), scene_toml),
-    ]
+    vocab::header::attributes(&scene.description, INTEGRATOR)
 }
 
 fn temp_path(path: &Path) -> PathBuf {

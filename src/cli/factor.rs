@@ -405,7 +405,7 @@ fn from_scene(
         None => return Err(Error::file(path, "the scene has no objects (objects[0] must be a sphere)")),
     };
     let n_objects = file.objects.len();
-    let (spp, sampler, max_depth) = (file.render.spp, file.render.sampler.clone(), file.render.max_depth);
+    let (spp, sampler, max_depth) = (file.render.spp, file.render.sampler, file.render.max_depth);
     file.render.width = w;
     file.render.height = h;
     // Pixel centres (jitter off): the normal quadrature's nodes are the pixel centres.

@@ -104,10 +104,13 @@ pub fn lighting_of(
     if mapping.is_some() {
         return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
     }
-    match header_json(first, "reflect:lighting").map_err(|e| e.in_file(first_path))? {
-        Some(v) => {
-            Ok(Some((Lighting::from_json_with(&v, first_path.parent(), false)?, "reflect:lighting header".to_string())))
-        }
+    match vocab::header::read_key::<vocab::LightingSection>(&first.attributes, vocab::header::LIGHTING)
+        .map_err(|e| e.in_file(first_path))?
+    {
+        Some(s) => Ok(Some((
+            Lighting::from_section(&s, first_path.parent()).map_err(|e| e.in_file(first_path))?,
+            "reflect:lighting header".to_string(),
+        ))),
         None => Ok(None),
     }
 }

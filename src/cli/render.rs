@@ -33,9 +33,9 @@ pub struct RenderArgs {
     /// Exposure of the --png preview in stops [default: the object's median luminance → 0.18].
     #[arg(long, allow_hyphen_values = true, requires = "png")]
     pub exposure: Option<f64>,
-    /// Sampler: sobol or independent (overrides render.sampler).
-    #[arg(long)]
-    pub sampler: Option<String>,
+    /// Sampler (overrides render.sampler).
+    #[arg(long, value_enum)]
+    pub sampler: Option<vocab::Sampler>,
     /// Image width × height, e.g. 256x256 (overrides render.width/height).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
@@ -99,8 +99,8 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
     if let Some(s) = a.seed {
         file.render.seed = s;
     }
-    if let Some(s) = &a.sampler {
-        file.render.sampler = s.clone();
+    if let Some(s) = a.sampler {
+        file.render.sampler = s;
     }
     if let Some((w, h)) = a.size {
         file.render.width = w;

@@ -16,42 +16,8 @@ use crate::sh::{RgbCoeffs, ShBasis, index, num_coefficients};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-/// Environment-map parameterization (CONVENTIONS §2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mapping {
-    LatLong,
-    Angular,
-}
-
-impl Mapping {
-    pub fn parse(s: &str) -> Result<Mapping> {
-        match s {
-            "latlong" => Ok(Mapping::LatLong),
-            "angular" => Ok(Mapping::Angular),
-            _ => Err(Error::new(format!("unknown mapping '{s}' (expected latlong or angular)"))),
-        }
-    }
-
-    /// Infers the mapping from the aspect ratio: W = H → angular, W = 2H → lat-long.
-    pub fn infer(width: usize, height: usize) -> Result<Mapping> {
-        if width == height {
-            Ok(Mapping::Angular)
-        } else if width == 2 * height {
-            Ok(Mapping::LatLong)
-        } else {
-            Err(Error::new(format!(
-                "cannot infer the mapping of a {width}×{height} map (W = H is angular, W = 2H lat-long): pass --mapping"
-            )))
-        }
-    }
-
-    pub fn name(&self) -> &'static str {
-        match self {
-            Mapping::LatLong => "latlong",
-            Mapping::Angular => "angular",
-        }
-    }
-}
+/// Environment-map parameterization (CONVENTIONS §2), defined in `vocab`.
+pub use vocab::Mapping;
 
 /// Direction of the angular-map pixel (row, col) and its solid angle, or `None` outside the disc.
 #[inline]

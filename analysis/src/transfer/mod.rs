@@ -19,14 +19,8 @@ pub mod torrance_sparrow;
 
 use crate::error::{Error, Result};
 
-/// Horizon handling of `phong` and `torrance-sparrow` (CONVENTIONS §4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Horizon {
-    /// No light from below the local horizon (physical).
-    Clamp,
-    /// The lobe gathers light from every direction it covers (the paper's simplification).
-    Ignore,
-}
+/// Horizon handling of `phong` and `torrance-sparrow` (CONVENTIONS §4), defined in `vocab`.
+pub use vocab::Horizon;
 
 /// A BRDF model whose transfer coefficients we can compute.
 #[derive(Clone, Copy, Debug, PartialEq)]

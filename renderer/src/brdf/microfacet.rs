@@ -24,11 +24,8 @@ use super::fresnel;
 use super::{BrdfSample, Bxdf};
 use crate::math::{INV_PI, PI, Rgb, Vec2, Vec3};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MicrofacetDistribution {
-    Beckmann,
-    Ggx,
-}
+/// The normal distribution D (`distribution`), defined in `vocab`.
+pub use vocab::Distribution as MicrofacetDistribution;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Fresnel {

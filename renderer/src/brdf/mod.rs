@@ -25,15 +25,9 @@ pub use torrance_sparrow::TorranceSparrow;
 
 use crate::math::{Rgb, Vec2, Vec3};
 
-/// Whether a lobe sees light from below the local horizon (CONVENTIONS §4, paper sec. 3.6).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Horizon {
-    /// Physical: nothing arrives from n·ω_i ≤ 0 (the convex object occludes itself there).
-    #[default]
-    Clamp,
-    /// The paper's simplification: the lobe gathers distant light in every direction it covers.
-    Ignore,
-}
+/// Whether a lobe sees light from below the local horizon (CONVENTIONS §4, paper sec. 3.6), defined in
+/// `vocab`.
+pub use vocab::Horizon;
 
 /// A direction drawn from a BRDF.
 #[derive(Clone, Copy, Debug)]

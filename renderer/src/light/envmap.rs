@@ -22,15 +22,12 @@ use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
-use analysis::image::RgbImage;
 use rayon::prelude::*;
 use std::path::Path;
+use vocab::image::RgbImage;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mapping {
-    LatLong,
-    Angular,
-}
+/// Environment-map parameterization (CONVENTIONS §2), defined in `vocab`.
+pub use vocab::Mapping;
 
 /// The importance-sampling structure of each mapping.
 #[derive(Clone, Debug)]
@@ -146,7 +143,7 @@ impl Envmap {
     /// Reads an `.exr` / `.hdr` file and builds the light; every error names the file.
     /// `rotate_deg` = rotations about x, then y, then z applied to the map (CONVENTIONS §6).
     pub fn load(path: &Path, mapping: Mapping, scale: f32, rotate_deg: [f32; 3]) -> crate::Result<Self> {
-        let image = analysis::image::read_rgb(path)?;
+        let image = vocab::image::read_rgb(path)?;
         Envmap::new(image, mapping, scale, crate::math::rotation_xyz_deg(rotate_deg)).map_err(|e| e.in_file(path))
     }
 
@@ -589,7 +586,7 @@ mod tests {
 
     #[test]
     fn grace_builds_quickly() {
-        let img = analysis::image::read_rgb(GRACE).unwrap();
+        let img = vocab::image::read_rgb(GRACE).unwrap();
         let t = std::time::Instant::now();
         let e = Envmap::new(img, Mapping::Angular, 1.0, glam::Mat3::IDENTITY).unwrap();
         eprintln!("Envmap::new(grace 1000×1000) took {:.1} ms", t.elapsed().as_secs_f64() * 1e3);

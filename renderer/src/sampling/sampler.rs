@@ -11,12 +11,8 @@
 
 use crate::math::Vec2;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum SamplerKind {
-    Independent,
-    #[default]
-    Sobol,
-}
+/// The sample generator (`render.sampler`), defined in `vocab`.
+pub use vocab::Sampler as SamplerKind;
 
 #[derive(Clone, Debug)]
 pub struct Sampler {

@@ -3,7 +3,7 @@
 //! file, and builds the BVH. Every failure is one line naming the scene file (or the data file).
 
 use super::file::{BrdfSection, CameraSection, LightingSection, ObjectSection, SceneFile};
-use crate::brdf::{self, Brdf, Horizon};
+use crate::brdf::{self, Brdf};
 use crate::camera::{Camera, NormalProbe, Orthographic, Perspective};
 use crate::geometry::{SceneGeometry, Shape, Sphere};
 use crate::light::{self, Light, Mapping};
@@ -11,6 +11,7 @@ use crate::math::{Rgb, Vec3, rotation_xyz_deg};
 use crate::sampling::SamplerKind;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
+use vocab::FresnelKind;
 
 /// Largest accepted image side and samples per pixel: beyond these a request is taken as a typo.
 pub const MAX_RESOLUTION: u32 = 16384;
@@ -78,18 +79,13 @@ impl Scene {
         if r.max_depth == 0 || r.max_depth > MAX_DEPTH {
             return Err(Error::new(format!("max_depth = {} is out of range 1..={MAX_DEPTH}", r.max_depth)));
         }
-        let sampler = match r.sampler.as_str() {
-            "sobol" => SamplerKind::Sobol,
-            "independent" => SamplerKind::Independent,
-            s => return Err(Error::new(format!("render.sampler must be \"sobol\" or \"independent\", got {s:?}"))),
-        };
         let settings = RenderSettings {
             width: r.width,
             height: r.height,
             spp: r.spp,
             seed: r.seed,
             max_depth: r.max_depth,
-            sampler,
+            sampler: r.sampler,
         };
 
         // Objects.
@@ -219,43 +215,31 @@ fn positive(v: f32, what: &str) -> std::result::Result<f32, String> {
     if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be positive, got {v}")) }
 }
 
-fn horizon(h: &str) -> std::result::Result<Horizon, String> {
-    match h {
-        "clamp" => Ok(Horizon::Clamp),
-        "ignore" => Ok(Horizon::Ignore),
-        _ => Err(format!("horizon must be \"clamp\" or \"ignore\", got {h:?}")),
-    }
-}
-
 /// Builds a BRDF from its table (CONVENTIONS §4).
 pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
     Ok(match b {
         BrdfSection::Mirror { kr } => Brdf::Mirror(brdf::Mirror::new(color(*kr, "kr")?)),
         BrdfSection::Lambert { albedo } => Brdf::Lambert(brdf::Lambert::new(color(*albedo, "albedo")?)),
         BrdfSection::Phong { ks, s, horizon: hz } => {
-            Brdf::Phong(brdf::Phong::new(color(*ks, "ks")?, positive(*s, "phong s")?, horizon(hz)?))
+            Brdf::Phong(brdf::Phong::new(color(*ks, "ks")?, positive(*s, "phong s")?, *hz))
         }
         BrdfSection::TorranceSparrow { ks, sigma, horizon: hz } => Brdf::TorranceSparrow(brdf::TorranceSparrow::new(
             color(*ks, "ks")?,
             positive(*sigma, "torrance-sparrow sigma")?,
-            horizon(hz)?,
+            *hz,
         )),
         BrdfSection::Microfacet { distribution, alpha, fresnel, f0, eta, k } => {
-            let d = match distribution.as_str() {
-                "beckmann" => brdf::MicrofacetDistribution::Beckmann,
-                "ggx" => brdf::MicrofacetDistribution::Ggx,
-                s => return Err(format!("microfacet distribution must be \"beckmann\" or \"ggx\", got {s:?}")),
-            };
-            let fr = match fresnel.as_str() {
-                "none" => brdf::Fresnel::None,
-                "schlick" => brdf::Fresnel::Schlick { f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")? },
-                "conductor" => brdf::Fresnel::Conductor {
+            let fr = match fresnel {
+                FresnelKind::None => brdf::Fresnel::None,
+                FresnelKind::Schlick => {
+                    brdf::Fresnel::Schlick { f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")? }
+                }
+                FresnelKind::Conductor => brdf::Fresnel::Conductor {
                     eta: color(eta.ok_or("fresnel = \"conductor\" needs eta")?, "eta")?,
                     k: color(k.ok_or("fresnel = \"conductor\" needs k")?, "k")?,
                 },
-                s => return Err(format!("fresnel must be \"none\", \"schlick\" or \"conductor\", got {s:?}")),
             };
-            Brdf::Microfacet(brdf::Microfacet::new(d, positive(*alpha, "microfacet alpha")?, fr))
+            Brdf::Microfacet(brdf::Microfacet::new(*distribution, positive(*alpha, "microfacet alpha")?, fr))
         }
         BrdfSection::Mix { layers } => {
             if layers.is_empty() {
@@ -317,18 +301,20 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
         LightingSection::Envmap { file, mapping, scale, rotate_deg } => {
             let p = resolve(base, file);
             *file = p.to_string_lossy().into_owned();
-            let m = match mapping.as_str() {
-                "latlong" => Mapping::LatLong,
-                "angular" => Mapping::Angular,
-                s => return Err(lerr(format!("mapping must be \"latlong\" or \"angular\", got {s:?}"))),
-            };
             if !(*scale >= 0.0 && scale.is_finite()) {
                 return Err(lerr(format!("scale must be finite and non-negative, got {scale}")));
             }
             if rotate_deg.iter().any(|v| !v.is_finite()) {
                 return Err(lerr("rotate_deg must be finite".into()));
             }
-            let img = analysis::image::read_rgb(&p)?;
+            let img = vocab::image::read_rgb(&p)?;
+            // An absent mapping is inferred from the aspect ratio, as the analysis does, and written
+            // into the description (and so the header).
+            let m = match *mapping {
+                Some(m) => m,
+                None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&p))?,
+            };
+            *mapping = Some(m);
             Light::Envmap(light::Envmap::new(img, m, *scale, rotation_xyz_deg(*rotate_deg)).map_err(|e| e.in_file(&p))?)
         }
     })

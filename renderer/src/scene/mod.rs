@@ -2,7 +2,8 @@
 //! ([`build`]).
 
 pub mod build;
-pub mod file;
+/// The scene-file types, defined in `vocab` (CONVENTIONS §6).
+pub use vocab::scene as file;
 
 pub use build::{RenderSettings, Scene};
 pub use file::SceneFile;

@@ -1,10 +1,17 @@
-//! The scene-file vocabulary of CONVENTIONS §6, as serde structs. Unknown keys are errors
-//! (`deny_unknown_fields` everywhere), so a typo never silently changes a render.
+//! The scene-file vocabulary of CONVENTIONS §6, as serde types. Unknown keys are errors
+//! (`deny_unknown_fields` everywhere), so a typo never silently changes a render, and every closed
+//! set (`sampler`, `horizon`, `distribution`, `fresnel`, `mapping`, and the `type`/`shape` tags) is
+//! an enum, so a bad value is refused by the parser with the line and the accepted names.
+//!
+//! The renderer builds its scene from these types, the analysis reads its lighting from them, the
+//! EXR header (`reflect:*` attributes, [`crate::header`]) is written from and read back into them,
+//! and `reflect verify` builds its scenes as values of them.
 //!
 //! Extensions beyond §6 (all optional): `render.sampler` ("sobol" | "independent"),
 //! `camera.jitter` for the normal-probe camera, mesh `smooth`/`translate`/`scale`/`rotate_deg`,
 //! lighting `axial.profile = [[theta_deg, r, g, b], …]`, colours given as a scalar or an RGB triple.
 
+use crate::closed::{Distribution, FresnelKind, Horizon, Mapping, Sampler};
 use serde::{Deserialize, Serialize};
 
 /// A colour given either as one number (grey) or as `[r, g, b]`.
@@ -48,13 +55,13 @@ pub struct RenderSection {
     pub seed: u64,
     /// Path vertices; a convex object under distant light needs 1.
     pub max_depth: u32,
-    /// "sobol" (default) or "independent".
-    pub sampler: String,
+    /// Sample generator (default Sobol).
+    pub sampler: Sampler,
 }
 
 impl Default for RenderSection {
     fn default() -> Self {
-        RenderSection { width: 512, height: 512, spp: 64, seed: 0, max_depth: 8, sampler: "sobol".into() }
+        RenderSection { width: 512, height: 512, spp: 64, seed: 0, max_depth: 8, sampler: Sampler::Sobol }
     }
 }
 
@@ -114,7 +121,9 @@ pub enum LightingSection {
     },
     Envmap {
         file: String,
-        mapping: String,
+        /// Absent: inferred from the map's aspect ratio ([`Mapping::infer`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        mapping: Option<Mapping>,
         #[serde(default = "one_f")]
         scale: f32,
         #[serde(default)]
@@ -192,24 +201,22 @@ pub enum BrdfSection {
         #[serde(default = "one")]
         ks: Color,
         s: f32,
-        #[serde(default = "clamp")]
-        horizon: String,
+        #[serde(default)]
+        horizon: Horizon,
     },
     TorranceSparrow {
         #[serde(default = "one")]
         ks: Color,
         sigma: f32,
-        #[serde(default = "clamp")]
-        horizon: String,
+        #[serde(default)]
+        horizon: Horizon,
     },
     Microfacet {
-        /// "beckmann" | "ggx"
-        #[serde(default = "beckmann")]
-        distribution: String,
+        #[serde(default)]
+        distribution: Distribution,
         alpha: f32,
-        /// "none" | "schlick" | "conductor"
-        #[serde(default = "none_str")]
-        fresnel: String,
+        #[serde(default)]
+        fresnel: FresnelKind,
         /// Schlick: reflectance at normal incidence.
         #[serde(default)]
         f0: Option<Color>,
@@ -231,16 +238,6 @@ pub struct MixLayer {
     pub brdf: BrdfSection,
 }
 
-fn clamp() -> String {
-    "clamp".into()
-}
-fn beckmann() -> String {
-    "beckmann".into()
-}
-fn none_str() -> String {
-    "none".into()
-}
-
 impl SceneFile {
     /// Parses TOML text; errors carry the line number and serde's one-line message.
     pub fn parse(text: &str) -> Result<Self, String> {
@@ -253,4 +250,65 @@ impl SceneFile {
             }
         })
     }
+}
+
+impl CameraSection {
+    /// The camera's `type`.
+    pub fn kind(&self) -> crate::CameraKind {
+        match self {
+            CameraSection::Orthographic { .. } => crate::CameraKind::Orthographic,
+            CameraSection::Perspective { .. } => crate::CameraKind::Perspective,
+            CameraSection::NormalProbe { .. } => crate::CameraKind::NormalProbe,
+        }
+    }
+}
+
+impl LightingSection {
+    /// The lighting's `type`.
+    pub fn kind(&self) -> crate::LightingKind {
+        match self {
+            LightingSection::Uniform { .. } => crate::LightingKind::Uniform,
+            LightingSection::Directional { .. } => crate::LightingKind::Directional,
+            LightingSection::Axial { .. } => crate::LightingKind::Axial,
+            LightingSection::Sh { .. } => crate::LightingKind::Sh,
+            LightingSection::Envmap { .. } => crate::LightingKind::Envmap,
+        }
+    }
+}
+
+impl ObjectSection {
+    /// The object's `shape`.
+    pub fn kind(&self) -> crate::ShapeKind {
+        match self {
+            ObjectSection::Sphere { .. } => crate::ShapeKind::Sphere,
+            ObjectSection::Mesh { .. } => crate::ShapeKind::Mesh,
+            ObjectSection::Icosphere { .. } => crate::ShapeKind::Icosphere,
+        }
+    }
+}
+
+impl BrdfSection {
+    /// The BRDF's `type`.
+    pub fn kind(&self) -> crate::BrdfKind {
+        match self {
+            BrdfSection::Mirror { .. } => crate::BrdfKind::Mirror,
+            BrdfSection::Lambert { .. } => crate::BrdfKind::Lambert,
+            BrdfSection::Phong { .. } => crate::BrdfKind::Phong,
+            BrdfSection::TorranceSparrow { .. } => crate::BrdfKind::TorranceSparrow,
+            BrdfSection::Microfacet { .. } => crate::BrdfKind::Microfacet,
+            BrdfSection::Mix { .. } => crate::BrdfKind::Mix,
+        }
+    }
+}
+
+/// An f32 scene value as the decimal it was written as (its shortest round-trip form, as TOML,
+/// JSON and the `reflect:*` headers spell it), so an analysis takes `s = 0.1` as 0.1, not as the
+/// f32 nearest to it (0.10000000149…): the renderer needs f32, the analysis the stated number.
+pub fn decimal(x: f32) -> f64 {
+    if x.is_finite() { x.to_string().parse().unwrap_or(f64::from(x)) } else { f64::from(x) }
+}
+
+/// [`decimal`] of each component.
+pub fn decimal3(v: [f32; 3]) -> [f64; 3] {
+    v.map(decimal)
 }

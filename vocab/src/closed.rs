@@ -1,0 +1,229 @@
+//! The closed sets of the scene format and the command line, each defined once: its Rust variants,
+//! its spelling in TOML, JSON, EXR headers and on the command line (the same string everywhere),
+//! and its default. With the `clap` feature each is a `clap::ValueEnum`, so `--help` lists the names.
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// Defines a closed set: a fieldless enum with one spelling per variant, serde and (feature `clap`)
+/// `clap::ValueEnum` under that spelling, [`fmt::Display`], [`FromStr`] and `Deserialize` (an error
+/// names the set and lists the names),
+/// `name()` and `ALL`.
+macro_rules! closed_set {
+    (
+        $(#[$meta:meta])*
+        $what:literal, $name:ident { $( $(#[$vmeta:meta])* $variant:ident = $text:literal ),+ $(,)? }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+        #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+        pub enum $name {
+            $(
+                $(#[$vmeta])*
+                #[serde(rename = $text)]
+                #[cfg_attr(feature = "clap", value(name = $text))]
+                $variant,
+            )+
+        }
+
+        impl $name {
+            /// Every member, in declaration order.
+            pub const ALL: &'static [$name] = &[$($name::$variant),+];
+
+            /// The spelling in scene files, headers and on the command line.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($name::$variant => $text,)+
+                }
+            }
+        }
+
+        /// By name; an unknown name is an error naming the set and listing its names (so a scene
+        /// file's message says which key holds the bad value).
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                s.parse().map_err(|e: Error| serde::de::Error::custom(e.message))
+            }
+        }
+
+        impl fmt::Display for $name {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+
+        impl FromStr for $name {
+            type Err = Error;
+            fn from_str(s: &str) -> Result<Self> {
+                $name::ALL.iter().copied().find(|v| v.name() == s).ok_or_else(|| {
+                    let names: Vec<String> = $name::ALL.iter().map(|v| format!("\"{}\"", v.name())).collect();
+                    Error::new(format!("unknown {} \"{s}\" (expected {})", $what, names.join(" | ")))
+                })
+            }
+        }
+    };
+}
+
+closed_set! {
+    /// The sample generator of a render (`render.sampler`).
+    #[derive(Default)]
+    "sampler", Sampler {
+        /// Owen-scrambled Sobol points (the default): stratified in every pair of dimensions.
+        #[default]
+        Sobol = "sobol",
+        /// Independent uniform numbers: the per-pixel standard error is the estimator's own.
+        Independent = "independent",
+    }
+}
+
+closed_set! {
+    /// Horizon handling of `phong` and `torrance-sparrow` (CONVENTIONS §4, paper sec. 3.6).
+    #[derive(Default)]
+    "horizon", Horizon {
+        /// Physical (the default): nothing arrives from n·ω_i ≤ 0 (the convex object occludes itself).
+        #[default]
+        Clamp = "clamp",
+        /// The paper's simplification: the lobe gathers distant light in every direction it covers.
+        Ignore = "ignore",
+    }
+}
+
+closed_set! {
+    /// The microfacet normal distribution D of a `microfacet` BRDF.
+    #[derive(Default)]
+    "distribution", Distribution {
+        /// Beckmann–Spizzichino (the default).
+        #[default]
+        Beckmann = "beckmann",
+        /// Trowbridge–Reitz (GGX).
+        Ggx = "ggx",
+    }
+}
+
+closed_set! {
+    /// The Fresnel term F of a `microfacet` BRDF (its parameters `f0`, `eta`, `k` are sibling keys).
+    #[derive(Default)]
+    "fresnel", FresnelKind {
+        /// F = 1 (the default).
+        #[default]
+        None = "none",
+        /// Schlick's approximation with normal-incidence reflectance `f0`.
+        Schlick = "schlick",
+        /// Exact conductor Fresnel with complex index `eta` + i `k`.
+        Conductor = "conductor",
+    }
+}
+
+closed_set! {
+    /// Environment-map parameterization (CONVENTIONS §2).
+    "mapping", Mapping {
+        /// Equirectangular: W = 2H, row 0 at θ = 0 (+z).
+        LatLong = "latlong",
+        /// Debevec's angular (light-probe) map: W = H.
+        Angular = "angular",
+    }
+}
+
+impl Mapping {
+    /// Infers the mapping from the aspect ratio: W = H → angular, W = 2H → lat-long; any other
+    /// shape is an error asking for the mapping.
+    pub fn infer(width: usize, height: usize) -> Result<Mapping> {
+        if width == height {
+            Ok(Mapping::Angular)
+        } else if width == 2 * height {
+            Ok(Mapping::LatLong)
+        } else {
+            Err(Error::new(format!(
+                "cannot infer the mapping of a {width}×{height} map (W = H is angular, W = 2H lat-long): pass --mapping"
+            )))
+        }
+    }
+
+    /// Parses a mapping name (as [`FromStr`]).
+    pub fn parse(s: &str) -> Result<Mapping> {
+        s.parse()
+    }
+}
+
+closed_set! {
+    /// The BRDF models of CONVENTIONS §4 (the `type` of a `brdf` table).
+    "BRDF type", BrdfKind {
+        /// ρ̂ = k_r δ(ω_i = R).
+        Mirror = "mirror",
+        /// BRDF = albedo / π.
+        Lambert = "lambert",
+        /// The normalized Phong lobe of eq. 40.
+        Phong = "phong",
+        /// The Torrance–Sparrow lobe of eq. 48.
+        TorranceSparrow = "torrance-sparrow",
+        /// Beckmann or GGX D, Smith G, Fresnel F.
+        Microfacet = "microfacet",
+        /// A weighted sum of the others.
+        Mix = "mix",
+    }
+}
+
+closed_set! {
+    /// The lighting types of CONVENTIONS §6 (the `type` of the `[lighting]` table).
+    "lighting type", LightingKind {
+        /// Constant radiance.
+        Uniform = "uniform",
+        /// A delta light of given irradiance.
+        Directional = "directional",
+        /// Axially symmetric about `axis`, profile given in the file.
+        Axial = "axial",
+        /// Given SH coefficients.
+        Sh = "sh",
+        /// An environment map file.
+        Envmap = "envmap",
+    }
+}
+
+closed_set! {
+    /// The camera types of CONVENTIONS §6 (the `type` of the `[camera]` table).
+    "camera type", CameraKind {
+        /// Parallel rays along `to − from`, half-width `extent`.
+        Orthographic = "orthographic",
+        /// A pinhole with vertical field of view `fov_deg`.
+        Perspective = "perspective",
+        /// B on a lat-long grid of normals of a sphere.
+        NormalProbe = "normal-probe",
+    }
+}
+
+closed_set! {
+    /// The object shapes of a scene (the `shape` of an `[[objects]]` table).
+    "shape", ShapeKind {
+        /// An analytic sphere.
+        Sphere = "sphere",
+        /// A triangle mesh from an OBJ or glTF file.
+        Mesh = "mesh",
+        /// A subdivided icosahedron built in memory.
+        Icosphere = "icosphere",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_through_serde_and_from_str() {
+        for m in Mapping::ALL {
+            assert_eq!(serde_json::to_string(m).unwrap(), format!("\"{m}\""));
+            assert_eq!(m.name().parse::<Mapping>().unwrap(), *m);
+        }
+        assert_eq!(BrdfKind::TorranceSparrow.name(), "torrance-sparrow");
+        assert_eq!(serde_json::from_str::<CameraKind>("\"normal-probe\"").unwrap(), CameraKind::NormalProbe);
+        let e = "mercator".parse::<Mapping>().unwrap_err().to_string();
+        assert!(e.contains("mercator") && e.contains("\"latlong\" | \"angular\""), "{e}");
+        assert_eq!(Sampler::default(), Sampler::Sobol);
+        // A bad value in a file names the key's set, not just "unknown variant".
+        let e = serde_json::from_str::<Sampler>("\"halton\"").unwrap_err().to_string();
+        assert!(e.contains("sampler") && e.contains("halton") && e.contains("\"sobol\""), "{e}");
+        assert_eq!(Horizon::default(), Horizon::Clamp);
+    }
+}
