@@ -23,6 +23,7 @@ const NAMES: [&str; 22] = [
     "uniform",
     "associativity",
     "convex-shape",
+    "single-view",
     "horizon",
     "inverse-lighting",
     "inverse-lighting-specular",
