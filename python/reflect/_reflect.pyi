@@ -31,12 +31,17 @@ class RenderResult:
     def mask(self) -> npt.NDArray[np.float32]:
         """Fraction of each pixel's samples that hit an object, in [0, 1]: (H, W) float32."""
     @property
+    def stderr_flag(self) -> npt.NDArray[np.bool_]:
+        """The ``stderr_flag.Y`` layer: (H, W) bool, True where the pixel's error bar cannot be trusted
+        (one rare sample dominates its variance: the largest batch deviation squared exceeds half the
+        sum of squared deviations, judged from 16 samples on; the same flag ``reflect render`` writes)."""
+    @property
     def stats(self) -> Dict[str, Any]:
         """``wall_seconds``, ``samples``, ``rays``, ``threads``, ``samples_per_sec``, ``rays_per_sec``,
         and the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``."""
     def save(self, path: str) -> None:
         """Writes the OpenEXR file ``reflect render`` writes (32-bit float R, G, B, normal.X/Y/Z,
-        mask.Y, stderr.R/G/B, the scene in the header), atomically. ``path`` must end in ``.exr``."""
+        mask.Y, stderr.R/G/B, stderr_flag.Y, the scene in the header), atomically. ``path`` must end in ``.exr``."""
 
 def render(
     kind: str,

@@ -204,6 +204,10 @@ pub struct RenderResult {
     /// Fraction of each pixel's samples that hit an object, float32 (H, W).
     #[pyo3(get)]
     mask: Py<PyArray2<f32>>,
+    /// The `stderr_flag.Y` layer as bool (H, W): True where the pixel's error bar cannot be trusted
+    /// (one rare sample dominates its variance).
+    #[pyo3(get)]
+    stderr_flag: Py<PyArray2<bool>>,
     /// Throughput and settings of the render.
     #[pyo3(get)]
     stats: Py<PyDict>,
@@ -230,6 +234,8 @@ impl RenderResult {
         let stderr = rgb3(|p| p.stderr)?;
         let normal = rgb3(|p| p.normal)?;
         let mask = layer(py, &film, |p| [p.mask])?.reshape([h, w])?.unbind();
+        let flags: Vec<bool> = film.pixels.iter().map(|p| p.unreliable).collect();
+        let stderr_flag = PyArray1::from_vec(py, flags).reshape([h, w])?.unbind();
         let s = &scene.settings;
         let d = PyDict::new(py);
         d.set_item("wall_seconds", stats.wall.as_secs_f64())?;
@@ -245,7 +251,7 @@ impl RenderResult {
         d.set_item("max_depth", s.max_depth)?;
         d.set_item("sampler", scene.description.render.sampler.name())?;
         let attributes = renderer::output::header_attributes(scene);
-        Ok(RenderResult { rgb, stderr, normal, mask, stats: d.unbind(), film, attributes })
+        Ok(RenderResult { rgb, stderr, normal, mask, stderr_flag, stats: d.unbind(), film, attributes })
     }
 }
 

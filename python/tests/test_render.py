@@ -31,11 +31,24 @@ def test_same_bits_as_the_cli(cli, tiny_scene, tmp_path):
         assert np.array_equal(saved.channels[name], a), name
 
 
+def test_stderr_flag_is_the_cli_layer(cli, tiny_scene, tmp_path):
+    # 16 samples (the fewest the flag is judged from) on the tiny sphere: with this seed 11 of the 120 pixels
+    # are flagged, in no symmetric pattern, so an all-False or flipped layer fails.
+    out_cli = tmp_path / "cli.exr"
+    cli("render", tiny_scene, "--out", out_cli, "--spp", 16, "--seed", 5, "--quiet")
+    r = reflect.render(tiny_scene, spp=16, seed=5)
+    img_flag = reflect.read_image(out_cli).channels["stderr_flag.Y"]
+    assert r.stderr_flag.dtype == np.bool_ and r.stderr_flag.shape == img_flag.shape
+    assert 0 < r.stderr_flag.sum() < r.stderr_flag.size
+    assert np.array_equal(r.stderr_flag, img_flag == 1.0)
+
+
 def test_arrays_and_stats(tiny_scene):
     r = reflect.render(tiny_scene)
     for a in (r.rgb, r.stderr, r.normal):
         assert a.dtype == np.float32 and a.shape == (10, 12, 3)
     assert r.mask.dtype == np.float32 and r.mask.shape == (10, 12)
+    assert r.stderr_flag.dtype == np.bool_ and r.stderr_flag.shape == (10, 12)
     # The sphere covers the centre and misses the corners.
     assert r.mask[5, 6] == 1.0 and r.mask[0, 0] == 0.0
     assert np.all(r.rgb[5, 6] > 0) and np.all(np.isfinite(r.rgb))  # (a miss shows the lighting)
