@@ -12,7 +12,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     common::reflect_out(&[&["verify"], args].concat())
 }
 
-const NAMES: [&str; 21] = [
+const NAMES: [&str; 22] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -23,6 +23,7 @@ const NAMES: [&str; 21] = [
     "uniform",
     "associativity",
     "convex-shape",
+    "single-view",
     "horizon",
     "inverse-lighting",
     "inverse-lighting-specular",

@@ -92,6 +92,259 @@ pub fn measured_filter(
         .collect()
 }
 
+/// Largest noise amplification √((C⁻¹)_ll) (C the design's Gram matrix normalized to unit
+/// diagonal; 1 for orthogonal orders, as on the full sphere) at which an order of
+/// [`fit_filter_pixels`] still counts as determined.
+pub const MAX_AMPLIFICATION: f64 = 30.0;
+
+/// Robust χ²/ν ([`crate::fit::robust_chi2`]) above which [`fit_filter_pixels`] warns that the model
+/// does not describe the image. A right model gives ≈ 1 (the plain χ²/ν, 1 ± √(2/ν) with honest σ,
+/// reaches 2–4 on 32-spp renders under Grace, whose per-pixel σ of a heavy-tailed estimator is
+/// itself noisy: that only scales the error bars); a lighting rotated by 90° gives several.
+pub const MISMATCH_CHI2: f64 = 2.0;
+
+/// How well the pixels determine one order of the filter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OrderStatus {
+    /// Noise amplification ≤ [`MAX_AMPLIFICATION`].
+    Determined,
+    /// Fitted, but the visible directions barely separate it from the other orders.
+    IllConditioned,
+    /// The lighting has no energy in this order over the visible directions: not fitted.
+    Unobservable,
+}
+
+/// One order of a pixel-space filter fit, per RGB channel.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PixelOrder {
+    pub l: usize,
+    /// Â_l (albedo · Λ_l ρ̂_l); `None` where unobservable.
+    pub estimate: [Option<f64>; 3],
+    /// Noise part of the standard error: propagated per-pixel σ, scaled by √(χ²/ν) when χ²/ν > 1
+    /// (or estimated from the residuals without a `stderr` layer).
+    pub stderr_noise: [Option<f64>; 3],
+    /// Estimated truncation bias |Â_l(L) − Â_l(L + 2)| with the noise of that difference removed
+    /// (Var = σ²(L + 2) − σ²(L)); `None` where the lighting has no orders above L to test with.
+    pub truncation: [Option<f64>; 3],
+    /// Total: √(noise² + truncation²).
+    pub stderr: [Option<f64>; 3],
+    /// Noise amplification of the design √((C⁻¹)_ll) (1 for orthogonal orders).
+    pub amplification: [Option<f64>; 3],
+    pub status: [OrderStatus; 3],
+}
+
+/// Goodness of fit of one channel of [`fit_filter_pixels`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ChannelFit {
+    /// Σ_p (r_p / σ_p)² over pixels with σ_p > 0 (σ_p = 1 without a `stderr` layer).
+    pub chi2: f64,
+    /// Pixels with σ_p > 0 minus fitted orders.
+    pub dof: usize,
+    pub chi2_per_dof: Option<f64>,
+    /// Robust χ²/ν ([`crate::fit::robust_chi2`]): the mismatch test, insensitive to the few pixels
+    /// whose Monte Carlo σ underestimates a heavy-tailed error; `None` without a `stderr` layer.
+    pub robust_chi2_per_dof: Option<f64>,
+    /// P(χ²_ν ≥ χ²); `None` without a `stderr` layer (then χ² only estimates σ²).
+    pub p_value: Option<f64>,
+    /// Factor applied to the propagated standard errors (√(χ²/ν) when above 1, else 1).
+    pub stderr_scale: f64,
+    /// Orders fitted (in order), the index set of `covariance`.
+    pub fitted_orders: Vec<usize>,
+    /// Covariance of the fitted Â_l (noise part, scaled like the standard errors), row-major.
+    pub covariance: Vec<Vec<f64>>,
+}
+
+/// The per-order filter fitted in pixel space ([`fit_filter_pixels`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PixelFilterFit {
+    pub lmax: usize,
+    /// Pixels used.
+    pub pixels: usize,
+    pub orders: Vec<PixelOrder>,
+    /// R, G, B.
+    pub channels: Vec<ChannelFit>,
+    /// Said in words: scaled error bars, ill-conditioned or unobservable orders, model mismatch.
+    pub warnings: Vec<String>,
+}
+
+const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
+
+/// Fits the filter A_l, l ≤ `lmax`, of B(d) = Σ_l A_l Σ_m L_lm Y_lm(d) to the pixels `samples`
+/// (direction d, quadrature weight, RGB value and variance; e.g. from
+/// [`crate::projection::ortho_samples`] or [`crate::projection::probe_samples`]) for the known
+/// RGB lighting `light` — eq. 15 in pixel space, by [`crate::fit::fit_filter`] per channel, so
+/// it stays right when the directions cover only part of the sphere (one view: one hemisphere of
+/// normals), where dividing fitted B_lm by L_lm is not.
+///
+/// `have_sigma`: the variances are per-pixel standard errors (else they are 1, and σ² is
+/// estimated from the residuals). Error bars include model inadequacy (scaled by √(χ²/ν) when it
+/// is above 1, said in `warnings`) and, when `light` has orders above `lmax`, the truncation bias
+/// estimated from a fit to l ≤ lmax + 2 (stated apart). An order whose lighting energy over the
+/// visible directions is below 1e-10 of the largest is unobservable (not fitted).
+///
+/// Errors: fewer pixels than twice the orders, or a design the directions cannot determine
+/// (singular after dropping unobservable orders), naming the orders.
+pub fn fit_filter_pixels(
+    samples: &[crate::projection::Sample],
+    have_sigma: bool,
+    light: &[[f64; 3]],
+    lmax: usize,
+) -> crate::error::Result<PixelFilterFit> {
+    use crate::error::Error;
+    use crate::fit::{filter_design, lsq};
+    let light_lmax = crate::sh::lmax_of(light.len())
+        .ok_or_else(|| Error::new("lighting coefficients are not a whole number of orders"))?;
+    if light_lmax < lmax {
+        return Err(Error::new(format!("lighting given to l = {light_lmax}, the filter fit needs l = {lmax}")));
+    }
+    if samples.len() < 2 * (lmax + 1) {
+        return Err(Error::new(format!(
+            "only {} pixels to fit {} filter orders; check the camera and sphere",
+            samples.len(),
+            lmax + 1
+        )));
+    }
+    let l_hi = light_lmax.min(lmax + 2);
+    let dirs: Vec<[f64; 3]> = samples.iter().map(|s| s.dir).collect();
+    let weight: Vec<f64> = samples.iter().map(|s| s.w).collect();
+    let mut orders: Vec<PixelOrder> = (0..=lmax)
+        .map(|l| PixelOrder {
+            l,
+            estimate: [None; 3],
+            stderr_noise: [None; 3],
+            truncation: [None; 3],
+            stderr: [None; 3],
+            amplification: [None; 3],
+            status: [OrderStatus::Unobservable; 3],
+        })
+        .collect();
+    let mut channels = Vec::with_capacity(3);
+    let mut warnings = Vec::new();
+    for ch in 0..3 {
+        let name = CHANNEL_NAMES[ch];
+        let l_scalar: Vec<f64> = light.iter().map(|c| c[ch]).collect();
+        let full = filter_design(dirs.iter().copied(), &l_scalar, l_hi);
+        // Visible lighting energy per order: the diagonal of the Gram matrix.
+        let energy: Vec<f64> =
+            (0..=l_hi).map(|l| full.iter().zip(&weight).map(|(r, w)| w * r[l] * r[l]).sum::<f64>()).collect();
+        let emax = energy[..=lmax].iter().copied().fold(0.0, f64::max);
+        let observable = |l: usize| energy[l] > 1e-10 * emax && emax > 0.0;
+        let cols: Vec<usize> = (0..=lmax).filter(|&l| observable(l)).collect();
+        let cols_hi: Vec<usize> = (0..=l_hi).filter(|&l| observable(l)).collect();
+        if cols.is_empty() {
+            warnings.push(format!("channel {name}: the lighting has no energy over the visible directions"));
+            channels.push(ChannelFit {
+                chi2: 0.0,
+                dof: 0,
+                chi2_per_dof: None,
+                robust_chi2_per_dof: None,
+                p_value: None,
+                stderr_scale: 1.0,
+                fitted_orders: vec![],
+                covariance: vec![],
+            });
+            continue;
+        }
+        let value: Vec<f64> = samples.iter().map(|s| s.b[ch]).collect();
+        let sigma: Vec<f64> = samples.iter().map(|s| s.var[ch].sqrt()).collect();
+        let pick = |c: &[usize]| full.iter().map(|r| c.iter().map(|&l| r[l]).collect::<Vec<f64>>()).collect::<Vec<_>>();
+        let rows = pick(&cols);
+        let fit = lsq(&rows, &value, &sigma, &weight).ok_or_else(|| {
+            Error::new(format!(
+                "the visible directions cannot separate the filter orders {cols:?} (channel {name}): \
+                 add views (e.g. the opposite one), use a normal-probe render or lower --lmax"
+            ))
+        })?;
+        // Conditioning from the actual design: C = D^-1/2 G D^-1/2, amplification √((C⁻¹)_ll).
+        let p = cols.len();
+        let mut c = vec![0.0; p * p];
+        for (r, w) in rows.iter().zip(&weight) {
+            for i in 0..p {
+                for j in 0..p {
+                    c[i * p + j] += w * r[i] * r[j];
+                }
+            }
+        }
+        let d: Vec<f64> = (0..p).map(|i| c[i * p + i].sqrt()).collect();
+        for i in 0..p {
+            for j in 0..p {
+                c[i * p + j] /= d[i] * d[j];
+            }
+        }
+        let cinv = crate::fit::invert(&c, p);
+        let chi2_per_dof = fit.chi2_per_dof();
+        let scale = match (have_sigma, chi2_per_dof) {
+            (true, Some(x)) if x > 1.0 => x.sqrt(),
+            (false, Some(x)) => x.sqrt(),
+            _ => 1.0,
+        };
+        let p_value = if have_sigma { fit.p_value() } else { None };
+        let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
+        if have_sigma && let Some(x) = chi2_per_dof {
+            if let Some(r) = robust.filter(|&r| r > MISMATCH_CHI2) {
+                warnings.push(format!(
+                    "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm Y_lm does \
+                     not describe the image — a mismatched or rotated lighting, a wrong camera, extent or sphere, or a \
+                     BRDF that is not radially symmetric about the fitted direction; standard errors scaled by \
+                     √(χ²/ν) = {scale:.3}"
+                ));
+            } else if x > 1.0 {
+                warnings.push(format!(
+                    "channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {scale:.3} for model inadequacy"
+                ));
+            }
+        }
+        // Truncation: the same fit with orders up to l_hi.
+        let hi = (l_hi > lmax).then(|| lsq(&pick(&cols_hi), &value, &sigma, &weight)).flatten();
+        for (i, &l) in cols.iter().enumerate() {
+            let o = &mut orders[l];
+            let noise = fit.sigma[i] * scale;
+            o.estimate[ch] = Some(fit.coef[i]);
+            o.stderr_noise[ch] = Some(noise);
+            let amp = cinv.as_ref().map(|ci| ci[i * p + i].max(0.0).sqrt());
+            o.amplification[ch] = amp;
+            o.status[ch] = match amp {
+                Some(a) if a <= MAX_AMPLIFICATION => OrderStatus::Determined,
+                _ => OrderStatus::IllConditioned,
+            };
+            let trunc = hi.as_ref().map(|h| {
+                let j = cols_hi.iter().position(|&x| x == l).expect("order fitted at l_hi");
+                let delta = fit.coef[i] - h.coef[j];
+                let var_delta = ((h.sigma[j] * scale).powi(2) - noise * noise).max(0.0);
+                (delta * delta - var_delta).max(0.0).sqrt()
+            });
+            o.truncation[ch] = trunc;
+            o.stderr[ch] = Some((noise * noise + trunc.unwrap_or(0.0).powi(2)).sqrt());
+        }
+        for l in 0..=lmax {
+            match orders[l].status[ch] {
+                OrderStatus::Unobservable => warnings.push(format!(
+                    "channel {name}: order l = {l} is unobservable (no lighting energy over the visible directions)"
+                )),
+                OrderStatus::IllConditioned => warnings.push(format!(
+                    "channel {name}: order l = {l} is ill-conditioned on these directions (noise amplification {:.1} > {MAX_AMPLIFICATION}): \
+                     add views or lower --lmax",
+                    orders[l].amplification[ch].unwrap_or(f64::INFINITY)
+                )),
+                OrderStatus::Determined => {}
+            }
+        }
+        let s2 = scale * scale;
+        channels.push(ChannelFit {
+            chi2: fit.chi2,
+            dof: fit.dof,
+            chi2_per_dof,
+            robust_chi2_per_dof: robust,
+            p_value,
+            stderr_scale: scale,
+            fitted_orders: cols.clone(),
+            covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),
+        });
+    }
+    Ok(PixelFilterFit { lmax, pixels: samples.len(), orders, channels, warnings })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,6 +9,7 @@
 //! - [`sh`]: basis, reconstruction, rotation;
 //! - [`projection`]: environment maps, functions, `normal-probe` and orthographic renders;
 //! - [`transfer`]: Λ_l ρ̂_l of Lambert, Phong, mirror, Torrance–Sparrow, any radial lobe;
+//! - [`fit`]: pixel-space least squares (filter fits, SH fits, covariances) shared by every command;
 //! - [`predict`], [`filter`]: B_lm from L_lm and the per-order filter measured from renders;
 //! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
@@ -18,6 +19,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod filter;
+pub mod fit;
 pub mod inverse;
 pub mod lighting;
 pub mod lsq;

@@ -20,19 +20,27 @@
 //! normal probe min(W/2, H) − 1; orthographic views D − 1 or D/2 − 1, D the sphere's diameter in
 //! pixels) is refused; the output states that order (`lmax_carried`).
 //!
-//! Output: B_lm ± standard error, L_lm, the measured filter (per-order least-squares estimate of
-//! albedo · Λ_l ρ̂_l with its standard error; orders where L has no energy are unobservable) and,
-//! with a known BRDF, its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo.
+//! Output ([`AnalyzeReport`]): B_lm ± standard error, L_lm, and the measured filter A_l =
+//! albedo · Λ_l ρ̂_l fitted directly in pixel space for the known lighting,
+//! B(d) = Σ_l A_l Σ_m L_lm Y_lm(d) over the used pixels (`analysis::filter::fit_filter_pixels`,
+//! the function `verify` checks): right on one view, where dividing fitted B_lm by L_lm is not
+//! (one view sees one hemisphere of normals). Its error bars are the propagated noise (scaled by
+//! √(χ²/ν) when above 1, said in a warning) and an estimated truncation bias (from a fit to
+//! l ≤ l_max + 2), with the design's noise amplification per order; orders the visible directions
+//! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
+//! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.
 use super::Error;
 use super::args::{CameraFlags, ParamArg, ViewArgs};
 use super::header::{first_sphere, json_vec3, lighting_of};
 use super::sh::check_lmax;
-use analysis::filter::{OrderEstimate, measured_filter};
+use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, read_image};
-use analysis::projection::{OrthoCamera, OrthoView, Param, Sphere, fit_orthographic, project_normal_probe};
-use analysis::sh::lm;
+use analysis::projection::{
+    OrthoCamera, OrthoView, Param, Sphere, fit_orthographic, ortho_samples, probe_samples, project_normal_probe,
+};
+use analysis::sh::{lm, num_coefficients};
 use analysis::transfer::{TransferModel, parameterization};
-use serde_json::{Value, json};
+use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use vocab::scene::BrdfSection;
@@ -97,8 +105,8 @@ fn camera_of(img: &Image, f: CameraFlags) -> Result<Camera, Error> {
     })
 }
 
-/// The BRDF of the analysed sphere, from the header: transfer model, RGB scale, kind, table (as
-/// the header wrote it, for the report).
+/// The BRDF of the analysed sphere, from the header: transfer model, RGB scale, kind, horizon,
+/// table (as the header wrote it, for the report).
 struct Brdf {
     model: Option<TransferModel>,
     scale: [f64; 3],
@@ -107,13 +115,13 @@ struct Brdf {
     table: Value,
 }
 
-fn sphere_and_brdf(img: &Image) -> Result<(Option<Sphere>, Option<Brdf>), Error> {
+fn sphere_and_brdf(img: &Image, warnings: &mut Vec<String>) -> Result<(Option<Sphere>, Option<Brdf>), Error> {
     let (sphere, brdf, count) = first_sphere(img)?;
     if sphere.is_none() {
         return Ok((None, None));
     }
     if count > 1 {
-        eprintln!("note: the scene has {count} objects; analysing the first sphere");
+        warnings.push(format!("the scene has {count} objects; analysing the first sphere"));
     }
     let brdf = brdf.as_ref().map(|b| {
         // The one BRDF → transfer-model mapping (a malformed table is an error naming the key).
@@ -132,7 +140,62 @@ fn sphere_and_brdf(img: &Image) -> Result<(Option<Sphere>, Option<Brdf>), Error>
     Ok((sphere, brdf.transpose()?))
 }
 
-pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
+/// The sphere analysed (world space).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SphereReport {
+    pub center: [f64; 3],
+    pub radius: f64,
+}
+
+/// The lighting compared with: where it came from and its L_lm (RGB, index order, l ≤ lmax).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LightingReport {
+    pub source: String,
+    pub coefficients: Vec<[f64; 3]>,
+}
+
+/// Everything `reflect analyze` computes; `--json` prints this struct, the text output is its
+/// [`Display`](std::fmt::Display). Coefficient lists are in index order k = l(l + 1) + m, labelled
+/// by `lm`; every RGB channel is carried.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AnalyzeReport {
+    pub lmax: usize,
+    /// The highest order the input carries (`analysis::projection::resolution`).
+    pub lmax_carried: usize,
+    pub images: Vec<String>,
+    pub method: String,
+    /// `normal` or `reflection`: the direction B is a function of.
+    pub param: String,
+    pub sphere: SphereReport,
+    pub pixels_used: usize,
+    /// `stderr-layer`, `residuals` or `none`.
+    pub stderr_source: String,
+    /// Weighted RMS residual of the B_lm fit per channel (orthographic views).
+    pub rms_residual: Option<[f64; 3]>,
+    /// (l, m) of each entry of `coefficients`, `stderr`, `lighting.coefficients`, `predicted`.
+    pub lm: Vec<(usize, i64)>,
+    /// B_lm.
+    pub coefficients: Vec<[f64; 3]>,
+    pub stderr: Option<Vec<[f64; 3]>>,
+    pub lighting: Option<LightingReport>,
+    /// The measured filter A_l = albedo · Λ_l ρ̂_l per order, fitted in pixel space for the known
+    /// lighting (`analysis::filter::fit_filter_pixels`), with its error budget and conditioning.
+    pub filter: Option<Vec<PixelOrder>>,
+    /// χ², ν, χ²/ν, p-value, error scale and covariance of the filter fit, per channel R, G, B.
+    pub filter_fit: Option<Vec<ChannelFit>>,
+    /// The BRDF table of the header (`reflect:objects`), as written there.
+    pub brdf: Option<Value>,
+    /// Analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the header's albedo / k_s / k_r, per l.
+    pub lambda_rho_analytic: Option<Vec<[f64; 3]>>,
+    /// B_lm predicted by eq. 15 from the lighting and the analytic filter.
+    pub predicted: Option<Vec<[f64; 3]>>,
+    /// Notes and warnings, each one sentence (also printed on stderr).
+    pub warnings: Vec<String>,
+}
+
+/// Analyses the images of `a` (see the module docs): the report, or an error naming the file and
+/// the problem (bad input, or views that cannot determine what was asked).
+pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     check_lmax(a.lmax)?;
     let images: Vec<Image> = a.images.iter().map(read_image).collect::<Result<_, _>>()?;
     let cameras: Vec<Camera> = images
@@ -141,16 +204,18 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         .zip(a.view.per_image(a.images.len())?)
         .map(|((img, p), f)| camera_of(img, f).map_err(|e| e.in_file(p)))
         .collect::<Result<_, _>>()?;
-    let (header_sphere, brdf) = sphere_and_brdf(&images[0]).map_err(|e| e.in_file(&a.images[0]))?;
+    let mut warnings = Vec::new();
+    let (header_sphere, brdf) = sphere_and_brdf(&images[0], &mut warnings).map_err(|e| e.in_file(&a.images[0]))?;
     let sphere = a.view.sphere(header_sphere);
     let param = match a.param {
         Some(p) => Param::from(p),
         None => brdf.as_ref().map_or(Param::Normal, |b| parameterization(b.kind)),
     };
+    let in_first = |e: Error| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e };
 
     let n_probe = cameras.iter().filter(|c| matches!(c, Camera::NormalProbe { .. })).count();
     let mut brdf = brdf;
-    let (b, b_se, method, pixels, se_source, rms, carried) = if n_probe > 0 {
+    let (b, b_se, method, pixels, se_source, rms, carried, samples) = if n_probe > 0 {
         if images.len() != 1 {
             return Err(Error::new("a normal-probe render must be analysed on its own (one image)"));
         }
@@ -165,6 +230,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
         }
         let (c, se) = project_normal_probe(&images[0], a.lmax).map_err(|e| e.in_file(&a.images[0]))?;
         let src = if se.is_some() { "stderr-layer" } else { "none" };
+        let samples = probe_samples(&images[0]).map_err(|e| e.in_file(&a.images[0]))?;
         (
             c,
             se,
@@ -173,6 +239,7 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
             src,
             None,
             analysis::projection::latlong_max_order(images[0].width, images[0].height).unwrap_or(0),
+            samples,
         )
     } else {
         let views: Vec<OrthoView> = images
@@ -183,15 +250,16 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
                 Camera::NormalProbe { .. } => unreachable!(),
             })
             .collect();
-        let fit = fit_orthographic(&views, &sphere, param, a.lmax)
-            .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
-        // (After the fit, so that a refusal stays the one line on stderr.)
+        let fit = fit_orthographic(&views, &sphere, param, a.lmax).map_err(in_first)?;
         if views.len() == 1 && param == Param::Normal {
-            eprintln!(
-                "note: one orthographic view sees one hemisphere of normals; energy of B above l_max aliases into the fit \
-                 (raise --lmax, add the opposite view, or render a normal-probe)"
+            warnings.push(
+                "one orthographic view sees one hemisphere of normals: the B_lm fit there is not a projection, energy of \
+                 B above l_max aliases into it (the filter below is fitted in pixel space and does not divide B_lm; add \
+                 the opposite view or render a normal-probe for B_lm)"
+                    .to_string(),
             );
         }
+        let samples = ortho_samples(&views, &sphere, param).map_err(in_first)?;
         (
             fit.coefficients,
             Some(fit.stderr),
@@ -204,107 +272,166 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
             fit.stderr_source,
             Some(fit.rms_residual),
             fit.lmax_carried,
+            samples,
         )
     };
 
     let lighting = lighting_of(a.lighting.as_deref(), a.mapping, &images[0], &a.images[0])
         .map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
-    let l_coeffs = match &lighting {
-        Some((l, _)) => Some(l.coefficients(a.lmax)?),
+    // Two orders beyond l_max estimate the truncation bias of the filter fit.
+    let l_hi = match &lighting {
+        Some((l, _)) => Some(l.coefficients(a.lmax + 2)?),
         None => None,
     };
-    let filter: Option<Vec<OrderEstimate>> =
-        l_coeffs.as_ref().map(|l| measured_filter(&b, b_se.as_deref(), l, a.lmax, 1e-8));
+    let l_coeffs: Option<Vec<[f64; 3]>> = l_hi.as_ref().map(|l| l[..num_coefficients(a.lmax)].to_vec());
+    let filter = match &l_hi {
+        Some(l) => {
+            let (samples, have_sigma) = &samples;
+            Some(fit_filter_pixels(samples, *have_sigma, l, a.lmax).map_err(in_first)?)
+        }
+        None => None,
+    };
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
         br.model.map(|m| {
             m.lambda_rho(a.lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect()
         })
     });
-
-    if a.json {
-        let filt = filter.as_ref().map(|f| {
-            f.iter()
-                .map(|o| {
-                    json!({"l": o.l, "energy": o.energy, "estimate": o.estimate, "stderr": o.stderr, "observable": o.observable()})
-                })
-                .collect::<Vec<_>>()
-        });
-        let predicted = match (&l_coeffs, &brdf) {
-            (Some(l), Some(Brdf { model: Some(m), scale, .. })) => {
-                Some(analysis::predict::predict(l, &m.lambda_rho(a.lmax), *scale))
-            }
-            _ => None,
-        };
-        let doc = json!({
-            "lmax": a.lmax,
-            "lmax_carried": carried,
-            "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-            "method": method,
-            "param": if n_probe > 0 { "normal" } else { param.name() },
-            "sphere": {"center": sphere.center, "radius": sphere.radius},
-            "pixels_used": pixels,
-            "stderr_source": se_source,
-            "rms_residual": rms,
-            "coefficients": b,
-            "stderr": b_se,
-            "lighting": lighting.as_ref().map(|(_, src)| json!({"source": src, "coefficients": l_coeffs})),
-            "filter": filt,
-            "brdf": brdf.as_ref().map(|b| b.table.clone()),
-            "lambda_rho_analytic": analytic,
-            "predicted": predicted,
-        });
-        println!("{doc}");
-        return Ok(ExitCode::SUCCESS);
-    }
-
-    println!("# {} — {method}", a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
-    println!("# pixels used {pixels}, standard errors from {se_source}; the input carries l <= {carried}");
-    if let Some(r) = rms {
-        println!("# weighted RMS residual of the fit: {:.3e} {:.3e} {:.3e}", r[0], r[1], r[2]);
-    }
-    if let Some((_, src)) = &lighting {
-        println!("# lighting: {src}");
-    }
+    let predicted = match (&l_coeffs, &brdf) {
+        (Some(l), Some(Brdf { model: Some(m), scale, .. })) => {
+            Some(analysis::predict::predict(l, &m.lambda_rho(a.lmax), *scale))
+        }
+        _ => None,
+    };
     if let Some(br) = &brdf {
-        println!("# brdf: {}", br.table);
         let horizon = br.horizon;
         if matches!(br.kind, BrdfKind::Phong | BrdfKind::TorranceSparrow) && horizon != Horizon::Ignore {
-            println!(
-                "# note: horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences"
-            );
+            warnings.push(format!(
+                "horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences"
+            ));
         }
     }
-    println!("{:>4} {:>4} {:>26} {:>26} {:>26}", "l", "m", "B_lm R ± se", "G ± se", "B ± se");
-    for (k, v) in b.iter().enumerate() {
-        let (l, m) = lm(k);
-        let se = b_se.as_ref().map(|s| s[k]);
-        let cell = |ch: usize| match se {
-            Some(s) => format!("{:.5e} ± {:.1e}", v[ch], s[ch]),
-            None => format!("{:.5e}", v[ch]),
-        };
-        println!("{l:>4} {m:>4} {:>26} {:>26} {:>26}", cell(0), cell(1), cell(2));
-    }
-    if let Some(f) = &filter {
-        println!(
-            "\n# measured filter (albedo · Λ_l ρ̂_l per order, least squares over m weighted by the lighting's energy)"
-        );
-        println!(
-            "{:>4} {:>26} {:>26} {:>26} {:>14}",
-            "l",
-            "R ± se",
-            "G ± se",
-            "B ± se",
-            if analytic.is_some() { "analytic (R)" } else { "" }
-        );
-        for o in f {
-            let cell = |ch: usize| match (o.estimate[ch], o.stderr[ch]) {
-                (Some(e), Some(s)) => format!("{e:.5e} ± {s:.1e}"),
-                (Some(e), None) => format!("{e:.5e}"),
-                _ => "unobservable".to_string(),
+    let (filter, filter_fit) = match filter {
+        Some(f) => {
+            warnings.extend(f.warnings);
+            (Some(f.orders), Some(f.channels))
+        }
+        None => (None, None),
+    };
+    Ok(AnalyzeReport {
+        lmax: a.lmax,
+        lmax_carried: carried,
+        images: a.images.iter().map(|p| p.display().to_string()).collect(),
+        method,
+        param: if n_probe > 0 { "normal".into() } else { param.name().into() },
+        sphere: SphereReport { center: sphere.center, radius: sphere.radius },
+        pixels_used: pixels,
+        stderr_source: se_source.into(),
+        rms_residual: rms,
+        lm: (0..b.len()).map(lm).collect(),
+        coefficients: b,
+        stderr: b_se,
+        lighting: lighting.map(|(_, source)| LightingReport { source, coefficients: l_coeffs.unwrap_or_default() }),
+        filter,
+        filter_fit,
+        brdf: brdf.map(|b| b.table),
+        lambda_rho_analytic: analytic,
+        predicted,
+        warnings,
+    })
+}
+
+impl std::fmt::Display for AnalyzeReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "# {} — {}", self.images.join(", "), self.method)?;
+        writeln!(
+            f,
+            "# pixels used {}, standard errors from {}; the input carries l <= {}",
+            self.pixels_used, self.stderr_source, self.lmax_carried
+        )?;
+        if let Some(r) = self.rms_residual {
+            writeln!(f, "# weighted RMS residual of the fit: {:.3e} {:.3e} {:.3e}", r[0], r[1], r[2])?;
+        }
+        if let Some(l) = &self.lighting {
+            writeln!(f, "# lighting: {}", l.source)?;
+        }
+        if let Some(b) = &self.brdf {
+            writeln!(f, "# brdf: {b}")?;
+        }
+        writeln!(f, "{:>4} {:>4} {:>26} {:>26} {:>26}", "l", "m", "B_lm R ± se", "G ± se", "B ± se")?;
+        for (k, v) in self.coefficients.iter().enumerate() {
+            let (l, m) = self.lm[k];
+            let se = self.stderr.as_ref().map(|s| s[k]);
+            let cell = |ch: usize| match se {
+                Some(s) => format!("{:.5e} ± {:.1e}", v[ch], s[ch]),
+                None => format!("{:.5e}", v[ch]),
             };
-            let an = analytic.as_ref().map(|a| format!("{:.5e}", a[o.l][0])).unwrap_or_default();
-            println!("{:>4} {:>26} {:>26} {:>26} {:>14}", o.l, cell(0), cell(1), cell(2), an);
+            writeln!(f, "{l:>4} {m:>4} {:>26} {:>26} {:>26}", cell(0), cell(1), cell(2))?;
         }
+        if let (Some(orders), Some(fits)) = (&self.filter, &self.filter_fit) {
+            writeln!(
+                f,
+                "\n# measured filter A_l = albedo · Λ_l ρ̂_l, fitted in pixel space: B(d) = Σ_l A_l Σ_m L_lm Y_lm(d) \
+                 over the used pixels; ± total (noise ⊕ truncation)"
+            )?;
+            writeln!(
+                f,
+                "{:>4} {:>26} {:>26} {:>26} {:>14}",
+                "l",
+                "R ± se",
+                "G ± se",
+                "B ± se",
+                if self.lambda_rho_analytic.is_some() { "analytic (R)" } else { "" }
+            )?;
+            for o in orders {
+                let cell = |ch: usize| match (o.estimate[ch], o.stderr[ch]) {
+                    (Some(e), Some(s)) => {
+                        let flag = if o.status[ch] == OrderStatus::IllConditioned { " !" } else { "" };
+                        format!("{e:.5e} ± {s:.1e}{flag}")
+                    }
+                    (Some(e), None) => format!("{e:.5e}"),
+                    _ => "unobservable".to_string(),
+                };
+                let an = self.lambda_rho_analytic.as_ref().map(|a| format!("{:.5e}", a[o.l][0])).unwrap_or_default();
+                writeln!(f, "{:>4} {:>26} {:>26} {:>26} {:>14}", o.l, cell(0), cell(1), cell(2), an)?;
+            }
+            writeln!(f, "# error budget (R): noise, truncation, amplification of the design")?;
+            for o in orders {
+                let g = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1e}"));
+                writeln!(
+                    f,
+                    "{:>4} {:>10} {:>10} {:>8}",
+                    o.l,
+                    g(o.stderr_noise[0]),
+                    g(o.truncation[0]),
+                    o.amplification[0].map_or("-".to_string(), |v| format!("{v:.2}"))
+                )?;
+            }
+            let chi = |c: &ChannelFit| match (c.chi2_per_dof, c.p_value) {
+                (Some(x), Some(p)) => {
+                    format!("{x:.3} (ν {}, p {p:.1e}, robust {:.3})", c.dof, c.robust_chi2_per_dof.unwrap_or(f64::NAN))
+                }
+                (Some(x), None) => format!("{x:.3e} (ν {}, σ² from residuals)", c.dof),
+                _ => "-".to_string(),
+            };
+            writeln!(f, "# filter fit χ²/ν: R {}, G {}, B {}", chi(&fits[0]), chi(&fits[1]), chi(&fits[2]))?;
+        }
+        for w in &self.warnings {
+            writeln!(f, "# warning: {w}")?;
+        }
+        Ok(())
+    }
+}
+
+/// `reflect analyze`: the report as JSON (`--json`) or text on stdout; warnings also on stderr.
+pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
+    let report = analyze(&a)?;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
+    if a.json {
+        println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON output: {e}")))?);
+    } else {
+        print!("{report}");
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -314,6 +441,7 @@ mod tests {
     use super::*;
     use analysis::image::write_exr;
     use analysis::sh::{Reconstructor, latlong_direction};
+    use serde_json::json;
 
     fn args(images: Vec<PathBuf>, lmax: usize) -> AnalyzeArgs {
         AnalyzeArgs { images, lighting: None, mapping: None, lmax, param: None, view: ViewArgs::default(), json: true }

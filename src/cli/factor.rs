@@ -41,8 +41,8 @@ use super::header::{header_json, probe_exitance_deg};
 use super::sh::check_lmax;
 use analysis::image::{Image, read_image};
 use analysis::inverse::factorization::{
-    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, OutgoingNode, directional_lighting,
-    filter_from_lighting, hemisphere_nodes, project,
+    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, check_nodes, directional_lighting,
+    filter_from_lighting, fmt_node, hemisphere_nodes, match_nodes, node_degrees, project,
 };
 use analysis::projection::latlong_max_order;
 use analysis::projection::resolution::{LATLONG_RULE, check_latlong};
@@ -56,13 +56,7 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-/// Tolerance (degrees) on a header's θ_o and φ_o against a node: f32 degrees are exact to
-/// ~5e-6° below 90°, and distinct nodes of any accepted rule are ≥ 0.01° apart.
-pub const NODE_TOL_DEG: f64 = 1e-3;
-/// Largest accepted n_μ, n_φ and n_μ n_φ (beyond, a request is taken as a typo).
-pub const MAX_MU: usize = 64;
-pub const MAX_PHI: usize = 256;
-pub const MAX_NODES: usize = 4096;
+pub use analysis::inverse::factorization::NODE_TOL_DEG;
 /// Largest accepted `--size` side.
 pub const MAX_SIDE: u32 = 4096;
 
@@ -110,15 +104,6 @@ fn parse_nodes(s: &str) -> Result<(usize, usize), String> {
     Ok((n_mu, n_phi))
 }
 
-fn check_nodes(n_mu: usize, n_phi: usize) -> Result<(), Error> {
-    if !(1..=MAX_MU).contains(&n_mu) || !(1..=MAX_PHI).contains(&n_phi) || n_mu * n_phi > MAX_NODES {
-        return Err(Error::new(format!(
-            "nodes {n_mu}x{n_phi} out of range (n_mu 1..={MAX_MU}, n_phi 1..={MAX_PHI}, at most {MAX_NODES} nodes)"
-        )));
-    }
-    Ok(())
-}
-
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT")?;
     let w: u32 = w.trim().parse().map_err(|_| "bad width")?;
@@ -144,11 +129,6 @@ pub fn run(a: &FactorArgs) -> Result<ExitCode, Error> {
         print_text(&doc);
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// Node angles in degrees, as printed (f64 shortest round-trip representation).
-fn node_degrees(n: &OutgoingNode) -> (f64, f64) {
-    (n.theta_o.to_degrees(), n.phi_o.to_degrees())
 }
 
 /// A TOML float with 10 decimals (1e-10°, far below f32 headers and [`NODE_TOL_DEG`]), trailing
@@ -259,100 +239,6 @@ fn channel_of(img: &Image, ch: usize, p: &Path) -> Result<(Vec<f64>, Option<f64>
     let layer = img.stderr_layer().map_err(|e| e.in_file(p))?;
     let se = layer.map(|s| s.pixels.iter().fold(0.0f64, |m, x| m.max(x[ch] as f64)));
     Ok((v.iter().map(|x| *x as f64).collect(), se))
-}
-
-fn circular_deg(a: f64, b: f64) -> f64 {
-    let d = (a - b).rem_euclid(360.0);
-    d.min(360.0 - d)
-}
-
-fn fmt_node(t: f64, p: f64) -> String {
-    format!("θ_o = {t:.4}°, φ_o = {p:.4}°")
-}
-
-/// (n_μ, n_φ), the rule's nodes, and the node index of each image.
-type NodeMatch = ((usize, usize), Vec<OutgoingNode>, Vec<usize>);
-
-/// Assigns image i (angles in degrees, named `names[i]`) to node `out[i]` of
-/// `hemisphere_nodes(n_mu, n_phi)`. Without `given`, n_μ is the number of distinct θ_o (or, if
-/// those are not all Gauss–Legendre nodes of that count, the smallest larger count whose nodes they
-/// are: a whole missing ring) and n_φ the smallest count whose azimuth grid holds every φ_o seen. Every node must be hit exactly once.
-fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, usize)>) -> Result<NodeMatch, Error> {
-    let thetas_of = |n_mu: usize| -> Result<Vec<f64>, Error> {
-        Ok(hemisphere_nodes(n_mu, 1)?.iter().map(|n| n.theta_o.to_degrees()).collect())
-    };
-    let (n_mu, n_phi) = match given {
-        Some(g) => g,
-        None => {
-            // Rings: θ_o values within the tolerance, each with its distinct φ_o (so that a
-            // duplicate is reported as such rather than inflating n_φ).
-            let mut rings: Vec<(f64, Vec<f64>)> = vec![];
-            for &(t, p) in angles {
-                match rings.iter_mut().find(|r| (r.0 - t).abs() <= NODE_TOL_DEG) {
-                    Some(r) if r.1.iter().any(|&q| circular_deg(p, q) <= NODE_TOL_DEG) => {}
-                    Some(r) => r.1.push(p),
-                    None => rings.push((t, vec![p])),
-                }
-            }
-            // n_φ: the smallest count whose azimuths 360°k/n_φ hold every φ_o seen (so a ring
-            // with gaps is not mistaken for a coarser rule), at least the fullest ring.
-            let fullest = rings.iter().map(|r| r.1.len()).max().unwrap_or(0);
-            let on_grid = |n: usize| {
-                rings
-                    .iter()
-                    .flat_map(|r| &r.1)
-                    .all(|&p| circular_deg(p, (p / (360.0 / n as f64)).round() * 360.0 / n as f64) <= NODE_TOL_DEG)
-            };
-            let n_phi = (fullest.max(1)..=MAX_PHI).find(|&n| on_grid(n)).unwrap_or(fullest);
-            let fits = |n: usize| {
-                thetas_of(n).map(|ts| rings.iter().all(|r| ts.iter().any(|t| (t - r.0).abs() <= NODE_TOL_DEG)))
-            };
-            let mut n_mu = rings.len();
-            while n_mu < MAX_MU && !fits(n_mu)? {
-                n_mu += 1;
-            }
-            if !fits(n_mu)? {
-                n_mu = rings.len();
-            }
-            (n_mu, n_phi)
-        }
-    };
-    check_nodes(n_mu, n_phi)
-        .map_err(|e| Error::new(format!("inferred from {} images: {}", angles.len(), e.message)))?;
-    let nodes = hemisphere_nodes(n_mu, n_phi)?;
-    let deg: Vec<(f64, f64)> = nodes.iter().map(node_degrees).collect();
-    let mut owner: Vec<Option<usize>> = vec![None; nodes.len()];
-    let mut out = Vec::with_capacity(angles.len());
-    for (i, &(t, p)) in angles.iter().enumerate() {
-        let j = deg.iter().position(|&(nt, np)| (nt - t).abs() <= NODE_TOL_DEG && circular_deg(np, p) <= NODE_TOL_DEG).ok_or_else(|| {
-            Error::file(
-                &names[i],
-                format!(
-                    "{} is not a node of the {n_mu}x{n_phi} rule (Gauss–Legendre in cos θ_o × φ_o = 360°k/{n_phi}, tolerance {NODE_TOL_DEG}°; \
-                     see reflect invert factor --print-nodes {n_mu}x{n_phi})",
-                    fmt_node(t, p)
-                ),
-            )
-        })?;
-        if let Some(k) = owner[j] {
-            return Err(Error::file(
-                &names[i],
-                format!("same node {} as {} (every node exactly once)", fmt_node(deg[j].0, deg[j].1), names[k]),
-            ));
-        }
-        owner[j] = Some(i);
-        out.push(j);
-    }
-    let missing: Vec<usize> = (0..nodes.len()).filter(|&j| owner[j].is_none()).collect();
-    if let Some(&j) = missing.first() {
-        return Err(Error::new(format!(
-            "incomplete node set: missing node {} of the {n_mu}x{n_phi} rule ({} of {} nodes missing; see --print-nodes {n_mu}x{n_phi})",
-            fmt_node(deg[j].0, deg[j].1),
-            missing.len(),
-            nodes.len()
-        )));
-    }
-    Ok(((n_mu, n_phi), nodes, out))
 }
 
 const SCENE_KEYS: [&str; 2] = ["reflect:lighting", "reflect:objects"];

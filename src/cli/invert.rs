@@ -23,16 +23,19 @@ use super::Error;
 use super::args::{FitModel, LambdaRule};
 use super::header::{first_sphere, header_json, json_vec3, lighting_of, probe_theta_o_deg};
 use super::sh::check_lmax;
+use analysis::filter::ChannelFit;
 use analysis::image::{Image, read_image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
+use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
 use analysis::projection::{
-    OrthoCamera, OrthoView, Param, check_latlong, fit_orthographic, latlong_max_order, project_normal_probe,
+    OrthoCamera, OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples,
+    project_normal_probe,
 };
-use analysis::sh::reconstruct_latlong;
+use analysis::sh::{lm, reconstruct_latlong};
 use analysis::transfer::{TransferModel, parameterization};
-use serde_json::{Value, json};
+use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use vocab::scene::BrdfSection;
@@ -116,24 +119,20 @@ pub struct BrdfArgs {
 }
 
 pub fn run(c: InvertCommand) -> Result<ExitCode, Error> {
-    let (doc, json_out) = match c {
-        InvertCommand::Lighting(a) => {
-            let j = a.json;
-            (lighting_doc(&a)?, j)
+    fn emit<R: serde::Serialize + std::fmt::Display>(r: &R, json_out: bool) -> Result<ExitCode, Error> {
+        if json_out {
+            println!("{}", serde_json::to_string(r).map_err(|e| Error::new(format!("JSON output: {e}")))?);
+        } else {
+            print!("{r}");
         }
-        InvertCommand::Brdf(a) => {
-            let j = a.json;
-            (brdf_doc(&a)?, j)
-        }
-        InvertCommand::Separate(a) => return super::separate::run(&a),
-        InvertCommand::Factor(a) => return super::factor::run(&a),
-    };
-    if json_out {
-        println!("{doc}");
-    } else {
-        print_text(&doc);
+        Ok(ExitCode::SUCCESS)
     }
-    Ok(ExitCode::SUCCESS)
+    match c {
+        InvertCommand::Lighting(a) => emit(&invert_lighting_report(&a)?, a.json),
+        InvertCommand::Brdf(a) => emit(&invert_brdf_report(&a)?, a.json),
+        InvertCommand::Separate(a) => super::separate::run(&a),
+        InvertCommand::Factor(a) => super::factor::run(&a),
+    }
 }
 
 /// Projected B_lm with standard errors, θ_o of a normal-probe image, and the header objects.
@@ -147,6 +146,8 @@ struct Projected {
     probe: bool,
     /// The highest order the input carries (`project` refuses an l_max above it).
     lmax_carried: usize,
+    /// Orthographic views: their used pixels and whether every view has a `stderr` layer.
+    samples: Option<(Vec<Sample>, bool)>,
 }
 
 fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Error> {
@@ -192,6 +193,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             first,
             probe: true,
             lmax_carried,
+            samples: None,
         });
     }
     let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
@@ -202,6 +204,8 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         .map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
     let method =
         format!("weighted least squares over {} orthographic view(s), {} parameterization", views.len(), param.name());
+    let samples =
+        ortho_samples(&views, &sphere, param).map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
     drop(views);
     let first = images.into_iter().next().unwrap_or_default();
     Ok(Projected {
@@ -212,6 +216,7 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         first,
         probe: false,
         lmax_carried: fit.lmax_carried,
+        samples: Some(samples),
     })
 }
 
@@ -242,7 +247,65 @@ fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(Tr
     Ok((model, albedo, kind.name().to_string()))
 }
 
-fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
+/// One order of `invert lighting`: the filter, its noise amplification and status.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LightingOrder {
+    pub l: usize,
+    /// Λ_l ρ̂_l (unit albedo).
+    pub lambda_rho: f64,
+    pub amplification: Option<f64>,
+    /// `recovered`, `ill-conditioned` or `unobservable`.
+    pub status: String,
+}
+
+/// The Tikhonov-regularised lighting of `invert lighting`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RegularisedReport {
+    pub rule: String,
+    /// λ per channel (null when all of B is noise).
+    pub lambda: [f64; 3],
+    pub residual: [f64; 3],
+    pub coefficients: Vec<[f64; 3]>,
+}
+
+/// Everything `reflect invert lighting` computes; `--json` prints it, the text is its `Display`.
+/// Coefficient lists are in index order k = l(l + 1) + m, labelled by `lm`; every channel.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct InvertLightingReport {
+    /// `invert lighting`.
+    pub command: String,
+    pub lmax: usize,
+    pub lmax_carried: usize,
+    pub images: Vec<String>,
+    pub method: String,
+    pub brdf: String,
+    /// Λ_l ρ̂_l per order (unit albedo).
+    pub lambda_rho: Vec<f64>,
+    pub albedo: [f64; 3],
+    pub max_amplification: f64,
+    pub orders: Vec<LightingOrder>,
+    pub lm: Vec<(usize, i64)>,
+    /// L_lm (eq. 17); null where unobservable. A normal-probe render: B_lm / (albedo Λ_l ρ̂_l);
+    /// orthographic views: fitted in pixel space (`analysis::inverse::views`).
+    pub coefficients: Vec<Option<[f64; 3]>>,
+    /// Total standard error (noise ⊕ truncation for orthographic views).
+    pub stderr: Vec<Option<[f64; 3]>>,
+    /// Orthographic views: the noise part (scaled by √(χ²/ν) when above 1).
+    pub stderr_noise: Option<Vec<Option<[f64; 3]>>>,
+    /// Orthographic views: the estimated truncation bias (fit to l_max + 2).
+    pub truncation: Option<Vec<Option<[f64; 3]>>>,
+    /// Orthographic views: amplification per coefficient (filter × design).
+    pub coefficient_amplification: Option<Vec<Option<f64>>>,
+    /// Orthographic views: χ², ν, χ²/ν, p-value, error scale, covariance per channel.
+    pub channel_fits: Option<Vec<ChannelFit>>,
+    pub regularised: RegularisedReport,
+    /// The lat-long EXR written with `--output`.
+    pub output: Option<String>,
+    pub warnings: Vec<String>,
+}
+
+/// `reflect invert lighting` as a library call: the report, or an error naming the file and problem.
+pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, Error> {
     let rule = match a.lambda_rule {
         LambdaRule::Gcv => Rule::Gcv,
         LambdaRule::Discrepancy => Rule::Discrepancy,
@@ -275,27 +338,80 @@ fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
             .insert("reflect:lighting-source".into(), format!("invert lighting, {} regularisation", rule.name()));
         write_exr(out, &img)?;
     }
-    Ok(json!({
-        "command": "invert lighting",
-        "lmax": a.lmax,
-        "lmax_carried": p.lmax_carried,
-        "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-        "method": p.method,
-        "brdf": name,
-        "lambda_rho": filter,
-        "albedo": albedo,
-        "max_amplification": a.max_amplification,
-        "orders": inv.orders.iter().map(|o| json!({"l": o.l, "lambda_rho": o.filter, "amplification": o.amplification, "status": o.status.name()})).collect::<Vec<_>>(),
-        "coefficients": inv.coefficients,
-        "stderr": inv.stderr,
-        "regularised": {
-            "rule": rule.name(),
-            "lambda": inv.regularised.lambda,
-            "residual": inv.regularised.residual,
-            "coefficients": inv.regularised.coefficients,
+    let mut warnings = Vec::new();
+    let mut orders: Vec<LightingOrder> = inv
+        .orders
+        .iter()
+        .map(|o| LightingOrder {
+            l: o.l,
+            lambda_rho: o.filter,
+            amplification: o.amplification,
+            status: o.status.name().into(),
+        })
+        .collect();
+    let (mut coefficients, mut stderr) = (inv.coefficients, inv.stderr);
+    let (mut stderr_noise, mut truncation, mut coefficient_amplification, mut channel_fits) = (None, None, None, None);
+    if let Some((samples, have_sigma)) = &p.samples {
+        // Views that see part of the sphere: L_lm fitted in pixel space, with the conditioning of
+        // the actual design and the truncation bias (issue 16).
+        let v = invert_lighting_views(
+            samples,
+            *have_sigma,
+            &model.lambda_rho(a.lmax + 2),
+            albedo,
+            a.lmax,
+            a.max_amplification,
+        )
+        .map_err(|e| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e })?;
+        orders = v
+            .orders
+            .iter()
+            .map(|o| LightingOrder {
+                l: o.l,
+                lambda_rho: o.lambda_rho,
+                amplification: o.amplification,
+                status: o.status.clone(),
+            })
+            .collect();
+        coefficients = v.coefficients;
+        stderr = v.stderr;
+        stderr_noise = Some(v.stderr_noise);
+        truncation = Some(v.truncation);
+        coefficient_amplification = Some(v.amplification);
+        channel_fits = Some(v.channels);
+        warnings.extend(v.warnings);
+        warnings.push(
+            "the regularised lighting is the Tikhonov solution on the B_lm fitted to these views (not the pixel-space fit)"
+                .to_string(),
+        );
+    }
+    Ok(InvertLightingReport {
+        command: "invert lighting".into(),
+        lmax: a.lmax,
+        lmax_carried: p.lmax_carried,
+        images: a.images.iter().map(|p| p.display().to_string()).collect(),
+        method: p.method,
+        brdf: name,
+        lambda_rho: filter,
+        albedo,
+        max_amplification: a.max_amplification,
+        orders,
+        lm: (0..coefficients.len()).map(lm).collect(),
+        coefficients,
+        stderr,
+        stderr_noise,
+        truncation,
+        coefficient_amplification,
+        channel_fits,
+        regularised: RegularisedReport {
+            rule: rule.name().into(),
+            lambda: inv.regularised.lambda,
+            residual: inv.regularised.residual,
+            coefficients: inv.regularised.coefficients,
         },
-        "output": a.output.as_ref().map(|p| p.display().to_string()),
-    }))
+        output: a.output.as_ref().map(|p| p.display().to_string()),
+        warnings,
+    })
 }
 
 fn lighting_for_brdf(a: &BrdfArgs, first: &Image) -> Result<(Lighting, String), Error> {
@@ -303,7 +419,60 @@ fn lighting_for_brdf(a: &BrdfArgs, first: &Image) -> Result<(Lighting, String), 
         .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting"))
 }
 
-fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
+/// One channel's generalised least-squares fit of `invert brdf`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BrdfChannelFit {
+    pub channel: String,
+    pub estimate: f64,
+    /// Δχ² = 1 interval (null: unbounded within the search range).
+    pub interval: [Option<f64>; 2],
+    pub chi2_min: f64,
+    pub dof: i64,
+}
+
+/// One order of the measured Λ_l ρ̂_l of `invert brdf`, per channel.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BrdfOrder {
+    pub l: usize,
+    pub estimate: [Option<f64>; 3],
+    pub stderr: [Option<f64>; 3],
+    pub observable: bool,
+}
+
+/// Everything `reflect invert brdf` computes; `--json` prints it, the text is its `Display`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct InvertBrdfReport {
+    /// How the model was fitted, in words.
+    pub fit: String,
+    /// Per-channel fits (normal-probe input with a stderr layer; empty otherwise).
+    pub channels: Vec<BrdfChannelFit>,
+    /// `invert brdf`.
+    pub command: String,
+    pub lmax: usize,
+    pub lmax_carried: usize,
+    pub images: Vec<String>,
+    pub method: String,
+    pub lighting: String,
+    pub model: String,
+    /// `s` or `sigma`.
+    pub parameter: String,
+    pub estimate: f64,
+    pub interval: [Option<f64>; 2],
+    pub relative_width: Option<f64>,
+    pub range: [f64; 2],
+    pub scale: [Option<f64>; 3],
+    pub chi2_min: f64,
+    pub dof: i64,
+    pub weighted_by_stderr: bool,
+    pub points: usize,
+    pub filter: Vec<BrdfOrder>,
+    /// (parameter, Δχ²) along the profile.
+    pub profile: Vec<[f64; 2]>,
+    pub warnings: Vec<String>,
+}
+
+/// `reflect invert brdf` as a library call: the report, or an error naming the file and problem.
+pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     let p = project(&a.images, a.lmax, Param::Reflection)?;
     let model = match a.model {
         FitModel::Phong => Model::Phong,
@@ -341,9 +510,15 @@ fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
                 .min_by(|x, y| x.1.relative_width().total_cmp(&y.1.relative_width()))
                 .cloned()
                 .ok_or_else(|| Error::new("no channel has two observable orders to fit"))?;
-            let per: Vec<Value> = fits
+            let per: Vec<BrdfChannelFit> = fits
                 .iter()
-                .map(|(ch, f)| json!({"channel": CHANNELS[*ch], "estimate": f.parameter, "interval": [f.interval.0, f.interval.1], "chi2_min": f.chi2_min, "dof": f.dof}))
+                .map(|(ch, f)| BrdfChannelFit {
+                    channel: CHANNELS[*ch].into(),
+                    estimate: f.parameter,
+                    interval: [f.interval.0, f.interval.1],
+                    chi2_min: f.chi2_min,
+                    dof: f.dof,
+                })
                 .collect();
             let how = format!(
                 "generalised least squares with the full covariance of the per-order estimates, per channel (channels share their paths, so they are not combined); reported: channel {}",
@@ -361,96 +536,124 @@ fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
             Vec::new(),
         ),
     };
-    Ok(json!({
-        "fit": how,
-        "channels": per_channel,
-        "command": "invert brdf",
-        "lmax": a.lmax,
-        "lmax_carried": p.lmax_carried,
-        "images": a.images.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-        "method": p.method,
-        "lighting": source,
-        "model": model.name(),
-        "parameter": model.parameter_name(),
-        "estimate": fit.parameter,
-        "interval": [fit.interval.0, fit.interval.1],
-        "relative_width": if fit.relative_width().is_finite() { Some(fit.relative_width()) } else { None },
-        "range": [fit.range.0, fit.range.1],
-        "scale": fit.scale,
-        "chi2_min": fit.chi2_min,
-        "dof": fit.dof,
-        "weighted_by_stderr": fit.weighted_by_stderr,
-        "points": fit.points,
-        "filter": est.iter().map(|o| json!({"l": o.l, "estimate": o.estimate, "stderr": o.stderr, "observable": o.observable()})).collect::<Vec<_>>(),
-        "profile": fit.profile.iter().map(|(p, d)| [*p, *d]).collect::<Vec<_>>(),
-    }))
+    Ok(InvertBrdfReport {
+        fit: how,
+        channels: per_channel,
+        command: "invert brdf".into(),
+        lmax: a.lmax,
+        lmax_carried: p.lmax_carried,
+        images: a.images.iter().map(|p| p.display().to_string()).collect(),
+        method: p.method,
+        lighting: source,
+        model: model.name().into(),
+        parameter: model.parameter_name().into(),
+        estimate: fit.parameter,
+        interval: [fit.interval.0, fit.interval.1],
+        relative_width: fit.relative_width().is_finite().then(|| fit.relative_width()),
+        range: [fit.range.0, fit.range.1],
+        scale: fit.scale,
+        chi2_min: fit.chi2_min,
+        dof: fit.dof,
+        weighted_by_stderr: fit.weighted_by_stderr,
+        points: fit.points,
+        filter: est
+            .iter()
+            .map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() })
+            .collect(),
+        profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
+        warnings: Vec::new(),
+    })
 }
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
-fn fmt_opt(v: &Value) -> String {
-    v.as_f64().map_or("—".to_string(), |x| format!("{x:.4e}"))
+fn fmt_opt(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite()).map_or("—".to_string(), |x| format!("{x:.4e}"))
 }
 
-fn print_text(doc: &Value) {
-    println!("# {} — {}", doc["command"].as_str().unwrap_or(""), doc["method"].as_str().unwrap_or(""));
-    println!("# l_max {}; the input carries l <= {}", doc["lmax"], doc["lmax_carried"]);
-    if doc["command"] == "invert lighting" {
-        println!(
-            "# brdf {}, albedo {}, orders with amplification > {} are ill-conditioned",
-            doc["brdf"], doc["albedo"], doc["max_amplification"]
-        );
-        println!("{:>4} {:>12} {:>14} {:>16}", "l", "Λ_l ρ̂_l", "amplification", "status");
-        for o in doc["orders"].as_array().into_iter().flatten() {
-            println!(
+impl std::fmt::Display for InvertLightingReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "# {} — {}", self.command, self.method)?;
+        writeln!(f, "# l_max {}; the input carries l <= {}", self.lmax, self.lmax_carried)?;
+        writeln!(
+            f,
+            "# brdf {:?}, albedo {:?}, orders with amplification > {} are ill-conditioned",
+            self.brdf, self.albedo, self.max_amplification
+        )?;
+        writeln!(f, "{:>4} {:>12} {:>14} {:>16}", "l", "Λ_l ρ̂_l", "amplification", "status")?;
+        for o in &self.orders {
+            writeln!(
+                f,
                 "{:>4} {:>12} {:>14} {:>16}",
-                o["l"].as_u64().unwrap_or(0),
-                fmt_opt(&o["lambda_rho"]),
-                fmt_opt(&o["amplification"]),
-                o["status"].as_str().unwrap_or("")
-            );
+                o.l,
+                fmt_opt(Some(o.lambda_rho)),
+                fmt_opt(o.amplification),
+                o.status
+            )?;
         }
-        println!("\n{:>4} {:>30} {:>14}", "k", "L_lm (R) ± se", "regularised R");
-        let c = doc["coefficients"].as_array().cloned().unwrap_or_default();
-        for (k, v) in c.iter().enumerate() {
-            let se = &doc["stderr"][k][0];
-            let reg = &doc["regularised"]["coefficients"][k][0];
-            let cell =
-                if v.is_null() { "unobservable".to_string() } else { format!("{} ± {}", fmt_opt(&v[0]), fmt_opt(se)) };
-            println!("{k:>4} {cell:>30} {:>14}", fmt_opt(reg));
+        writeln!(f, "\n{:>4} {:>4} {:>30} {:>14}", "l", "m", "L_lm (R) ± se", "regularised R")?;
+        for (k, v) in self.coefficients.iter().enumerate() {
+            let (l, m) = self.lm[k];
+            let se = self.stderr[k].map(|s| s[0]);
+            let reg = self.regularised.coefficients.get(k).map(|c| c[0]);
+            let cell = match v {
+                None => "unobservable".to_string(),
+                Some(v) => format!("{} ± {}", fmt_opt(Some(v[0])), fmt_opt(se)),
+            };
+            writeln!(f, "{l:>4} {m:>4} {cell:>30} {:>14}", fmt_opt(reg))?;
         }
-        println!(
-            "# Tikhonov: {}, λ = {}",
-            doc["regularised"]["rule"].as_str().unwrap_or(""),
-            doc["regularised"]["lambda"]
-        );
-    } else {
-        println!("# lighting: {}", doc["lighting"].as_str().unwrap_or(""));
-        println!("{:>4} {:>30}", "l", "Λ_l ρ̂_l (R) ± se");
-        for o in doc["filter"].as_array().into_iter().flatten() {
-            let cell = if o["observable"] == true {
-                format!("{} ± {}", fmt_opt(&o["estimate"][0]), fmt_opt(&o["stderr"][0]))
+        writeln!(f, "# Tikhonov: {}, λ = {:?}", self.regularised.rule, self.regularised.lambda)?;
+        for w in &self.warnings {
+            writeln!(f, "# warning: {w}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::fmt::Display for InvertBrdfReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "# {} — {}", self.command, self.method)?;
+        writeln!(f, "# l_max {}; the input carries l <= {}", self.lmax, self.lmax_carried)?;
+        writeln!(f, "# lighting: {}", self.lighting)?;
+        writeln!(f, "{:>4} {:>30}", "l", "Λ_l ρ̂_l (R) ± se")?;
+        for o in &self.filter {
+            let cell = if o.observable {
+                format!("{} ± {}", fmt_opt(o.estimate[0]), fmt_opt(o.stderr[0]))
             } else {
                 "unobservable".into()
             };
-            println!("{:>4} {cell:>30}", o["l"].as_u64().unwrap_or(0));
+            writeln!(f, "{:>4} {cell:>30}", o.l)?;
         }
-        let iv = |v: &Value| v.as_f64().map_or("unbounded".to_string(), |x| format!("{x:.4}"));
-        println!(
-            "# {} {} = {:.4}, Δχ² = 1 interval [{}, {}] within the search range {}",
-            doc["model"].as_str().unwrap_or(""),
-            doc["parameter"].as_str().unwrap_or(""),
-            doc["estimate"].as_f64().unwrap_or(f64::NAN),
-            iv(&doc["interval"][0]),
-            iv(&doc["interval"][1]),
-            doc["range"]
-        );
+        let iv = |v: Option<f64>| v.map_or("unbounded".to_string(), |x| format!("{x:.4}"));
+        writeln!(
+            f,
+            "# {} {} = {:.4}, Δχ² = 1 interval [{}, {}] within the search range {:?}",
+            self.model,
+            self.parameter,
+            self.estimate,
+            iv(self.interval[0]),
+            iv(self.interval[1]),
+            self.range
+        )?;
+        for w in &self.warnings {
+            writeln!(f, "# warning: {w}")?;
+        }
+        Ok(())
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use serde_json::json;
+
+    /// The reports as JSON values, as `--json` prints them.
+    fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
+        invert_lighting_report(a).map(|r| serde_json::to_value(r).unwrap())
+    }
+    fn brdf_doc(a: &BrdfArgs) -> Result<Value, Error> {
+        invert_brdf_report(a).map(|r| serde_json::to_value(r).unwrap())
+    }
     use analysis::sh::{Reconstructor, index, latlong_direction, num_coefficients};
     use std::path::Path;
 

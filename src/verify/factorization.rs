@@ -46,7 +46,6 @@ use analysis::inverse::factorization::{
     filter_from_lighting, hemisphere_nodes, project,
 };
 use analysis::sh::index;
-use analysis::special::erfc;
 use std::f64::consts::PI;
 
 pub const NAME: &str = "factorization";
@@ -120,28 +119,7 @@ pub fn measure(
     Ok(Slice { factor, normal_b, factor_mid, normal_b_mid, renders: renders + 1 })
 }
 
-/// Beckmann's Smith Λ at polar angle θ: (e^{−a²}/(a√π) − erfc(a)) / 2, a = cot θ / α.
-pub fn beckmann_lambda(theta: f64, alpha: f64) -> f64 {
-    let (s, c) = theta.sin_cos();
-    if s <= 0.0 {
-        return 0.0;
-    }
-    let a = c / (alpha * s);
-    0.5 * ((-a * a).exp() / (a * PI.sqrt()) - erfc(a))
-}
-
-/// ρ̂(θ_i) of the Beckmann microfacet BRDF (F = 1) at normal exitance: h at θ_i/2, cos θ_o = 1,
-/// Λ(ω_o) = 0, so ρ̂ = D(θ_i/2) / (4 (1 + Λ(θ_i))) (CONVENTIONS §4).
-pub fn beckmann_normal_lobe(theta_i: f64, alpha: f64) -> f64 {
-    let c = (0.5 * theta_i).cos();
-    let d = (-(0.5 * theta_i).tan().powi(2) / (alpha * alpha)).exp() / (PI * alpha * alpha * c.powi(4));
-    d / (4.0 * (1.0 + beckmann_lambda(theta_i, alpha)))
-}
-
-/// Analytic Λ_l ρ̂_l(θ_o = 0) of the Beckmann sphere, l ≤ lmax (eq. 13–15 by quadrature).
-pub fn beckmann_normal_exitance(alpha: f64, lmax: usize) -> Vec<f64> {
-    analysis::transfer::radial::radial(|t| beckmann_normal_lobe(t, alpha), PI / 2.0, lmax)
-}
+pub use analysis::transfer::microfacet::beckmann_normal_exitance;
 
 /// The source rotated by `deg` about an axis perpendicular to it (the wrong prediction).
 pub fn rotated(s: [f64; 3], deg: f64) -> [f64; 3] {
@@ -437,6 +415,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 mod tests {
     use super::super::fit::latlong_dir;
     use super::*;
+    use analysis::transfer::microfacet::beckmann_lambda;
 
     /// Closed-form images of a unit directional source: B = ρ̂ (Beckmann α, F = 1, or Lambert).
     fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f64>, String> {
@@ -466,15 +445,6 @@ mod tests {
                 })
                 .collect())
         }
-    }
-
-    #[test]
-    fn the_normal_exitance_lobe() {
-        // Λ_0 ρ̂_0 is the albedo at normal exitance: 1 for small α (D is normalised, G ≈ 1 where D
-        // lives), below 1 for a rough surface (single-scattering energy lost to G).
-        let (a, b) = (beckmann_normal_exitance(0.05, 2)[0], beckmann_normal_exitance(0.4, 2)[0]);
-        assert!((a - 1.0).abs() < 1e-6, "{a}");
-        assert!(b < 0.99 && b > 0.8, "{b}");
     }
 
     #[test]

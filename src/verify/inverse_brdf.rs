@@ -64,25 +64,7 @@ pub fn block(cov: &[f64], p: usize, n: usize) -> Vec<f64> {
     (0..n * n).map(|k| cov[(k / n) * p + k % n]).collect()
 }
 
-/// Linearised (Cramér–Rao) standard deviation of ln ŝ from orders 0 … `lmax` with covariance `cov`
-/// ((lmax+1)², row-major), the scale k_s profiled out: [(JᵀC⁻¹J)⁻¹]_{ln s, ln s} with
-/// J = (g_l, ∂g_l/∂ln s), g = Λ_l ρ̂_l(s).
-pub fn linearised_sd_ln_s(s: f64, cov: &[f64], lmax: usize) -> f64 {
-    let n = lmax + 1;
-    let Ok(ch) = analysis::lsq::Cholesky::new(cov, n, 1e-14) else { return f64::NAN };
-    let cinv = ch.inverse();
-    let g = analysis::transfer::phong::phong(s, lmax);
-    let h = 1e-4;
-    let (gp, gm) =
-        (analysis::transfer::phong::phong(s * (1.0 + h), lmax), analysis::transfer::phong::phong(s * (1.0 - h), lmax));
-    let d: Vec<f64> = (0..n).map(|l| (gp[l] - gm[l]) / (2.0 * h)).collect();
-    let quad =
-        |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
-    let (a, b, c) = (quad(&g, &g), quad(&g, &d), quad(&d, &d));
-    // [(JᵀC⁻¹J)⁻¹]_22 = a / (a c − b²); ∞ when s is not identifiable (one order, or a flat filter).
-    let det = a * c - b * b;
-    if det > 1e-300 * a * c { (a / det).sqrt() } else { f64::INFINITY }
-}
+pub use analysis::inverse::brdf::linearised_sd_ln_s;
 
 /// The identity covariance (equal, independent per-order noise).
 pub fn identity(n: usize) -> Vec<f64> {

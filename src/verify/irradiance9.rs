@@ -16,7 +16,7 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
-use super::fit::{Channel, latlong_dir, latlong_omega, lsq, order_parts, project_probe, sh_design};
+use super::fit::{Channel, latlong_dir, latlong_omega, order_parts, project_probe};
 use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
 use super::{grace, transfer};
@@ -25,50 +25,11 @@ use analysis::sh::{ShBasis, index, num_coefficients};
 pub const NAME: &str = "irradiance9";
 pub const EQUATION: &str = "sec. 3.5 (eq. 38-39)";
 
-/// 9-term relative error statistics of a probe image.
-#[derive(Clone, Copy, Debug)]
-pub struct NineTerm {
-    /// Solid-angle mean of e² = ((B − B₉)/B)², with the noise's contribution σ_p²/B² subtracted
-    /// (E[(e + n)²] = e² + σ², so this is unbiased), and its standard error.
-    pub mean_sq: f64,
-    pub sigma_mean_sq: f64,
-    /// Solid-angle mean of |e| and max |e| (biased upward by noise: informative).
-    pub mean_abs: f64,
-    pub max_abs: f64,
-}
+pub use analysis::fit::NineTerm;
 
-impl NineTerm {
-    pub fn rms(&self) -> f64 {
-        self.mean_sq.max(0.0).sqrt()
-    }
-    /// σ(rms) = σ(mean_sq) / (2 rms).
-    pub fn sigma_rms(&self) -> f64 {
-        self.sigma_mean_sq / (2.0 * self.rms().max(1e-12))
-    }
-}
-
+/// [`analysis::fit::nine_term_error`] of a probe channel.
 pub fn nine_term_error(ch: &Channel) -> Option<NineTerm> {
-    let (w, h) = (ch.width, ch.height);
-    let (rows, weight) = sh_design(w, h, 2);
-    let fit = lsq(&rows, &ch.value, &ch.sigma, &weight)?;
-    let (mut ms, mut var, mut tot, mut mabs, mut max) = (0.0, 0.0, 0.0, 0.0, 0.0f64);
-    for i in 0..w * h {
-        let b9: f64 = (0..9).map(|k| rows[i][k] * fit.coef[k]).sum();
-        let b = ch.value[i];
-        if b <= 0.0 {
-            return None;
-        }
-        let e = (b - b9) / b;
-        // Relative noise of e (delta method: de/db = b9/b²).
-        let s = b9.abs() / (b * b) * ch.sigma[i];
-        ms += weight[i] * (e * e - s * s);
-        // Var((e+n)²) = 4e²s² + 2s⁴.
-        var += weight[i] * weight[i] * (4.0 * e * e * s * s + 2.0 * s.powi(4));
-        mabs += weight[i] * e.abs();
-        tot += weight[i];
-        max = max.max(e.abs());
-    }
-    Some(NineTerm { mean_sq: ms / tot, sigma_mean_sq: var.sqrt() / tot, mean_abs: mabs / tot, max_abs: max })
+    analysis::fit::nine_term_error(&ch.value, &ch.sigma, ch.width, ch.height)
 }
 
 /// Energy share in l ≤ 2 of a probe image: Σ_{l≤2} Σ_m B_lm² / ∫ B² (quadrature).

@@ -38,6 +38,7 @@ pub mod positive_bound;
 pub mod report;
 pub mod scenes;
 pub mod separation;
+pub mod single_view;
 pub mod subspace;
 #[cfg(test)]
 mod testutil;
@@ -92,6 +93,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: uniform::NAME, equation: uniform::EQUATION, run: uniform::run },
     Entry { name: associativity::NAME, equation: associativity::EQUATION, run: associativity::run },
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
+    Entry { name: single_view::NAME, equation: single_view::EQUATION, run: single_view::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
     Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },

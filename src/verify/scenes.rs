@@ -228,3 +228,16 @@ pub fn sh_lighting(lmax: usize, per_order: f64, seed: u64) -> Vec<f64> {
     c[0] = (0.6 * bound).max(1.0) / 0.282_094_791_773_878_14;
     c
 }
+
+/// Renders a spec like [`render_spec`] and writes it to `path` as `reflect render` does (OpenEXR
+/// with the `reflect:` header and the `stderr`, `normal`, `mask` layers), for checks that analyse
+/// the file through the same reader as `reflect analyze`.
+pub fn render_spec_to_exr(ctx: &Ctx, spec: &Spec, path: &Path) -> Result<Film, String> {
+    let text = spec.toml(ctx);
+    let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
+    let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
+    let film = render_spec(ctx, spec)?;
+    renderer::output::write_exr(path, &film, &renderer::output::header_attributes(&scene))
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(film)
+}

@@ -412,6 +412,27 @@ pub fn transfer_covariance_probe(
     Ok(Some(cov))
 }
 
+/// Linearised (Cramér–Rao) standard deviation of ln ŝ from orders 0 … `lmax` with covariance `cov`
+/// ((lmax+1)², row-major), the scale k_s profiled out: [(JᵀC⁻¹J)⁻¹]_{ln s, ln s} with
+/// J = (g_l, ∂g_l/∂ln s), g = Λ_l ρ̂_l(s) of Phong (eq. 43, ∂ by central differences, h = 1e-4).
+/// NaN when `cov` is not positive definite; ∞ when s is not identifiable (one order, a flat filter).
+pub fn linearised_sd_ln_s(s: f64, cov: &[f64], lmax: usize) -> f64 {
+    let n = lmax + 1;
+    let Ok(ch) = crate::lsq::Cholesky::new(cov, n, 1e-14) else { return f64::NAN };
+    let cinv = ch.inverse();
+    let g = crate::transfer::phong::phong(s, lmax);
+    let h = 1e-4;
+    let (gp, gm) =
+        (crate::transfer::phong::phong(s * (1.0 + h), lmax), crate::transfer::phong::phong(s * (1.0 - h), lmax));
+    let d: Vec<f64> = (0..n).map(|l| (gp[l] - gm[l]) / (2.0 * h)).collect();
+    let quad =
+        |x: &[f64], y: &[f64]| (0..n).map(|i| x[i] * (0..n).map(|j| cinv[i * n + j] * y[j]).sum::<f64>()).sum::<f64>();
+    let (a, b, c) = (quad(&g, &g), quad(&g, &d), quad(&d, &d));
+    // [(JᵀC⁻¹J)⁻¹]_22 = a / (a c − b²); ∞ when s is not identifiable (one order, or a flat filter).
+    let det = a * c - b * b;
+    if det > 1e-300 * a * c { (a / det).sqrt() } else { f64::INFINITY }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -667,5 +688,18 @@ mod tests {
         let mut plain = img.clone();
         plain.channels.retain(|k, _| !k.starts_with("stderr"));
         assert!(transfer_covariance_probe(&plain, &light, lmax).unwrap().is_none());
+    }
+
+    #[test]
+    fn cramer_rao_of_the_phong_exponent() {
+        // Noise scales the bound linearly; one order cannot separate s from k_s; more orders of the
+        // same noise can only tighten it.
+        let id = |n: usize| (0..n * n).map(|k| if k / n == k % n { 1.0 } else { 0.0 }).collect::<Vec<f64>>();
+        let a = linearised_sd_ln_s(32.0, &id(9), 8);
+        let b = linearised_sd_ln_s(32.0, &id(9).iter().map(|v| 4.0 * v).collect::<Vec<_>>(), 8);
+        assert!((b / a - 2.0).abs() < 1e-9, "{a} {b}");
+        assert!(linearised_sd_ln_s(32.0, &[1.0], 0).is_infinite());
+        assert!(linearised_sd_ln_s(32.0, &id(3), 2) > a);
+        assert!(linearised_sd_ln_s(32.0, &[1.0, 2.0, 2.0, 1.0], 1).is_nan());
     }
 }

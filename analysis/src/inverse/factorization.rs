@@ -366,6 +366,125 @@ pub fn filter_from_lighting(b: &[f64], light: &[Option<f64>], lmax: usize) -> Ve
         .collect()
 }
 
+/// Tolerance (degrees) on a header's θ_o and φ_o against a node: f32 degrees are exact to
+/// ~5e-6° below 90°, and distinct nodes of any accepted rule are ≥ 0.01° apart.
+pub const NODE_TOL_DEG: f64 = 1e-3;
+/// Largest accepted n_μ, n_φ and n_μ n_φ (beyond, a request is taken as a typo).
+pub const MAX_MU: usize = 64;
+pub const MAX_PHI: usize = 256;
+pub const MAX_NODES: usize = 4096;
+
+/// Refuses a rule outside n_μ ∈ 1..=[`MAX_MU`], n_φ ∈ 1..=[`MAX_PHI`], n_μ n_φ ≤ [`MAX_NODES`].
+pub fn check_nodes(n_mu: usize, n_phi: usize) -> Result<()> {
+    if !(1..=MAX_MU).contains(&n_mu) || !(1..=MAX_PHI).contains(&n_phi) || n_mu * n_phi > MAX_NODES {
+        return Err(Error::new(format!(
+            "nodes {n_mu}x{n_phi} out of range (n_mu 1..={MAX_MU}, n_phi 1..={MAX_PHI}, at most {MAX_NODES} nodes)"
+        )));
+    }
+    Ok(())
+}
+
+/// Node angles (θ_o, φ_o) in degrees, as printed (f64 shortest round-trip representation).
+pub fn node_degrees(n: &OutgoingNode) -> (f64, f64) {
+    (n.theta_o.to_degrees(), n.phi_o.to_degrees())
+}
+
+/// Angular distance (degrees, in [0, 180]) between two azimuths in degrees.
+pub fn circular_deg(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(360.0);
+    d.min(360.0 - d)
+}
+
+/// "θ_o = …°, φ_o = …°" for messages.
+pub fn fmt_node(t: f64, p: f64) -> String {
+    format!("θ_o = {t:.4}°, φ_o = {p:.4}°")
+}
+
+/// (n_μ, n_φ), the rule's nodes, and the node index of each image.
+pub type NodeMatch = ((usize, usize), Vec<OutgoingNode>, Vec<usize>);
+
+/// Assigns image i (angles in degrees, named `names[i]`) to node `out[i]` of
+/// `hemisphere_nodes(n_mu, n_phi)`. Without `given`, n_μ is the number of distinct θ_o (or, if
+/// those are not all Gauss–Legendre nodes of that count, the smallest larger count whose nodes they
+/// are: a whole missing ring) and n_φ the smallest count whose azimuth grid holds every φ_o seen. Every node must be hit exactly once.
+pub fn match_nodes(angles: &[(f64, f64)], names: &[String], given: Option<(usize, usize)>) -> Result<NodeMatch> {
+    let thetas_of = |n_mu: usize| -> Result<Vec<f64>> {
+        Ok(hemisphere_nodes(n_mu, 1)?.iter().map(|n| n.theta_o.to_degrees()).collect())
+    };
+    let (n_mu, n_phi) = match given {
+        Some(g) => g,
+        None => {
+            // Rings: θ_o values within the tolerance, each with its distinct φ_o (so that a
+            // duplicate is reported as such rather than inflating n_φ).
+            let mut rings: Vec<(f64, Vec<f64>)> = vec![];
+            for &(t, p) in angles {
+                match rings.iter_mut().find(|r| (r.0 - t).abs() <= NODE_TOL_DEG) {
+                    Some(r) if r.1.iter().any(|&q| circular_deg(p, q) <= NODE_TOL_DEG) => {}
+                    Some(r) => r.1.push(p),
+                    None => rings.push((t, vec![p])),
+                }
+            }
+            // n_φ: the smallest count whose azimuths 360°k/n_φ hold every φ_o seen (so a ring
+            // with gaps is not mistaken for a coarser rule), at least the fullest ring.
+            let fullest = rings.iter().map(|r| r.1.len()).max().unwrap_or(0);
+            let on_grid = |n: usize| {
+                rings
+                    .iter()
+                    .flat_map(|r| &r.1)
+                    .all(|&p| circular_deg(p, (p / (360.0 / n as f64)).round() * 360.0 / n as f64) <= NODE_TOL_DEG)
+            };
+            let n_phi = (fullest.max(1)..=MAX_PHI).find(|&n| on_grid(n)).unwrap_or(fullest);
+            let fits = |n: usize| {
+                thetas_of(n).map(|ts| rings.iter().all(|r| ts.iter().any(|t| (t - r.0).abs() <= NODE_TOL_DEG)))
+            };
+            let mut n_mu = rings.len();
+            while n_mu < MAX_MU && !fits(n_mu)? {
+                n_mu += 1;
+            }
+            if !fits(n_mu)? {
+                n_mu = rings.len();
+            }
+            (n_mu, n_phi)
+        }
+    };
+    check_nodes(n_mu, n_phi)
+        .map_err(|e| Error::new(format!("inferred from {} images: {}", angles.len(), e.message)))?;
+    let nodes = hemisphere_nodes(n_mu, n_phi)?;
+    let deg: Vec<(f64, f64)> = nodes.iter().map(node_degrees).collect();
+    let mut owner: Vec<Option<usize>> = vec![None; nodes.len()];
+    let mut out = Vec::with_capacity(angles.len());
+    for (i, &(t, p)) in angles.iter().enumerate() {
+        let j = deg.iter().position(|&(nt, np)| (nt - t).abs() <= NODE_TOL_DEG && circular_deg(np, p) <= NODE_TOL_DEG).ok_or_else(|| {
+            Error::file(
+                &names[i],
+                format!(
+                    "{} is not a node of the {n_mu}x{n_phi} rule (Gauss–Legendre in cos θ_o × φ_o = 360°k/{n_phi}, tolerance {NODE_TOL_DEG}°; \
+                     see reflect invert factor --print-nodes {n_mu}x{n_phi})",
+                    fmt_node(t, p)
+                ),
+            )
+        })?;
+        if let Some(k) = owner[j] {
+            return Err(Error::file(
+                &names[i],
+                format!("same node {} as {} (every node exactly once)", fmt_node(deg[j].0, deg[j].1), names[k]),
+            ));
+        }
+        owner[j] = Some(i);
+        out.push(j);
+    }
+    let missing: Vec<usize> = (0..nodes.len()).filter(|&j| owner[j].is_none()).collect();
+    if let Some(&j) = missing.first() {
+        return Err(Error::new(format!(
+            "incomplete node set: missing node {} of the {n_mu}x{n_phi} rule ({} of {} nodes missing; see --print-nodes {n_mu}x{n_phi})",
+            fmt_node(deg[j].0, deg[j].1),
+            missing.len(),
+            nodes.len()
+        )));
+    }
+    Ok(((n_mu, n_phi), nodes, out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

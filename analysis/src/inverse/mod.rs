@@ -10,6 +10,8 @@
 //! - [`factorization`]: factoring the 4D reflected light field into lighting and BRDF up to a
 //!   global scale (eq. 18, 23): L_lm / P = M_lm / (Λ_l κ_l) from the exitance map (B̃_lm00) and the
 //!   normal-averaged outgoing profile (B̃_00l0), ambiguous (0/0) orders where κ_l = 0.
+//! - [`views`]: inverse lighting fitted in pixel space from views that see part of the sphere, with
+//!   the conditioning of the actual design, the truncation bias and χ²/ν (issue 16).
 //! - [`separation`]: diffuse + specular separation (sec. 3.5, reference \[17\]): subtract the 9-term
 //!   diffuse part, recover the high-frequency lighting from the specular part, and test the
 //!   consistency of the low orders of both sides (which also fixes the k_d : k_s split).
@@ -18,3 +20,4 @@ pub mod brdf;
 pub mod factorization;
 pub mod lighting;
 pub mod separation;
+pub mod views;

@@ -41,3 +41,32 @@ pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Opti
     let (c, v) = project_latlong(&rgb, var.as_ref(), lmax);
     Ok((c, v.map(|v| v.iter().map(|x| [x[0].sqrt(), x[1].sqrt(), x[2].sqrt()]).collect())))
 }
+
+/// The pixels of a `normal-probe` image as fit samples: direction the pixel's normal (CONVENTIONS
+/// §2 lat-long grid), weight its exact solid angle, RGB radiance and variance (from the `stderr`
+/// layer, else 1), and whether the image has that layer. Errors as [`project_normal_probe`].
+pub fn probe_samples(img: &Image) -> Result<(Vec<super::orthographic::Sample>, bool)> {
+    let rgb = img.rgb().ok_or_else(|| Error::new("normal-probe image has no R, G, B channels"))?;
+    if rgb.width != 2 * rgb.height {
+        return Err(Error::new(format!(
+            "a normal-probe image is a lat-long map with W = 2H, this one is {}×{}",
+            rgb.width, rgb.height
+        )));
+    }
+    let se = img.stderr_layer()?;
+    let (w, h) = (rgb.width, rgb.height);
+    let samples = (0..w * h)
+        .map(|i| {
+            let (r, c) = (i / w, i % w);
+            let px = rgb.pixels[i];
+            let var = se.as_ref().map_or([1.0; 3], |s| s.pixels[i].map(|e| (e as f64) * (e as f64)));
+            super::orthographic::Sample {
+                dir: crate::sh::latlong_direction(r, c, w, h),
+                w: crate::fit::latlong_omega(r, w, h),
+                b: px.map(|v| v as f64),
+                var,
+            }
+        })
+        .collect();
+    Ok((samples, se.is_some()))
+}

@@ -111,11 +111,30 @@ fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
 
 /// One covered pixel: fit direction, weight, radiance and variance.
 #[derive(Clone, Copy, Debug)]
-struct Sample {
-    dir: [f64; 3],
-    w: f64,
-    b: [f64; 3],
-    var: [f64; 3],
+pub struct Sample {
+    /// The direction the radiance is attributed to (unit; normal or reflection vector, [`Param`]).
+    pub dir: [f64; 3],
+    /// Solid angle (sr) the pixel covers in the fitted direction domain (module docs).
+    pub w: f64,
+    /// RGB radiance.
+    pub b: [f64; 3],
+    /// RGB variance from the `stderr` layer (1 without one).
+    pub var: [f64; 3],
+}
+
+/// The covered pixels of all `views` (same selection, directions and weights as
+/// [`fit_orthographic`]) and whether every view has a `stderr` layer (without one, `var` is 1).
+/// Errors: an image without R, G, B, a degenerate camera, a non-positive extent or radius.
+pub fn ortho_samples(views: &[OrthoView], sphere: &Sphere, param: Param) -> Result<(Vec<Sample>, bool)> {
+    let mut samples = Vec::new();
+    let mut all_have_stderr = true;
+    for v in views {
+        all_have_stderr &= collect_samples(v, sphere, param, &mut samples)?;
+    }
+    if !all_have_stderr {
+        samples.iter_mut().for_each(|s| s.var = [1.0; 3]);
+    }
+    Ok((samples, all_have_stderr))
 }
 
 fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Vec<Sample>) -> Result<bool> {
@@ -235,20 +254,13 @@ pub fn fit_orthographic(views: &[OrthoView], sphere: &Sphere, param: Param, lmax
             "visible normals: l < D, D the sphere's diameter in pixels"
         },
     )?;
-    let mut samples = Vec::new();
-    let mut all_have_stderr = true;
-    for v in views {
-        all_have_stderr &= collect_samples(v, sphere, param, &mut samples)?;
-    }
+    let (samples, all_have_stderr) = ortho_samples(views, sphere, param)?;
     let p = num_coefficients(lmax);
     if samples.len() < 2 * p {
         return Err(Error::new(format!(
             "only {} pixels lie on the sphere, too few for {p} coefficients (l_max {lmax}); check the camera and sphere or lower --lmax",
             samples.len()
         )));
-    }
-    if !all_have_stderr {
-        samples.iter_mut().for_each(|s| s.var = [1.0; 3]);
     }
     let basis = ShBasis::new(lmax);
     // Upper triangle of G (lane 0, weight w) and of H_c (lanes 1–3, weight w² σ_c²), packed by rows.

@@ -7,9 +7,11 @@
 //! - [`mirror`]: eq. 33, Λ_l ρ̂_l = 1.
 //! - [`torrance_sparrow`]: eq. 50 by quadrature and eq. 57 at normal exitance; at exitance θ_o the
 //!   q = 0 coefficient by 2D quadrature over the reparameterized lobe (eq. 49) and eq. 59.
+//! - [`microfacet`]: the Beckmann microfacet lobe and its Λ_l ρ̂_l at normal exitance.
 //! - [`radial`]: any radially symmetric ρ̂(θ) by quadrature of eq. 13.
 
 pub mod lambert;
+pub mod microfacet;
 pub mod mirror;
 pub mod phong;
 pub mod radial;

@@ -120,11 +120,10 @@ impl<'a> PathTracer<'a> {
             // The BRDF direction is drawn first so that the light's data for it (an environment
             // texel, megabytes away from anything recently used) can be fetched from memory while
             // next-event estimation runs; it is used only after NEE, as before.
+            // `locate` finds its texel once (an environment map's lookup costs two arctangents)
+            // and starts the load; `eval_pdf_located` uses it below.
             let bs = brdf.sample(wo, u_lobe, u_brdf).filter(|bs| bs.weight != Rgb::ZERO);
-            let wi_world = bs.map(|bs| frame.to_world(bs.wi).normalize());
-            if let Some(d) = wi_world {
-                light.prefetch(d);
-            }
+            let located = bs.map(|bs| light.locate(frame.to_world(bs.wi).normalize()));
 
             // Next-event estimation: one direction from the light.
             if let Some(ls) = light.sample(u_light).filter(|_| !brdf.is_delta()) {
@@ -138,7 +137,8 @@ impl<'a> PathTracer<'a> {
 
             // BRDF sampling: continues the path and, where it escapes, collects the light with
             // the complementary MIS weight.
-            let (Some(bs), Some(wi_world)) = (bs, wi_world) else { break };
+            let (Some(bs), Some(located)) = (bs, located) else { break };
+            let wi_world = located.wi;
             beta *= bs.weight;
 
             // Below the horizon with horizon = "ignore" the lobe sees the distant light directly;
@@ -152,7 +152,7 @@ impl<'a> PathTracer<'a> {
             };
             match escaped {
                 None => {
-                    let (le, light_pdf) = light.eval_pdf(wi_world);
+                    let (le, light_pdf) = light.eval_pdf_located(located);
                     if le != Rgb::ZERO {
                         let w = if bs.delta || light.is_delta() { 1.0 } else { power_heuristic(bs.pdf, light_pdf) };
                         radiance += beta * le * w;

@@ -19,7 +19,7 @@
 //!   the accepted directions is still p(ω), which integrates to slightly less than 1.
 
 use super::latlong_grid::LatLongGrid;
-use super::{DistantLight, LightSample};
+use super::{DistantLight, LightSample, Located};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
 use rayon::prelude::*;
@@ -147,6 +147,23 @@ impl Envmap {
         Envmap::new(image, mapping, scale, crate::math::rotation_xyz_deg(rotate_deg)).map_err(|e| e.in_file(path))
     }
 
+    /// (row-major texel index, θ) of world direction `wi`: the one pixel lookup that `eval`, `pdf`,
+    /// `eval_pdf` and `locate` share (θ is used by the angular map's Jacobian only).
+    #[inline]
+    fn texel_index(&self, wi: Vec3) -> (usize, f32) {
+        let d = self.inv_rotation * wi;
+        match &self.sampler {
+            EnvSampler::LatLong(grid) => {
+                let (r, c) = grid.cell(d);
+                (r * self.image.width + c, 0.0)
+            }
+            EnvSampler::Angular(_) => {
+                let (r, c, theta) = self.angular_lookup(d);
+                (r * self.image.width + c, theta)
+            }
+        }
+    }
+
     /// Angular map: (row, column, θ) of map direction `d`, clamped to the image.
     #[inline]
     fn angular_lookup(&self, d: Vec3) -> (usize, usize, f32) {
@@ -211,33 +228,25 @@ fn angular_pixel_theta(r: usize, c: usize, w: usize) -> Option<f32> {
 impl DistantLight for Envmap {
     #[inline]
     fn eval(&self, wi: Vec3) -> Rgb {
-        let d = self.inv_rotation * wi;
-        match &self.sampler {
-            EnvSampler::LatLong(grid) => {
-                let (r, c) = grid.cell(d);
-                Rgb::from(self.texels[r * self.image.width + c].radiance)
-            }
-            EnvSampler::Angular(_) => {
-                let (r, c, _) = self.angular_lookup(d);
-                Rgb::from(self.texels[r * self.image.width + c].radiance)
-            }
-        }
+        let (i, _) = self.texel_index(wi);
+        Rgb::from(self.texels[i].radiance)
     }
 
     #[inline]
-    fn prefetch(&self, wi: Vec3) {
-        let d = self.inv_rotation * wi;
-        let i = match &self.sampler {
-            EnvSampler::LatLong(grid) => {
-                let (r, c) = grid.cell(d);
-                r * self.image.width + c
-            }
-            EnvSampler::Angular(_) => {
-                let (r, c, _) = self.angular_lookup(d);
-                r * self.image.width + c
-            }
+    fn locate(&self, wi: Vec3) -> Located {
+        let (index, theta) = self.texel_index(wi);
+        prefetch_read(&self.texels[index]);
+        Located { wi, index, theta }
+    }
+
+    #[inline]
+    fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
+        let t = &self.texels[at.index];
+        let pdf = match &self.sampler {
+            EnvSampler::LatLong(_) => t.pdf,
+            EnvSampler::Angular(_) => angular_pdf(t.pdf, at.theta),
         };
-        prefetch_read(&self.texels[i]);
+        (Rgb::from(t.radiance), pdf)
     }
 
     #[inline]
@@ -250,20 +259,8 @@ impl DistantLight for Envmap {
 
     #[inline]
     fn eval_pdf(&self, wi: Vec3) -> (Rgb, f32) {
-        let d = self.inv_rotation * wi;
-        match &self.sampler {
-            EnvSampler::LatLong(grid) => {
-                let (r, c) = grid.cell(d);
-                let t = &self.texels[r * self.image.width + c];
-                (Rgb::from(t.radiance), t.pdf)
-            }
-            EnvSampler::Angular(_) => {
-                let (r, c, theta) = self.angular_lookup(d);
-                let i = r * self.image.width + c;
-                let t = &self.texels[i];
-                (Rgb::from(t.radiance), angular_pdf(t.pdf, theta))
-            }
-        }
+        let (index, theta) = self.texel_index(wi);
+        self.eval_pdf_located(Located { wi, index, theta })
     }
 
     #[inline]
@@ -298,17 +295,7 @@ impl DistantLight for Envmap {
 
     #[inline]
     fn pdf(&self, wi: Vec3) -> f32 {
-        let d = self.inv_rotation * wi;
-        match &self.sampler {
-            EnvSampler::LatLong(grid) => {
-                let (r, c) = grid.cell(d);
-                self.texels[r * self.image.width + c].pdf
-            }
-            EnvSampler::Angular(_) => {
-                let (r, c, theta) = self.angular_lookup(d);
-                angular_pdf(self.texels[r * self.image.width + c].pdf, theta)
-            }
-        }
+        self.eval_pdf(wi).1
     }
 }
 
@@ -432,6 +419,47 @@ mod tests {
         assert_eq!(e.eval(Vec3::Z), Rgb::ONE);
         assert_eq!(e.eval(d), Rgb::ZERO);
         assert_eq!(e.pdf(d), 0.0);
+    }
+
+    /// `locate` + `eval_pdf_located` (the path tracer's lookup of a BRDF-sampled direction) returns
+    /// each pixel's radiance and density at its rotated centre, with the bits of `eval` and `pdf`.
+    #[test]
+    fn located_lookup_is_the_pixel_and_matches_eval_pdf() {
+        let rotation = rotation_xyz_deg([20.0, -35.0, 110.0]);
+        for (mapping, w, h) in [(Mapping::LatLong, 64, 32), (Mapping::Angular, 64, 64)] {
+            let img = synthetic(w, h);
+            let e = Envmap::new(img.clone(), mapping, 2.5, rotation).unwrap();
+            for r in 0..h {
+                for c in 0..w {
+                    let Some(d) = centre_direction(mapping, r, c, w, h) else { continue };
+                    let wi = rotation * d;
+                    let at = e.locate(wi);
+                    assert_eq!(at.wi, wi);
+                    let (value, pdf) = e.eval_pdf_located(at);
+                    assert_eq!(value, Rgb::from(img.get(r, c)) * 2.5, "{mapping:?} pixel ({r}, {c})");
+                    // θ of the direction looked up (f64 reference; the rotation's rounding moves it
+                    // off the pixel centre's θ).
+                    let m = (e.inv_rotation * wi).as_dvec3();
+                    let theta = m.x.hypot(m.y).atan2(m.z);
+                    let (expect, tol) = match &e.sampler {
+                        // The cell's density, exactly.
+                        EnvSampler::LatLong(grid) => (grid.pdf_cell(r, c), 0.0),
+                        // sinθ/θ moves by |cot θ − 1/θ| · |Δθ| relative under the fast atan2's error
+                        // |Δθ| ≤ 4e-7 rad (large near θ = π: a rim pixel of a 64² map has π − θ ≈ 0.003),
+                        // plus 1e-5 for the f32 Jacobian's own rounding.
+                        EnvSampler::Angular(dist) => {
+                            let slope = (theta.cos() / theta.sin() - 1.0 / theta).abs();
+                            (angular_pdf(dist.pdf_index(c, r), theta as f32), 1e-5 + 4e-7 * slope)
+                        }
+                    };
+                    assert!(
+                        (pdf as f64 - expect as f64).abs() <= tol * expect as f64,
+                        "{mapping:?} ({r}, {c}): {pdf} vs {expect}"
+                    );
+                    assert_eq!((value, pdf.to_bits()), (e.eval(wi), e.pdf(wi).to_bits()));
+                }
+            }
+        }
     }
 
     #[test]

@@ -58,8 +58,8 @@ impl LatLongGrid {
         // atan2 keeps θ accurate near the poles, where acos(z) loses precision in f32. The
         // polynomial atan2 (error ≤ 4e-7 rad, `math::fast`) can put a direction within that of a
         // pixel edge in the neighbouring pixel; eval and pdf both use this function, so they agree.
-        let theta = fast::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
-        let mut phi = fast::atan2(d.y, d.x);
+        // Both angles in one two-lane evaluation (the bits of two `fast::atan2` calls).
+        let [theta, mut phi] = fast::atan2_x2([(d.x * d.x + d.y * d.y).sqrt(), d.y], [d.z, d.x]);
         if phi < 0.0 {
             phi += 2.0 * PI;
         }

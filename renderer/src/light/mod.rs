@@ -30,6 +30,17 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+/// A direction and where a light keeps its data for it, from [`DistantLight::locate`].
+#[derive(Clone, Copy, Debug)]
+pub struct Located {
+    /// The world direction located (unit).
+    pub wi: Vec3,
+    /// Environment map: index of the texel (row-major); unused by other lights.
+    pub(crate) index: usize,
+    /// Angular environment map: θ of the direction (its solid-angle Jacobian); unused otherwise.
+    pub(crate) theta: f32,
+}
+
 /// The interface of every distant light.
 pub trait DistantLight {
     /// Radiance arriving from world direction `wi` (0 for a delta light).
@@ -41,10 +52,19 @@ pub trait DistantLight {
     fn is_delta(&self) -> bool {
         false
     }
-    /// A hint that `eval`/`eval_pdf` of `wi` follows soon: lights backed by large tables start
-    /// loading the data from memory. No effect on results.
+    /// Finds where `eval_pdf(wi)` reads (the texel of a light backed by a large table) and starts
+    /// loading it from memory; [`DistantLight::eval_pdf_located`] of the result then returns exactly
+    /// `eval_pdf(wi)` without searching again. The path tracer locates a BRDF-sampled direction
+    /// before next-event estimation and evaluates it after.
     #[inline]
-    fn prefetch(&self, _wi: Vec3) {}
+    fn locate(&self, wi: Vec3) -> Located {
+        Located { wi, index: 0, theta: 0.0 }
+    }
+    /// `eval_pdf(at.wi)` for `at` returned by this light's [`DistantLight::locate`] (same bits).
+    #[inline]
+    fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
+        self.eval_pdf(at.wi)
+    }
     /// A hint that `sample(u)` follows soon: lights with large sampling tables start loading the
     /// entries it will read. No effect on results.
     #[inline]
@@ -99,8 +119,12 @@ impl DistantLight for Light {
         dispatch!(self, l => l.eval_pdf(wi))
     }
     #[inline]
-    fn prefetch(&self, wi: Vec3) {
-        dispatch!(self, l => l.prefetch(wi))
+    fn locate(&self, wi: Vec3) -> Located {
+        dispatch!(self, l => l.locate(wi))
+    }
+    #[inline]
+    fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
+        dispatch!(self, l => l.eval_pdf_located(at))
     }
     #[inline]
     fn prefetch_sample(&self, u: Vec2) {

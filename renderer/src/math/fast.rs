@@ -58,6 +58,39 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     r.copysign(y)
 }
 
+/// Two [`atan2`]s at once: `[atan2(y[0], x[0]), atan2(y[1], x[1])]`, computed in two lanes of one
+/// SSE register (glam's `Vec4`) by exactly the operations of [`atan2`] (IEEE single-precision
+/// multiplies, adds and a divide, no fused multiply-add), so each result has the **same bits** as
+/// the scalar call for finite inputs (and is NaN where the scalar one is; see the tests). The lat-long
+/// lookup needs θ and φ of one direction: one evaluation instead of two.
+#[inline(always)]
+pub fn atan2_x2(y: [f32; 2], x: [f32; 2]) -> [f32; 2] {
+    use glam::Vec4;
+    // Lanes z, w compute atan2(0, 1) and are dropped.
+    let y = Vec4::new(y[0], y[1], 0.0, 0.0);
+    let x = Vec4::new(x[0], x[1], 1.0, 1.0);
+    let (ax, ay) = (x.abs(), y.abs());
+    let (mn, mx) = (ax.min(ay), ax.max(ay));
+    let a = Vec4::select(mx.cmpgt(Vec4::ZERO), mn / mx, Vec4::ZERO);
+    let s = a * a;
+    let c = ATAN_COEFFS.map(Vec4::splat);
+    let p = c[7];
+    let p = p * s + c[6];
+    let p = p * s + c[5];
+    let p = p * s + c[4];
+    let p = p * s + c[3];
+    let p = p * s + c[2];
+    let p = p * s + c[1];
+    let p = p * s + c[0];
+    let mut r = a * p;
+    r = Vec4::select(ay.cmpgt(ax), Vec4::splat(FRAC_PI_2) - r, r);
+    // x.is_sign_negative() lane by lane (−0.0 included).
+    r = Vec4::select(Vec4::ONE.copysign(x).cmplt(Vec4::ZERO), Vec4::splat(PI) - r, r);
+    r += (x + y) * 0.0;
+    let r = r.copysign(y);
+    [r.x, r.y]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -101,6 +134,42 @@ mod tests {
             atan2(y, x) + (ATAN_COEFFS[7] as f64 * a.powi(15)) as f32 * (if y < 0.0 { 1.0 } else { -1.0 })
         };
         assert!(atan2_max_error(truncated) > ATAN2_MAX_ERR);
+    }
+
+    /// `atan2_x2` gives the bits of two scalar `atan2` calls: on the error harness's points (fine
+    /// circles at three radii in every octant, random magnitudes), signed zeros, the axes, and NaN.
+    #[test]
+    fn atan2_x2_is_bit_identical_to_atan2() {
+        let mut points: Vec<(f32, f32)> = Vec::new();
+        let n = 200_000;
+        for k in 0..n {
+            let t = (k as f64 + 0.5) / n as f64 * 2.0 * std::f64::consts::PI - std::f64::consts::PI;
+            for r in [1.0f64, 1e-20, 3e15] {
+                points.push(((r * t.sin()) as f32, (r * t.cos()) as f32));
+            }
+        }
+        let mut rng = TestRng::new(11);
+        for _ in 0..200_000 {
+            let m = |rng: &mut TestRng| (rng.next_f32() * 2.0 - 1.0) * 10f32.powf(rng.next_f32() * 8.0 - 4.0);
+            points.push((m(&mut rng), m(&mut rng)));
+        }
+        let z = [0.0f32, -0.0, 1.0, -1.0, 1e-30, -1e-30, 2.5];
+        for y in z {
+            for x in z {
+                points.push((y, x));
+            }
+        }
+        for pair in points.chunks_exact(2) {
+            let [(y0, x0), (y1, x1)] = [pair[0], pair[1]];
+            let got = atan2_x2([y0, y1], [x0, x1]);
+            assert_eq!(got[0].to_bits(), atan2(y0, x0).to_bits(), "atan2({y0:e}, {x0:e})");
+            assert_eq!(got[1].to_bits(), atan2(y1, x1).to_bits(), "atan2({y1:e}, {x1:e})");
+            // The lanes are independent: swapped, each still gives its own value.
+            let swapped = atan2_x2([y1, y0], [x1, x0]);
+            assert_eq!((swapped[0].to_bits(), swapped[1].to_bits()), (got[1].to_bits(), got[0].to_bits()));
+        }
+        let nan = atan2_x2([f32::NAN, 1.0], [1.0, f32::NAN]);
+        assert!(nan[0].is_nan() && nan[1].is_nan());
     }
 
     #[test]

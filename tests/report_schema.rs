@@ -1,0 +1,172 @@
+//! The JSON schemas of the typed reports (issue 11): `analyze`, `invert lighting` and `invert brdf`
+//! print their report structs with `--json`; the top-level keys and the JSON type of each are
+//! pinned here, so a renamed or retyped field is a deliberate change (scripts and the Python
+//! package read these documents).
+
+use analysis::image::{Image, write_exr};
+use analysis::sh::{Reconstructor, latlong_direction, num_coefficients};
+use serde_json::Value;
+use std::process::Command;
+
+fn reflect_json(args: &[&str]) -> Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: bad JSON ({e}): {stdout}"))
+}
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "bool",
+        Value::Number(_) => "number",
+        Value::String(_) => "string",
+        Value::Array(_) => "array",
+        Value::Object(_) => "object",
+    }
+}
+
+/// `doc` has exactly the keys of `schema`, each of one of the listed types ("number|null").
+fn assert_schema(doc: &Value, schema: &[(&str, &str)], what: &str) {
+    let obj = doc.as_object().unwrap_or_else(|| panic!("{what}: not an object"));
+    let mut keys: Vec<&str> = obj.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    let mut want: Vec<&str> = schema.iter().map(|(k, _)| *k).collect();
+    want.sort_unstable();
+    assert_eq!(keys, want, "{what}: top-level keys");
+    for (k, types) in schema {
+        let t = kind(&obj[*k]);
+        assert!(types.split('|').any(|x| x == t), "{what}.{k}: {t}, expected {types}");
+    }
+}
+
+/// A Phong (s = 8, ignore) `normal-probe` image under an SH lighting l ≤ 2: B = Λ_l ρ̂_l L_lm (exact).
+fn probe(dir: &std::path::Path) -> std::path::PathBuf {
+    let (w, h, lmax) = (64, 32, 2);
+    let l: Vec<[f64; 3]> =
+        (0..num_coefficients(lmax)).map(|k| if k == 0 { [2.0, 1.5, 1.0] } else { [0.2, -0.1, 0.05] }).collect();
+    let f = analysis::transfer::phong::phong(8.0, lmax);
+    let b: Vec<[f64; 3]> = l.iter().enumerate().map(|(k, c)| c.map(|v| v * f[analysis::sh::lm(k).0])).collect();
+    let mut rec = Reconstructor::new(lmax);
+    let px: Vec<[f64; 3]> = (0..w * h).map(|i| rec.eval(&b, latlong_direction(i / w, i % w, w, h))).collect();
+    let mut img = Image { width: w, height: h, ..Default::default() };
+    for (ch, n) in ["R", "G", "B"].iter().enumerate() {
+        img.channels.insert(n.to_string(), px.iter().map(|p| p[ch] as f32).collect());
+    }
+    img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
+    img.attributes.insert("reflect:lighting".into(), serde_json::json!({"type": "sh", "coefficients": l}).to_string());
+    img.attributes.insert(
+        "reflect:objects".into(),
+        r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"phong","ks":1,"s":8,"horizon":"ignore"}}]"#
+            .into(),
+    );
+    let p = dir.join("phong-probe.exr");
+    write_exr(&p, &img).unwrap();
+    p
+}
+
+#[test]
+fn report_schemas_are_pinned() {
+    let dir = std::env::temp_dir().join(format!("reflect-it-report-schema-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = probe(&dir);
+    let p = p.to_str().unwrap();
+
+    let a = reflect_json(&["analyze", p, "--lmax", "2", "--json"]);
+    assert_schema(
+        &a,
+        &[
+            ("lmax", "number"),
+            ("lmax_carried", "number"),
+            ("images", "array"),
+            ("method", "string"),
+            ("param", "string"),
+            ("sphere", "object"),
+            ("pixels_used", "number"),
+            ("stderr_source", "string"),
+            ("rms_residual", "array|null"),
+            ("lm", "array"),
+            ("coefficients", "array"),
+            ("stderr", "array|null"),
+            ("lighting", "object|null"),
+            ("filter", "array|null"),
+            ("filter_fit", "array|null"),
+            ("brdf", "object|null"),
+            ("lambda_rho_analytic", "array|null"),
+            ("predicted", "array|null"),
+            ("warnings", "array"),
+        ],
+        "analyze",
+    );
+    assert_eq!(a["lm"][5], serde_json::json!([2, -1]));
+    let order = &a["filter"][1];
+    for k in ["l", "estimate", "stderr_noise", "truncation", "stderr", "amplification", "status"] {
+        assert!(order.get(k).is_some(), "analyze.filter[1].{k}: {order}");
+    }
+    assert_eq!(order["estimate"].as_array().unwrap().len(), 3, "every channel");
+    let fit = &a["filter_fit"][0];
+    for k in
+        ["chi2", "dof", "chi2_per_dof", "robust_chi2_per_dof", "p_value", "stderr_scale", "fitted_orders", "covariance"]
+    {
+        assert!(fit.get(k).is_some(), "analyze.filter_fit[0].{k}: {fit}");
+    }
+
+    let l = reflect_json(&["invert", "lighting", p, "--lmax", "2", "--json"]);
+    assert_schema(
+        &l,
+        &[
+            ("command", "string"),
+            ("lmax", "number"),
+            ("lmax_carried", "number"),
+            ("images", "array"),
+            ("method", "string"),
+            ("brdf", "string"),
+            ("lambda_rho", "array"),
+            ("albedo", "array"),
+            ("max_amplification", "number"),
+            ("orders", "array"),
+            ("lm", "array"),
+            ("coefficients", "array"),
+            ("stderr", "array"),
+            ("stderr_noise", "array|null"),
+            ("truncation", "array|null"),
+            ("coefficient_amplification", "array|null"),
+            ("channel_fits", "array|null"),
+            ("regularised", "object"),
+            ("output", "string|null"),
+            ("warnings", "array"),
+        ],
+        "invert lighting",
+    );
+    assert_eq!(l["lm"].as_array().unwrap().len(), 9);
+
+    let b = reflect_json(&["invert", "brdf", p, "--model", "phong", "--lmax", "2", "--json"]);
+    assert_schema(
+        &b,
+        &[
+            ("fit", "string"),
+            ("channels", "array"),
+            ("command", "string"),
+            ("lmax", "number"),
+            ("lmax_carried", "number"),
+            ("images", "array"),
+            ("method", "string"),
+            ("lighting", "string"),
+            ("model", "string"),
+            ("parameter", "string"),
+            ("estimate", "number"),
+            ("interval", "array"),
+            ("relative_width", "number|null"),
+            ("range", "array"),
+            ("scale", "array"),
+            ("chi2_min", "number"),
+            ("dof", "number"),
+            ("weighted_by_stderr", "bool"),
+            ("points", "number"),
+            ("filter", "array"),
+            ("profile", "array"),
+            ("warnings", "array"),
+        ],
+        "invert brdf",
+    );
+}
