@@ -12,7 +12,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     common::reflect_out(&[&["verify"], args].concat())
 }
 
-const NAMES: [&str; 22] = [
+const NAMES: [&str; 23] = [
     "lambert",
     "irradiance9",
     "phong",
@@ -24,6 +24,7 @@ const NAMES: [&str; 22] = [
     "associativity",
     "convex-shape",
     "single-view",
+    "partial-view",
     "horizon",
     "inverse-lighting",
     "inverse-lighting-specular",
