@@ -223,6 +223,7 @@ fn analysis_commands_refuse_bad_input() {
         (vec!["sh", "project", &probe, "--lmax", "2", "--mapping", "mercator"], "mercator"),
         (vec!["sh", "transfer", "--brdf", "velvet", "--lmax", "2"], "velvet"),
         (vec!["sh", "transfer", "--brdf", "phong", "--lmax", "2"], "--s"),
+        (vec!["sh", "transfer", "--brdf", "microfacet", "--lmax", "2"], "no transfer model"),
         (vec!["sh", "transfer", "--brdf", "phong", "--s", "-1", "--lmax", "2"], "-1"),
         (vec!["invert", "lighting", m, "--lmax", "2"], "missing.exr"),
         (vec!["invert", "lighting", j, "--lmax", "2"], "junk.exr"),
@@ -261,6 +262,12 @@ fn usage_errors_are_one_line() {
         (vec!["analyze", "--lmax", "2"], "IMAGES"),
         (vec!["no-such-command"], "no-such-command"),
         (vec!["invert", "brdf", s, "--lmax", "2"], "--model"),
+        // Closed sets are clap value enums, refused by name; `--rule` is gone (it meant two things).
+        (vec!["invert", "lighting", s, "--lmax", "2", "--rule", "gcv"], "--rule"),
+        (vec!["invert", "lighting", s, "--lmax", "2", "--lambda-rule", "magic"], "magic"),
+        (vec!["invert", "factor", s, "--lmax", "2", "--quadrature", "simpson"], "simpson"),
+        (vec!["invert", "separate", s, "--channel", "alpha"], "alpha"),
+        (vec!["analyze", s, "--lmax", "2", "--param", "sideways"], "sideways"),
     ];
     for (args, names) in cases {
         let (code, stdout, err) = reflect_out(&args);

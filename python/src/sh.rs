@@ -9,10 +9,11 @@ use analysis::image::{RgbImage, read_rgb};
 use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::rotation::{Rotation, rotate_coefficients};
 use analysis::sh::{Reconstructor, lmax_of};
+use analysis::transfer::TransferModel;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
-use reflect::cli::sh::{check_lmax, model_from_args};
+use reflect::cli::sh::check_lmax;
 use std::path::PathBuf;
 
 fn coeffs_array(c: Vec<[f64; 3]>) -> Array2<f64> {
@@ -128,7 +129,10 @@ pub fn sh_transfer<'py>(
     theta_o_deg: Option<f64>,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, Option<(String, Bound<'py, PyArray1<f64>>)>)> {
     check_lmax(lmax).py()?;
-    let model = model_from_args(brdf, s, sigma, theta_o_deg).py()?;
+    // The CLI's parse and mapping: the closed set's message for an unknown name, then the one
+    // BRDF → transfer-model mapping of `analysis`.
+    let kind: vocab::BrdfKind = brdf.parse().py()?;
+    let model = TransferModel::from_params(kind, s, sigma, theta_o_deg).py()?;
     let (f, approx) = py.detach(|| (model.lambda_rho(lmax), model.approximation(lmax)));
     Ok((Array1::from(f).into_pyarray(py), approx.map(|(name, v)| (name.to_string(), Array1::from(v).into_pyarray(py)))))
 }

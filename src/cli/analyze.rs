@@ -29,19 +29,22 @@
 //! l ≤ l_max + 2), with the design's noise amplification per order; orders the visible directions
 //! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
 //! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.
-use super::header::{first_sphere, json_rgb, json_vec3, lighting_of};
+use super::Error;
+use super::args::{CameraFlags, ParamArg, ViewArgs};
+use super::header::{first_sphere, json_vec3, lighting_of};
 use super::sh::check_lmax;
-use super::{Error, flags};
 use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, read_image};
 use analysis::projection::{
     OrthoCamera, OrthoView, Param, Sphere, fit_orthographic, ortho_samples, probe_samples, project_normal_probe,
 };
 use analysis::sh::{lm, num_coefficients};
-use analysis::transfer::TransferModel;
+use analysis::transfer::{TransferModel, parameterization};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use vocab::scene::BrdfSection;
+use vocab::{BrdfKind, Horizon, Mapping};
 
 #[derive(clap::Args, Debug)]
 pub struct AnalyzeArgs {
@@ -52,52 +55,20 @@ pub struct AnalyzeArgs {
     #[arg(long)]
     pub lighting: Option<PathBuf>,
     /// Mapping of an environment map given with --lighting (default: inferred from aspect ratio).
-    #[arg(long)]
-    pub mapping: Option<String>,
+    #[arg(long, value_enum)]
+    pub mapping: Option<Mapping>,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
-    /// normal | reflection: the direction the radiance is a function of (default: from the BRDF).
-    #[arg(long)]
-    pub param: Option<String>,
-    /// Sphere centre x,y,z when the header has no reflect:objects.
-    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
-    pub center: Option<[f64; 3]>,
-    /// Sphere radius when the header has no reflect:objects.
-    #[arg(long)]
-    pub radius: Option<f64>,
-    /// Orthographic camera position x,y,z of an image without reflect:camera; once per image, in
-    /// the order of the images (as --to, --up and --extent).
-    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
-    pub from: Vec<[f64; 3]>,
-    /// Camera target x,y,z, once per image (default 0,0,0).
-    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
-    pub to: Vec<[f64; 3]>,
-    /// Camera up x,y,z, once per image (default 0,0,1).
-    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
-    pub up: Vec<[f64; 3]>,
-    /// Orthographic half-width of the view, once per image.
-    #[arg(long)]
-    pub extent: Vec<f64>,
+    /// The direction the radiance is a function of (default: from the BRDF).
+    #[arg(long, value_enum)]
+    pub param: Option<ParamArg>,
+    /// The camera and sphere of images whose header does not say them.
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
-}
-
-/// The camera flags of one image (`None` where the flag is not given).
-#[derive(Clone, Copy, Default)]
-struct CameraFlags {
-    from: Option<[f64; 3]>,
-    to: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    extent: Option<f64>,
-}
-
-/// The camera flags of each of the `n` images: each flag given not at all or once per image.
-fn camera_flags(a: &AnalyzeArgs, n: usize) -> Result<Vec<CameraFlags>, Error> {
-    let (from, to) = (flags::per_image(&a.from, "from", n)?, flags::per_image(&a.to, "to", n)?);
-    let (up, extent) = (flags::per_image(&a.up, "up", n)?, flags::per_image(&a.extent, "extent", n)?);
-    Ok((0..n).map(|i| CameraFlags { from: from[i], to: to[i], up: up[i], extent: extent[i] }).collect())
 }
 
 /// The camera of one image.
@@ -129,22 +100,18 @@ fn camera_of(img: &Image, f: CameraFlags) -> Result<Camera, Error> {
             ))),
         };
     }
-    match (f.from, f.extent) {
-        (Some(from), Some(extent)) => Ok(Camera::Ortho(OrthoCamera {
-            from,
-            to: f.to.unwrap_or([0.0; 3]),
-            up: f.up.unwrap_or([0.0, 0.0, 1.0]),
-            extent,
-        })),
-        _ => Err(Error::new("no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera)")),
-    }
+    f.camera().map(Camera::Ortho).ok_or_else(|| {
+        Error::new("no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera)")
+    })
 }
 
-/// The BRDF of the analysed sphere, from the header: transfer model, RGB scale, name, table.
+/// The BRDF of the analysed sphere, from the header: transfer model, RGB scale, kind, horizon,
+/// table (as the header wrote it, for the report).
 struct Brdf {
     model: Option<TransferModel>,
     scale: [f64; 3],
-    ty: String,
+    kind: BrdfKind,
+    horizon: Horizon,
     table: Value,
 }
 
@@ -156,24 +123,19 @@ fn sphere_and_brdf(img: &Image, warnings: &mut Vec<String>) -> Result<(Option<Sp
     if count > 1 {
         warnings.push(format!("the scene has {count} objects; analysing the first sphere"));
     }
-    let rgb_or_default = |v: Option<&Value>, d: f64| json_rgb(v).unwrap_or([d; 3]);
     let brdf = brdf.as_ref().map(|b| {
-        let ty = b.get("type").and_then(|t| t.as_str()).unwrap_or("").to_string();
-        let num = |k: &str| b.get(k).and_then(|x| x.as_f64());
-        let (model, scale) = match ty.as_str() {
-            "lambert" => (Some(TransferModel::Lambert), rgb_or_default(b.get("albedo"), 1.0)),
-            "phong" => (num("s").map(|s| TransferModel::Phong { s }), rgb_or_default(b.get("ks"), 1.0)),
-            "mirror" => (Some(TransferModel::Mirror), rgb_or_default(b.get("kr"), 1.0)),
-            "torrance-sparrow" => (
-                num("sigma").map(|sigma| TransferModel::TorranceSparrow { sigma, theta_o: 0.0 }),
-                rgb_or_default(b.get("ks"), 1.0),
-            ),
-            _ => (None, [1.0; 3]),
-        };
-        if let Some(m) = &model {
-            m.validate().map_err(|e| Error::new(format!("header reflect:objects {ty} BRDF: {}", e.message)))?;
-        }
-        Ok(Brdf { model, scale, ty, table: b.clone() })
+        // The one BRDF → transfer-model mapping (a malformed table is an error naming the key).
+        let section: BrdfSection = serde_json::from_value(b.clone())
+            .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
+        let t = TransferModel::of_brdf(&section, 0.0)
+            .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?;
+        Ok::<_, Error>(Brdf {
+            model: t.map(|t| t.model),
+            scale: t.map_or([1.0; 3], |t| t.scale),
+            kind: section.kind(),
+            horizon: t.map_or(Horizon::Clamp, |t| t.horizon),
+            table: b.clone(),
+        })
     });
     Ok((sphere, brdf.transpose()?))
 }
@@ -239,23 +201,15 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     let cameras: Vec<Camera> = images
         .iter()
         .zip(&a.images)
-        .zip(camera_flags(a, a.images.len())?)
+        .zip(a.view.per_image(a.images.len())?)
         .map(|((img, p), f)| camera_of(img, f).map_err(|e| e.in_file(p)))
         .collect::<Result<_, _>>()?;
     let mut warnings = Vec::new();
     let (header_sphere, brdf) = sphere_and_brdf(&images[0], &mut warnings).map_err(|e| e.in_file(&a.images[0]))?;
-    let sphere = Sphere {
-        center: a.center.or(header_sphere.map(|s| s.center)).unwrap_or([0.0; 3]),
-        radius: a.radius.or(header_sphere.map(|s| s.radius)).unwrap_or(1.0),
-    };
-    let param = match a.param.as_deref() {
-        Some("normal") => Param::Normal,
-        Some("reflection") => Param::Reflection,
-        Some(o) => return Err(Error::new(format!("unknown --param '{o}' (expected normal or reflection)"))),
-        None => match brdf.as_ref().map(|b| b.ty.as_str()) {
-            Some("phong" | "mirror" | "torrance-sparrow" | "microfacet") => Param::Reflection,
-            _ => Param::Normal,
-        },
+    let sphere = a.view.sphere(header_sphere);
+    let param = match a.param {
+        Some(p) => Param::from(p),
+        None => brdf.as_ref().map_or(Param::Normal, |b| parameterization(b.kind)),
     };
     let in_first = |e: Error| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e };
 
@@ -322,7 +276,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         )
     };
 
-    let lighting = lighting_of(a.lighting.as_deref(), a.mapping.as_deref(), &images[0], &a.images[0])
+    let lighting = lighting_of(a.lighting.as_deref(), a.mapping, &images[0], &a.images[0])
         .map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
     // Two orders beyond l_max estimate the truncation bias of the filter fit.
     let l_hi = match &lighting {
@@ -349,8 +303,8 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         _ => None,
     };
     if let Some(br) = &brdf {
-        let horizon = br.table.get("horizon").and_then(|h| h.as_str()).unwrap_or("clamp");
-        if matches!(br.ty.as_str(), "phong" | "torrance-sparrow") && horizon != "ignore" {
+        let horizon = br.horizon;
+        if matches!(br.kind, BrdfKind::Phong | BrdfKind::TorranceSparrow) && horizon != Horizon::Ignore {
             warnings.push(format!(
                 "horizon = \"{horizon}\": the analytic Λ_l ρ̂_l (eq. 43/50) ignores the horizon, so expect differences"
             ));
@@ -490,20 +444,7 @@ mod tests {
     use serde_json::json;
 
     fn args(images: Vec<PathBuf>, lmax: usize) -> AnalyzeArgs {
-        AnalyzeArgs {
-            images,
-            lighting: None,
-            mapping: None,
-            lmax,
-            param: None,
-            center: None,
-            radius: None,
-            from: vec![],
-            to: vec![],
-            up: vec![],
-            extent: vec![],
-            json: true,
-        }
+        AnalyzeArgs { images, lighting: None, mapping: None, lmax, param: None, view: ViewArgs::default(), json: true }
     }
 
     fn tmp(name: &str) -> PathBuf {
@@ -549,23 +490,8 @@ mod tests {
         let e = run(args(vec![nocam], 2)).unwrap_err().to_string();
         assert!(e.contains("nocam.exr") && e.contains("--from"), "{e}");
 
-        // Absurd l_max, missing file, bad --param.
+        // Absurd l_max, missing file (a bad --param is refused by clap: tests/cli_errors.rs).
         assert!(run(args(vec![good.clone()], 100_000)).is_err());
         assert!(run(args(vec![tmp("missing.exr")], 2)).unwrap_err().to_string().contains("missing.exr"));
-        let mut a = args(vec![good], 2);
-        a.param = Some("sideways".into());
-        assert!(run(a).is_err());
-    }
-
-    #[test]
-    fn transfer_arguments_are_checked() {
-        use super::super::sh::model_from_args;
-        assert!(model_from_args("phong", None, None, None).is_err());
-        assert!(model_from_args("phong", Some(-1.0), None, None).is_err());
-        assert!(model_from_args("lambert", Some(3.0), None, None).is_err());
-        assert!(model_from_args("torrance-sparrow", None, Some(0.1), Some(95.0)).is_err());
-        assert!(model_from_args("torrance-sparrow", None, Some(f64::NAN), None).is_err());
-        assert!(model_from_args("velvet", None, None, None).is_err());
-        assert_eq!(model_from_args("mirror", None, None, None).unwrap(), TransferModel::Mirror);
     }
 }

@@ -90,7 +90,7 @@ pub fn first_sphere(img: &Image) -> Result<(Option<Sphere>, Option<Value>, usize
 /// header of the first image (a relative file there is taken relative to that image).
 pub fn lighting_of(
     lighting: Option<&Path>,
-    mapping: Option<&str>,
+    mapping: Option<Mapping>,
     first: &Image,
     first_path: &Path,
 ) -> Result<Option<(Lighting, String)>, Error> {
@@ -98,7 +98,6 @@ pub fn lighting_of(
         if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
             return Ok(Some((Lighting::from_scene_file(p)?, p.display().to_string())));
         }
-        let mapping = mapping.map(Mapping::parse).transpose()?;
         return Ok(Some((Lighting::from_envmap_file(p, mapping), p.display().to_string())));
     }
     if mapping.is_some() {

@@ -2,10 +2,10 @@
 //! a sphere (paper sec. 2.2, sec. 3; library `analysis::inverse`).
 //!
 //! - `invert lighting IMAGE.exr… [--brdf B --s S --sigma X] [--albedo A] --lmax L
-//!   [--max-amplification 10] [--rule gcv|discrepancy] [--output ENV.exr --width W] [--json]`:
+//!   [--max-amplification 10] [--lambda-rule gcv|discrepancy] [--output ENV.exr --width W] [--json]`:
 //!   L_lm = B_lm / (albedo Λ_l ρ̂_l) (eq. 17) per order with standard errors, noise amplification
 //!   and status (recovered / ill-conditioned / unobservable), and the Tikhonov-regularised lighting
-//!   (λ by GCV unless `--rule discrepancy`), written as a W × W/2 lat-long EXR with `--output`.
+//!   (λ by GCV unless `--lambda-rule discrepancy`), written as a W × W/2 lat-long EXR with `--output`.
 //!   Without `--brdf`, the BRDF (and albedo / k_s / k_r) comes from the image's `reflect:objects`.
 //! - `invert brdf IMAGE.exr… [--lighting SCENE_OR_ENV] --model phong|torrance-sparrow --lmax L
 //!   [--min P --max P] [--json]`: Λ_l ρ̂_l per order (eq. 16) and the fitted s or σ with its
@@ -20,8 +20,9 @@
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::Error;
-use super::header::{first_sphere, header_json, json_rgb, json_vec3, lighting_of, probe_theta_o_deg};
-use super::sh::{check_lmax, model_from_args};
+use super::args::{FitModel, LambdaRule};
+use super::header::{first_sphere, header_json, json_vec3, lighting_of, probe_theta_o_deg};
+use super::sh::check_lmax;
 use analysis::filter::ChannelFit;
 use analysis::image::{Image, read_image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
@@ -33,10 +34,12 @@ use analysis::projection::{
     project_normal_probe,
 };
 use analysis::sh::{lm, reconstruct_latlong};
-use analysis::transfer::TransferModel;
+use analysis::transfer::{TransferModel, parameterization};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use vocab::scene::BrdfSection;
+use vocab::{BrdfKind, Mapping};
 
 #[derive(clap::Subcommand, Debug)]
 pub enum InvertCommand {
@@ -55,9 +58,9 @@ pub struct LightingArgs {
     /// Rendered images (OpenEXR): one normal-probe image, or orthographic views.
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// lambert | phong | mirror | torrance-sparrow (default: the header's BRDF).
-    #[arg(long)]
-    pub brdf: Option<String>,
+    /// BRDF model (default: the header's BRDF; microfacet and mix have no transfer model).
+    #[arg(long, value_enum)]
+    pub brdf: Option<BrdfKind>,
     /// Phong exponent.
     #[arg(long)]
     pub s: Option<f64>,
@@ -73,9 +76,9 @@ pub struct LightingArgs {
     /// Noise amplification above which an order is ill-conditioned.
     #[arg(long, default_value_t = DEFAULT_MAX_AMPLIFICATION)]
     pub max_amplification: f64,
-    /// gcv | discrepancy: the rule choosing the Tikhonov λ.
-    #[arg(long, default_value = "gcv")]
-    pub rule: String,
+    /// The rule choosing the Tikhonov λ.
+    #[arg(long, value_enum, default_value_t = LambdaRule::Gcv)]
+    pub lambda_rule: LambdaRule,
     /// Write the regularised lighting as a lat-long EXR.
     #[arg(long)]
     pub output: Option<PathBuf>,
@@ -96,11 +99,11 @@ pub struct BrdfArgs {
     #[arg(long)]
     pub lighting: Option<PathBuf>,
     /// Mapping of an environment map given with --lighting (default: from the aspect ratio).
-    #[arg(long)]
-    pub mapping: Option<String>,
-    /// phong | torrance-sparrow.
-    #[arg(long)]
-    pub model: String,
+    #[arg(long, value_enum)]
+    pub mapping: Option<Mapping>,
+    /// The parametric model fitted.
+    #[arg(long, value_enum)]
+    pub model: FitModel,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -217,39 +220,31 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
     })
 }
 
-/// BRDF model and albedo from the command line, else from the header's BRDF table.
+/// BRDF model and albedo from the command line, else from the header's BRDF table, both through
+/// the one BRDF → transfer-model mapping ([`TransferModel::from_params`], [`TransferModel::of_brdf`]).
 fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
-    let theta_o_deg = (theta_o != 0.0).then_some(theta_o.to_degrees());
-    let (model, name, header_albedo) = match (&a.brdf, header) {
-        (Some(name), _) => {
+    let (model, kind, header_albedo) = match (a.brdf, header) {
+        (Some(kind), _) => {
             // θ_o of a normal-probe image only changes the Torrance–Sparrow coefficients (eq. 59).
-            let th = if name == "torrance-sparrow" { theta_o_deg } else { None };
-            (model_from_args(name, a.s, a.sigma, th)?, name.clone(), None)
+            let th = (kind == BrdfKind::TorranceSparrow && theta_o != 0.0).then_some(theta_o.to_degrees());
+            (TransferModel::from_params(kind, a.s, a.sigma, th)?, kind, None)
         }
         (None, Some(b)) => {
-            let ty = b.get("type").and_then(|t| t.as_str()).unwrap_or("").to_string();
-            let (key, s, sigma) = match ty.as_str() {
-                "lambert" => ("albedo", None, None),
-                "mirror" => ("kr", None, None),
-                "phong" => ("ks", b.get("s").and_then(|x| x.as_f64()), None),
-                "torrance-sparrow" => ("ks", None, b.get("sigma").and_then(|x| x.as_f64())),
-                other => {
-                    return Err(Error::new(format!("the header's BRDF '{other}' has no transfer model: pass --brdf")));
-                }
-            };
-            let th = if ty == "lambert" || ty == "mirror" || ty == "phong" { None } else { theta_o_deg };
-            let m = model_from_args(&ty, s, sigma, th)
-                .map_err(|e| Error::new(format!("header reflect:objects {ty} BRDF: {}", e.message)))?;
-            (m, ty, json_rgb(b.get(key)))
+            let table: BrdfSection = serde_json::from_value(b.clone())
+                .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
+            let kind = table.kind();
+            let t = TransferModel::of_brdf(&table, theta_o)
+                .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?
+                .ok_or_else(|| Error::new(format!("the header's BRDF '{kind}' has no transfer model: pass --brdf")))?;
+            (t.model, kind, Some(t.scale))
         }
         (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
     };
-    model.validate()?;
     let albedo = a.albedo.or(header_albedo).unwrap_or([1.0; 3]);
     if albedo.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         return Err(Error::new(format!("albedo must be > 0, got {albedo:?}")));
     }
-    Ok((model, albedo, name))
+    Ok((model, albedo, kind.name().to_string()))
 }
 
 /// One order of `invert lighting`: the filter, its noise amplification and status.
@@ -311,10 +306,9 @@ pub struct InvertLightingReport {
 
 /// `reflect invert lighting` as a library call: the report, or an error naming the file and problem.
 pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, Error> {
-    let rule = match a.rule.as_str() {
-        "gcv" => Rule::Gcv,
-        "discrepancy" => Rule::Discrepancy,
-        o => return Err(Error::new(format!("unknown --rule '{o}' (expected gcv or discrepancy)"))),
+    let rule = match a.lambda_rule {
+        LambdaRule::Gcv => Rule::Gcv,
+        LambdaRule::Discrepancy => Rule::Discrepancy,
     };
     if a.output.is_some() && !(a.width >= 4 && a.width.is_multiple_of(2) && a.width <= 16384) {
         return Err(Error::new(format!("--width must be even and in [4, 16384], got {}", a.width)));
@@ -324,13 +318,10 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         check_latlong(a.lmax, a.width, a.width / 2, "--output map (--width)").map_err(|e| e.in_file(out))?;
     }
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
-    let named = a.brdf.as_deref();
     let first = read_image(&a.images[0])?;
     let (_, header_brdf, _) = first_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
-    let ty = named
-        .map(str::to_string)
-        .or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str().map(str::to_string)));
-    let param = if ty.as_deref() == Some("lambert") { Param::Normal } else { Param::Reflection };
+    let kind = a.brdf.or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str()?.parse::<BrdfKind>().ok()));
+    let param = kind.map_or(Param::Reflection, parameterization);
     let p = project(&a.images, a.lmax, param)?;
     let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)
         .map_err(|e| if a.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
@@ -424,7 +415,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
 }
 
 fn lighting_for_brdf(a: &BrdfArgs, first: &Image) -> Result<(Lighting, String), Error> {
-    lighting_of(a.lighting.as_deref(), a.mapping.as_deref(), first, &a.images[0])?
+    lighting_of(a.lighting.as_deref(), a.mapping, first, &a.images[0])?
         .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting"))
 }
 
@@ -483,10 +474,9 @@ pub struct InvertBrdfReport {
 /// `reflect invert brdf` as a library call: the report, or an error naming the file and problem.
 pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     let p = project(&a.images, a.lmax, Param::Reflection)?;
-    let model = match a.model.as_str() {
-        "phong" => Model::Phong,
-        "torrance-sparrow" => Model::TorranceSparrow { theta_o: p.theta_o },
-        o => return Err(Error::new(format!("unknown --model '{o}' (expected phong or torrance-sparrow)"))),
+    let model = match a.model {
+        FitModel::Phong => Model::Phong,
+        FitModel::TorranceSparrow => Model::TorranceSparrow { theta_o: p.theta_o },
     };
     let (dlo, dhi) = model.default_range();
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
@@ -673,7 +663,7 @@ mod tests {
             images: vec![image],
             lighting: None,
             mapping: None,
-            model: "phong".into(),
+            model: FitModel::Phong,
             lmax,
             min: None,
             max: None,
@@ -714,7 +704,7 @@ mod tests {
             albedo: None,
             lmax,
             max_amplification: DEFAULT_MAX_AMPLIFICATION,
-            rule: "gcv".into(),
+            lambda_rule: LambdaRule::Gcv,
             output: None,
             width: 64,
             json: true,
@@ -782,15 +772,13 @@ mod tests {
         a.output = None;
         let wrong = lighting_doc(&a).unwrap();
         assert!((wrong["coefficients"][0][0].as_f64().unwrap() - 0.5 * l[0][0]).abs() < 1e-3);
-        // Bad input: unknown rule, absurd width, unknown BRDF.
-        a.rule = "magic".into();
-        assert!(lighting_doc(&a).is_err());
-        a.rule = "gcv".into();
+        // Bad input: absurd width, a BRDF without a transfer model (unknown names and rules are
+        // refused by clap, tests/cli_errors.rs).
         a.output = Some(tmp("x.exr"));
         a.width = 3;
         assert!(lighting_doc(&a).is_err());
         a.output = None;
-        a.brdf = Some("velvet".into());
+        a.brdf = Some(BrdfKind::Microfacet);
         assert!(lighting_doc(&a).is_err());
     }
 
@@ -812,8 +800,6 @@ mod tests {
         let est = doc["estimate"].as_f64().unwrap();
         assert!((est - s).abs() < 1e-2 * s, "{est}");
         assert!((doc["scale"][0].as_f64().unwrap() - 0.8).abs() < 0.008);
-        let bad = BrdfArgs { model: "velvet".into(), ..a };
-        assert!(brdf_doc(&bad).is_err());
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand.
 
 pub mod analyze;
+pub mod args;
 pub mod factor;
 pub mod flags;
 pub mod header;

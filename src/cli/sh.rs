@@ -19,6 +19,7 @@ use serde::Serialize;
 use std::fmt;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use vocab::BrdfKind;
 
 /// Largest l_max accepted on the command line (the basis is accurate far beyond; this guards
 /// against accidental huge allocations).
@@ -36,9 +37,9 @@ pub enum ShCommand {
 pub struct ProjectArgs {
     /// Environment map (.exr or .hdr).
     pub env: PathBuf,
-    /// latlong | angular (default: inferred from the aspect ratio, W = H angular, W = 2H lat-long).
-    #[arg(long)]
-    pub mapping: Option<String>,
+    /// Mapping of the map (default: inferred from the aspect ratio, W = H angular, W = 2H lat-long).
+    #[arg(long, value_enum)]
+    pub mapping: Option<Mapping>,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -49,9 +50,9 @@ pub struct ProjectArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct TransferArgs {
-    /// lambert | phong | mirror | torrance-sparrow
-    #[arg(long)]
-    pub brdf: String,
+    /// BRDF model (microfacet and mix have no transfer model here and are refused).
+    #[arg(long, value_enum)]
+    pub brdf: BrdfKind,
     /// Phong exponent s (> 0).
     #[arg(long)]
     pub s: Option<f64>,
@@ -86,7 +87,7 @@ pub fn check_lmax(lmax: usize) -> Result<(), Error> {
 fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
     check_lmax(a.lmax)?;
     // Flags are checked before the file is read: a bad flag is named whatever the file holds.
-    let given = a.mapping.as_deref().map(Mapping::parse).transpose()?;
+    let given = a.mapping;
     refuse_render(&a.env)?;
     let img = read_rgb(&a.env)?;
     let mapping = match given {
@@ -142,62 +143,14 @@ fn refuse_render(path: &std::path::Path) -> Result<(), Error> {
     }
 }
 
-/// The transfer model named on the command line, with its parameters checked.
-pub fn model_from_args(
-    brdf: &str,
-    s: Option<f64>,
-    sigma: Option<f64>,
-    theta_o_deg: Option<f64>,
-) -> Result<TransferModel, Error> {
-    let unused = |name: &str, v: Option<f64>| match v {
-        Some(_) => Err(Error::new(format!("--{name} does not apply to --brdf {brdf}"))),
-        None => Ok(()),
-    };
-    let m = match brdf {
-        "lambert" | "mirror" => {
-            unused("s", s)?;
-            unused("sigma", sigma)?;
-            unused("theta-o", theta_o_deg)?;
-            if brdf == "lambert" { TransferModel::Lambert } else { TransferModel::Mirror }
-        }
-        "phong" => {
-            unused("sigma", sigma)?;
-            unused("theta-o", theta_o_deg)?;
-            TransferModel::Phong { s: s.ok_or_else(|| Error::new("--brdf phong needs --s"))? }
-        }
-        "torrance-sparrow" => {
-            unused("s", s)?;
-            TransferModel::TorranceSparrow {
-                sigma: sigma.ok_or_else(|| Error::new("--brdf torrance-sparrow needs --sigma"))?,
-                theta_o: theta_o_deg.unwrap_or(0.0).to_radians(),
-            }
-        }
-        other => {
-            return Err(Error::new(format!(
-                "unknown --brdf '{other}' (expected lambert, phong, mirror or torrance-sparrow)"
-            )));
-        }
-    };
-    m.validate()?;
-    Ok(m)
-}
-
 fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
     check_lmax(a.lmax)?;
-    let model = model_from_args(&a.brdf, a.s, a.sigma, a.theta_o)?;
+    let model = TransferModel::from_params(a.brdf, a.s, a.sigma, a.theta_o)?;
     let f = model.lambda_rho(a.lmax);
     let approx = model.approximation(a.lmax);
-    let method = match model {
-        TransferModel::Lambert => "eq. 38 closed form",
-        TransferModel::Phong { .. } => "eq. 43 exact",
-        TransferModel::Mirror => "eq. 33",
-        TransferModel::TorranceSparrow { theta_o: 0.0, .. } => "eq. 50 numerical integration",
-        TransferModel::TorranceSparrow { .. } => {
-            "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)"
-        }
-    };
+    let method = model.method();
     let report = TransferReport {
-        brdf: a.brdf.clone(),
+        brdf: a.brdf.name().to_string(),
         lmax: a.lmax,
         s: a.s,
         sigma: a.sigma,

@@ -18,6 +18,9 @@ pub mod radial;
 pub mod torrance_sparrow;
 
 use crate::error::{Error, Result};
+use crate::projection::Param;
+use vocab::BrdfKind;
+use vocab::scene::{BrdfSection, decimal, decimal3};
 
 /// Horizon handling of `phong` and `torrance-sparrow` (CONVENTIONS §4), defined in `vocab`.
 pub use vocab::Horizon;
@@ -89,6 +92,90 @@ impl TransferModel {
         }
     }
 
+    /// The one mapping from a BRDF kind and its parameters to a transfer model, for every command
+    /// (`sh transfer` and `invert lighting` from flags, and through [`TransferModel::of_brdf`]
+    /// `analyze`, `invert` and `verify` from a header or scene): `s` is Phong's exponent, `sigma`
+    /// Torrance–Sparrow's roughness (radians), `theta_o_deg` the exitance angle in degrees (only
+    /// Torrance–Sparrow depends on it, eq. 49/59; absent = 0).
+    ///
+    /// Errors: a parameter the model needs is missing or one it does not take is given (named as
+    /// the flag `--s`, `--sigma`, `--theta-o`), a kind without a transfer model here
+    /// (`microfacet`, `mix`), or a value [`TransferModel::validate`] refuses.
+    pub fn from_params(
+        kind: BrdfKind,
+        s: Option<f64>,
+        sigma: Option<f64>,
+        theta_o_deg: Option<f64>,
+    ) -> Result<TransferModel> {
+        let unused = |name: &str, v: Option<f64>| match v {
+            Some(_) => Err(Error::new(format!("--{name} does not apply to --brdf {kind}"))),
+            None => Ok(()),
+        };
+        let m = match kind {
+            BrdfKind::Lambert | BrdfKind::Mirror => {
+                unused("s", s)?;
+                unused("sigma", sigma)?;
+                unused("theta-o", theta_o_deg)?;
+                if kind == BrdfKind::Lambert { TransferModel::Lambert } else { TransferModel::Mirror }
+            }
+            BrdfKind::Phong => {
+                unused("sigma", sigma)?;
+                unused("theta-o", theta_o_deg)?;
+                TransferModel::Phong { s: s.ok_or_else(|| Error::new("--brdf phong needs --s"))? }
+            }
+            BrdfKind::TorranceSparrow => {
+                unused("s", s)?;
+                TransferModel::TorranceSparrow {
+                    sigma: sigma.ok_or_else(|| Error::new("--brdf torrance-sparrow needs --sigma"))?,
+                    theta_o: theta_o_deg.unwrap_or(0.0).to_radians(),
+                }
+            }
+            BrdfKind::Microfacet | BrdfKind::Mix => {
+                return Err(Error::new(format!(
+                    "BRDF '{kind}' has no transfer model (expected lambert, phong, mirror or torrance-sparrow)"
+                )));
+            }
+        };
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// The transfer model of a BRDF table (a scene file's or a `reflect:objects` header's) seen at
+    /// exitance θ_o (radians), through [`TransferModel::from_params`], with the table's scale and
+    /// horizon; `Ok(None)` for a BRDF with no transfer model here (`microfacet`, `mix`). The table's
+    /// f32 values are taken as the decimals they were written as ([`vocab::scene::decimal`]).
+    /// Errors: a parameter [`TransferModel::validate`] refuses, the message naming the BRDF type.
+    pub fn of_brdf(brdf: &BrdfSection, theta_o: f64) -> Result<Option<BrdfTransfer>> {
+        let (s, sigma, scale, horizon) = match brdf {
+            BrdfSection::Lambert { albedo } => (None, None, albedo, Horizon::Clamp),
+            BrdfSection::Mirror { kr } => (None, None, kr, Horizon::Clamp),
+            BrdfSection::Phong { ks, s, horizon } => (Some(decimal(*s)), None, ks, *horizon),
+            BrdfSection::TorranceSparrow { ks, sigma, horizon } => (None, Some(decimal(*sigma)), ks, *horizon),
+            BrdfSection::Microfacet { .. } | BrdfSection::Mix { .. } => return Ok(None),
+        };
+        let named = |e: Error| Error::new(format!("{} BRDF: {}", brdf.kind(), e.message));
+        // θ_o in radians as given (no round trip through degrees): only Torrance–Sparrow takes it.
+        let model = match TransferModel::from_params(brdf.kind(), s, sigma, None).map_err(named)? {
+            TransferModel::TorranceSparrow { sigma, .. } => TransferModel::TorranceSparrow { sigma, theta_o },
+            m => m,
+        };
+        model.validate().map_err(named)?;
+        Ok(Some(BrdfTransfer { model, scale: decimal3(scale.rgb()), horizon }))
+    }
+
+    /// How [`TransferModel::lambda_rho`] computes the coefficients (the paper's equation).
+    pub fn method(&self) -> &'static str {
+        match self {
+            TransferModel::Lambert => "eq. 38 closed form",
+            TransferModel::Phong { .. } => "eq. 43 exact",
+            TransferModel::Mirror => "eq. 33",
+            TransferModel::TorranceSparrow { theta_o: 0.0, .. } => "eq. 50 numerical integration",
+            TransferModel::TorranceSparrow { .. } => {
+                "q = 0 coefficient of eq. 49, numerical integration (exact half angle, horizon clamped)"
+            }
+        }
+    }
+
     /// The paper's approximation, when it has one: eq. 46 (Phong), eq. 57 (TS, normal exitance),
     /// eq. 59 (TS at θ_o).
     pub fn approximation(&self, lmax: usize) -> Option<(&'static str, Vec<f64>)> {
@@ -102,5 +189,68 @@ impl TransferModel {
             }
             _ => None,
         }
+    }
+}
+
+/// A BRDF table's transfer model ([`TransferModel::of_brdf`]) and what scales it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrdfTransfer {
+    pub model: TransferModel,
+    /// RGB factor of the unit-albedo Λ_l ρ̂_l: `albedo` (lambert), `kr` (mirror), `ks` (phong,
+    /// torrance-sparrow).
+    pub scale: [f64; 3],
+    /// The table's horizon handling (`clamp` for lambert and mirror, where it makes no difference).
+    pub horizon: Horizon,
+}
+
+/// The direction reflected radiance is a function of, for the orthographic fit of a BRDF kind:
+/// the normal for `lambert` (and `mix`, whose lobes need not share one), the reflection vector R
+/// for the lobes centred on it (`phong`, `mirror`, `torrance-sparrow`, `microfacet`).
+pub fn parameterization(kind: BrdfKind) -> Param {
+    match kind {
+        BrdfKind::Lambert | BrdfKind::Mix => Param::Normal,
+        BrdfKind::Phong | BrdfKind::Mirror | BrdfKind::TorranceSparrow | BrdfKind::Microfacet => Param::Reflection,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameters_are_checked_by_the_one_mapping() {
+        use BrdfKind::*;
+        let m = TransferModel::from_params;
+        assert!(m(Phong, None, None, None).unwrap_err().message.contains("needs --s"));
+        assert!(m(Phong, Some(-1.0), None, None).is_err());
+        assert!(m(Lambert, Some(3.0), None, None).unwrap_err().message.contains("--s does not apply"));
+        assert!(m(TorranceSparrow, None, Some(0.1), Some(95.0)).is_err());
+        assert!(m(TorranceSparrow, None, Some(f64::NAN), None).is_err());
+        assert!(m(Microfacet, None, None, None).unwrap_err().message.contains("no transfer model"));
+        assert_eq!(m(Mirror, None, None, None).unwrap(), TransferModel::Mirror);
+        assert_eq!(
+            m(TorranceSparrow, None, Some(0.2), Some(30.0)).unwrap(),
+            TransferModel::TorranceSparrow { sigma: 0.2, theta_o: 30f64.to_radians() }
+        );
+    }
+
+    #[test]
+    fn a_brdf_table_maps_to_its_model_scale_and_horizon() {
+        let t: BrdfSection =
+            serde_json::from_str(r#"{"type":"phong","s":0.1,"ks":[0.5,0.25,1],"horizon":"ignore"}"#).unwrap();
+        let b = TransferModel::of_brdf(&t, 0.0).unwrap().unwrap();
+        // s = 0.1 as written, not the f32 nearest to it.
+        assert_eq!(b.model, TransferModel::Phong { s: 0.1 });
+        assert_eq!((b.scale, b.horizon), ([0.5, 0.25, 1.0], Horizon::Ignore));
+        let ts: BrdfSection = serde_json::from_str(r#"{"type":"torrance-sparrow","sigma":0.2}"#).unwrap();
+        let b = TransferModel::of_brdf(&ts, 0.5).unwrap().unwrap();
+        assert_eq!(b.model, TransferModel::TorranceSparrow { sigma: 0.2, theta_o: 0.5 });
+        assert_eq!(b.scale, [1.0; 3]);
+        let bad: BrdfSection = serde_json::from_str(r#"{"type":"phong","s":-2}"#).unwrap();
+        assert!(TransferModel::of_brdf(&bad, 0.0).unwrap_err().message.starts_with("phong BRDF: "));
+        let mf: BrdfSection = serde_json::from_str(r#"{"type":"microfacet","alpha":0.3}"#).unwrap();
+        assert_eq!(TransferModel::of_brdf(&mf, 0.0).unwrap(), None);
+        assert_eq!(parameterization(BrdfKind::Lambert), Param::Normal);
+        assert_eq!(parameterization(BrdfKind::Phong), Param::Reflection);
     }
 }

@@ -14,6 +14,10 @@ use crate::math::Vec2;
 /// The sample generator (`render.sampler`), defined in `vocab`.
 pub use vocab::Sampler as SamplerKind;
 
+/// Dimensions whose scrambling keys a [`Sampler`] keeps across the samples of one pixel (a path of
+/// depth k draws 5k + 2 dimensions: the camera's 2, then 2 + 1 + 2 per vertex).
+const KEYS: usize = 16;
+
 #[derive(Clone, Debug)]
 pub struct Sampler {
     kind: SamplerKind,
@@ -21,6 +25,16 @@ pub struct Sampler {
     pixel_key: u64,
     index: u32,
     dim: u32,
+    /// The pixel of the last `start`: the cached keys below belong to it.
+    pixel: Option<u64>,
+    /// Bit d set: `keys_1d[d]` (resp. `keys_2d[d]`) holds the key of a 1D (2D) draw at dimension d.
+    /// The keys depend on (seed, pixel, dimension) only, so the samples of a pixel share them; this
+    /// is a memo and changes no number.
+    have_1d: u32,
+    have_2d: u32,
+    keys_1d: [u64; KEYS],
+    /// (key, mix64(key)) of a 2D draw.
+    keys_2d: [(u64, u64); KEYS],
 }
 
 /// A strong 64-bit mixer (the SplitMix64 / Stafford "mix13" finalizer).
@@ -117,7 +131,18 @@ static SOBOL1_TABLES: [[u32; 256]; 4] = sobol1_tables();
 
 impl Sampler {
     pub fn new(kind: SamplerKind, seed: u64) -> Self {
-        Sampler { kind, seed, pixel_key: 0, index: 0, dim: 0 }
+        Sampler {
+            kind,
+            seed,
+            pixel_key: 0,
+            index: 0,
+            dim: 0,
+            pixel: None,
+            have_1d: 0,
+            have_2d: 0,
+            keys_1d: [0; KEYS],
+            keys_2d: [(0, 0); KEYS],
+        }
     }
 
     pub fn kind(&self) -> SamplerKind {
@@ -128,16 +153,52 @@ impl Sampler {
     /// row·width + column), dimension 0.
     #[inline]
     pub fn start(&mut self, pixel: u64, index: u32) {
-        self.pixel_key = hash2(self.seed, pixel);
+        if self.pixel != Some(pixel) {
+            self.pixel = Some(pixel);
+            self.pixel_key = hash2(self.seed, pixel);
+            self.have_1d = 0;
+            self.have_2d = 0;
+        }
         self.index = index;
         self.dim = 0;
+    }
+
+    /// The key of a 1D draw at dimension `d` of the current pixel (memoized below `KEYS`).
+    #[inline(always)]
+    fn key_1d(&mut self, d: u32) -> u64 {
+        let i = d as usize;
+        if i < KEYS && self.have_1d & (1 << d) != 0 {
+            return self.keys_1d[i];
+        }
+        let key = hash2(self.pixel_key, d as u64);
+        if i < KEYS {
+            self.keys_1d[i] = key;
+            self.have_1d |= 1 << d;
+        }
+        key
+    }
+
+    /// (key, mix64(key)) of a 2D draw at dimension `d` of the current pixel (memoized below `KEYS`).
+    #[inline(always)]
+    fn key_2d(&mut self, d: u32) -> (u64, u64) {
+        let i = d as usize;
+        if i < KEYS && self.have_2d & (1 << d) != 0 {
+            return self.keys_2d[i];
+        }
+        let key = hash2(self.pixel_key, d as u64 | (1 << 40));
+        let k = (key, mix64(key));
+        if i < KEYS {
+            self.keys_2d[i] = k;
+            self.have_2d |= 1 << d;
+        }
+        k
     }
 
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let d = self.dim;
         self.dim += 1;
-        let key = hash2(self.pixel_key, d as u64);
+        let key = self.key_1d(d);
         match self.kind {
             SamplerKind::Independent => to_unit_f32((hash2(key, self.index as u64) >> 32) as u32),
             SamplerKind::Sobol => {
@@ -152,7 +213,7 @@ impl Sampler {
     pub fn next_2d(&mut self) -> Vec2 {
         let d = self.dim;
         self.dim += 2;
-        let key = hash2(self.pixel_key, d as u64 | (1 << 40));
+        let (key, k2) = self.key_2d(d);
         match self.kind {
             SamplerKind::Independent => {
                 let h = hash2(key, self.index as u64);
@@ -160,7 +221,6 @@ impl Sampler {
             }
             SamplerKind::Sobol => {
                 let i = owen_scramble(self.index, key as u32);
-                let k2 = mix64(key);
                 Vec2::new(
                     to_unit_f32(owen_scramble_reversed(i, (key >> 32) as u32)),
                     to_unit_f32(owen_scramble_reversed(sobol1_reversed(i), k2 as u32)),
@@ -173,6 +233,31 @@ impl Sampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The per-pixel key memo changes no number: pixels interleaved (the memo must follow the
+    /// pixel), paths of different lengths and 1D/2D mixes past the memo's `KEYS` dimensions, each
+    /// draw compared with a fresh sampler's (which computes every key).
+    #[test]
+    fn key_memo_gives_the_numbers_of_a_fresh_sampler() {
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let mut s = Sampler::new(kind, 7);
+            for i in 0..64u32 {
+                for pixel in [3u64, 1 << 33, 3, 90] {
+                    s.start(pixel, i);
+                    let mut fresh = Sampler::new(kind, 7);
+                    fresh.start(pixel, i);
+                    // Path lengths 1..=20 draws; the draw kinds depend on the sample too.
+                    for k in 0..(1 + (i * 7 + pixel as u32) % 20) {
+                        if (k + i) % 3 == 0 {
+                            assert_eq!(s.next_1d().to_bits(), fresh.next_1d().to_bits(), "{kind:?} {pixel} {i} {k}");
+                        } else {
+                            assert_eq!(s.next_2d(), fresh.next_2d(), "{kind:?} {pixel} {i} {k}");
+                        }
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn deterministic_and_in_range() {

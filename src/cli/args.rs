@@ -1,0 +1,152 @@
+//! Arguments shared by several subcommands, defined once so that a flag name has one meaning
+//! everywhere (`#[command(flatten)]` or the same type): the view of an image whose header does not
+//! describe it ([`ViewArgs`]), the colour channel ([`Channel`]), and the closed sets of the
+//! analysis as `clap::ValueEnum`s, so `--help` lists their names (those of the scene format,
+//! `--brdf`, `--mapping`, `--sampler`, come from `vocab` with its `clap` feature).
+
+use super::{Error, flags};
+use analysis::projection::{OrthoCamera, Param, Sphere};
+
+/// The orthographic camera of each image and the sphere they show, for images whose header does
+/// not say them (another renderer's images, in the renderer's camera convention). The one place
+/// these flags are parsed and documented: every command that takes a view flattens this struct.
+///
+/// `--from/--to/--up/--extent` are given once per image, in the order of the images, or not at all
+/// ([`flags::per_image`]); a header's `reflect:camera` takes precedence over them. `--center` and
+/// `--radius` describe the one sphere; a header's first sphere in `reflect:objects` takes
+/// precedence. Positions and lengths are in world units; `--extent` is the half-width of the view.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ViewArgs {
+    /// Orthographic camera position x,y,z of an image without reflect:camera; once per image, in
+    /// the order of the images (as --to, --up and --extent).
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub from: Vec<[f64; 3]>,
+    /// Camera target x,y,z, once per image (default 0,0,0).
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub to: Vec<[f64; 3]>,
+    /// Camera up x,y,z, once per image (default 0,0,1).
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub up: Vec<[f64; 3]>,
+    /// Orthographic half-width of the view, once per image.
+    #[arg(long)]
+    pub extent: Vec<f64>,
+    /// Sphere centre x,y,z when the header has no reflect:objects.
+    #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
+    pub center: Option<[f64; 3]>,
+    /// Sphere radius when the header has no reflect:objects.
+    #[arg(long)]
+    pub radius: Option<f64>,
+}
+
+/// The camera flags of one image (`None` where a flag is not given).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraFlags {
+    pub from: Option<[f64; 3]>,
+    pub to: Option<[f64; 3]>,
+    pub up: Option<[f64; 3]>,
+    pub extent: Option<f64>,
+}
+
+impl CameraFlags {
+    /// The orthographic camera these flags describe: `--from` and `--extent` are needed, `--to`
+    /// defaults to the origin and `--up` to +z. `None` when either is missing.
+    pub fn camera(&self) -> Option<OrthoCamera> {
+        Some(OrthoCamera {
+            from: self.from?,
+            to: self.to.unwrap_or([0.0; 3]),
+            up: self.up.unwrap_or([0.0, 0.0, 1.0]),
+            extent: self.extent?,
+        })
+    }
+}
+
+impl ViewArgs {
+    /// The camera flags of each of `n` images: each flag given not at all or once per image
+    /// (anything else is refused naming the flag).
+    pub fn per_image(&self, n: usize) -> Result<Vec<CameraFlags>, Error> {
+        let (from, to) = (flags::per_image(&self.from, "from", n)?, flags::per_image(&self.to, "to", n)?);
+        let (up, extent) = (flags::per_image(&self.up, "up", n)?, flags::per_image(&self.extent, "extent", n)?);
+        Ok((0..n).map(|i| CameraFlags { from: from[i], to: to[i], up: up[i], extent: extent[i] }).collect())
+    }
+
+    /// The sphere: `--center`/`--radius` where given, else the header's, else the unit sphere at
+    /// the origin.
+    pub fn sphere(&self, header: Option<Sphere>) -> Sphere {
+        Sphere {
+            center: self.center.or(header.map(|s| s.center)).unwrap_or([0.0; 3]),
+            radius: self.radius.or(header.map(|s| s.radius)).unwrap_or(1.0),
+        }
+    }
+}
+
+/// One colour channel. `--channel C` means the same in every command: analyse channel C only;
+/// without it a command analyses every channel it can in one run (`separate`: all three; `invert
+/// factor`, which factors one channel per run: R).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Channel {
+    #[default]
+    #[value(name = "r", alias = "R")]
+    R,
+    #[value(name = "g", alias = "G")]
+    G,
+    #[value(name = "b", alias = "B")]
+    B,
+}
+
+impl Channel {
+    /// 0, 1, 2 for R, G, B (the index into an RGB triple).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The EXR layer name: "R", "G" or "B".
+    pub fn layer(self) -> &'static str {
+        ["R", "G", "B"][self.index()]
+    }
+}
+
+/// The direction the reflected radiance is a function of, in the orthographic fit (`--param`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ParamArg {
+    /// The surface normal n (Lambert).
+    Normal,
+    /// The reflection vector R (lobes centred on R).
+    Reflection,
+}
+
+impl From<ParamArg> for Param {
+    fn from(p: ParamArg) -> Param {
+        match p {
+            ParamArg::Normal => Param::Normal,
+            ParamArg::Reflection => Param::Reflection,
+        }
+    }
+}
+
+/// The rule choosing the Tikhonov λ of `invert lighting` (`--lambda-rule`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LambdaRule {
+    /// Generalised cross-validation (needs no standard errors).
+    Gcv,
+    /// Morozov's discrepancy principle (needs standard errors).
+    Discrepancy,
+}
+
+/// The parametric BRDF model `invert brdf` fits (`--model`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FitModel {
+    /// Phong's exponent s (eq. 43).
+    Phong,
+    /// Torrance–Sparrow's roughness σ (eq. 50 / 59).
+    TorranceSparrow,
+}
+
+/// The quadrature over the normals of `invert factor` (`--quadrature`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Quadrature {
+    /// Fejér's first rule (the default).
+    #[default]
+    Fejer,
+    /// The exact solid angles of the lat-long pixels.
+    Pixel,
+}
