@@ -1,5 +1,5 @@
-//! The JSON schemas of the typed reports (issue 11): `analyze`, `invert lighting` and `invert brdf`
-//! print their report structs with `--json`; the top-level keys and the JSON type of each are
+//! The JSON schemas of the typed reports (issue 11): `analyze`, `invert lighting`, `invert brdf`,
+//! `invert separate` and `invert factor` print their report structs with `--json`; the top-level keys and the JSON type of each are
 //! pinned here, so a renamed or retyped field is a deliberate change (scripts and the Python
 //! package read these documents).
 
@@ -42,6 +42,12 @@ fn assert_schema(doc: &Value, schema: &[(&str, &str)], what: &str) {
 
 /// A Phong (s = 8, ignore) `normal-probe` image under an SH lighting l ≤ 2: B = Λ_l ρ̂_l L_lm (exact).
 fn probe(dir: &std::path::Path) -> std::path::PathBuf {
+    probe_at(dir, "phong-probe.exr", 0.0, 0.0)
+}
+
+/// [`probe`]'s pixels with the camera header of a pixel-centre normal-probe at (θ_o°, φ_o°) (the
+/// values are not those of a render at θ_o > 0: the schema tests need only commands that run).
+fn probe_at(dir: &std::path::Path, name: &str, theta_o_deg: f64, phi_o_deg: f64) -> std::path::PathBuf {
     let (w, h, lmax) = (64, 32, 2);
     let l: Vec<[f64; 3]> =
         (0..num_coefficients(lmax)).map(|k| if k == 0 { [2.0, 1.5, 1.0] } else { [0.2, -0.1, 0.05] }).collect();
@@ -53,14 +59,18 @@ fn probe(dir: &std::path::Path) -> std::path::PathBuf {
     for (ch, n) in ["R", "G", "B"].iter().enumerate() {
         img.channels.insert(n.to_string(), px.iter().map(|p| p[ch] as f32).collect());
     }
-    img.attributes.insert("reflect:camera".into(), r#"{"type":"normal-probe","theta_o_deg":0}"#.into());
+    img.attributes.insert(
+        "reflect:camera".into(),
+        serde_json::json!({"type": "normal-probe", "theta_o_deg": theta_o_deg, "phi_o_deg": phi_o_deg, "jitter": false})
+            .to_string(),
+    );
     img.attributes.insert("reflect:lighting".into(), serde_json::json!({"type": "sh", "coefficients": l}).to_string());
     img.attributes.insert(
         "reflect:objects".into(),
         r#"[{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{"type":"phong","ks":1,"s":8,"horizon":"ignore"}}]"#
             .into(),
     );
-    let p = dir.join("phong-probe.exr");
+    let p = dir.join(name);
     write_exr(&p, &img).unwrap();
     p
 }
@@ -169,4 +179,94 @@ fn report_schemas_are_pinned() {
         ],
         "invert brdf",
     );
+
+    let s0 = probe_at(&dir, "s0.exr", 0.0, 0.0);
+    let s1 = probe_at(&dir, "s1.exr", 50.0, 0.0);
+    let s2 = probe_at(&dir, "s2.exr", 50.0, 180.0);
+    let (s0, s1, s2) = (s0.to_str().unwrap(), s1.to_str().unwrap(), s2.to_str().unwrap());
+    let sep = ["invert", "separate", s0, s1, s2, "--kd", "0.5", "--ks", "0.5", "--lmax", "2", "--scan", "--json"];
+    let s = reflect_json(&sep);
+    assert_schema(
+        &s,
+        &[
+            ("command", "string"),
+            ("lmax", "number"),
+            ("lmax_carried", "number"),
+            ("lmax_carried_rule", "string"),
+            ("channels", "array"),
+            ("layout", "string"),
+            ("diffuse_view", "object"),
+            ("specular_views", "array"),
+            ("width", "number"),
+            ("height", "number"),
+            ("kd", "array"),
+            ("ks", "array"),
+            ("split_source", "string"),
+            ("sigma_source", "string"),
+            ("weighted_by_stderr", "bool"),
+            ("diffuse", "object"),
+            ("coefficients", "array"),
+            ("stderr", "array"),
+            ("consistency", "object"),
+            ("scan", "array"),
+            ("output", "null"),
+        ],
+        "invert separate",
+    );
+    assert_eq!(s["coefficients"].as_array().unwrap().len(), 9);
+    assert_eq!(s["coefficients"][4].as_array().unwrap().len(), 3, "an [r, g, b] triple per coefficient");
+    let c = &s["consistency"];
+    for k in ["d", "stderr", "chi2", "dof", "p_value", "consistent", "threshold_p", "meaning", "nine_term_residual"] {
+        assert!(c.get(k).is_some(), "invert separate.consistency.{k}: {c}");
+    }
+    // One channel: numbers instead of triples.
+    let one = reflect_json(&[&sep[..sep.len() - 2], &["--channel", "g", "--json"]].concat());
+    assert!(one["coefficients"][4].is_number() && one["kd"].is_number(), "{}", one["coefficients"]);
+    assert!(one["consistency"]["meaning"].is_string());
+
+    // invert factor: the four nodes of the 1 × 4 rule (θ_o = 60°, φ_o = 0, 90, 180, 270).
+    let nodes: Vec<String> = (0..4)
+        .map(|k| probe_at(&dir, &format!("n{k}.exr"), 60.0, 90.0 * k as f64).to_str().unwrap().to_string())
+        .collect();
+    let mut args: Vec<&str> = vec!["invert", "factor"];
+    args.extend(nodes.iter().map(String::as_str));
+    args.extend(["--normal", s0, "--lmax", "1", "--json"]);
+    let f = reflect_json(&args);
+    assert_schema(
+        &f,
+        &[
+            ("command", "string"),
+            ("mode", "string"),
+            ("input", "object"),
+            ("nodes", "array"),
+            ("grid", "array"),
+            ("rule", "string"),
+            ("channel", "string"),
+            ("lmax", "number"),
+            ("lmax_carried", "number"),
+            ("lmax_carried_rule", "string"),
+            ("max_amplification", "number"),
+            ("renders", "null"),
+            ("max_stderr", "null"),
+            ("orders", "array"),
+            ("lighting", "array"),
+            ("gauge_l00", "number"),
+            ("source", "object|null"),
+            ("source_note", "string"),
+            ("albedo_profile", "array"),
+            ("filter", "object"),
+        ],
+        "invert factor",
+    );
+    assert_eq!(f["input"]["images"].as_array().unwrap().len(), 4);
+    for k in ["l", "kappa", "kappa_ratio", "gain", "amplification", "status"] {
+        assert!(f["orders"][1].get(k).is_some(), "invert factor.orders[1].{k}");
+    }
+    let n = reflect_json(&["invert", "factor", "--print-nodes", "2x3", "--json"]);
+    assert_schema(
+        &n,
+        &[("command", "string"), ("nodes", "array"), ("outgoing", "array")],
+        "invert factor --print-nodes",
+    );
+    assert_eq!(n["outgoing"].as_array().unwrap().len(), 6);
 }

@@ -24,6 +24,7 @@ const NAMES: [&str; 23] = [
     "associativity",
     "convex-shape",
     "single-view",
+    "partial-view",
     "horizon",
     "inverse-lighting",
     "inverse-lighting-specular",

@@ -51,7 +51,6 @@ use renderer::camera::{Camera, NormalProbe};
 use renderer::render::{RenderOptions, render};
 use renderer::scene::file::{CameraSection, ObjectSection};
 use renderer::scene::{Scene, SceneFile};
-use serde_json::{Value, json};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -122,11 +121,11 @@ pub fn run(a: &FactorArgs) -> Result<ExitCode, Error> {
         print_nodes(n_mu, n_phi, a.json)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let doc = factor_doc(a)?;
+    let r = factor_report(a)?;
     if a.json {
-        println!("{doc}");
+        println!("{}", serde_json::to_string(&r).map_err(|e| Error::new(format!("JSON output: {e}")))?);
     } else {
-        print_text(&doc);
+        print!("{r}");
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -139,29 +138,58 @@ fn toml_float(x: f64) -> String {
     if s.ends_with('.') { format!("{s}0") } else { s.to_string() }
 }
 
-fn print_nodes(n_mu: usize, n_phi: usize, json_out: bool) -> Result<(), Error> {
+/// One outgoing node of `--print-nodes`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct OutgoingNode {
+    pub theta_o_deg: f64,
+    pub phi_o_deg: f64,
+    /// Quadrature weight of the node (μ × φ product rule).
+    pub weight: f64,
+}
+
+/// The report of `reflect invert factor --print-nodes N_MUxN_PHI` (`--json` prints this struct;
+/// the text form is one `THETA_O_DEG PHI_O_DEG` line per node, TOML floats).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FactorNodesReport {
+    pub command: String,
+    pub nodes: [usize; 2],
+    pub outgoing: Vec<OutgoingNode>,
+}
+
+impl std::fmt::Display for FactorNodesReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for n in &self.outgoing {
+            writeln!(f, "{} {}", toml_float(n.theta_o_deg), toml_float(n.phi_o_deg))?;
+        }
+        Ok(())
+    }
+}
+
+/// The nodes of an n_μ × n_φ rule to render (errors: a rule [`check_nodes`] refuses).
+pub fn nodes_report(n_mu: usize, n_phi: usize) -> Result<FactorNodesReport, Error> {
     check_nodes(n_mu, n_phi)?;
-    let nodes = hemisphere_nodes(n_mu, n_phi)?;
+    let outgoing = hemisphere_nodes(n_mu, n_phi)?
+        .iter()
+        .map(|n| {
+            let (theta_o_deg, phi_o_deg) = node_degrees(n);
+            OutgoingNode { theta_o_deg, phi_o_deg, weight: n.weight }
+        })
+        .collect();
+    Ok(FactorNodesReport { command: "invert factor --print-nodes".into(), nodes: [n_mu, n_phi], outgoing })
+}
+
+fn print_nodes(n_mu: usize, n_phi: usize, json_out: bool) -> Result<(), Error> {
+    let r = nodes_report(n_mu, n_phi)?;
     if json_out {
-        let v: Vec<Value> = nodes
-            .iter()
-            .map(|n| {
-                let (t, p) = node_degrees(n);
-                json!({"theta_o_deg": t, "phi_o_deg": p, "weight": n.weight})
-            })
-            .collect();
-        println!("{}", json!({"command": "invert factor --print-nodes", "nodes": [n_mu, n_phi], "outgoing": v}));
+        println!("{}", serde_json::to_string(&r).map_err(|e| Error::new(format!("JSON output: {e}")))?);
         return Ok(());
     }
     eprintln!(
         "# {} nodes (θ_o°, φ_o°) of the {n_mu}x{n_phi} rule: render a normal-probe image at each (camera.theta_o_deg, camera.phi_o_deg), \
          plus one at θ_o = 0 for --normal",
-        nodes.len()
+        r.outgoing.len()
     );
-    for n in &nodes {
-        let (t, p) = node_degrees(n);
-        println!("{} {}", toml_float(t), toml_float(p));
-    }
+    print!("{r}");
     Ok(())
 }
 
@@ -180,11 +208,13 @@ struct Measured {
     normal_b: Option<Vec<f64>>,
     /// Largest per-pixel standard error of the factored channel over all images (if recorded).
     max_stderr: Option<f64>,
-    input: Value,
+    input: FactorInput,
     renders: Option<(usize, f64)>,
 }
 
-fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {
+/// The factorization of `a` (see the module docs; `--print-nodes` is [`nodes_report`]): the report
+/// `--json` prints. Errors: bad input (named file and problem) or flags that do not fit together.
+pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
     let lmax = a.lmax.ok_or_else(|| Error::new("--lmax is required (except with --print-nodes)"))?;
     check_lmax(lmax)?;
     let ch = a.channel.index();
@@ -349,7 +379,7 @@ fn from_images(
         nodes: nodes_n,
         normal_b,
         max_stderr: max_se,
-        input: json!({"images": names, "normal": normal.map(|p| p.display().to_string())}),
+        input: FactorInput::Images { images: names, normal: normal.map(|p| p.display().to_string()) },
         renders: None,
     })
 }
@@ -421,14 +451,14 @@ fn from_scene(
         nodes: (n_mu, n_phi),
         normal_b: Some(normal_b),
         max_stderr: Some(max_se),
-        input: json!({
-            "scene": path.display().to_string(),
-            "size": [w, h],
-            "spp": spp,
-            "sampler": sampler,
-            "max_depth": max_depth,
-            "objects": n_objects,
-        }),
+        input: FactorInput::Scene {
+            scene: path.display().to_string(),
+            size: [w, h],
+            spp,
+            sampler,
+            max_depth,
+            objects: n_objects,
+        },
         renders: Some((nodes.len() + 1, secs)),
     })
 }
@@ -438,169 +468,250 @@ fn ratios(x: &[Option<f64>]) -> Vec<Option<f64>> {
     x.iter().map(|v| Some((*v)? / x0?).filter(|r| r.is_finite())).collect()
 }
 
-fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: NormalRule) -> Value {
+/// Where the light field came from.
+#[derive(Clone, Debug, serde::Serialize)]
+#[serde(untagged)]
+pub enum FactorInput {
+    /// IMAGES mode: the node renders and the optional `--normal` view.
+    Images { images: Vec<String>, normal: Option<String> },
+    /// `--scene` mode: the scene file and the render settings used at every node.
+    Scene { scene: String, size: [u32; 2], spp: u32, sampler: vocab::Sampler, max_depth: u32, objects: usize },
+}
+
+/// One order l of the factorization.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FactorOrder {
+    pub l: usize,
+    pub kappa: f64,
+    /// κ_l / κ_0 = ρ̃_l00 / ρ̃_000 (the BRDF up to scale); `None` when not finite.
+    pub kappa_ratio: Option<f64>,
+    /// g_l = |Λ_l κ_l| / |Λ_0 κ_0|.
+    pub gain: f64,
+    /// 1 / g_l; `None` when g_l = 0.
+    pub amplification: Option<f64>,
+    /// `recovered`, `ill-conditioned` or `ambiguous`.
+    pub status: String,
+}
+
+/// The direction of the order-1 lighting (meaningful only for a single directional source).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SourceReport {
+    pub direction: [f64; 3],
+    pub theta_deg: f64,
+    pub phi_deg: f64,
+    /// |L_1| / √(3/4π): 1 for a single directional source.
+    pub directionality: f64,
+}
+
+/// P a(θ'_o) of one node ring.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AlbedoRing {
+    pub theta_o_deg: f64,
+    pub p_albedo: f64,
+}
+
+/// The normal-exitance filter ratios Λ_l ρ̂_l / Λ_0 ρ̂_0 (eq. 16), index l.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NormalFilter {
+    /// With the factored lighting; `None` where it is ambiguous.
+    pub factored_lighting: Vec<Option<f64>>,
+    /// With Y_lm(ŝ) of the recovered source direction (a single directional source only).
+    pub directional_source: Option<Vec<Option<f64>>>,
+}
+
+/// Render count and wall time of `--scene` mode.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderCount {
+    pub count: usize,
+    pub wall_seconds: f64,
+}
+
+/// The report of `reflect invert factor` (`--json` prints this struct).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct InvertFactorReport {
+    pub command: String,
+    /// `images` or `scene`.
+    pub mode: String,
+    pub input: FactorInput,
+    /// n_μ × n_φ.
+    pub nodes: [usize; 2],
+    /// W × H of the normal grid.
+    pub grid: [usize; 2],
+    /// `fejer` or `pixel`.
+    pub rule: String,
+    pub channel: String,
+    pub lmax: usize,
+    pub lmax_carried: Option<usize>,
+    pub lmax_carried_rule: String,
+    pub max_amplification: f64,
+    pub renders: Option<RenderCount>,
+    /// Largest per-pixel standard error of the factored channel (if recorded).
+    pub max_stderr: Option<f64>,
+    pub orders: Vec<FactorOrder>,
+    /// L_lm / P in index order; `None` where ambiguous.
+    pub lighting: Vec<Option<f64>>,
+    /// L_00 / P = 1/√(4π), the gauge.
+    pub gauge_l00: f64,
+    pub source: Option<SourceReport>,
+    pub source_note: String,
+    pub albedo_profile: Vec<AlbedoRing>,
+    pub filter: Option<NormalFilter>,
+}
+
+fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: NormalRule) -> InvertFactorReport {
     let kr = f.brdf_ratios();
-    let orders: Vec<Value> = f
+    let orders = f
         .orders
         .iter()
-        .map(|o| {
-            json!({
-                "l": o.l,
-                "kappa": o.kappa,
-                "kappa_ratio": kr[o.l],
-                "gain": o.gain,
-                "amplification": if o.gain > 0.0 { Some(1.0 / o.gain) } else { None },
-                "status": o.status.name(),
-            })
+        .map(|o| FactorOrder {
+            l: o.l,
+            kappa: o.kappa,
+            kappa_ratio: Some(kr[o.l]).filter(|r| r.is_finite()),
+            gain: o.gain,
+            amplification: (o.gain > 0.0).then(|| 1.0 / o.gain),
+            status: o.status.name().into(),
         })
         .collect();
     let source = f.source_direction().map(|s| {
         let [x, y, z] = s.direction;
-        json!({
-            "direction": s.direction,
-            "theta_deg": z.clamp(-1.0, 1.0).acos().to_degrees(),
-            "phi_deg": y.atan2(x).to_degrees(),
-            "directionality": s.directionality,
-        })
+        SourceReport {
+            direction: s.direction,
+            theta_deg: z.clamp(-1.0, 1.0).acos().to_degrees(),
+            phi_deg: y.atan2(x).to_degrees(),
+            directionality: s.directionality,
+        }
     });
-    let profile: Vec<Value> =
-        m.lf.albedo_profile().iter().map(|(t, v)| json!({"theta_o_deg": t.to_degrees(), "p_albedo": v})).collect();
-    let filter = m.normal_b.as_ref().map(|b| {
-        let factored = ratios(&filter_from_lighting(b, &f.lighting, lmax));
-        let directional = f.source_direction().map(|s| {
+    let albedo_profile =
+        m.lf.albedo_profile().iter().map(|(t, v)| AlbedoRing { theta_o_deg: t.to_degrees(), p_albedo: *v }).collect();
+    let filter = m.normal_b.as_ref().map(|b| NormalFilter {
+        factored_lighting: ratios(&filter_from_lighting(b, &f.lighting, lmax)),
+        directional_source: f.source_direction().map(|s| {
             let y: Vec<Option<f64>> = directional_lighting(s.direction, lmax).into_iter().map(Some).collect();
             ratios(&filter_from_lighting(b, &y, lmax))
-        });
-        json!({"factored_lighting": factored, "directional_source": directional})
+        }),
     });
     let (w, h) = (m.lf.width, m.lf.height);
-    let channel = a.channel.layer();
-    json!({
-        "command": "invert factor",
-        "mode": if a.scene.is_some() { "scene" } else { "images" },
-        "input": m.input,
-        "nodes": [m.nodes.0, m.nodes.1],
-        "grid": [w, h],
-        "rule": match rule { NormalRule::Fejer => "fejer", NormalRule::PixelSolidAngle => "pixel" },
-        "channel": channel,
-        "lmax": lmax,
-        "lmax_carried": latlong_max_order(w, h),
-        "lmax_carried_rule": LATLONG_RULE,
-        "max_amplification": a.max_amplification,
-        "renders": m.renders.map(|(n, s)| json!({"count": n, "wall_seconds": s})),
-        "max_stderr": m.max_stderr,
-        "orders": orders,
-        "lighting": f.lighting,
-        "gauge_l00": 1.0 / (4.0 * PI).sqrt(),
-        "source": source,
-        "source_note": "direction of the order-1 lighting (L_11, L_1-1, L_10)/|.|; meaningful only for a single directional source, whose directionality |L_1|/sqrt(3/4pi) is 1",
-        "albedo_profile": profile,
-        "filter": filter,
-    })
+    InvertFactorReport {
+        command: "invert factor".into(),
+        mode: if a.scene.is_some() { "scene" } else { "images" }.into(),
+        input: m.input.clone(),
+        nodes: [m.nodes.0, m.nodes.1],
+        grid: [w, h],
+        rule: match rule {
+            NormalRule::Fejer => "fejer",
+            NormalRule::PixelSolidAngle => "pixel",
+        }
+        .into(),
+        channel: a.channel.layer().to_string(),
+        lmax,
+        lmax_carried: latlong_max_order(w, h),
+        lmax_carried_rule: LATLONG_RULE.into(),
+        max_amplification: a.max_amplification,
+        renders: m.renders.map(|(count, wall_seconds)| RenderCount { count, wall_seconds }),
+        max_stderr: m.max_stderr,
+        orders,
+        lighting: f.lighting.clone(),
+        gauge_l00: 1.0 / (4.0 * PI).sqrt(),
+        source,
+        source_note: "direction of the order-1 lighting (L_11, L_1-1, L_10)/|.|; meaningful only for a single \
+                      directional source, whose directionality |L_1|/sqrt(3/4pi) is 1"
+            .into(),
+        albedo_profile,
+        filter,
+    }
 }
 
-fn fmt_num(v: &Value) -> String {
-    v.as_f64().map_or("—".to_string(), |x| format!("{x:.5e}"))
+fn fmt_num(v: Option<f64>) -> String {
+    v.map_or("—".to_string(), |x| format!("{x:.5e}"))
 }
 
-fn print_text(doc: &Value) {
-    let n = &doc["nodes"];
-    let g = &doc["grid"];
-    println!(
-        "# invert factor (eq. 18) — {}x{} outgoing nodes (Gauss–Legendre μ × trapezoid φ), {}×{} normals ({}), channel {}",
-        n[0],
-        n[1],
-        g[0],
-        g[1],
-        doc["rule"].as_str().unwrap_or(""),
-        doc["channel"].as_str().unwrap_or("")
-    );
-    println!(
-        "# l_max {}; the grid carries l <= {} ({})",
-        doc["lmax"],
-        doc["lmax_carried"],
-        doc["lmax_carried_rule"].as_str().unwrap_or("")
-    );
-    if let Some(s) = doc["input"]["scene"].as_str() {
-        println!(
-            "# scene {s}: {} spp, sampler {}, max_depth {}, {} object(s)",
-            doc["input"]["spp"],
-            doc["input"]["sampler"].as_str().unwrap_or(""),
-            doc["input"]["max_depth"],
-            doc["input"]["objects"]
-        );
-        if doc["input"]["objects"].as_u64().unwrap_or(1) > 1 {
-            println!(
-                "# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections"
-            );
+impl std::fmt::Display for InvertFactorReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "# invert factor (eq. 18) — {}x{} outgoing nodes (Gauss–Legendre μ × trapezoid φ), {}×{} normals ({}), channel {}",
+            self.nodes[0], self.nodes[1], self.grid[0], self.grid[1], self.rule, self.channel
+        )?;
+        writeln!(
+            f,
+            "# l_max {}; the grid carries l <= {} ({})",
+            self.lmax,
+            self.lmax_carried.map_or("—".to_string(), |l| l.to_string()),
+            self.lmax_carried_rule
+        )?;
+        if let FactorInput::Scene { scene, spp, sampler, max_depth, objects, .. } = &self.input {
+            writeln!(f, "# scene {scene}: {spp} spp, sampler {sampler}, max_depth {max_depth}, {objects} object(s)")?;
+            if *objects > 1 {
+                writeln!(
+                    f,
+                    "# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections"
+                )?;
+            }
         }
-    }
-    if let Some(r) = doc["renders"].as_object() {
-        println!(
-            "# renders: {} ({} nodes + 1 at θ_o = 0), wall time {:.2} s",
-            r["count"],
-            r["count"].as_u64().unwrap_or(1).saturating_sub(1),
-            r["wall_seconds"].as_f64().unwrap_or(0.0)
-        );
-    }
-    if let Some(se) = doc["max_stderr"].as_f64() {
-        println!("# largest per-pixel standard error of the renders: {se:.3e}");
-    }
-    println!(
-        "# orders with amplification 1/gain > {} are ill-conditioned; κ_l = 0 is ambiguous (0/0)",
-        doc["max_amplification"]
-    );
-    println!("{:>4} {:>14} {:>12} {:>16}", "l", "κ_l/κ_0", "gain", "status");
-    for o in doc["orders"].as_array().into_iter().flatten() {
-        println!(
-            "{:>4} {:>14} {:>12} {:>16}",
-            o["l"].as_u64().unwrap_or(0),
-            fmt_num(&o["kappa_ratio"]),
-            fmt_num(&o["gain"]),
-            o["status"].as_str().unwrap_or("")
-        );
-    }
-    println!(
-        "\n# lighting L_lm/P up to the global scale P = ∫L dω (L_00/P = 1/√(4π) = {:.6} is the gauge)",
-        doc["gauge_l00"].as_f64().unwrap_or(0.0)
-    );
-    println!("{:>4} {:>4} {:>14}", "l", "m", "L_lm/P");
-    for (k, v) in doc["lighting"].as_array().into_iter().flatten().enumerate() {
-        let (l, mm) = lm(k);
-        let cell = if v.is_null() { "ambiguous".to_string() } else { fmt_num(v) };
-        println!("{l:>4} {mm:>4} {cell:>14}");
-    }
-    match doc["source"].as_object() {
-        Some(s) => {
-            let d = &s["direction"];
-            println!(
-                "\n# source direction (order-1 lighting; meaningful only for a single directional source): [{:.5}, {:.5}, {:.5}], θ = {:.3}°, φ = {:.3}°",
-                d[0].as_f64().unwrap_or(f64::NAN),
-                d[1].as_f64().unwrap_or(f64::NAN),
-                d[2].as_f64().unwrap_or(f64::NAN),
-                s["theta_deg"].as_f64().unwrap_or(f64::NAN),
-                s["phi_deg"].as_f64().unwrap_or(f64::NAN)
-            );
-            println!(
-                "# directionality |L_1|/√(3/4π) = {:.5} (1 for a single directional source, < 1 otherwise)",
-                s["directionality"].as_f64().unwrap_or(f64::NAN)
-            );
+        if let Some(r) = &self.renders {
+            writeln!(
+                f,
+                "# renders: {} ({} nodes + 1 at θ_o = 0), wall time {:.2} s",
+                r.count,
+                r.count.saturating_sub(1),
+                r.wall_seconds
+            )?;
         }
-        None => println!("\n# source direction: none (l_max < 1, or the order-1 lighting is ambiguous or zero)"),
-    }
-    println!("\n# albedo profile P a(θ'_o) per node ring (P = ∫L dω; a the directional albedo)");
-    println!("{:>12} {:>14}", "θ'_o (deg)", "P a(θ'_o)");
-    for r in doc["albedo_profile"].as_array().into_iter().flatten() {
-        println!("{:>12.4} {:>14}", r["theta_o_deg"].as_f64().unwrap_or(f64::NAN), fmt_num(&r["p_albedo"]));
-    }
-    if let Some(fl) = doc["filter"].as_object() {
-        println!("\n# normal-exitance filter Λ_l ρ̂_l / Λ_0 ρ̂_0 (θ_o = 0, eq. 16 by least squares over m)");
-        println!("{:>4} {:>20} {:>20}", "l", "factored L_lm", "Y_lm(ŝ) (dir. only)");
-        let fa = fl["factored_lighting"].as_array().cloned().unwrap_or_default();
-        let di = fl["directional_source"].as_array().cloned().unwrap_or_default();
-        for (l, v) in fa.iter().enumerate() {
-            println!("{l:>4} {:>20} {:>20}", fmt_num(v), fmt_num(di.get(l).unwrap_or(&Value::Null)));
+        if let Some(se) = self.max_stderr {
+            writeln!(f, "# largest per-pixel standard error of the renders: {se:.3e}")?;
         }
+        writeln!(
+            f,
+            "# orders with amplification 1/gain > {} are ill-conditioned; κ_l = 0 is ambiguous (0/0)",
+            self.max_amplification
+        )?;
+        writeln!(f, "{:>4} {:>14} {:>12} {:>16}", "l", "κ_l/κ_0", "gain", "status")?;
+        for o in &self.orders {
+            writeln!(f, "{:>4} {:>14} {:>12} {:>16}", o.l, fmt_num(o.kappa_ratio), fmt_num(Some(o.gain)), o.status)?;
+        }
+        writeln!(
+            f,
+            "\n# lighting L_lm/P up to the global scale P = ∫L dω (L_00/P = 1/√(4π) = {:.6} is the gauge)",
+            self.gauge_l00
+        )?;
+        writeln!(f, "{:>4} {:>4} {:>14}", "l", "m", "L_lm/P")?;
+        for (k, v) in self.lighting.iter().enumerate() {
+            let (l, mm) = lm(k);
+            let cell = if v.is_none() { "ambiguous".to_string() } else { fmt_num(*v) };
+            writeln!(f, "{l:>4} {mm:>4} {cell:>14}")?;
+        }
+        match &self.source {
+            Some(s) => {
+                let d = s.direction;
+                writeln!(
+                    f,
+                    "\n# source direction (order-1 lighting; meaningful only for a single directional source): [{:.5}, {:.5}, {:.5}], θ = {:.3}°, φ = {:.3}°",
+                    d[0], d[1], d[2], s.theta_deg, s.phi_deg
+                )?;
+                writeln!(
+                    f,
+                    "# directionality |L_1|/√(3/4π) = {:.5} (1 for a single directional source, < 1 otherwise)",
+                    s.directionality
+                )?;
+            }
+            None => {
+                writeln!(f, "\n# source direction: none (l_max < 1, or the order-1 lighting is ambiguous or zero)")?
+            }
+        }
+        writeln!(f, "\n# albedo profile P a(θ'_o) per node ring (P = ∫L dω; a the directional albedo)")?;
+        writeln!(f, "{:>12} {:>14}", "θ'_o (deg)", "P a(θ'_o)")?;
+        for r in &self.albedo_profile {
+            writeln!(f, "{:>12.4} {:>14}", r.theta_o_deg, fmt_num(Some(r.p_albedo)))?;
+        }
+        if let Some(fl) = &self.filter {
+            writeln!(f, "\n# normal-exitance filter Λ_l ρ̂_l / Λ_0 ρ̂_0 (θ_o = 0, eq. 16 by least squares over m)")?;
+            writeln!(f, "{:>4} {:>20} {:>20}", "l", "factored L_lm", "Y_lm(ŝ) (dir. only)")?;
+            for (l, v) in fl.factored_lighting.iter().enumerate() {
+                let d = fl.directional_source.as_ref().and_then(|d| d.get(l).copied().flatten());
+                writeln!(f, "{l:>4} {:>20} {:>20}", fmt_num(*v), fmt_num(d))?;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -609,6 +720,12 @@ mod tests {
     use super::*;
     use analysis::image::write_exr;
     use analysis::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
+    use serde_json::{Value, json};
+
+    /// The report as the JSON document `--json` prints.
+    fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {
+        factor_report(a).map(|r| serde_json::to_value(r).unwrap())
+    }
 
     fn tmp(name: &str) -> PathBuf {
         crate::cli::test_path("factor", name)
@@ -729,7 +846,7 @@ mod tests {
         assert_eq!(prof.len(), 3);
         assert!(prof.iter().all(|r| (num(&r["p_albedo"]) - pa).abs() < 1e-5 * pa));
         // Text output does not panic.
-        print_text(&doc);
+        assert!(factor_report(&a).unwrap().to_string().contains("albedo profile"));
     }
 
     #[test]

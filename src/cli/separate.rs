@@ -37,7 +37,7 @@ use analysis::projection::resolution::{
 };
 use analysis::sh::{ShBasis, lm, num_coefficients, reconstruct_latlong};
 use renderer::sampling::chi2::chi2_survival;
-use serde_json::{Value, json};
+use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -80,11 +80,11 @@ pub struct SeparateArgs {
 }
 
 pub fn run(a: &SeparateArgs) -> Result<ExitCode, Error> {
-    let doc = separate_doc(a)?;
+    let r = separate_report(a)?;
     if a.json {
-        println!("{doc}");
+        println!("{}", serde_json::to_string(&r).map_err(|e| Error::new(format!("JSON output: {e}")))?);
     } else {
-        print_text(&doc);
+        print!("{r}");
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -190,7 +190,9 @@ fn validate(a: &SeparateArgs) -> Result<Vec<usize>, Error> {
     })
 }
 
-fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
+/// The separation of `a.images` (see the module docs): the report `--json` prints. Errors: bad
+/// input (named file and problem), or a separation the views cannot solve.
+pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> {
     let channels = validate(a)?;
     let mut views = Vec::with_capacity(a.images.len());
     let mut header_brdf = None;
@@ -361,91 +363,87 @@ fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
         write_exr(out, &img)?;
     }
 
-    // Coefficient lists: [r, g, b] triples with three channels, numbers with one.
-    let per = |len: usize, f: &dyn Fn(&ChannelResult, usize) -> Option<f64>| -> Value {
-        Value::Array(
-            (0..len)
-                .map(|k| {
-                    if results.len() == 1 {
-                        json!(f(&results[0], k))
-                    } else {
-                        json!(results.iter().map(|r| f(r, k)).collect::<Vec<_>>())
-                    }
-                })
-                .collect(),
-        )
+    let per = |len: usize, f: &dyn Fn(&ChannelResult, usize) -> f64| -> Vec<PerChannel<f64>> {
+        (0..len).map(|k| PerChannel::of(results.iter().map(|r| f(r, k)).collect())).collect()
     };
-    let one = |f: &dyn Fn(&ChannelResult) -> Value| -> Value {
-        if results.len() == 1 { f(&results[0]) } else { Value::Array(results.iter().map(f).collect()) }
+    let one = |f: &dyn Fn(&ChannelResult) -> Option<f64>| -> PerChannel<Option<f64>> {
+        PerChannel::of(results.iter().map(f).collect())
     };
-    let pick = |v: [f64; 3]| -> Value { if channels.len() == 1 { json!(v[channels[0]]) } else { json!(v) } };
-    let chi2 = one(&|r| json!(r.sep.chi2));
-    let p_value = one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64))));
-    let consistent =
-        one(&|r| json!(r.sep.chi2.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64) >= P_CONSISTENT)));
-    let meaning = one(&|r| json!(meaning(r.sep.chi2, with_stderr, a.lmax)));
+    let pick = |v: [f64; 3]| PerChannel::of(channels.iter().map(|&c| v[c]).collect());
+    let p_of = |c: Option<f64>| c.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64));
     let scan = a.scan.then(|| {
-        Value::Array(
-            channels
-                .iter()
-                .zip(&results)
-                .map(|(&c, r)| {
-                    let (pts, best) = r.scan.as_ref().map(|(p, b)| (p.clone(), *b)).unwrap_or_default();
-                    json!({
-                        "channel": CHANNELS[c],
-                        "total": kd[c] + ks[c],
-                        "points": pts.iter().map(|(x, c)| [*x, *c]).collect::<Vec<_>>(),
-                        "best_fraction": best.map(|b| b.0),
-                        "best_chi2": best.map(|b| b.1),
-                        "assumed_fraction": kd[c] / (kd[c] + ks[c]),
-                    })
-                })
-                .collect(),
-        )
+        channels
+            .iter()
+            .zip(&results)
+            .map(|(&c, r)| {
+                let (pts, best) = r.scan.as_ref().map(|(p, b)| (p.clone(), *b)).unwrap_or_default();
+                SplitScan {
+                    channel: CHANNELS[c].to_string(),
+                    total: kd[c] + ks[c],
+                    points: pts.iter().map(|(x, c)| [*x, *c]).collect(),
+                    best_fraction: best.map(|b| b.0),
+                    best_chi2: best.map(|b| b.1),
+                    assumed_fraction: kd[c] / (kd[c] + ks[c]),
+                }
+            })
+            .collect()
     });
-    Ok(json!({
-        "command": "invert separate",
-        "lmax": a.lmax,
-        "lmax_carried": carried,
-        "lmax_carried_rule": LATLONG_REFLECTION_RULE,
-        "channels": channels.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>(),
-        "layout": if channels.len() == 3 { "per coefficient an [r, g, b] triple, index order k = l(l+1)+m".to_string() } else { format!("per coefficient a number of channel {}, index order k = l(l+1)+m", CHANNELS[channels[0]]) },
-        "diffuse_view": {"file": views[0].path.display().to_string(), "theta_o_deg": 0.0},
-        "specular_views": views[1..].iter().map(|v| json!({"file": v.path.display().to_string(), "theta_o_deg": v.theta_o_deg, "phi_o_deg": v.phi_o_deg})).collect::<Vec<_>>(),
-        "width": w,
-        "height": h,
-        "kd": pick(kd),
-        "ks": pick(ks),
-        "split_source": split_source,
-        "sigma_source": sigma_source,
-        "weighted_by_stderr": with_stderr,
-        "diffuse": {
-            "description": "L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2, from the diffuse view",
-            "coefficients": per(LOW, &|r, k| Some(r.sep.diffuse[k])),
-            "stderr": per(LOW, &|r, k| Some(r.sep.diffuse_se[k])),
+    Ok(InvertSeparateReport {
+        command: "invert separate".into(),
+        lmax: a.lmax,
+        lmax_carried: carried,
+        lmax_carried_rule: LATLONG_REFLECTION_RULE.into(),
+        channels: channels.iter().map(|&c| CHANNELS[c].to_string()).collect(),
+        layout: if channels.len() == 3 {
+            "per coefficient an [r, g, b] triple, index order k = l(l+1)+m".to_string()
+        } else {
+            format!("per coefficient a number of channel {}, index order k = l(l+1)+m", CHANNELS[channels[0]])
         },
-        "coefficients": per(n, &|r, k| Some(r.sep.specular[k])),
-        "stderr": per(n, &|r, k| Some(r.sep.specular_se[k])),
-        "consistency": {
-            "description": "d_lm = L̂_lm − c_lm, l ≤ 2 (diffuse side minus recovered lighting)",
-            "d": per(LOW, &|r, k| Some(r.sep.consistency[k])),
-            "stderr": per(LOW, &|r, k| Some(r.sep.consistency_se[k])),
-            "chi2": chi2,
-            "dof": LOW,
-            "p_value": p_value,
-            "consistent": consistent,
-            "threshold_p": P_CONSISTENT,
-            "meaning": meaning,
-            "nine_term_residual": {
-                "description": "the share of d predicted from the 9-term subtraction's residual (eq. 38–39), estimated from the recovered lighting's orders 3..lmax, and the χ² of d minus it",
-                "d": per(LOW, &|r, k| Some(r.residual_d[k])),
-                "chi2_removed": one(&|r| json!(r.chi2_residual_removed)),
-                "p_value_removed": one(&|r| json!(r.chi2_residual_removed.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64)))),
+        diffuse_view: DiffuseView { file: views[0].path.display().to_string(), theta_o_deg: 0.0 },
+        specular_views: views[1..]
+            .iter()
+            .map(|v| SpecularView {
+                file: v.path.display().to_string(),
+                theta_o_deg: v.theta_o_deg,
+                phi_o_deg: v.phi_o_deg,
+            })
+            .collect(),
+        width: w,
+        height: h,
+        kd: pick(kd),
+        ks: pick(ks),
+        split_source,
+        sigma_source,
+        weighted_by_stderr: with_stderr,
+        diffuse: DiffuseSide {
+            description: "L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2, from the diffuse view".into(),
+            coefficients: per(LOW, &|r, k| r.sep.diffuse[k]),
+            stderr: per(LOW, &|r, k| r.sep.diffuse_se[k]),
+        },
+        coefficients: per(n, &|r, k| r.sep.specular[k]),
+        stderr: per(n, &|r, k| r.sep.specular_se[k]),
+        consistency: Consistency {
+            description: "d_lm = L̂_lm − c_lm, l ≤ 2 (diffuse side minus recovered lighting)".into(),
+            d: per(LOW, &|r, k| r.sep.consistency[k]),
+            stderr: per(LOW, &|r, k| r.sep.consistency_se[k]),
+            chi2: one(&|r| r.sep.chi2),
+            dof: LOW,
+            p_value: one(&|r| p_of(r.sep.chi2)),
+            consistent: PerChannel::of(results.iter().map(|r| p_of(r.sep.chi2).map(|p| p >= P_CONSISTENT)).collect()),
+            threshold_p: P_CONSISTENT,
+            meaning: PerChannel::of(results.iter().map(|r| meaning(r.sep.chi2, with_stderr, a.lmax)).collect()),
+            nine_term_residual: NineTermShare {
+                description: "the share of d predicted from the 9-term subtraction's residual (eq. 38–39), \
+                              estimated from the recovered lighting's orders 3..lmax, and the χ² of d minus it"
+                    .into(),
+                d: per(LOW, &|r, k| r.residual_d[k]),
+                chi2_removed: one(&|r| r.chi2_residual_removed),
+                p_value_removed: one(&|r| p_of(r.chi2_residual_removed)),
             },
         },
-        "scan": scan,
-        "output": a.output.as_ref().map(|p| p.display().to_string()),
-    }))
+        scan,
+        output: a.output.as_ref().map(|p| p.display().to_string()),
+    })
 }
 
 /// A plain statement of what the consistency χ² says.
@@ -470,135 +468,234 @@ fn meaning(chi2: Option<f64>, with_stderr: bool, lmax: usize) -> String {
     }
 }
 
-fn num(v: &Value) -> String {
-    v.as_f64().map_or("—".to_string(), |x| format!("{x:+.4e}"))
+/// A value per analysed channel: with one `--channel` the value itself, with all three an
+/// [r, g, b] triple (the JSON keeps that shape: numbers for one channel, triples for three).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(untagged)]
+pub enum PerChannel<T> {
+    One(T),
+    Rgb(Vec<T>),
 }
 
-/// `v[k]` as one cell per channel.
-fn cells(v: &Value, k: usize) -> Vec<Value> {
-    match &v[k] {
-        Value::Array(a) => a.clone(),
-        x => vec![x.clone()],
+impl<T> PerChannel<T> {
+    /// One value per analysed channel (in [`InvertSeparateReport::channels`] order).
+    fn of(mut v: Vec<T>) -> PerChannel<T> {
+        if v.len() == 1 { PerChannel::One(v.remove(0)) } else { PerChannel::Rgb(v) }
+    }
+
+    /// The values in channel order.
+    pub fn cells(&self) -> &[T] {
+        match self {
+            PerChannel::One(x) => std::slice::from_ref(x),
+            PerChannel::Rgb(v) => v,
+        }
     }
 }
 
-fn table(title: &str, doc: &Value, val: &Value, se: &Value, len: usize) {
-    let ch: Vec<&str> = doc["channels"].as_array().into_iter().flatten().filter_map(|c| c.as_str()).collect();
-    println!("\n## {title}");
-    print!("{:>4} {:>3} {:>3}", "k", "l", "m");
-    for c in &ch {
-        print!(" {:>26}", format!("{c} ± σ"));
+impl std::fmt::Display for PerChannel<f64> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PerChannel::One(x) => write!(f, "{x}"),
+            PerChannel::Rgb(v) => write!(f, "[{}]", v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", ")),
+        }
     }
-    println!();
-    for k in 0..len {
+}
+
+/// The diffuse view (the first image, θ_o = 0).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DiffuseView {
+    pub file: String,
+    pub theta_o_deg: f64,
+}
+
+/// A specular view (θ_o > 0, φ_o ∈ {0°, 180°}).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SpecularView {
+    pub file: String,
+    pub theta_o_deg: f64,
+    pub phi_o_deg: f64,
+}
+
+/// The diffuse side's low-order lighting L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2 (index order).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DiffuseSide {
+    pub description: String,
+    pub coefficients: Vec<PerChannel<f64>>,
+    pub stderr: Vec<PerChannel<f64>>,
+}
+
+/// The share of d predicted from the 9-term subtraction's residual (eq. 38–39) and the χ² of d
+/// minus it.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NineTermShare {
+    pub description: String,
+    pub d: Vec<PerChannel<f64>>,
+    pub chi2_removed: PerChannel<Option<f64>>,
+    /// P(χ²_9 ≥ χ²) of `chi2_removed`; `None` without stderr layers (relative χ²).
+    pub p_value_removed: PerChannel<Option<f64>>,
+}
+
+/// The consistency d_lm = L̂_lm − c_lm, l ≤ 2, of the two sides and its χ² (9 dof).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Consistency {
+    pub description: String,
+    pub d: Vec<PerChannel<f64>>,
+    pub stderr: Vec<PerChannel<f64>>,
+    /// `None` when d's covariance is singular (noise-free data).
+    pub chi2: PerChannel<Option<f64>>,
+    pub dof: usize,
+    /// P(χ²_9 ≥ χ²); `None` without stderr layers (χ² is then relative) or without χ².
+    pub p_value: PerChannel<Option<f64>>,
+    /// p ≥ `threshold_p`; `None` where there is no p-value.
+    pub consistent: PerChannel<Option<bool>>,
+    pub threshold_p: f64,
+    /// A plain statement of what the χ² says, per channel.
+    pub meaning: PerChannel<String>,
+    pub nine_term_residual: NineTermShare,
+}
+
+/// `--scan`: consistency χ² against the diffuse fraction k_d/(k_d+k_s) at fixed k_d + k_s.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SplitScan {
+    pub channel: String,
+    pub total: f64,
+    /// (fraction, χ²) on the grid 0.01 … 0.99.
+    pub points: Vec<[f64; 2]>,
+    /// The minimum refined on a 5e-4 grid.
+    pub best_fraction: Option<f64>,
+    pub best_chi2: Option<f64>,
+    pub assumed_fraction: f64,
+}
+
+/// The report of `reflect invert separate` (`--json` prints this struct; coefficient lists are in
+/// index order k = l(l+1)+m, each entry a [`PerChannel`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct InvertSeparateReport {
+    pub command: String,
+    pub lmax: usize,
+    /// Highest order the specular views' grid carries at R ([`LATLONG_REFLECTION_RULE`]).
+    pub lmax_carried: Option<usize>,
+    pub lmax_carried_rule: String,
+    pub channels: Vec<String>,
+    pub layout: String,
+    pub diffuse_view: DiffuseView,
+    pub specular_views: Vec<SpecularView>,
+    pub width: usize,
+    pub height: usize,
+    pub kd: PerChannel<f64>,
+    pub ks: PerChannel<f64>,
+    pub split_source: String,
+    pub sigma_source: String,
+    pub weighted_by_stderr: bool,
+    pub diffuse: DiffuseSide,
+    /// The recovered lighting L_lm, l ≤ `lmax` (the specular side).
+    pub coefficients: Vec<PerChannel<f64>>,
+    pub stderr: Vec<PerChannel<f64>>,
+    pub consistency: Consistency,
+    pub scan: Option<Vec<SplitScan>>,
+    /// The lat-long map written by `--output`.
+    pub output: Option<String>,
+}
+
+fn table(
+    f: &mut std::fmt::Formatter<'_>,
+    title: &str,
+    channels: &[String],
+    val: &[PerChannel<f64>],
+    se: &[PerChannel<f64>],
+) -> std::fmt::Result {
+    writeln!(f, "\n## {title}")?;
+    write!(f, "{:>4} {:>3} {:>3}", "k", "l", "m")?;
+    for c in channels {
+        write!(f, " {:>26}", format!("{c} ± σ"))?;
+    }
+    writeln!(f)?;
+    for (k, (v, s)) in val.iter().zip(se).enumerate() {
         let (l, m) = lm(k);
-        print!("{k:>4} {l:>3} {m:>3}");
-        for (v, s) in cells(val, k).iter().zip(cells(se, k)) {
-            print!(" {:>26}", format!("{} ± {}", num(v), num(&s).trim_start_matches('+')));
+        write!(f, "{k:>4} {l:>3} {m:>3}")?;
+        for (v, s) in v.cells().iter().zip(s.cells()) {
+            write!(f, " {:>26}", format!("{v:+.4e} ± {s:.4e}"))?;
         }
-        println!();
+        writeln!(f)?;
     }
+    Ok(())
 }
 
-fn print_text(doc: &Value) {
-    let lmax = doc["lmax"].as_u64().unwrap_or(0) as usize;
-    println!(
-        "# invert separate — diffuse + specular separation (sec. 3.5, ref. [17]), {}",
-        doc["layout"].as_str().unwrap_or("")
-    );
-    println!(
-        "# l_max {lmax}; the views carry l <= {} ({})",
-        doc["lmax_carried"],
-        doc["lmax_carried_rule"].as_str().unwrap_or("")
-    );
-    println!("# diffuse view: {} (θ_o = 0)", doc["diffuse_view"]["file"].as_str().unwrap_or(""));
-    for v in doc["specular_views"].as_array().into_iter().flatten() {
-        println!(
-            "# specular view: {} (θ_o = {}°, φ_o = {}°)",
-            v["file"].as_str().unwrap_or(""),
-            v["theta_o_deg"],
-            v["phi_o_deg"]
-        );
-    }
-    println!(
-        "# {}×{} pixels; k_d = {}, k_s = {} ({}); σ from {}",
-        doc["width"],
-        doc["height"],
-        doc["kd"],
-        doc["ks"],
-        doc["split_source"].as_str().unwrap_or(""),
-        doc["sigma_source"].as_str().unwrap_or("")
-    );
-    table(
-        "diffuse side L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2",
-        doc,
-        &doc["diffuse"]["coefficients"],
-        &doc["diffuse"]["stderr"],
-        LOW,
-    );
-    table(
-        &format!("recovered lighting L_lm (specular side), l ≤ {lmax}"),
-        doc,
-        &doc["coefficients"],
-        &doc["stderr"],
-        num_coefficients(lmax),
-    );
-    table("consistency d_lm = L̂_lm − c_lm, l ≤ 2", doc, &doc["consistency"]["d"], &doc["consistency"]["stderr"], LOW);
-    let cons = &doc["consistency"];
-    let ch: Vec<&str> = doc["channels"].as_array().into_iter().flatten().filter_map(|c| c.as_str()).collect();
-    let per_channel = |v: &Value| match v {
-        Value::Array(a) => a.clone(),
-        x => vec![x.clone()],
-    };
-    table(
-        "9-term residual's predicted share of d (eq. 38–39, from the recovered orders 3…lmax; σ is d's)",
-        doc,
-        &cons["nine_term_residual"]["d"],
-        &cons["stderr"],
-        LOW,
-    );
-    println!();
-    let nr = &cons["nine_term_residual"];
-    for (((c, m), x), p) in ch
-        .iter()
-        .zip(per_channel(&cons["meaning"]))
-        .zip(per_channel(&nr["chi2_removed"]))
-        .zip(per_channel(&nr["p_value_removed"]))
-    {
-        println!("# consistency, {c}: {}", m.as_str().unwrap_or(""));
-        let x = x.as_f64().map_or("—".into(), |x| format!("{x:.1}"));
-        let p = p.as_f64().map_or("—".into(), |p| format!(", P(χ²_9 ≥ χ²) = {p:.2e}"));
-        println!("#   with the predicted 9-term residual removed from d: χ² = {x}{p}");
-    }
-    for s in doc["scan"].as_array().into_iter().flatten() {
-        println!(
-            "\n## split scan, channel {}: consistency χ² vs k_d/(k_d+k_s) at k_d + k_s = {}",
-            s["channel"].as_str().unwrap_or(""),
-            s["total"]
-        );
-        let pts: Vec<(f64, f64)> = s["points"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .filter_map(|p| Some((p[0].as_f64()?, p[1].as_f64()?)))
-            .collect();
-        // Every 0.05, and the grid points next to the minimum.
-        let bx = s["best_fraction"].as_f64().unwrap_or(f64::NAN);
-        for (x, c) in &pts {
-            let i = (x * 100.0).round() as i64;
-            if i % 5 == 0 || (x - bx).abs() <= 0.0151 {
-                println!("{x:>8.2} {c:>14.4}");
-            }
+impl std::fmt::Display for InvertSeparateReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let lmax = self.lmax;
+        writeln!(f, "# invert separate — diffuse + specular separation (sec. 3.5, ref. [17]), {}", self.layout)?;
+        let carried = self.lmax_carried.map_or("—".to_string(), |l| l.to_string());
+        writeln!(f, "# l_max {lmax}; the views carry l <= {carried} ({})", self.lmax_carried_rule)?;
+        writeln!(f, "# diffuse view: {} (θ_o = 0)", self.diffuse_view.file)?;
+        for v in &self.specular_views {
+            writeln!(f, "# specular view: {} (θ_o = {}°, φ_o = {}°)", v.file, v.theta_o_deg, v.phi_o_deg)?;
         }
-        println!(
-            "# minimum χ² = {} at k_d/(k_d+k_s) = {} (refined on a 5e-4 grid); assumed {:.4}",
-            s["best_chi2"].as_f64().map_or("—".into(), |c| format!("{c:.2}")),
-            s["best_fraction"].as_f64().map_or("—".into(), |x| format!("{x:.4}")),
-            s["assumed_fraction"].as_f64().unwrap_or(f64::NAN)
-        );
-    }
-    if let Some(o) = doc["output"].as_str() {
-        println!("# wrote the recovered lighting (l ≤ {lmax}) to {o}");
+        writeln!(
+            f,
+            "# {}×{} pixels; k_d = {}, k_s = {} ({}); σ from {}",
+            self.width, self.height, self.kd, self.ks, self.split_source, self.sigma_source
+        )?;
+        let ch = &self.channels;
+        table(
+            f,
+            "diffuse side L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2",
+            ch,
+            &self.diffuse.coefficients,
+            &self.diffuse.stderr,
+        )?;
+        table(
+            f,
+            &format!("recovered lighting L_lm (specular side), l ≤ {lmax}"),
+            ch,
+            &self.coefficients,
+            &self.stderr,
+        )?;
+        let cons = &self.consistency;
+        table(f, "consistency d_lm = L̂_lm − c_lm, l ≤ 2", ch, &cons.d, &cons.stderr)?;
+        let nr = &cons.nine_term_residual;
+        table(
+            f,
+            "9-term residual's predicted share of d (eq. 38–39, from the recovered orders 3…lmax; σ is d's)",
+            ch,
+            &nr.d,
+            &cons.stderr,
+        )?;
+        writeln!(f)?;
+        for (((c, m), x), p) in
+            ch.iter().zip(cons.meaning.cells()).zip(nr.chi2_removed.cells()).zip(nr.p_value_removed.cells())
+        {
+            writeln!(f, "# consistency, {c}: {m}")?;
+            let x = x.map_or("—".into(), |x| format!("{x:.1}"));
+            let p = p.map_or("—".into(), |p| format!(", P(χ²_9 ≥ χ²) = {p:.2e}"));
+            writeln!(f, "#   with the predicted 9-term residual removed from d: χ² = {x}{p}")?;
+        }
+        for s in self.scan.iter().flatten() {
+            writeln!(
+                f,
+                "\n## split scan, channel {}: consistency χ² vs k_d/(k_d+k_s) at k_d + k_s = {}",
+                s.channel, s.total
+            )?;
+            // Every 0.05, and the grid points next to the minimum.
+            let bx = s.best_fraction.unwrap_or(f64::NAN);
+            for [x, c] in &s.points {
+                let i = (x * 100.0).round() as i64;
+                if i % 5 == 0 || (x - bx).abs() <= 0.0151 {
+                    writeln!(f, "{x:>8.2} {c:>14.4}")?;
+                }
+            }
+            writeln!(
+                f,
+                "# minimum χ² = {} at k_d/(k_d+k_s) = {} (refined on a 5e-4 grid); assumed {:.4}",
+                s.best_chi2.map_or("—".into(), |c| format!("{c:.2}")),
+                s.best_fraction.map_or("—".into(), |x| format!("{x:.4}")),
+                s.assumed_fraction
+            )?;
+        }
+        if let Some(o) = &self.output {
+            writeln!(f, "# wrote the recovered lighting (l ≤ {lmax}) to {o}")?;
+        }
+        Ok(())
     }
 }
 
@@ -607,9 +704,15 @@ mod tests {
     use super::*;
     use analysis::sh::ShBasis;
     use renderer::sampling::chi2::TestRng;
+    use serde_json::json;
 
     fn tmp(name: &str) -> PathBuf {
         crate::cli::test_path("separate", name)
+    }
+
+    /// The report as the JSON document `--json` prints.
+    fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
+        separate_report(a).map(|r| serde_json::to_value(r).unwrap())
     }
 
     const MIX: &str = r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1.0}},{"weight":0.5,"brdf":{"type":"mirror"}}]}"#;

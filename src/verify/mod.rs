@@ -31,6 +31,7 @@ pub mod lambert;
 pub mod microfacet_ambiguity;
 pub mod mirror;
 pub mod oblique;
+pub mod partial_view;
 pub mod phong;
 pub mod picture;
 pub mod plot;
@@ -95,6 +96,7 @@ pub const CHECKS: &[Entry] = &[
     Entry { name: associativity::NAME, equation: associativity::EQUATION, run: associativity::run },
     Entry { name: convex_shape::NAME, equation: convex_shape::EQUATION, run: convex_shape::run },
     Entry { name: single_view::NAME, equation: single_view::EQUATION, run: single_view::run },
+    Entry { name: partial_view::NAME, equation: partial_view::EQUATION, run: partial_view::run },
     Entry { name: horizon::NAME, equation: horizon::EQUATION, run: horizon::run },
     Entry { name: inverse_lighting::NAME, equation: inverse_lighting::EQUATION, run: inverse_lighting::run },
     Entry { name: inverse_specular::NAME, equation: inverse_specular::EQUATION, run: inverse_specular::run },

@@ -1,6 +1,13 @@
-//! The paper's analytic predictions Λ_l ρ̂_l (CONVENTIONS §4), computed here independently of the
-//! `analysis` crate so the verifier does not check a formula against itself: closed forms (eq. 38,
-//! 43), the approximations (eq. 46, 57) and numerical quadrature of eq. 41/50 for any radial lobe.
+//! **The oracle**: the one independent source of the transfer coefficients Λ_l ρ̂_l
+//! (CONVENTIONS §4) in `verify` (issue 11), computed apart from the `analysis` crate so the verifier
+//! does not check a formula against itself: closed forms (eq. 38, 43), the approximations (eq. 46,
+//! 57) and numerical quadrature of eq. 41/50 for any radial lobe ([`super::oblique`] extends its
+//! quadrature to non-normal exitance, eq. 48). Every predicted Λ_l ρ̂_l that a check compares a
+//! render against comes from here; everything else in `verify` (projections, fits, covariances,
+//! inversions, the transfer model an inversion assumes) calls the `analysis` functions that
+//! `reflect analyze` and `reflect invert` run, and the unit test
+//! `oblique::tests::closed_forms_and_quadratures_agree_with_the_analysis_crate` pins the library's
+//! closed forms to this oracle.
 //!
 //! For a radially symmetric transfer function ρ̂(θ) about the reflection vector,
 //! Λ_l ρ̂_l = Λ_l · 2π ∫ ρ̂(θ) Y_l0(θ) sinθ dθ = 2π ∫_{-1}^{1} ρ̂(u) P_l(u) du (since Λ_l Y_l0 = P_l).
