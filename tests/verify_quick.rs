@@ -12,7 +12,7 @@ fn verify(args: &[&str]) -> (i32, String, String) {
     common::reflect_out(&[&["verify"], args].concat())
 }
 
-const NAMES: [&str; 23] = [
+const NAMES: [&str; 24] = [
     "lambert",
     "irradiance9",
     "phong",
