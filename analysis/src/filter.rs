@@ -258,21 +258,7 @@ pub fn fit_filter_pixels(
         })?;
         // Conditioning from the actual design: C = D^-1/2 G D^-1/2, amplification √((C⁻¹)_ll).
         let p = cols.len();
-        let mut c = vec![0.0; p * p];
-        for (r, w) in rows.iter().zip(&weight) {
-            for i in 0..p {
-                for j in 0..p {
-                    c[i * p + j] += w * r[i] * r[j];
-                }
-            }
-        }
-        let d: Vec<f64> = (0..p).map(|i| c[i * p + i].sqrt()).collect();
-        for i in 0..p {
-            for j in 0..p {
-                c[i * p + j] /= d[i] * d[j];
-            }
-        }
-        let cinv = crate::fit::invert(&c, p);
+        let amplification = crate::fit::design_amplification(&rows, &weight, p);
         let chi2_per_dof = fit.chi2_per_dof();
         let scale = match (have_sigma, chi2_per_dof) {
             (true, Some(x)) if x > 1.0 => x.sqrt(),
@@ -302,7 +288,7 @@ pub fn fit_filter_pixels(
             let noise = fit.sigma[i] * scale;
             o.estimate[ch] = Some(fit.coef[i]);
             o.stderr_noise[ch] = Some(noise);
-            let amp = cinv.as_ref().map(|ci| ci[i * p + i].max(0.0).sqrt());
+            let amp = amplification.as_ref().map(|a| a[i]);
             o.amplification[ch] = amp;
             o.status[ch] = match amp {
                 Some(a) if a <= MAX_AMPLIFICATION => OrderStatus::Determined,

@@ -181,6 +181,29 @@ pub fn robust_chi2(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f6
     Some(*m / 0.454_936_423_119_572_8)
 }
 
+/// Noise amplification of each column of a weighted design: √((C⁻¹)_ii), where C = D^-1/2 G D^-1/2 is the
+/// unit-diagonal Gram matrix of `rows` (G = Σ_r w_r x_r x_rᵀ over the first `p` entries of each row, D its
+/// diagonal). 1 for orthogonal columns; large where the sampled directions cannot tell a column from the others.
+/// `None` when C is singular ([`invert`]).
+pub fn design_amplification(rows: &[Vec<f64>], weight: &[f64], p: usize) -> Option<Vec<f64>> {
+    let mut c = vec![0.0; p * p];
+    for (r, w) in rows.iter().zip(weight) {
+        for i in 0..p {
+            for j in 0..p {
+                c[i * p + j] += w * r[i] * r[j];
+            }
+        }
+    }
+    let d: Vec<f64> = (0..p).map(|i| c[i * p + i].sqrt()).collect();
+    for i in 0..p {
+        for j in 0..p {
+            c[i * p + j] /= d[i] * d[j];
+        }
+    }
+    let cinv = invert(&c, p)?;
+    Some((0..p).map(|i| cinv[i * p + i].max(0.0).sqrt()).collect())
+}
+
 /// Gauss–Jordan inverse with partial pivoting of a small p × p row-major matrix; `None` when a
 /// pivot falls below 1e-13 × the largest diagonal entry (singular for practical purposes).
 pub fn invert(a: &[f64], p: usize) -> Option<Vec<f64>> {

@@ -20,7 +20,7 @@
 use super::lighting::{Status, ZERO_FILTER_REL};
 use crate::error::{Error, Result};
 use crate::filter::ChannelFit;
-use crate::fit::{invert, lsq};
+use crate::fit::{design_amplification, lsq};
 use crate::projection::Sample;
 use crate::sh::{ShBasis, lm, num_coefficients};
 
@@ -109,21 +109,7 @@ pub fn invert_lighting_views(
     let p = cols.len();
     let rows: Vec<Vec<f64>> = full.iter().map(|r| r[..p].to_vec()).collect();
     // Design amplification: √((C⁻¹)_kk), C the unit-diagonal Gram of the (unscaled) Y columns.
-    let mut c = vec![0.0; p * p];
-    for (r, w) in rows.iter().zip(&weight) {
-        for i in 0..p {
-            for j in 0..p {
-                c[i * p + j] += w * r[i] * r[j];
-            }
-        }
-    }
-    let d: Vec<f64> = (0..p).map(|i| c[i * p + i].sqrt()).collect();
-    for i in 0..p {
-        for j in 0..p {
-            c[i * p + j] /= d[i] * d[j];
-        }
-    }
-    let cinv = invert(&c, p).ok_or_else(|| {
+    let amp = design_amplification(&rows, &weight, p).ok_or_else(|| {
         Error::new(format!(
             "these views cannot determine the lighting up to l_max {lmax} (the visible directions do not separate \
              its coefficients): add views (e.g. the opposite one), use a normal-probe render or lower --lmax"
@@ -131,7 +117,7 @@ pub fn invert_lighting_views(
     })?;
     let mut amplification = vec![None; n];
     for (i, &k) in cols.iter().enumerate() {
-        amplification[k] = Some(fmax / filter[lm(k).0].abs() * cinv[i * p + i].max(0.0).sqrt());
+        amplification[k] = Some(fmax / filter[lm(k).0].abs() * amp[i]);
     }
     let mut coefficients = vec![None; n];
     let mut stderr = vec![None; n];
