@@ -5,16 +5,20 @@
 //! `--brdf`, `--mapping`, `--sampler`, come from `vocab` with its `clap` feature).
 
 use super::{Error, flags};
-use analysis::projection::{OrthoCamera, Param, Sphere};
+use analysis::projection::{OrthoCamera, Param};
+use std::path::PathBuf;
 
 /// The orthographic camera of each image and the sphere they show, for images whose header does
 /// not say them (another renderer's images, in the renderer's camera convention). The one place
 /// these flags are parsed and documented: every command that takes a view flattens this struct.
 ///
 /// `--from/--to/--up/--extent` are given once per image, in the order of the images, or not at all
-/// ([`flags::per_image`]); a header's `reflect:camera` takes precedence over them. `--center` and
-/// `--radius` describe the one sphere; a header's first sphere in `reflect:objects` takes
-/// precedence. Positions and lengths are in world units; `--extent` is the half-width of the view.
+/// ([`flags::per_image`]); `--center` and `--radius` describe the one sphere; `--scene S.toml` says
+/// the images are renders of that scene (camera, sphere, BRDF, lighting; its `[render]` size must be
+/// the images'). A header's `reflect:camera` / `reflect:objects`, the scene and the flags are
+/// combined by [`super::header::describe`]: each fills in what the others leave open, and two that
+/// contradict each other are an error naming both values. Positions and lengths are in world units
+/// of our frame (CONVENTIONS §1, +z up); `--extent` is the half-width of the view.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ViewArgs {
     /// Orthographic camera position x,y,z of an image without reflect:camera; once per image, in
@@ -36,6 +40,36 @@ pub struct ViewArgs {
     /// Sphere radius when the header has no reflect:objects.
     #[arg(long)]
     pub radius: Option<f64>,
+    /// Scene file (TOML, our vocabulary) the images are renders of: camera, sphere, BRDF and
+    /// lighting for images whose header does not say them; its [render] size must be the images'.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// The radiance layer of a multi-layer EXR, by its channel prefix (e.g. ViewLayer.Combined for
+    /// ViewLayer.Combined.R/G/B); needed only when the file has several radiance layers.
+    #[arg(long)]
+    pub layer: Option<String>,
+}
+
+/// The BRDF of the sphere in an image, by flags: a kind plus its parameters (`--s` for Phong,
+/// `--sigma` for Torrance–Sparrow, `--albedo` the albedo / k_s / k_r scale). Shared by every command
+/// that needs the BRDF of an image whose header does not name it (`analyze`, `invert lighting`);
+/// a header's or `--scene`'s BRDF that contradicts the flags is an error naming both
+/// ([`super::header::Description::transfer`]).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct BrdfFlags {
+    /// BRDF model of the sphere (default: the header's or --scene's; microfacet and mix have no
+    /// transfer model).
+    #[arg(long, value_enum)]
+    pub brdf: Option<vocab::BrdfKind>,
+    /// Phong exponent s (with --brdf phong).
+    #[arg(long)]
+    pub s: Option<f64>,
+    /// Torrance–Sparrow roughness σ in radians (with --brdf torrance-sparrow).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's or scene's, else 1).
+    #[arg(long, value_parser = flags::parse_rgb)]
+    pub albedo: Option<[f64; 3]>,
 }
 
 /// The camera flags of one image (`None` where a flag is not given).
@@ -67,15 +101,6 @@ impl ViewArgs {
         let (from, to) = (flags::per_image(&self.from, "from", n)?, flags::per_image(&self.to, "to", n)?);
         let (up, extent) = (flags::per_image(&self.up, "up", n)?, flags::per_image(&self.extent, "extent", n)?);
         Ok((0..n).map(|i| CameraFlags { from: from[i], to: to[i], up: up[i], extent: extent[i] }).collect())
-    }
-
-    /// The sphere: `--center`/`--radius` where given, else the header's, else the unit sphere at
-    /// the origin.
-    pub fn sphere(&self, header: Option<Sphere>) -> Sphere {
-        Sphere {
-            center: self.center.or(header.map(|s| s.center)).unwrap_or([0.0; 3]),
-            radius: self.radius.or(header.map(|s| s.radius)).unwrap_or(1.0),
-        }
     }
 }
 

@@ -20,26 +20,23 @@
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::Error;
-use super::args::{FitModel, LambdaRule};
-use super::header::{first_sphere, header_json, json_vec3, lighting_of, probe_theta_o_deg};
+use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
+use super::header::{Camera, Description, lighting_of, load};
 use super::sh::check_lmax;
 use analysis::filter::ChannelFit;
-use analysis::image::{Image, read_image, write_exr};
+use analysis::image::{Image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
 use analysis::projection::{
-    OrthoCamera, OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples,
-    project_normal_probe,
+    OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples, project_normal_probe,
 };
 use analysis::sh::{lm, reconstruct_latlong};
 use analysis::transfer::{TransferModel, parameterization};
-use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use vocab::scene::BrdfSection;
-use vocab::{BrdfKind, Mapping};
+use vocab::Mapping;
 
 #[derive(clap::Subcommand, Debug)]
 pub enum InvertCommand {
@@ -58,18 +55,12 @@ pub struct LightingArgs {
     /// Rendered images (OpenEXR): one normal-probe image, or orthographic views.
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// BRDF model (default: the header's BRDF; microfacet and mix have no transfer model).
-    #[arg(long, value_enum)]
-    pub brdf: Option<BrdfKind>,
-    /// Phong exponent.
-    #[arg(long)]
-    pub s: Option<f64>,
-    /// Torrance–Sparrow roughness σ.
-    #[arg(long)]
-    pub sigma: Option<f64>,
-    /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's, else 1).
-    #[arg(long, value_parser = super::flags::parse_rgb)]
-    pub albedo: Option<[f64; 3]>,
+    /// The BRDF of the sphere (default: the header's or --scene's).
+    #[command(flatten)]
+    pub brdf: BrdfFlags,
+    /// The camera and sphere of images whose header does not say them.
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -104,6 +95,9 @@ pub struct BrdfArgs {
     /// The parametric model fitted.
     #[arg(long, value_enum)]
     pub model: FitModel,
+    /// The camera and sphere of images whose header does not say them.
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -148,34 +142,29 @@ struct Projected {
     lmax_carried: usize,
     /// Orthographic views: their used pixels and whether every view has a `stderr` layer.
     samples: Option<(Vec<Sample>, bool)>,
+    /// Cameras, sphere, BRDF and lighting of the images (header, --scene, flags).
+    described: Description,
 }
 
-fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Error> {
+/// Projects the images described by their headers, `view` (flags, `--scene`); `param` gives the
+/// parameterization of orthographic views from what is known of the BRDF.
+fn project(
+    paths: &[PathBuf],
+    view: &ViewArgs,
+    lmax: usize,
+    param: impl Fn(&Description) -> Param,
+) -> Result<Projected, Error> {
     check_lmax(lmax)?;
-    let images: Vec<Image> = paths.iter().map(read_image).collect::<Result<_, _>>()?;
+    let (images, described) = load(paths, view, "inverted")?;
+    let param = param(&described);
     let mut ortho = Vec::new();
     let mut probe = None;
-    for (img, p) in images.iter().zip(paths) {
-        let cam = header_json(img, "reflect:camera").map_err(|e| e.in_file(p))?.ok_or_else(|| {
-            Error::file(p, "no reflect:camera in the header (invert needs a render of reflect, or use analyze)")
-        })?;
-        match cam.get("type").and_then(|t| t.as_str()).unwrap_or("") {
-            "normal-probe" => probe = Some(probe_theta_o_deg(&cam, "inverted").map_err(|e| e.in_file(p))?),
-            "orthographic" => ortho.push(OrthoCamera {
-                from: json_vec3(&cam, "from").map_err(|e| e.in_file(p))?,
-                to: json_vec3(&cam, "to").map_err(|e| e.in_file(p))?,
-                up: json_vec3(&cam, "up").map_err(|e| e.in_file(p))?,
-                extent: cam
-                    .get("extent")
-                    .and_then(|e| e.as_f64())
-                    .ok_or_else(|| Error::file(p, "header camera has no 'extent'"))?,
-            }),
-            other => {
-                return Err(Error::file(
-                    p,
-                    format!("camera type '{other}' cannot be inverted (use orthographic or normal-probe)"),
-                ));
+    for (c, p) in described.cameras.iter().zip(paths) {
+        match *c {
+            Camera::NormalProbe { theta_o_deg, phi_o_deg } => {
+                probe = Some(Camera::probe_theta_o_deg(theta_o_deg, phi_o_deg, "inverted").map_err(|e| e.in_file(p))?)
             }
+            Camera::Ortho(o) => ortho.push(o),
         }
     }
     if let Some(theta_o_deg) = probe {
@@ -194,10 +183,10 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             probe: true,
             lmax_carried,
             samples: None,
+            described,
         });
     }
-    let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
-    let sphere = sphere.unwrap_or_default();
+    let sphere = described.sphere;
     let views: Vec<OrthoView> =
         images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
     let fit = fit_orthographic(&views, &sphere, param, lmax)
@@ -217,34 +206,24 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         probe: false,
         lmax_carried: fit.lmax_carried,
         samples: Some(samples),
+        described,
     })
 }
 
-/// BRDF model and albedo from the command line, else from the header's BRDF table, both through
-/// the one BRDF → transfer-model mapping ([`TransferModel::from_params`], [`TransferModel::of_brdf`]).
-fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
-    let (model, kind, header_albedo) = match (a.brdf, header) {
-        (Some(kind), _) => {
-            // θ_o of a normal-probe image only changes the Torrance–Sparrow coefficients (eq. 59).
-            let th = (kind == BrdfKind::TorranceSparrow && theta_o != 0.0).then_some(theta_o.to_degrees());
-            (TransferModel::from_params(kind, a.s, a.sigma, th)?, kind, None)
-        }
-        (None, Some(b)) => {
-            let table: BrdfSection = serde_json::from_value(b.clone())
-                .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
-            let kind = table.kind();
-            let t = TransferModel::of_brdf(&table, theta_o)
-                .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?
-                .ok_or_else(|| Error::new(format!("the header's BRDF '{kind}' has no transfer model: pass --brdf")))?;
-            (t.model, kind, Some(t.scale))
-        }
-        (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
-    };
-    let albedo = a.albedo.or(header_albedo).unwrap_or([1.0; 3]);
+/// BRDF model and albedo from the flags, else from the header's or scene's BRDF table, both through
+/// the one BRDF → transfer-model mapping ([`Description::transfer`]).
+fn brdf_of(a: &LightingArgs, d: &Description, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
+    let r = d
+        .transfer(&a.brdf, theta_o)?
+        .ok_or_else(|| Error::new("no BRDF: pass --brdf (the image header names none)"))?;
+    let t = r.transfer.ok_or_else(|| {
+        Error::new(format!("the BRDF '{}' of {} has no transfer model: pass --brdf", r.kind, r.source))
+    })?;
+    let albedo = t.scale;
     if albedo.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         return Err(Error::new(format!("albedo must be > 0, got {albedo:?}")));
     }
-    Ok((model, albedo, kind.name().to_string()))
+    Ok((t.model, albedo, r.kind.name().to_string()))
 }
 
 /// One order of `invert lighting`: the filter, its noise amplification and status.
@@ -318,13 +297,13 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         check_latlong(a.lmax, a.width, a.width / 2, "--output map (--width)").map_err(|e| e.in_file(out))?;
     }
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
-    let first = read_image(&a.images[0])?;
-    let (_, header_brdf, _) = first_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
-    let kind = a.brdf.or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str()?.parse::<BrdfKind>().ok()));
-    let param = kind.map_or(Param::Reflection, parameterization);
-    let p = project(&a.images, a.lmax, param)?;
-    let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)
-        .map_err(|e| if a.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
+    let param = |d: &Description| {
+        let kind = a.brdf.brdf.or_else(|| d.brdf.as_ref().map(|(b, _)| b.kind()));
+        kind.map_or(Param::Reflection, parameterization)
+    };
+    let p = project(&a.images, &a.view, a.lmax, param)?;
+    let (model, albedo, name) = brdf_of(a, &p.described, p.theta_o)
+        .map_err(|e| if a.brdf.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
     let filter = model.lambda_rho(a.lmax);
     let inv = invert_lighting(&p.b, p.stderr.as_deref(), &filter, albedo, a.lmax, a.max_amplification, Some(rule))?;
     if let Some(out) = &a.output {
@@ -414,9 +393,9 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
     })
 }
 
-fn lighting_for_brdf(a: &BrdfArgs, first: &Image) -> Result<(Lighting, String), Error> {
-    lighting_of(a.lighting.as_deref(), a.mapping, first, &a.images[0])?
-        .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting"))
+fn lighting_for_brdf(a: &BrdfArgs, d: &Description) -> Result<(Lighting, String), Error> {
+    lighting_of(a.lighting.as_deref(), a.mapping, d)?
+        .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting or --scene"))
 }
 
 /// One channel's generalised least-squares fit of `invert brdf`.
@@ -473,14 +452,14 @@ pub struct InvertBrdfReport {
 
 /// `reflect invert brdf` as a library call: the report, or an error naming the file and problem.
 pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
-    let p = project(&a.images, a.lmax, Param::Reflection)?;
+    let p = project(&a.images, &a.view, a.lmax, |_| Param::Reflection)?;
     let model = match a.model {
         FitModel::Phong => Model::Phong,
         FitModel::TorranceSparrow => Model::TorranceSparrow { theta_o: p.theta_o },
     };
     let (dlo, dhi) = model.default_range();
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
-    let (lighting, source) = lighting_for_brdf(a, &p.first)?;
+    let (lighting, source) = lighting_for_brdf(a, &p.described)?;
     let l = lighting.coefficients(a.lmax)?;
     let est = estimate_transfer(&p.b, p.stderr.as_deref(), &l, a.lmax)?;
     // A normal-probe image with a stderr layer gives the full covariance of the per-order
@@ -645,7 +624,9 @@ impl std::fmt::Display for InvertBrdfReport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
+    use analysis::image::read_image;
+    use serde_json::{Value, json};
+    use vocab::BrdfKind;
 
     /// The reports as JSON values, as `--json` prints them.
     fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
@@ -664,6 +645,7 @@ mod tests {
             lighting: None,
             mapping: None,
             model: FitModel::Phong,
+            view: ViewArgs::default(),
             lmax,
             min: None,
             max: None,
@@ -698,10 +680,8 @@ mod tests {
     fn lighting_args(images: Vec<PathBuf>, lmax: usize) -> LightingArgs {
         LightingArgs {
             images,
-            brdf: None,
-            s: None,
-            sigma: None,
-            albedo: None,
+            brdf: BrdfFlags::default(),
+            view: ViewArgs::default(),
             lmax,
             max_amplification: DEFAULT_MAX_AMPLIFICATION,
             lambda_rule: LambdaRule::Gcv,
@@ -768,8 +748,17 @@ mod tests {
             }
         }
         a.width = 64;
-        a.albedo = Some([1.0; 3]);
+        a.brdf.albedo = Some([1.0; 3]);
         a.output = None;
+        // The header says albedo 0.5: --albedo 1 contradicts it, an error naming both values ...
+        let e = lighting_doc(&a).unwrap_err().to_string();
+        assert!(e.contains("--albedo 1,1,1") && e.contains("0.5,0.5,0.5"), "{e}");
+        // ... and on the same image without reflect:objects the flags are taken: albedo 1 halves L_lm.
+        let mut bare = read_image(&path).unwrap();
+        bare.attributes.remove("reflect:objects");
+        write_exr(tmp("lambert-bare.exr"), &bare).unwrap();
+        a.images = vec![tmp("lambert-bare.exr")];
+        a.brdf.brdf = Some(BrdfKind::Lambert);
         let wrong = lighting_doc(&a).unwrap();
         assert!((wrong["coefficients"][0][0].as_f64().unwrap() - 0.5 * l[0][0]).abs() < 1e-3);
         // Bad input: absurd width, a BRDF without a transfer model (unknown names and rules are
@@ -778,7 +767,7 @@ mod tests {
         a.width = 3;
         assert!(lighting_doc(&a).is_err());
         a.output = None;
-        a.brdf = Some(BrdfKind::Microfacet);
+        a.brdf.brdf = Some(BrdfKind::Microfacet);
         assert!(lighting_doc(&a).is_err());
     }
 
