@@ -435,7 +435,10 @@ mod tests {
         assert!(run(args(vec![good.clone()], 2)).is_ok());
 
         // Perspective renders cannot be analysed: an error naming the file.
-        img.attributes.insert("reflect:camera".into(), r#"{"type":"perspective","from":[0,0,3],"to":[0,0,0],"fov_deg":40}"#.into());
+        img.attributes.insert(
+            "reflect:camera".into(),
+            r#"{"type":"perspective","from":[0,0,3],"to":[0,0,0],"fov_deg":40}"#.into(),
+        );
         let persp = tmp("persp.exr");
         write_exr(&persp, &img).unwrap();
         let e = run(args(vec![persp], 2)).unwrap_err().to_string();

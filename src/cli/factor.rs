@@ -886,7 +886,10 @@ mod tests {
         // A file that is not a normal-probe render, a missing file, a different grid.
         let ortho = tmp("sets/ortho.exr");
         let mut img = read_image(&paths[0]).unwrap();
-        img.attributes.insert("reflect:camera".into(), r#"{"type":"orthographic","from":[0,0,3],"to":[0,0,0],"extent":1}"#.into());
+        img.attributes.insert(
+            "reflect:camera".into(),
+            r#"{"type":"orthographic","from":[0,0,3],"to":[0,0,0],"extent":1}"#.into(),
+        );
         write_exr(&ortho, &img).unwrap();
         let mut p = paths.clone();
         p[1] = ortho.clone();

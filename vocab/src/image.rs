@@ -629,6 +629,16 @@ pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
             _ => {}
         }
     }
+    // The standard attributes (reserved names, so the exr crate keeps them out of `other`).
+    let standard = [
+        ("worldToCamera", layer.attributes.world_to_camera),
+        ("worldToNDC", layer.attributes.world_to_normalized_device),
+    ];
+    for (k, m) in standard {
+        if let Some(m) = m {
+            matrices.insert(k.to_string(), m);
+        }
+    }
     Ok((Image { width: dw, height: dh, channels, attributes, matrices }, note))
 }
 
@@ -669,9 +679,16 @@ pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
         attrs.other.insert(k, AttributeValue::Text(v));
     }
     for (k, m) in &img.matrices {
-        let k = Text::new_or_none(k.as_str())
-            .ok_or_else(|| Error::file(path, format!("attribute {k} is not representable in OpenEXR text")))?;
-        attrs.other.insert(k, AttributeValue::Matrix4x4(*m));
+        // The standard attributes have their own fields (the exr crate refuses them as custom ones).
+        match k.as_str() {
+            "worldToCamera" => attrs.world_to_camera = Some(*m),
+            "worldToNDC" => attrs.world_to_normalized_device = Some(*m),
+            _ => {
+                let k = Text::new_or_none(k.as_str())
+                    .ok_or_else(|| Error::file(path, format!("attribute {k} is not representable in OpenEXR text")))?;
+                attrs.other.insert(k, AttributeValue::Matrix4x4(*m));
+            }
+        }
     }
     let layer = Layer::new(
         (img.width, img.height),
