@@ -59,11 +59,11 @@ pub fn verify<'py>(
     };
     let dir = out.clone().unwrap_or_else(|| scratch.as_ref().map(|t| t.0.clone()).unwrap_or_default());
     let seed = seed.unwrap_or(1); // the CLI's default --seed
-    let ctx = Ctx { quick, wrong: false, seed, out: dir, verbose: false, data };
-    // The checks run one after another on a worker thread; Ctrl-C (KeyboardInterrupt) stops the
-    // run before the next check starts (a running check is not interruptible: at most one check's
-    // time, a few seconds with `quick`).
-    let cancel = std::sync::atomic::AtomicBool::new(false);
+    // The checks run one after another on a worker thread; Ctrl-C (KeyboardInterrupt) sets
+    // `cancel`: the running check's render stops at its next tile (the check's arithmetic on
+    // finished renders is not interrupted) and no further check starts.
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let ctx = Ctx { quick, wrong: false, seed, out: dir, verbose: false, data, cancel: Some(cancel.clone()) };
     let (doc, results) = crate::convert::interruptibly(py, &cancel, || {
         let t = std::time::Instant::now();
         let results = reflect::cli::render::with_threads(threads, || {
