@@ -204,8 +204,8 @@ def verify(
     :func:`list_checks`; default all). ``seed``: base seed of the renders (default 1, as the
     CLI). ``data``: the folder holding ``grace_probe.hdr`` (default: ``$REFLECT_DATA``, else
     ``../shared/data`` from the current directory). ``out``: also write the report folder
-    (report.md/html/json and SVG plots) there. The GIL is released; a Ctrl-C takes effect when
-    the running check finishes. A failed check is a result (``passed`` false), not an exception.
+    (report.md/html/json and SVG plots) there. The GIL is released; Ctrl-C stops the running check's
+    render within one tile and raises ``KeyboardInterrupt``. A failed check is a result (``passed`` false), not an exception.
     Lists of numbers are NumPy arrays, as in :func:`analyze`.
     """
     from ._commands import _arrays
