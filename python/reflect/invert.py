@@ -4,7 +4,8 @@ Each function runs the command's own code in this process and returns the docume
 ``--json`` prints, as a dict with NumPy arrays for the lists of numbers (see
 :func:`reflect.analyze` for the conversion and for the image arguments: paths, renders, or
 (H, W, 3) arrays with ``camera`` / ``sphere`` / ``scene`` describing them). Keyword arguments are
-the command's flags (``max_amplification=20`` is ``--max-amplification 20``; True is a bare flag;
+the command's flags (``max_amplification=20`` is ``--max-amplification 20``, ``from_=…`` is
+``--from``; True is a bare flag;
 vectors and RGB triples are sequences; one value per image is a list); a flag the CLI gains is
 accepted here too. Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with
 the command's one-line message.
