@@ -146,7 +146,7 @@ def analyze(
     array has no header, so say what it shows: ``camera`` (a scene-file camera table, e.g.
     ``{"type": "orthographic", "from": [3, 0, 0], "to": [0, 0, 0], "extent": 1.05}`` or
     ``{"type": "normal-probe"}``; a list gives one per array), ``sphere`` (``{"center": [x, y,
-    z], "radius": r, "brdf": {...}}``) and/or ``scene`` (the scene it was rendered from: a path,
+    z], "radius": r, "brdf": {...}}``; without a BRDF, the CLI's ``--center`` / ``--radius``) and/or ``scene`` (the scene it was rendered from: a path,
     TOML text, dict or :class:`Scene`; its camera, lighting and objects), and optionally
     ``stderr`` (an (H, W, 3) array per array image: the per-pixel standard error that weights the
     fit). The array is then analysed as the render of that scene would be (it is written, with

@@ -249,9 +249,22 @@ def _header(i: int, camera: Any, sphere: Optional[Dict[str, Any]], scene: Any) -
         )
         if cam is not None:
             attrs["reflect:camera"] = _json(cam)
-        if obj is not None:
+        if obj is not None and "brdf" in obj:
             attrs["reflect:objects"] = _json([obj])
     return attrs
+
+
+def _sphere_flags(sphere: Optional[Dict[str, Any]]) -> Dict[str, Any]:
+    """A sphere without a BRDF is no scene object (a scene's sphere has one): its centre and radius
+    go to the command as ``--center`` / ``--radius`` (where they are not the defaults)."""
+    if sphere is None or "brdf" in sphere:
+        return {}
+    flags = {}
+    if "center" in sphere and list(np.asarray(sphere["center"], dtype=float)) != [0.0, 0.0, 0.0]:
+        flags["center"] = sphere["center"]
+    if "radius" in sphere and float(sphere["radius"]) != 1.0:
+        flags["radius"] = sphere["radius"]
+    return flags
 
 
 def _camera_defaults(cam: Dict[str, Any]) -> Dict[str, Any]:
@@ -291,6 +304,8 @@ def run(
     cams = camera if isinstance(camera, (list, tuple)) else None
     if cams is not None and len(cams) != len(arrays):
         raise ValueError(f"camera: {len(cams)} cameras for {len(arrays)} array images")
+    if arrays:
+        options = dict(options, **_sphere_flags(sphere))
     inputs = _Inputs()
     try:
         paths = []

@@ -40,15 +40,18 @@ pub fn report<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, Py
             .collect();
         PyValueError::new_err(msg.join(" ").trim_start_matches("error: ").to_string())
     })?;
+    // A panic (a bug) becomes RuntimeError here, as in a render, rather than pyo3's PanicException.
+    let run = || match cli.command {
+        Command::Analyze(a) => json(reflect::cli::analyze::analyze(&a)),
+        Command::Invert(InvertCommand::Lighting(a)) => json(reflect::cli::invert::invert_lighting_report(&a)),
+        Command::Invert(InvertCommand::Brdf(a)) => json(reflect::cli::invert::invert_brdf_report(&a)),
+        Command::Invert(InvertCommand::Separate(a)) => json(reflect::cli::separate::separate_report(&a)),
+        Command::Invert(InvertCommand::Factor(a)) => json(reflect::cli::factor::factor_report(&a)),
+        _ => Err(Error::new("only analyze and invert lighting|brdf|separate|factor return a report here")),
+    };
     let doc = py
-        .detach(|| match cli.command {
-            Command::Analyze(a) => json(reflect::cli::analyze::analyze(&a)),
-            Command::Invert(InvertCommand::Lighting(a)) => json(reflect::cli::invert::invert_lighting_report(&a)),
-            Command::Invert(InvertCommand::Brdf(a)) => json(reflect::cli::invert::invert_brdf_report(&a)),
-            Command::Invert(InvertCommand::Separate(a)) => json(reflect::cli::separate::separate_report(&a)),
-            Command::Invert(InvertCommand::Factor(a)) => json(reflect::cli::factor::factor_report(&a)),
-            _ => Err(Error::new("only analyze and invert lighting|brdf|separate|factor return a report here")),
-        })
+        .detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)))
+        .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("the command panicked (a bug in reflect)"))?
         .py()?;
     to_python(py, &doc)
 }

@@ -107,6 +107,13 @@ def test_analyze_headerless_array_with_camera_sphere_and_lighting(cli, ortho, tm
         w.pop("images"), w["lighting"].pop("source")
         # The header sphere has no BRDF: no analytic column, as the file without a header.
         assert got == w
+    # A sphere without a BRDF elsewhere: the CLI's --center/--radius.
+    want = cli_json(cli, "analyze", bare, "--lmax", 1, "--from", "3,0,1", "--extent", 1.05, "--radius", 0.95,
+                    "--center", "0,0,0.01")
+    got = plain(reflect.analyze(rgb, lmax=1, camera=cam, sphere={"center": [0, 0, 0.01], "radius": 0.95}))
+    assert got.pop("images") == ["<array 0>"] and got["sphere"]["radius"] == 0.95
+    want.pop("images")
+    assert got == want
 
 
 def test_invert_lighting_and_brdf_give_the_cli_numbers(cli, probe, tmp_path):
