@@ -429,29 +429,31 @@ impl Description {
             }
             None => None,
         };
-        let Some(kind) = flags.brdf else {
-            if flags.s.is_some() || flags.sigma.is_some() || flags.albedo.is_some() {
-                if table.is_none() {
-                    return Err(Error::new(
-                        "--s, --sigma and --albedo need --brdf (no header or scene names the BRDF)",
-                    ));
-                }
+        let params = flags.s.is_some() || flags.sigma.is_some();
+        if table.is_none() && flags.brdf.is_none() && (params || flags.albedo.is_some()) {
+            return Err(Error::new("--s, --sigma and --albedo need --brdf (no header or scene names the BRDF)"));
+        }
+        // --s / --sigma without --brdf are parameters of the table's kind, checked against it below.
+        let kind = match (flags.brdf, &table) {
+            (Some(k), _) => k,
+            (None, Some((b, _, _))) if params => b.kind(),
+            (None, _) => {
+                return Ok(table.map(|(b, src, t)| {
+                    let mut t = t;
+                    if let Some(a) = flags.albedo
+                        && let Some(t) = t.as_mut()
+                    {
+                        t.scale = a;
+                    }
+                    Resolved {
+                        transfer: t,
+                        kind: b.kind(),
+                        table: serde_json::to_value(b).unwrap_or_default(),
+                        source: src.clone(),
+                    }
+                }))
+                .and_then(|r| self.check_albedo(r, flags));
             }
-            return Ok(table.map(|(b, src, t)| {
-                let mut t = t;
-                if let Some(a) = flags.albedo
-                    && let Some(t) = t.as_mut()
-                {
-                    t.scale = a;
-                }
-                Resolved {
-                    transfer: t,
-                    kind: b.kind(),
-                    table: serde_json::to_value(b).unwrap_or_default(),
-                    source: src.clone(),
-                }
-            }))
-            .and_then(|r| self.check_albedo(r, flags));
         };
         let th = (kind == BrdfKind::TorranceSparrow && theta_o != 0.0).then_some(theta_o.to_degrees());
         let model = TransferModel::from_params(kind, flags.s, flags.sigma, th)?;
