@@ -28,6 +28,7 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega, lsq, normalize, sh_design};
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
 use super::{grace, transfer};
 use analysis::sh::{ShBasis, lm, num_coefficients};
@@ -236,6 +237,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let grace_coeffs = grace::coefficients(ctx)?;
     let lights = [Light1::Sh(sh_lighting(2, 0.4, ctx.seed + 61)), Light1::Grace, Light1::Directional];
     let mut cases = vec![];
+    let mut c_pictures = vec![];
     for (ti, (tname, tex)) in [("low", low_texture()), ("high", high_texture())].into_iter().enumerate() {
         for (li, light) in lights.iter().enumerate() {
             let seed = ctx.seed + 6100 + 10 * ti as u64 + li as u64;
@@ -265,6 +267,19 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             };
             let y = Channel::from_film(&render_spec(ctx, &uniform)?, 0);
             let measured = residual(&x.value, &x.sigma, &y.value, &y.sigma, w, h);
+            if matches!(light, Light1::Grace) {
+                // The residual map the check integrates: textured render against the uniform sphere
+                // under the lighting that explains it best (both renders' σ in quadrature).
+                c_pictures.push(Picture::new(
+                    format!("texture_ambiguity_{tname}"),
+                    format!("{tname} texture under Grace (normal probe, {} channel)", ["R", "G", "B"][channel]),
+                    "uniform Lambertian sphere under the 9-term lighting that explains the textured render",
+                    (w, h),
+                    x.value.clone(),
+                    y.value.clone(),
+                    x.sigma.iter().zip(&y.sigma).map(|(a, b)| a.hypot(*b)).collect(),
+                ));
+            }
             let xa = analytic(&tex, light, &grace_coeffs, w, h);
             let zero = vec![0.0; w * h];
             let (b, _) = explain(&xa, &zero, w, h).ok_or("singular 9-term fit")?;
@@ -277,6 +292,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         }
     }
     let mut c = evaluate(&cases, ctx.wrong);
+    c.pictures = c_pictures;
     c.note(format!(
         "Lambertian sphere (albedo 1), normal-probe {w}×{h}; textures: low 1 + {LOW_AMPLITUDE}·(a·n), a = {:?}; high 1 + {HIGH_AMPLITUDE}·g₆(n); directional source {:?}",
         normalize(LOW_AXIS),
