@@ -357,7 +357,12 @@ impl std::fmt::Display for AnalyzeReport {
             }
             let chi = |c: &ChannelFit| match (c.chi2_per_dof, c.p_value) {
                 (Some(x), Some(p)) => {
-                    format!("{x:.3} (ν {}, p {p:.1e}, robust {:.3})", c.dof, c.robust_chi2_per_dof.unwrap_or(f64::NAN))
+                    format!(
+                        "{x:.3} (ν {}, p {p:.1e}, robust {:.3}, misfit {:.1} %)",
+                        c.dof,
+                        c.robust_chi2_per_dof.unwrap_or(f64::NAN),
+                        100.0 * c.relative_misfit
+                    )
                 }
                 (Some(x), None) => format!("{x:.3e} (ν {}, σ² from residuals)", c.dof),
                 _ => "-".to_string(),

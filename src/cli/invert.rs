@@ -23,7 +23,7 @@ use super::Error;
 use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
 use super::header::{Camera, Description, lighting_of, load};
 use super::sh::check_lmax;
-use analysis::filter::ChannelFit;
+use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
@@ -447,6 +447,8 @@ pub struct InvertBrdfReport {
     pub filter: Vec<BrdfOrder>,
     /// (parameter, Δχ²) along the profile.
     pub profile: Vec<[f64; 2]>,
+    /// Orthographic views: the pixel-space filter fit (error budget, conditioning, χ² per channel).
+    pub filter_fit: Option<FilterFitReport>,
     pub warnings: Vec<String>,
 }
 
@@ -460,7 +462,17 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     let (dlo, dhi) = model.default_range();
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
     let (lighting, source) = lighting_for_brdf(a, &p.described)?;
-    let l = lighting.coefficients(a.lmax)?;
+    // Two orders beyond l_max estimate the truncation bias of the pixel-space filter fit.
+    let l_hi = lighting.coefficients(a.lmax + 2)?;
+    let l = l_hi[..analysis::sh::num_coefficients(a.lmax)].to_vec();
+    let in_first = |e: Error| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e };
+    // Orthographic views: the filter is fitted in pixel space (the one fit `analyze` prints:
+    // conditioning from the design, truncation, χ²), not B_lm / L_lm, which is wrong on part of
+    // the sphere; the model is then fitted by GLS to it with its covariance ⊕ truncation².
+    if let Some((samples, have_sigma)) = &p.samples {
+        let pf = fit_filter_pixels(samples, *have_sigma, &l_hi, a.lmax).map_err(in_first)?;
+        return brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf);
+    }
     let est = estimate_transfer(&p.b, p.stderr.as_deref(), &l, a.lmax)?;
     // A normal-probe image with a stderr layer gives the full covariance of the per-order
     // estimates: they are correlated (≈ 0.85 between adjacent orders under a directional source),
@@ -540,8 +552,122 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
             .map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() })
             .collect(),
         profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
+        filter_fit: None,
         warnings: Vec::new(),
     })
+}
+
+/// `invert brdf` on orthographic views: the model fitted per channel by generalised least squares
+/// to the pixel-space filter `pf` ([`fit_filter_pixels`]) at its determined orders, with the fit's
+/// covariance plus the estimated truncation bias² on the diagonal (a bias of unknown sign, treated
+/// as an independent error per order); the channel with the narrowest interval is reported, as
+/// for a normal probe. Ill-conditioned orders are left out of the model fit (said in a warning).
+fn brdf_report_from_pixel_fit(
+    a: &BrdfArgs,
+    lmax_carried: usize,
+    method: String,
+    source: String,
+    model: Model,
+    range: (f64, f64),
+    pf: PixelFilterFit,
+) -> Result<InvertBrdfReport, Error> {
+    let mut warnings = pf.warnings.clone();
+    let mut fits = Vec::new();
+    for (ch, c) in pf.channels.iter().enumerate() {
+        let idx: Vec<usize> = (0..c.fitted_orders.len())
+            .filter(|&i| pf.orders[c.fitted_orders[i]].status[ch] == OrderStatus::Determined)
+            .collect();
+        if idx.len() < 2 {
+            warnings.push(format!("channel {}: fewer than two determined orders, no model fit", CHANNELS[ch]));
+            continue;
+        }
+        let orders: Vec<usize> = idx.iter().map(|&i| c.fitted_orders[i]).collect();
+        let f: Vec<f64> = orders.iter().map(|&l| pf.orders[l].estimate[ch].unwrap_or(0.0)).collect();
+        let n = idx.len();
+        let mut cov = vec![0.0; n * n];
+        for (r, &i) in idx.iter().enumerate() {
+            for (s, &j) in idx.iter().enumerate() {
+                cov[r * n + s] = c.covariance[i][j];
+            }
+            cov[r * n + r] += pf.orders[c.fitted_orders[i]].truncation[ch].unwrap_or(0.0).powi(2);
+        }
+        fits.push((ch, fit_model_gls(&orders, &f, &cov, model, Some(range))?));
+    }
+    let (ch, mut fit) = fits
+        .iter()
+        .min_by(|x, y| x.1.relative_width().total_cmp(&y.1.relative_width()))
+        .cloned()
+        .ok_or_else(|| Error::new("no channel has two determined filter orders to fit the model to"))?;
+    let k = fit.scale[0];
+    fit.scale = [None; 3];
+    fit.scale[ch] = k;
+    for (c, f) in &fits {
+        if let Some(p) = f.p_value().filter(|&p| p < 1e-3) {
+            warnings.push(format!(
+                "channel {}: the {} model does not describe the measured filter (χ² = {:.1} for ν = {}, p = {p:.1e})",
+                CHANNELS[*c],
+                model.name(),
+                f.chi2_min,
+                f.dof
+            ));
+        }
+    }
+    let channels: Vec<BrdfChannelFit> = fits
+        .iter()
+        .map(|(ch, f)| BrdfChannelFit {
+            channel: CHANNELS[*ch].into(),
+            estimate: f.parameter,
+            interval: [f.interval.0, f.interval.1],
+            chi2_min: f.chi2_min,
+            dof: f.dof,
+        })
+        .collect();
+    Ok(InvertBrdfReport {
+        fit: format!(
+            "filter fitted in pixel space over the views' pixels (as analyze), then the model by generalised least              squares with the filter's covariance and truncation, per channel over its determined orders; reported:              channel {}",
+            CHANNELS[ch]
+        ),
+        channels,
+        command: "invert brdf".into(),
+        lmax: a.lmax,
+        lmax_carried,
+        images: a.images.iter().map(|p| p.display().to_string()).collect(),
+        method,
+        lighting: source,
+        model: model.name().into(),
+        parameter: model.parameter_name().into(),
+        estimate: fit.parameter,
+        interval: [fit.interval.0, fit.interval.1],
+        relative_width: fit.relative_width().is_finite().then(|| fit.relative_width()),
+        range: [fit.range.0, fit.range.1],
+        scale: fit.scale,
+        chi2_min: fit.chi2_min,
+        dof: fit.dof,
+        weighted_by_stderr: fit.weighted_by_stderr,
+        points: fit.points,
+        filter: pf
+            .orders
+            .iter()
+            .map(|o| BrdfOrder {
+                l: o.l,
+                estimate: o.estimate,
+                stderr: o.stderr,
+                observable: o.estimate.iter().any(|e| e.is_some()),
+            })
+            .collect(),
+        profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
+        filter_fit: Some(FilterFitReport { orders: pf.orders, channels: pf.channels }),
+        warnings,
+    })
+}
+
+/// The pixel-space filter fit behind `invert brdf` on orthographic views (the one `analyze`
+/// prints): per order its noise, truncation, amplification and status; per channel χ², ν, p-value
+/// and covariance.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FilterFitReport {
+    pub orders: Vec<PixelOrder>,
+    pub channels: Vec<ChannelFit>,
 }
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
