@@ -123,11 +123,16 @@ def test_invert_lighting_and_brdf_give_the_cli_numbers(cli, probe, tmp_path):
     assert plain(got) == want
     assert got["coefficients"].shape == (9, 3) and got["lambda_rho"].shape == (3,)
     assert got["regularised"]["coefficients"].shape == (9, 3) and got["albedo"].dtype == np.float64
+    # Flags that contradict the header are the CLI's error.
+    line = cli("invert", "lighting", exr, "--lmax", 2, "--albedo", "0.5,0.6,0.7", check=False).stderr.strip()
+    with pytest.raises(ValueError) as e:
+        reflect.invert.lighting(exr, lmax=2, albedo=[0.5, 0.6, 0.7])
+    assert line == "error: " + str(e.value) and "contradict" in line
     # Flags as keywords, and the array of the same render with its scene.
-    want = cli_json(cli, "invert", "lighting", exr, "--lmax", 2, "--brdf", "lambert", "--albedo", "0.5,0.6,0.7",
+    want = cli_json(cli, "invert", "lighting", exr, "--lmax", 2, "--brdf", "lambert", "--albedo", "0.8,0.7,0.6",
                     "--lambda-rule", "discrepancy")
     img = reflect.read_image(exr)
-    got = plain(reflect.invert.lighting(img.layer(""), lmax=2, brdf="lambert", albedo=[0.5, 0.6, 0.7],
+    got = plain(reflect.invert.lighting(img.layer(""), lmax=2, brdf="lambert", albedo=[0.8, 0.7, 0.6],
                                         lambda_rule="discrepancy", scene=scene, stderr=img.layer("stderr.")))
     assert got.pop("images") == ["<array 0>"]
     want.pop("images")
