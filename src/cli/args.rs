@@ -1,11 +1,16 @@
 //! Arguments shared by several subcommands, defined once so that a flag name has one meaning
 //! everywhere (`#[command(flatten)]` or the same type): the view of an image whose header does not
-//! describe it ([`ViewArgs`]), the colour channel ([`Channel`]), and the closed sets of the
+//! describe it ([`ViewArgs`]), the BRDF model and its parameters ([`BrdfFlags`]), the colour
+//! channel ([`Channel`]), and the closed sets of the
 //! analysis as `clap::ValueEnum`s, so `--help` lists their names (those of the scene format,
 //! `--brdf`, `--mapping`, `--sampler`, come from `vocab` with its `clap` feature).
 
 use super::{Error, flags};
 use analysis::projection::{OrthoCamera, Param, Sphere};
+use analysis::transfer::TransferModel;
+use serde_json::Value;
+use vocab::BrdfKind;
+use vocab::scene::BrdfSection;
 
 /// The orthographic camera of each image and the sphere they show, for images whose header does
 /// not say them (another renderer's images, in the renderer's camera convention). The one place
@@ -76,6 +81,91 @@ impl ViewArgs {
             center: self.center.or(header.map(|s| s.center)).unwrap_or([0.0; 3]),
             radius: self.radius.or(header.map(|s| s.radius)).unwrap_or(1.0),
         }
+    }
+}
+
+/// The BRDF model and its parameters, for every command that takes a BRDF on the command line
+/// (`sh transfer`, `invert lighting`, `analyze`): `--brdf KIND` with its parameters, each named as
+/// the key of the scene file's `brdf` table. `--s` and `--sigma` are the built-in models'
+/// parameters; `--brdf-param KEY=VALUE` gives any other (so a new BRDF needs no new flag).
+/// Everything goes through the one BRDF → transfer-model mapping, [`TransferModel::from_named`].
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct BrdfFlags {
+    /// BRDF model (microfacet and mix have no transfer model and are refused).
+    #[arg(long, value_enum)]
+    pub brdf: Option<BrdfKind>,
+    /// Phong exponent s (> 0).
+    #[arg(long)]
+    pub s: Option<f64>,
+    /// Torrance–Sparrow roughness σ (radians, > 0).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Any other parameter of the --brdf model, KEY=VALUE with KEY its key in a scene file's brdf
+    /// table (repeatable).
+    #[arg(long = "brdf-param", value_parser = parse_param)]
+    pub brdf_param: Vec<(String, f64)>,
+}
+
+/// `KEY=VALUE` with a finite number as the value.
+fn parse_param(s: &str) -> Result<(String, f64), String> {
+    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected KEY=VALUE, got \"{s}\""))?;
+    let v: f64 = v.trim().parse().map_err(|_| format!("the value of {k} is not a number: \"{v}\""))?;
+    Ok((k.trim().to_string(), v))
+}
+
+/// The BRDF a command analyses with ([`BrdfFlags::resolve`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResolvedBrdf {
+    pub kind: BrdfKind,
+    /// The transfer model at the view's exitance.
+    pub model: TransferModel,
+    /// The header table's RGB factor (albedo / k_s / k_r); `None` when the model came from flags.
+    pub header_scale: Option<[f64; 3]>,
+}
+
+impl BrdfFlags {
+    /// The parameters given, as (key, value) pairs.
+    pub fn params(&self) -> Vec<(String, f64)> {
+        let named = [("s", self.s), ("sigma", self.sigma)].into_iter().filter_map(|(n, v)| Some((n.to_string(), v?)));
+        named.chain(self.brdf_param.iter().cloned()).collect()
+    }
+
+    /// The transfer model of `--brdf` and its parameters, with `theta_o_deg` an exitance given on
+    /// the command line (`sh transfer --theta-o`); `None` without `--brdf`, a parameter given
+    /// without `--brdf` being an error.
+    pub fn model(&self, theta_o_deg: Option<f64>) -> Result<Option<TransferModel>, Error> {
+        match self.brdf {
+            Some(kind) => Ok(Some(TransferModel::from_named(kind, &self.params(), theta_o_deg)?)),
+            None => match self.params().first() {
+                Some((name, _)) => Err(Error::new(format!("--{name} needs --brdf"))),
+                None => Ok(None),
+            },
+        }
+    }
+
+    /// The BRDF kind: `--brdf`, else the `type` of the header's BRDF table (`None` when neither
+    /// says it, or the header's type is unknown: [`BrdfFlags::resolve`] then names the fault).
+    pub fn kind(&self, header: Option<&Value>) -> Option<BrdfKind> {
+        self.brdf.or_else(|| header.and_then(|b| b.get("type")?.as_str()?.parse::<BrdfKind>().ok()))
+    }
+
+    /// The BRDF of an image seen at exitance θ_o (radians, the view's): from the flags when
+    /// `--brdf` is given, else from the header's BRDF table (`reflect:objects`), both through the
+    /// one BRDF → transfer-model mapping. Errors: neither given, a bad flag or header table, or a
+    /// BRDF without a transfer model.
+    pub fn resolve(&self, header: Option<&Value>, theta_o: f64) -> Result<ResolvedBrdf, Error> {
+        if let Some(m) = self.model(None)? {
+            let kind = self.brdf.expect("model() is Some only with --brdf");
+            return Ok(ResolvedBrdf { kind, model: m.at_exitance(theta_o), header_scale: None });
+        }
+        let b = header.ok_or_else(|| Error::new("no BRDF: pass --brdf (the image header names none)"))?;
+        let table: BrdfSection = serde_json::from_value(b.clone())
+            .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
+        let kind = table.kind();
+        let t = TransferModel::of_brdf(&table, theta_o)
+            .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?
+            .ok_or_else(|| Error::new(format!("the header's BRDF '{kind}' has no transfer model: pass --brdf")))?;
+        Ok(ResolvedBrdf { kind, model: t.model, header_scale: Some(t.scale) })
     }
 }
 

@@ -20,7 +20,7 @@
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::Error;
-use super::args::{FitModel, LambdaRule};
+use super::args::{BrdfFlags, FitModel, LambdaRule};
 use super::header::{first_sphere, header_json, json_vec3, lighting_of, probe_theta_o_deg};
 use super::sh::check_lmax;
 use analysis::filter::ChannelFit;
@@ -38,8 +38,7 @@ use analysis::transfer::{TransferModel, parameterization};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use vocab::scene::BrdfSection;
-use vocab::{BrdfKind, Mapping};
+use vocab::Mapping;
 
 #[derive(clap::Subcommand, Debug)]
 pub enum InvertCommand {
@@ -58,15 +57,9 @@ pub struct LightingArgs {
     /// Rendered images (OpenEXR): one normal-probe image, or orthographic views.
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// BRDF model (default: the header's BRDF; microfacet and mix have no transfer model).
-    #[arg(long, value_enum)]
-    pub brdf: Option<BrdfKind>,
-    /// Phong exponent.
-    #[arg(long)]
-    pub s: Option<f64>,
-    /// Torrance–Sparrow roughness σ.
-    #[arg(long)]
-    pub sigma: Option<f64>,
+    /// The BRDF (default: the header's; microfacet and mix have no transfer model).
+    #[command(flatten)]
+    pub brdf: BrdfFlags,
     /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's, else 1).
     #[arg(long, value_parser = super::flags::parse_rgb)]
     pub albedo: Option<[f64; 3]>,
@@ -221,30 +214,14 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
 }
 
 /// BRDF model and albedo from the command line, else from the header's BRDF table, both through
-/// the one BRDF → transfer-model mapping ([`TransferModel::from_params`], [`TransferModel::of_brdf`]).
+/// the one BRDF → transfer-model mapping ([`BrdfFlags::resolve`]).
 fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
-    let (model, kind, header_albedo) = match (a.brdf, header) {
-        (Some(kind), _) => {
-            // θ_o of a normal-probe image only changes the Torrance–Sparrow coefficients (eq. 59).
-            let th = (kind == BrdfKind::TorranceSparrow && theta_o != 0.0).then_some(theta_o.to_degrees());
-            (TransferModel::from_params(kind, a.s, a.sigma, th)?, kind, None)
-        }
-        (None, Some(b)) => {
-            let table: BrdfSection = serde_json::from_value(b.clone())
-                .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
-            let kind = table.kind();
-            let t = TransferModel::of_brdf(&table, theta_o)
-                .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?
-                .ok_or_else(|| Error::new(format!("the header's BRDF '{kind}' has no transfer model: pass --brdf")))?;
-            (t.model, kind, Some(t.scale))
-        }
-        (None, None) => return Err(Error::new("no BRDF: pass --brdf (the image header names none)")),
-    };
-    let albedo = a.albedo.or(header_albedo).unwrap_or([1.0; 3]);
+    let r = a.brdf.resolve(header, theta_o)?;
+    let albedo = a.albedo.or(r.header_scale).unwrap_or([1.0; 3]);
     if albedo.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         return Err(Error::new(format!("albedo must be > 0, got {albedo:?}")));
     }
-    Ok((model, albedo, kind.name().to_string()))
+    Ok((r.model, albedo, r.kind.name().to_string()))
 }
 
 /// One order of `invert lighting`: the filter, its noise amplification and status.
@@ -320,11 +297,11 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
     let first = read_image(&a.images[0])?;
     let (_, header_brdf, _) = first_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
-    let kind = a.brdf.or_else(|| header_brdf.as_ref().and_then(|b| b.get("type")?.as_str()?.parse::<BrdfKind>().ok()));
+    let kind = a.brdf.kind(header_brdf.as_ref());
     let param = kind.map_or(Param::Reflection, parameterization);
     let p = project(&a.images, a.lmax, param)?;
     let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)
-        .map_err(|e| if a.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
+        .map_err(|e| if a.brdf.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
     let filter = model.lambda_rho(a.lmax);
     let inv = invert_lighting(&p.b, p.stderr.as_deref(), &filter, albedo, a.lmax, a.max_amplification, Some(rule))?;
     if let Some(out) = &a.output {
@@ -698,9 +675,7 @@ mod tests {
     fn lighting_args(images: Vec<PathBuf>, lmax: usize) -> LightingArgs {
         LightingArgs {
             images,
-            brdf: None,
-            s: None,
-            sigma: None,
+            brdf: BrdfFlags::default(),
             albedo: None,
             lmax,
             max_amplification: DEFAULT_MAX_AMPLIFICATION,
@@ -778,7 +753,7 @@ mod tests {
         a.width = 3;
         assert!(lighting_doc(&a).is_err());
         a.output = None;
-        a.brdf = Some(BrdfKind::Microfacet);
+        a.brdf.brdf = Some(vocab::BrdfKind::Microfacet);
         assert!(lighting_doc(&a).is_err());
     }
 

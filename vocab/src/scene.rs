@@ -212,31 +212,64 @@ impl ObjectSection {
     }
 }
 
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum BrdfSection {
-    Mirror {
+/// Defines the BRDF tables once: [`BrdfSection`] (the `brdf` table of an object, its variants
+/// tagged by `type`) and, from the same list, the closed set [`BrdfKind`] of their names and
+/// [`BrdfSection::kind`]. Adding a BRDF to the scene format is one entry here (README "Adding a
+/// BRDF").
+macro_rules! brdf_tables {
+    ($( $(#[$vmeta:meta])* $variant:ident = $text:literal { $($fields:tt)* } ),+ $(,)?) => {
+        /// A `brdf` table (CONVENTIONS §4 and §6), tagged by `type`.
+        #[derive(Clone, Debug, Deserialize, Serialize)]
+        #[serde(tag = "type", deny_unknown_fields)]
+        pub enum BrdfSection {
+            $( $(#[$vmeta])* #[serde(rename = $text)] $variant { $($fields)* }, )+
+        }
+
+        crate::closed::closed_set! {
+            /// The BRDF models of CONVENTIONS §4 (the `type` of a `brdf` table), one per
+            /// [`BrdfSection`] variant.
+            "BRDF type", BrdfKind { $( $(#[$vmeta])* $variant = $text ),+ }
+        }
+
+        impl BrdfSection {
+            /// The BRDF's `type`.
+            pub fn kind(&self) -> BrdfKind {
+                match self {
+                    $( BrdfSection::$variant { .. } => BrdfKind::$variant, )+
+                }
+            }
+        }
+    };
+}
+
+brdf_tables! {
+    /// ρ̂ = k_r δ(ω_i = R).
+    Mirror = "mirror" {
         #[serde(default = "one")]
         kr: Color,
     },
-    Lambert {
+    /// BRDF = albedo / π.
+    Lambert = "lambert" {
         albedo: Color,
     },
-    Phong {
+    /// The normalized Phong lobe of eq. 40.
+    Phong = "phong" {
         #[serde(default = "one")]
         ks: Color,
         s: f32,
         #[serde(default)]
         horizon: Horizon,
     },
-    TorranceSparrow {
+    /// The Torrance–Sparrow lobe of eq. 48.
+    TorranceSparrow = "torrance-sparrow" {
         #[serde(default = "one")]
         ks: Color,
         sigma: f32,
         #[serde(default)]
         horizon: Horizon,
     },
-    Microfacet {
+    /// Beckmann or GGX D, Smith G, Fresnel F.
+    Microfacet = "microfacet" {
         #[serde(default)]
         distribution: Distribution,
         alpha: f32,
@@ -251,7 +284,8 @@ pub enum BrdfSection {
         #[serde(default)]
         k: Option<Color>,
     },
-    Mix {
+    /// A weighted sum of the others.
+    Mix = "mix" {
         layers: Vec<MixLayer>,
     },
 }
@@ -308,20 +342,6 @@ impl ObjectSection {
             ObjectSection::Sphere { .. } => crate::ShapeKind::Sphere,
             ObjectSection::Mesh { .. } => crate::ShapeKind::Mesh,
             ObjectSection::Icosphere { .. } => crate::ShapeKind::Icosphere,
-        }
-    }
-}
-
-impl BrdfSection {
-    /// The BRDF's `type`.
-    pub fn kind(&self) -> crate::BrdfKind {
-        match self {
-            BrdfSection::Mirror { .. } => crate::BrdfKind::Mirror,
-            BrdfSection::Lambert { .. } => crate::BrdfKind::Lambert,
-            BrdfSection::Phong { .. } => crate::BrdfKind::Phong,
-            BrdfSection::TorranceSparrow { .. } => crate::BrdfKind::TorranceSparrow,
-            BrdfSection::Microfacet { .. } => crate::BrdfKind::Microfacet,
-            BrdfSection::Mix { .. } => crate::BrdfKind::Mix,
         }
     }
 }
