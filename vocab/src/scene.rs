@@ -299,16 +299,44 @@ pub struct MixLayer {
 
 impl SceneFile {
     /// Parses TOML text; errors carry the line number and serde's one-line message.
+    ///
+    /// An error inside an `[[objects]]` entry names the entry (`objects[i]`) and the line of its
+    /// table: the `shape`-tagged entries are read whole, so the parser's own span covers the whole
+    /// array and cannot say which entry (or line) is at fault.
     pub fn parse(text: &str) -> Result<Self, String> {
         toml::from_str::<SceneFile>(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+            if let Some(located) = locate_object_error(text) {
+                return located;
+            }
             let msg = e.message().trim().replace('\n', " ");
-            match line {
-                Some(l) => format!("line {l}: {msg}"),
+            match e.span() {
+                Some(s) => format!("line {}: {msg}", line_of(text, s.start)),
                 None => msg,
             }
         })
     }
+}
+
+/// The 1-based line holding byte `offset` of `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+/// The first `[[objects]]` entry that does not parse on its own, as "line L: objects[i]: message"
+/// (L the first line of its table); `None` when every entry parses (the fault is elsewhere).
+fn locate_object_error(text: &str) -> Option<String> {
+    #[derive(Deserialize)]
+    struct Objects {
+        #[serde(default)]
+        objects: Vec<toml::Spanned<toml::Table>>,
+    }
+    let all: Objects = toml::from_str(text).ok()?;
+    all.objects.into_iter().enumerate().find_map(|(i, o)| {
+        let start = o.span().start;
+        let err = toml::Value::Table(o.into_inner()).try_into::<ObjectSection>().err()?;
+        let msg = err.message().trim().replace('\n', " ");
+        Some(format!("line {}: objects[{i}]: {msg}", line_of(text, start)))
+    })
 }
 
 impl CameraSection {
