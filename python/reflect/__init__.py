@@ -25,8 +25,12 @@ from . import _reflect
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
 
+ImageLike = Union[str, "os.PathLike[str]", RenderResult, np.ndarray]
+
 __all__ = [
     "Image",
+    "analyze",
+    "invert",
     "RenderResult",
     "Scene",
     "__version__",
@@ -36,6 +40,7 @@ __all__ = [
     "render",
     "sh",
     "verify",
+    "write_image",
 ]
 
 
@@ -109,6 +114,73 @@ class Image:
         return f"<reflect.Image channels {sorted(self.channels)}>"
 
 
+def write_image(
+    path: Union[str, "os.PathLike[str]"],
+    channels: Dict[str, np.ndarray],
+    attributes: Optional[Dict[str, str]] = None,
+) -> None:
+    """Writes a 32-bit float OpenEXR file: each (H, W) array of ``channels`` as the channel of that
+    name (``R``, ``G``, ``B``, ``stderr.R``, …; all the same shape, finite), and ``attributes`` as
+    string attributes of the header (ASCII). The inverse of :func:`read_image`."""
+    ch = {str(k): np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
+    _reflect.write_image(os.fspath(path), ch, dict(attributes or {}))
+
+
+def analyze(
+    images: Union[ImageLike, Sequence[ImageLike]],
+    *,
+    lmax: int,
+    lighting: Any = None,
+    mapping: Optional[str] = None,
+    param: Optional[str] = None,
+    camera: Union[None, Dict[str, Any], Sequence[Dict[str, Any]]] = None,
+    sphere: Optional[Dict[str, Any]] = None,
+    scene: Any = None,
+    stderr: Any = None,
+    **flags: Any,
+) -> Dict[str, Any]:
+    """Projects images of a sphere into SH and compares them with the lighting: ``reflect analyze --json``.
+
+    ``images``: one image or a list: ``.exr`` paths, :class:`RenderResult` objects, or (H, W, 3)
+    arrays of linear radiance (one normal-probe image, or orthographic views of one sphere). An
+    array has no header, so say what it shows: ``camera`` (a scene-file camera table, e.g.
+    ``{"type": "orthographic", "from": [3, 0, 0], "to": [0, 0, 0], "extent": 1.05}`` or
+    ``{"type": "normal-probe"}``; a list gives one per array), ``sphere`` (``{"center": [x, y,
+    z], "radius": r, "brdf": {...}}``; without a BRDF, the CLI's ``--center`` / ``--radius``) and/or ``scene`` (the scene it was rendered from: a path,
+    TOML text, dict or :class:`Scene`; its camera, lighting and objects), and optionally
+    ``stderr`` (an (H, W, 3) array per array image: the per-pixel standard error that weights the
+    fit). The array is then analysed as the render of that scene would be (it is written, with
+    that header, as the EXR the command reads).
+
+    ``lighting``: a scene file or environment map path (``--lighting``), a scene ``[lighting]``
+    table as a dict, SH coefficients ((L+1)², 3), or an environment-map array (H, W, 3) (with
+    ``mapping`` "latlong" | "angular", default from the aspect ratio); default: the header's.
+    ``param``: "normal" | "reflection" (default from the BRDF). Further keyword arguments are
+    the command's flags (``name=value`` → ``--name value``).
+
+    Returns the ``--json`` document as a dict; lists of numbers become NumPy arrays (float64, null
+    → NaN; int64 when all integers): ``coefficients`` B_lm ((lmax+1)², 3), ``stderr`` (same or
+    absent), ``lm`` ((lmax+1)², 2) int64 (k = l(l+1) + m), ``lighting["coefficients"]`` L_lm,
+    ``filter`` (list of per-order dicts: A_l = albedo · Λ_l ρ̂_l fitted in pixel space,
+    ``estimate``/``stderr`` (3,) per channel), ``lambda_rho_analytic`` (lmax+1, 3),
+    ``predicted`` (eq. 15 B_lm), ``lmax_carried``, ``pixels_used``, ``warnings`` (list of str).
+    Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the CLI's
+    one-line message.
+    """
+    from ._commands import run
+
+    return run(
+        ["analyze"],
+        images,
+        dict(lmax=lmax, mapping=mapping, param=param, **flags),
+        camera=camera,
+        sphere=sphere,
+        scene=scene,
+        stderr=stderr,
+        lighting=lighting,
+    )
+
+
 def list_checks() -> List[Tuple[str, str]]:
     """The checks :func:`verify` can run, as ``reflect verify --list`` prints them: (name, equations)."""
     return _reflect.verify_checks()
@@ -132,18 +204,21 @@ def verify(
     :func:`list_checks`; default all). ``seed``: base seed of the renders (default 1, as the
     CLI). ``data``: the folder holding ``grace_probe.hdr`` (default: ``$REFLECT_DATA``, else
     ``../shared/data`` from the current directory). ``out``: also write the report folder
-    (report.md/html/json and SVG plots) there. The GIL is released; a Ctrl-C takes effect when
-    the running checks finish. A failed check is a result (``passed`` false), not an exception.
+    (report.md/html/json and SVG plots) there. The GIL is released; Ctrl-C stops the running check's
+    render within one tile and raises ``KeyboardInterrupt``. A failed check is a result (``passed`` false), not an exception.
+    Lists of numbers are NumPy arrays, as in :func:`analyze`.
     """
+    from ._commands import _arrays
+
     names = [checks] if isinstance(checks, str) else None if checks is None else list(checks)
-    return _reflect.verify(
+    return _arrays(_reflect.verify(
         quick,
         names,
         seed,
         None if data is None else os.fspath(data),
         None if out is None else os.fspath(out),
         threads,
-    )
+    ))
 
 
-from . import sh  # noqa: E402  (after render: sh imports nothing from here but keeps the order readable)
+from . import invert, sh  # noqa: E402  (after render: sh imports nothing from here but keeps the order readable)

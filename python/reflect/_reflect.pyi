@@ -82,6 +82,24 @@ def sh_transfer(
 def sh_rotate(coeffs: npt.NDArray[np.float64], rotation: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Coefficients of f(Rᵀω) for coefficients ((L+1)², 3) and a 3 × 3 rotation R: ((L+1)², 3) float64."""
 
+def report(argv: List[str]) -> Dict[str, Any]:
+    """Parses ``reflect ARGV…`` with the CLI's parser and runs ``analyze`` or ``invert
+    lighting | brdf | separate | factor`` in this process (GIL released), returning the document its
+    ``--json`` prints as plain Python objects (dicts, lists, floats, ints, str, None for null).
+    A usage error raises ``ValueError`` with the binary's one line (without ``error: ``)."""
+
+def write_image(path: str, channels: Dict[str, npt.NDArray[np.float32]], attributes: Dict[str, str]) -> None:
+    """Writes a 32-bit float OpenEXR: each C-contiguous (H, W) float32 array of ``channels`` (one
+    shape, finite values) as the channel of that name, ``attributes`` as header string attributes."""
+
+def header_attributes(scene: Dict[str, Any]) -> Dict[str, str]:
+    """``reflect:camera``, ``reflect:lighting``, ``reflect:objects`` as a render of ``scene`` (a dict
+    with ``camera``, ``lighting`` and ``objects`` tables of the scene vocabulary) writes them:
+    checked with the scene file's types, defaults filled, numbers as float32 (as the renderer holds them)."""
+
+def lighting_toml(table: Dict[str, Any]) -> str:
+    """A scene file holding only this ``[lighting]`` table (checked with the scene types), for ``--lighting``."""
+
 def verify_checks() -> List[Tuple[str, str]]:
     """The checks of ``reflect verify --list``: (name, equations)."""
 

@@ -10,6 +10,7 @@
 //! `FileNotFoundError` when the file it names does not exist. A panic in a render thread becomes
 //! `RuntimeError`; nothing unwinds into Python.
 
+mod commands;
 mod convert;
 mod render;
 mod sh;
@@ -30,6 +31,10 @@ fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sh::sh_transfer, m)?)?;
     m.add_function(wrap_pyfunction!(sh::sh_rotate, m)?)?;
     m.add_function(wrap_pyfunction!(sh::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::report, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::write_image, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::header_attributes, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::lighting_toml, m)?)?;
     m.add_function(wrap_pyfunction!(verify::verify, m)?)?;
     m.add_function(wrap_pyfunction!(verify::verify_checks, m)?)?;
     Ok(())

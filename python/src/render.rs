@@ -5,7 +5,7 @@
 use crate::convert::{IntoPy, to_python};
 use analysis::Error;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use renderer::film::{Film, Pixel};
@@ -13,9 +13,7 @@ use renderer::render::{RenderOptions, RenderStats};
 use renderer::scene::{Scene, SceneFile};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc;
-use std::time::Duration;
+use std::sync::atomic::AtomicBool;
 
 /// A scene description with where its relative paths are resolved from.
 struct Source {
@@ -109,9 +107,9 @@ fn apply_overrides(
     Ok(())
 }
 
-/// Renders on another thread while this one, without the GIL, waits for it; every 50 ms it takes
-/// the GIL back to run Python's signal handlers, so Ctrl-C (KeyboardInterrupt) sets the cancel
-/// flag and the render stops at its next tile.
+/// Renders on another thread while this one, without the GIL, waits for it; Ctrl-C
+/// (KeyboardInterrupt) sets the cancel flag and the render stops at its next tile
+/// ([`crate::convert::interruptibly`]).
 fn render_interruptibly(
     py: Python<'_>,
     scene: &Scene,
@@ -120,42 +118,10 @@ fn render_interruptibly(
 ) -> PyResult<(Film, RenderStats)> {
     let cancel = Arc::new(AtomicBool::new(false));
     let opts = RenderOptions { progress, cancel: Some(cancel.clone()) };
-    let (tx, rx) = mpsc::channel::<()>();
-    // (A Receiver is not Sync; the wait below runs without the GIL, which asks for a Sync borrow.)
-    let rx = std::sync::Mutex::new(rx);
-    std::thread::scope(|s| {
-        let worker = s.spawn(move || {
-            let r = reflect::cli::render::with_threads(threads, || renderer::render::render(scene, &opts));
-            let _ = tx.send(());
-            r
-        });
-        let mut interrupted: Option<PyErr> = None;
-        loop {
-            let waited = py.detach(|| match rx.lock() {
-                Ok(r) => r.recv_timeout(Duration::from_millis(50)),
-                Err(_) => Err(mpsc::RecvTimeoutError::Disconnected),
-            });
-            match waited {
-                Err(mpsc::RecvTimeoutError::Timeout) => {
-                    if interrupted.is_none()
-                        && let Err(e) = py.check_signals()
-                    {
-                        cancel.store(true, Ordering::Relaxed);
-                        interrupted = Some(e);
-                    }
-                }
-                _ => break,
-            }
-        }
-        let result = py.detach(|| worker.join());
-        if let Some(e) = interrupted {
-            return Err(e);
-        }
-        match result {
-            Ok(r) => r.py(),
-            Err(_) => Err(PyRuntimeError::new_err("the render thread panicked (a bug in reflect)")),
-        }
-    })
+    crate::convert::interruptibly(py, &cancel, || {
+        reflect::cli::render::with_threads(threads, || renderer::render::render(scene, &opts))
+    })?
+    .py()
 }
 
 /// `render(kind, value, base, spp, seed, size, threads, sampler, progress)`: see `reflect.render`.

@@ -59,26 +59,36 @@ pub fn verify<'py>(
     };
     let dir = out.clone().unwrap_or_else(|| scratch.as_ref().map(|t| t.0.clone()).unwrap_or_default());
     let seed = seed.unwrap_or(1); // the CLI's default --seed
-    let ctx = Ctx { quick, wrong: false, seed, out: dir, verbose: false, data };
-    let (doc, results) = py
-        .detach(|| {
-            let t = std::time::Instant::now();
-            let results = reflect::cli::render::with_threads(threads, || {
-                selected.iter().map(|e| run_entry(&ctx, e)).collect::<Vec<_>>()
-            })?;
-            let seconds = t.elapsed().as_secs_f64();
-            if let Some(o) = &out {
-                report::write_folder(o, &results, quick, seconds).map_err(|m| Error::file(o, m))?;
+    // The checks run one after another on a worker thread; Ctrl-C (KeyboardInterrupt) sets
+    // `cancel`: the running check's render stops at its next tile (the check's arithmetic on
+    // finished renders is not interrupted) and no further check starts.
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let ctx = Ctx { quick, wrong: false, seed, out: dir, verbose: false, data, cancel: Some(cancel.clone()) };
+    let (doc, results) = crate::convert::interruptibly(py, &cancel, || {
+        let t = std::time::Instant::now();
+        let results = reflect::cli::render::with_threads(threads, || {
+            let mut done = Vec::with_capacity(selected.len());
+            for e in &selected {
+                if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                    break;
+                }
+                done.push(run_entry(&ctx, e));
             }
-            Ok::<_, Error>((report::json(&results, quick, seconds), results.len()))
-        })
-        .py()?;
+            done
+        })?;
+        let seconds = t.elapsed().as_secs_f64();
+        if results.len() == selected.len()
+            && let Some(o) = &out
+        {
+            report::write_folder(o, &results, quick, seconds).map_err(|m| Error::file(o, m))?;
+        }
+        Ok::<_, Error>((report::json(&results, quick, seconds), results.len()))
+    })?
+    .py()?;
     if results != selected.len() {
         return Err(PyRuntimeError::new_err("verify: a check went missing (a bug in reflect)"));
     }
     drop(scratch);
-    // Signals that arrived while the checks ran (they cannot be stopped midway) surface now.
-    py.check_signals()?;
     to_python(py, &doc)
 }
 

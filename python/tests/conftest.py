@@ -1,9 +1,11 @@
 """Shared fixtures: the checkout, the CLI binary to compare with, tiny scenes."""
 
+import math
 import os
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -82,3 +84,16 @@ def tiny_scene(tmp_path):
     p = tmp_path / "tiny.toml"
     p.write_text(TINY)
     return p
+
+
+def plain(v):
+    """A report back in JSON's terms (arrays → lists, NaN → null), to compare with the CLI's document."""
+    if isinstance(v, dict):
+        return {k: plain(x) for k, x in v.items()}
+    if isinstance(v, np.ndarray):
+        return plain(v.tolist())
+    if isinstance(v, list):
+        return [plain(x) for x in v]
+    if isinstance(v, float) and math.isnan(v):
+        return None
+    return v

@@ -75,8 +75,15 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
     let data = verify::data::resolve(a.data.as_deref()).map_err(Error::new)?;
     std::fs::create_dir_all(&a.out)
         .map_err(|e| Error::file(&a.out, format!("cannot create the report folder: {e}")))?;
-    let ctx =
-        Ctx { quick: a.quick, wrong: a.wrong_prediction, seed: a.seed, out: a.out.clone(), verbose: a.verbose, data };
+    let ctx = Ctx {
+        quick: a.quick,
+        wrong: a.wrong_prediction,
+        seed: a.seed,
+        out: a.out.clone(),
+        verbose: a.verbose,
+        data,
+        cancel: None,
+    };
     let t = std::time::Instant::now();
     // On a terminal (and without --verbose) a progress bar naming the running check; otherwise one
     // line per finished check on stderr (and, with --verbose, a line when each starts).

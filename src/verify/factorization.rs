@@ -39,7 +39,8 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
-use super::fit::{Channel, dot, normalize};
+use super::fit::{Channel, dot, latlong_dir, normalize};
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec};
 use super::scenes::{beckmann, lambert};
 use analysis::inverse::factorization::{
@@ -47,6 +48,7 @@ use analysis::inverse::factorization::{
     filter_from_lighting, hemisphere_nodes, project,
 };
 use analysis::sh::index;
+use analysis::transfer::microfacet::beckmann_lambda;
 use std::f64::consts::PI;
 use vocab::scene::BrdfSection;
 
@@ -352,6 +354,38 @@ fn plots(glossy: &Slice, lambert: &Slice, y: &[f64]) -> Vec<Plot> {
     vec![coeffs, errors]
 }
 
+/// Closed-form images of a unit directional source: B = ρ̂ (Beckmann α, F = 1, or Lambert) on the
+/// normal-probe grid at exitance (θ_o, φ_o) in degrees, rounded to f32 like a render (tests and the
+/// report's picture).
+pub fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f64>, String> {
+    let s = normalize(SOURCE);
+    move |to: f64, po: f64, h: usize| {
+        let w = 2 * h;
+        Ok((0..w * h)
+            .map(|i| {
+                let n = latlong_dir(i / w, i % w, w, h);
+                let ci = dot(n, s);
+                if ci <= 0.0 {
+                    return 0.0;
+                }
+                if lambert {
+                    return ci / PI;
+                }
+                let wo = analysis::projection::normal_probe_outgoing(n, to.to_radians(), po.to_radians());
+                let hv = normalize([s[0] + wo[0], s[1] + wo[1], s[2] + wo[2]]);
+                let ch = dot(n, hv);
+                let d = (-(1.0 - ch * ch) / (ch * ch) / (ALPHA * ALPHA)).exp() / (PI * ALPHA * ALPHA * ch.powi(4));
+                let co = dot(n, wo);
+                let g = 1.0
+                    / (1.0
+                        + beckmann_lambda(co.clamp(-1.0, 1.0).acos(), ALPHA)
+                        + beckmann_lambda(ci.clamp(-1.0, 1.0).acos(), ALPHA));
+                (d * g / (4.0 * co)) as f32 as f64
+            })
+            .collect())
+    }
+}
+
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let (coarse, fine) = plans(ctx.quick);
     let render = |brdf: BrdfSection| {
@@ -395,6 +429,19 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let ch = Channel::from_film(&film, 0);
     let worst_se = ch.sigma.iter().cloned().fold(0.0, f64::max);
     let mut c = evaluate((&g.0, &g.1), (&l.0, &l.1), &Prediction::new(ctx.wrong));
+    let predicted = closed_form(false)(40.0, 100.0, fine.height)?;
+    c.pictures.push(Picture::new(
+        "factorization_glossy",
+        format!(
+            "Beckmann α = {ALPHA} (F = 1) sphere under one directional source, θ_o = 40°, φ_o = 100° (normal probe, \
+             4 spp, exact)"
+        ),
+        "the closed-form BRDF slice ρ(ω_i, ω_o) cos θ_i of one outgoing node (what eq. 18 factors), f32-rounded",
+        (ch.width, ch.height),
+        ch.value.clone(),
+        predicted.clone(),
+        predicted.iter().map(|v| (F32_FLOOR * v.abs()).max(1e-12)).collect(),
+    ));
     c.push(
         Row::new("determinism: max per-pixel stderr of a 4-spp render (σ = 0 claimed)", 0.0, worst_se, 0.0)
             .floor(F32_FLOOR * 1e-3),
@@ -419,39 +466,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::fit::latlong_dir;
     use super::*;
-    use analysis::transfer::microfacet::beckmann_lambda;
-
-    /// Closed-form images of a unit directional source: B = ρ̂ (Beckmann α, F = 1, or Lambert).
-    fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f64>, String> {
-        let s = normalize(SOURCE);
-        move |to: f64, po: f64, h: usize| {
-            let w = 2 * h;
-            Ok((0..w * h)
-                .map(|i| {
-                    let n = latlong_dir(i / w, i % w, w, h);
-                    let ci = dot(n, s);
-                    if ci <= 0.0 {
-                        return 0.0;
-                    }
-                    if lambert {
-                        return ci / PI;
-                    }
-                    let wo = analysis::projection::normal_probe_outgoing(n, to.to_radians(), po.to_radians());
-                    let hv = normalize([s[0] + wo[0], s[1] + wo[1], s[2] + wo[2]]);
-                    let ch = dot(n, hv);
-                    let d = (-(1.0 - ch * ch) / (ch * ch) / (ALPHA * ALPHA)).exp() / (PI * ALPHA * ALPHA * ch.powi(4));
-                    let co = dot(n, wo);
-                    let g = 1.0
-                        / (1.0
-                            + beckmann_lambda(co.clamp(-1.0, 1.0).acos(), ALPHA)
-                            + beckmann_lambda(ci.clamp(-1.0, 1.0).acos(), ALPHA));
-                    (d * g / (4.0 * co)) as f32 as f64
-                })
-                .collect())
-        }
-    }
 
     #[test]
     fn right_prediction_passes_and_wrong_ones_fail() {

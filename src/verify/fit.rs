@@ -45,6 +45,26 @@ impl Channel {
         }
     }
 
+    /// Channel `c` (0 = R, 1 = G, 2 = B) of a render read back from its EXR, as `analyze` reads it:
+    /// σ from the `stderr` layer (0 without one), the `normal` layer ((0, 0, 0) without one) and
+    /// `mask.Y` (1 without one). Missing colour channels read as 0.
+    pub fn from_image(img: &analysis::image::Image, c: usize) -> Channel {
+        let n = img.width * img.height;
+        let layer = |name: &str, default: f64| -> Vec<f64> {
+            img.channel(name).map(|v| v.iter().map(|x| *x as f64).collect()).unwrap_or_else(|| vec![default; n])
+        };
+        let rgb = ["R", "G", "B"][c];
+        let (nx, ny, nz) = (layer("normal.X", 0.0), layer("normal.Y", 0.0), layer("normal.Z", 0.0));
+        Channel {
+            width: img.width,
+            height: img.height,
+            value: layer(rgb, 0.0),
+            sigma: layer(&format!("stderr.{rgb}"), 0.0),
+            normal: (0..n).map(|i| [nx[i], ny[i], nz[i]]).collect(),
+            mask: layer("mask.Y", 1.0),
+        }
+    }
+
     #[cfg(test)]
     /// A synthetic normal-probe image (tests): value f(n) + noise, stderr σ.
     pub fn synthetic_probe(w: usize, h: usize, f: impl Fn([f64; 3]) -> f64, sigma: f64, seed: u64) -> Channel {

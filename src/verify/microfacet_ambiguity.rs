@@ -34,6 +34,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_omega, normalize};
 use super::oblique::{LightTable, Resolution, predict_probe, probe_geometry};
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
 use super::scenes::{mirror, torrance_sparrow};
 use super::transfer;
@@ -231,6 +232,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         deterministic: false,
     };
     let mut dir = Curve { name: "directional".into(), deterministic: true, ..sh.clone() };
+    let mut pictures = vec![];
     for (i, &t) in THETA_O_DEG.iter().enumerate() {
         let camera = Camera::Probe { theta_o_deg: t, phi_o_deg: 0.0 };
         let base = Spec {
@@ -248,6 +250,17 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let b = Channel::from_film(&render_spec(ctx, &mirror)?, 0);
         let theta_o = t.to_radians();
         sh.measured.push(pair_diff(&a.value, &a.sigma, &b.value, w, h));
+        if i == 0 {
+            pictures.push(Picture::new(
+                "microfacet_ambiguity_sh",
+                format!("Torrance–Sparrow σ = {SIGMA} under SH light l ≤ {LMAX_LOW}, θ_o = {t}° (normal probe)"),
+                "mirror sphere under the lighting blurred by the Torrance–Sparrow filter (the ambiguous pair)",
+                (w, h),
+                a.value.clone(),
+                b.value.clone(),
+                a.sigma.iter().zip(&b.value).map(|(s, v)| s.hypot(F32_FLOOR * v.abs())).collect(),
+            ));
+        }
         let zero = vec![0.0; w * h];
         let pf = pair_diff(&predict_probe(SIGMA, theta_o, w, h, &fine.0, fine.1), &zero, &b.value, w, h).d2;
         let pc = pair_diff(&predict_probe(SIGMA, theta_o, w, h, &coarse.0, coarse.1), &zero, &b.value, w, h).d2;
@@ -259,10 +272,25 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         let dch = Channel::from_film(&render_spec(ctx, &d)?, 0);
         let (ts, pair) = directional_images(theta_o, w, h);
         dir.measured.push(pair_diff(&dch.value, &dch.sigma, &pair, w, h));
+        if i + 1 == THETA_O_DEG.len() {
+            pictures.push(Picture::new(
+                "microfacet_ambiguity_directional",
+                format!(
+                    "Torrance–Sparrow σ = {SIGMA} under a directional source, θ_o = {t}° (normal probe, 1 spp, exact)"
+                ),
+                "the Phong-like pair (blurred lighting, sharpened BRDF) where the ambiguity breaks; the render is \
+                 exact, so z saturates wherever the two differ",
+                (w, h),
+                dch.value.clone(),
+                pair.clone(),
+                dch.sigma.iter().zip(&pair).map(|(s, v)| s.hypot(F32_FLOOR * v.abs())).collect(),
+            ));
+        }
         dir.predicted.push(pair_diff(&ts, &zero, &pair, w, h).d2);
         dir.approx.push(0.0);
     }
     let mut c = evaluate(&[sh, dir], ctx.wrong);
+    c.pictures = pictures;
     c.note(format!(
         "normal-probe {w}×{h}; SH lighting l ≤ {LMAX_LOW}: Torrance–Sparrow {spp} spp, mirror under L' 1 spp; directional {:?}: 1 spp (deterministic)",
         normalize(SOURCE)

@@ -63,6 +63,9 @@ pub struct Ctx {
     pub verbose: bool,
     /// The data folder (holds [`data::GRACE_FILE`]), resolved at run time by [`data::resolve`].
     pub data: PathBuf,
+    /// Set from another thread to stop the run: renders stop at their next tile and the check
+    /// then fails to run (`reflect.verify` in Python sets it on Ctrl-C); `None` never stops.
+    pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl Ctx {

@@ -18,8 +18,10 @@
 use super::Ctx;
 use super::check::{Check, Row};
 use super::scenes::lambert;
+use super::fit::Channel;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec_to_exr};
-use analysis::image::read_image;
+use analysis::image::{Image, read_image};
 use analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION;
 use analysis::inverse::views::{ViewsLighting, invert_lighting_views};
 use analysis::projection::{OrthoCamera, OrthoView, Param, Sphere, ortho_samples};
@@ -34,7 +36,7 @@ const ALBEDO: f64 = 0.8;
 const EXTENT: f64 = 1.05;
 
 /// Renders the views of `specs`, reads them back and inverts them together as `invert lighting` does.
-fn invert_views(ctx: &Ctx, specs: &[(Spec, &str)]) -> Result<ViewsLighting, String> {
+fn invert_views(ctx: &Ctx, specs: &[(Spec, &str)]) -> Result<(ViewsLighting, Vec<Image>), String> {
     std::fs::create_dir_all(&ctx.out).map_err(|e| format!("{}: {e}", ctx.out.display()))?;
     let mut images = Vec::new();
     let mut cameras = Vec::new();
@@ -50,8 +52,9 @@ fn invert_views(ctx: &Ctx, specs: &[(Spec, &str)]) -> Result<ViewsLighting, Stri
     let (samples, have_sigma) = ortho_samples(&views, &Sphere::default(), Param::Normal).map_err(|e| e.to_string())?;
     // The CLI hands the filter to l_max + 2 (the truncation estimate's orders).
     let filter = TransferModel::Lambert.lambda_rho(LMAX + 2);
-    invert_lighting_views(&samples, have_sigma, &filter, [ALBEDO; 3], LMAX, DEFAULT_MAX_AMPLIFICATION)
-        .map_err(|e| e.to_string())
+    let v = invert_lighting_views(&samples, have_sigma, &filter, [ALBEDO; 3], LMAX, DEFAULT_MAX_AMPLIFICATION)
+        .map_err(|e| e.to_string())?;
+    Ok((v, images))
 }
 
 /// Largest coefficient amplification of an inversion.
@@ -125,14 +128,28 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     };
     let front = (view([3.0, 0.0, 0.0], 31), "partial_view_front.exr");
     let back = (view([-3.0, 0.0, 0.0], 32), "partial_view_back.exr");
-    let one = invert_views(ctx, std::slice::from_ref(&front))?;
-    let two = invert_views(ctx, &[front, back])?;
+    let (one, _) = invert_views(ctx, std::slice::from_ref(&front))?;
+    let (two, images) = invert_views(ctx, &[front, back])?;
     // The truth: L_lm of the map as `analyze --lighting grace_probe.hdr` computes them.
     let grace = analysis::lighting::Lighting::from_envmap_file(&super::scenes::grace_path(ctx), None);
     let scale = if ctx.wrong { 1.05 } else { 1.0 };
     let truth: Vec<[f64; 3]> =
         grace.coefficients(LMAX).map_err(|e| e.to_string())?.iter().map(|c| c.map(|v| v * scale)).collect();
     let mut c = evaluate(&one, &two, &truth);
+    // Pictures: each view against Lambert's filter applied to the map's L_lm (green, l ≤ l_max + 2):
+    // the two halves of the normal sphere the inversion has to work from.
+    let green: Vec<f64> = grace.coefficients(LMAX + 2).map_err(|e| e.to_string())?.iter().map(|c| c[1]).collect();
+    let a: Vec<f64> = TransferModel::Lambert.lambda_rho(LMAX + 2).iter().map(|v| ALBEDO * v * scale).collect();
+    for (image, side) in images.iter().zip(["front (+x)", "back (−x)"]) {
+        c.pictures.push(Picture::normals_filter(
+            format!("partial_view_{}", &side[..side.find(' ').unwrap_or(side.len())]),
+            format!("Lambert {ALBEDO} sphere under Grace, orthographic view from the {side}, {size}² (green)"),
+            format!("0.8 · Λ_l ρ̂_l applied to the map's L_lm, l ≤ {}", LMAX + 2),
+            &Channel::from_image(image, 1),
+            &green,
+            &a,
+        ));
+    }
     c.note(format!(
         "Lambert albedo {ALBEDO} under Grace, orthographic {size}×{size}, {spp} spp, views from +x and −x; l ≤ {LMAX}; \
          σ = noise (scaled by √(χ²/ν) when above 1) ⊕ truncation bias estimated from the fit to l ≤ {}",

@@ -27,7 +27,7 @@
 //! the z map uses ColorBrewer's diverging RdBu map (blue z < 0, white z = 0, red z > 0), saturated
 //! at |z| = [`Z_SCALE`].
 
-use super::fit::{Channel, latlong_dir, order_parts};
+use super::fit::{Channel, latlong_dir, normalize, order_parts};
 use analysis::sh::{ShBasis, num_coefficients};
 use image::{Rgba, RgbaImage};
 use serde::Serialize;
@@ -160,6 +160,37 @@ impl Picture {
         light: &[f64],
         filter: &[f64],
     ) -> Picture {
+        Picture::filter_at(stem, title, model, ch, light, filter, |n| n)
+    }
+
+    /// [`Picture::normals_filter`] in the reflection parameterization (eq. 43 for Phong): the filter
+    /// is applied at each pixel's reflection vector R = 2(n·ω_o)n − ω_o, for an orthographic view
+    /// whose direction towards the camera is `wo` (unit, world frame).
+    pub fn reflected_filter(
+        stem: impl Into<String>,
+        title: impl Into<String>,
+        model: impl Into<String>,
+        ch: &Channel,
+        light: &[f64],
+        filter: &[f64],
+        wo: [f64; 3],
+    ) -> Picture {
+        Picture::filter_at(stem, title, model, ch, light, filter, |n| {
+            let c = 2.0 * (n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2]);
+            [c * n[0] - wo[0], c * n[1] - wo[1], c * n[2] - wo[2]]
+        })
+    }
+
+    /// The filter prediction at the direction `dir(n_p)` of each fully covered pixel's unit normal.
+    fn filter_at(
+        stem: impl Into<String>,
+        title: impl Into<String>,
+        model: impl Into<String>,
+        ch: &Channel,
+        light: &[f64],
+        filter: &[f64],
+        dir: impl Fn([f64; 3]) -> [f64; 3],
+    ) -> Picture {
         let lmax = filter.len().saturating_sub(1);
         let basis = ShBasis::new(lmax);
         let mut y = vec![0.0; num_coefficients(lmax)];
@@ -170,7 +201,7 @@ impl Picture {
                 if !covered(i) {
                     return f64::NAN;
                 }
-                order_parts(&basis, light, ch.normal[i], &mut y, &mut parts);
+                order_parts(&basis, light, dir(normalize(ch.normal[i])), &mut y, &mut parts);
                 parts.iter().zip(filter).map(|(s, a)| s * a).sum()
             })
             .collect();

@@ -41,6 +41,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega};
 use super::scenes::lambert;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::{grace, subspace, transfer};
 use analysis::sh::{ShBasis, lm, num_coefficients};
@@ -339,6 +340,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     };
     let grace_coeffs = grace::coefficients(ctx)?;
     let mut entries = vec![];
+    let mut pictures = vec![];
     for (i, (label, light)) in lightings(ctx.quick, ctx.seed).into_iter().enumerate() {
         let seed = ctx.seed + 4800 + i as u64;
         let (value, sigma) = match &light {
@@ -386,6 +388,26 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             _ => Kind::Other,
         };
         let a = analytic(&light, &grace_coeffs, w, h);
+        if kind == Kind::Single && pictures.is_empty() {
+            // The extreme case of the bound: the render against the l ≤ 2 part of its analytic image,
+            // so the z map shows where the energy above l = 2 (the 1 − share the bound limits) sits.
+            let zero = vec![0.0; w * h];
+            let (b, _) = super::texture_ambiguity::explain(&a, &zero, w, h).ok_or("singular 9-term fit")?;
+            let basis = ShBasis::new(2);
+            let nine: Vec<f64> = (0..w * h)
+                .map(|p| basis.eval(latlong_dir(p / w, p % w, w, h)).iter().zip(&b).map(|(y, v)| y * v).sum())
+                .collect();
+            pictures.push(Picture::new(
+                "positive_bound_directional",
+                format!("{label}: Lambertian sphere under one directional source (normal probe, 1 spp, exact)"),
+                "l ≤ 2 (9-term) part of the analytic image max(n·s, 0)/π; the difference is the energy above l = 2, \
+                 not noise, so z saturates wherever it is non-zero",
+                (w, h),
+                value.clone(),
+                nine,
+                sigma.iter().zip(&value).map(|(s, v)| s.hypot(F32_FLOOR * v.abs())).collect(),
+            ));
+        }
         entries.push(Entry {
             label,
             kind,
@@ -394,6 +416,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         });
     }
     let mut c = evaluate(&entries, ctx.wrong);
+    c.pictures = pictures;
     c.note(format!("Lambertian sphere (albedo 1), normal-probe {w}×{h}; Grace in the green channel"));
     Ok(c)
 }

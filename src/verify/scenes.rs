@@ -210,7 +210,7 @@ pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
     let scene = Scene::build(spec.scene(ctx), Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        render(&scene, &RenderOptions { progress: false, ..Default::default() })
+        render(&scene, &RenderOptions { progress: false, cancel: ctx.cancel.clone() })
     }));
     match out {
         Ok((film, stats)) => {
@@ -223,7 +223,9 @@ pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
                     t.elapsed().as_secs_f64()
                 );
             }
-            let _ = stats;
+            if stats.cancelled {
+                return Err("the run was cancelled".into());
+            }
             Ok(film)
         }
         Err(p) => {

@@ -17,11 +17,13 @@
 use super::Ctx;
 use super::check::{Check, Plot, Row};
 use super::filter::{self, Measured};
+use super::fit::Channel;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec_to_exr, sh_lighting};
 use super::scenes::{lambert, phong};
 use super::transfer;
 use analysis::filter::{PixelFilterFit, fit_filter_pixels};
-use analysis::image::read_image;
+use analysis::image::{Image, read_image};
 use analysis::projection::{OrthoCamera, OrthoView, Param, Sphere, ortho_samples};
 use vocab::Horizon;
 use vocab::scene::BrdfSection;
@@ -46,7 +48,7 @@ fn analyse_view(
     param: Param,
     light: &[[f64; 3]],
     lmax: usize,
-) -> Result<PixelFilterFit, String> {
+) -> Result<(PixelFilterFit, Image), String> {
     std::fs::create_dir_all(&ctx.out).map_err(|e| format!("{}: {e}", ctx.out.display()))?;
     let path = ctx.out.join(file);
     render_spec_to_exr(ctx, spec, &path)?;
@@ -54,7 +56,7 @@ fn analyse_view(
     let Camera::Ortho { from, up, extent } = spec.camera else { return Err("not an orthographic spec".into()) };
     let views = [OrthoView { image: &image, camera: OrthoCamera { from, to: [0.0; 3], up, extent } }];
     let (samples, have_sigma) = ortho_samples(&views, &Sphere::default(), param).map_err(|e| e.to_string())?;
-    fit_filter_pixels(&samples, have_sigma, light, lmax).map_err(|e| e.to_string())
+    Ok((fit_filter_pixels(&samples, have_sigma, light, lmax).map_err(|e| e.to_string())?, image))
 }
 
 /// Channel `ch` of a fit as a measured filter (total standard error).
@@ -107,14 +109,15 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let grace = analysis::lighting::Lighting::from_envmap_file(&super::scenes::grace_path(ctx), None);
     let l_grace = grace.coefficients(LMAX_LAMBERT + 2).map_err(|e| e.to_string())?;
     let spec_l = ortho([3.0, 0.0, 1.0], Lighting::Grace(1.0), lambert(ALBEDO), ctx.spp(32, 64));
-    let lambert = analyse_view(ctx, &spec_l, "single_view_lambert.exr", Param::Normal, &l_grace, LMAX_LAMBERT)?;
+    let (lambert, img_l) =
+        analyse_view(ctx, &spec_l, "single_view_lambert.exr", Param::Normal, &l_grace, LMAX_LAMBERT)?;
 
     // Phong under a band-limited SH lighting (exact L_lm).
     let light = sh_lighting(LMAX_LIGHT, 0.5, ctx.seed + 22);
     let l_sh: Vec<[f64; 3]> = light.iter().map(|&v| [v; 3]).collect();
     let spec_p =
         ortho([1.0, 0.0, 0.0], Lighting::Sh(light.clone()), phong(1.0, PHONG_S, Horizon::Ignore), ctx.spp(32, 64));
-    let phong = analyse_view(ctx, &spec_p, "single_view_phong.exr", Param::Reflection, &l_sh, LMAX_PHONG)?;
+    let (phong, img_p) = analyse_view(ctx, &spec_p, "single_view_phong.exr", Param::Reflection, &l_sh, LMAX_PHONG)?;
 
     let pred_l: Vec<f64> = transfer::lambert(LMAX_LAMBERT).iter().map(|v| ALBEDO * v * scale).collect();
     let pred_p: Vec<f64> = transfer::phong(PHONG_S, LMAX_PHONG).iter().map(|v| v * scale).collect();
@@ -128,6 +131,28 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     for w in lambert.warnings.iter().chain(&phong.warnings) {
         c.note(format!("analysis: {w}"));
     }
+    // Pictures: each view against the analytic filter applied to its lighting (red channel), Grace
+    // to l ≤ l_max + 2 as the fit knows it; the Phong light is band-limited, so its prediction is exact.
+    let grace_r: Vec<f64> = l_grace.iter().map(|v| v[0]).collect();
+    let a_l: Vec<f64> = transfer::lambert(LMAX_LAMBERT + 2).iter().map(|v| ALBEDO * v * scale).collect();
+    c.pictures.push(Picture::normals_filter(
+        "single_view_lambert",
+        format!("Lambert {ALBEDO} sphere under Grace, one orthographic view from (3, 0, 1), {size}² (red)"),
+        format!("0.8 · eq. 38/π filter applied to the map's L_lm, l ≤ {}", LMAX_LAMBERT + 2),
+        &Channel::from_image(&img_l, 0),
+        &grace_r,
+        &a_l,
+    ));
+    let a_p: Vec<f64> = transfer::phong(PHONG_S, LMAX_LIGHT).iter().map(|v| v * scale).collect();
+    c.pictures.push(Picture::reflected_filter(
+        "single_view_phong",
+        format!("Phong s = {PHONG_S} sphere under SH light l ≤ {LMAX_LIGHT}, one orthographic view from +x, {size}²"),
+        "eq. 43 filter applied at the reflection vector (exact: the light is band-limited)",
+        &Channel::from_image(&img_p, 0),
+        &light,
+        &a_p,
+        [1.0, 0.0, 0.0],
+    ));
     let series = |name: &str, fit: &PixelFilterFit| measured(fit, 0).map(|m| m.series(name));
     c.plots.push(Plot {
         legend: super::check::Legend::UpperRight,

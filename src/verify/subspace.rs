@@ -38,6 +38,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega, normalize};
 use super::scenes::lambert;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::{grace, transfer};
 use analysis::sh::rotation::{Rotation, rotate_coefficients};
@@ -189,6 +190,35 @@ pub fn captured(s: &ImageSet, pca: &Pca, k: usize) -> (f64, f64) {
         .map(|j| (0..s.weight.len()).map(|p| (0..n).map(|i| s.images[i][p] * q[(i, j)]).sum()).collect())
         .collect();
     (e, fraction_sigma(s, e, total, &proj))
+}
+
+/// Image j of the set projected onto the span of the first k principal components (the part of it
+/// a k-dimensional subspace explains): Σ_i x_i (V_k V_kᵀ)_ij, as in [`captured`].
+pub fn reconstruction(s: &ImageSet, pca: &Pca, k: usize, j: usize) -> Vec<f64> {
+    let vk = pca.vectors.columns(0, k);
+    let q = vk * vk.transpose();
+    (0..s.weight.len()).map(|p| (0..s.images.len()).map(|i| s.images[i][p] * q[(i, j)]).sum()).collect()
+}
+
+/// The report's picture of one object: its render under lighting j (full W × H image, NaN off the
+/// set's pixels) against that image's part in the first 9 principal components of the measured set.
+fn picture(stem: &str, object: &str, px: &Pixels, (w, h): (usize, usize), m: &ImageSet, j: usize) -> Picture {
+    let nine = reconstruction(m, &pca(m), 9, j);
+    let (mut measured, mut predicted, mut sigma) = (vec![f64::NAN; w * h], vec![f64::NAN; w * h], vec![0.0; w * h]);
+    for (q, &p) in px.index.iter().enumerate() {
+        measured[p] = m.images[j][q];
+        predicted[p] = nine[q];
+        sigma[p] = m.sigma[j][q];
+    }
+    Picture::new(
+        stem,
+        format!("{object}, lighting {} of {} (a rotation of Grace, green)", j + 1, m.images.len()),
+        "the image's projection onto the first 9 principal components of all the measured images",
+        (w, h),
+        measured,
+        predicted,
+        sigma,
+    )
 }
 
 /// A W-orthonormal basis (columns P × 9) of Y_lm (l ≤ 2) at the set's normals (modified Gram–Schmidt).
@@ -592,11 +622,25 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         Check::new(NAME, EQUATION, "images of a Lambertian object under ≥ 100 lightings lie close to a 9D subspace");
     let iso_a = if ctx.wrong { transfer::phong(8.0, 40) } else { transfer::lambert(40) };
     let iso: Vec<f64> = KS.iter().map(|&k| isotropic_captured(&iso_a, k)).collect();
-    for (object, px, renders, file) in [
-        ("sphere (normal probe)", probe_pixels(2 * h as usize, h as usize), &probe_renders, "subspace_sphere.svg"),
-        ("icosphere mesh (orthographic)", mesh_pixels(&mesh_ch), &mesh_renders, "subspace_mesh.svg"),
+    for (object, px, renders, file, dims) in [
+        (
+            "sphere (normal probe)",
+            probe_pixels(2 * h as usize, h as usize),
+            &probe_renders,
+            "subspace_sphere",
+            (2 * h as usize, h as usize),
+        ),
+        (
+            "icosphere mesh (orthographic)",
+            mesh_pixels(&mesh_ch),
+            &mesh_renders,
+            "subspace_mesh",
+            (size as usize, size as usize),
+        ),
     ] {
         let (m, fine, coarse) = build_sets(&px, &lights, renders, &coeffs, ctx.wrong);
+        c.pictures.push(picture(file, object, &px, dims, &m, lights.len() - 1));
+        let file = format!("{file}.svg");
         let (sm, sf, sc) = (stats(&m), stats(&fine), stats(&coarse));
         let approx = [
             (sf.captured[0].0 - sc.captured[0].0).abs(),
@@ -618,7 +662,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             sm.outside.1,
             sm.angles.iter().map(|a| format!("{a:.2}")).collect::<Vec<_>>().join(", ")
         ));
-        c.plots.push(spectrum_plot(file, object, &sm, &sf));
+        c.plots.push(spectrum_plot(&file, object, &sm, &sf));
     }
     let (nd, ns, nf, ng) = counts(ctx.quick);
     c.note(format!(

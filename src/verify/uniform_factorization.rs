@@ -33,6 +33,7 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::Channel;
+use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::scenes::{lambert, mirror};
 use analysis::inverse::factorization::{
@@ -271,6 +272,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let w = 2 * h;
     let nodes = hemisphere_nodes(n_mu, n_phi).map_err(|e| e.to_string())?;
     let mut measured = vec![];
+    let mut pictures = vec![];
     for (i, (name, brdf)) in brdfs().into_iter().enumerate() {
         let mut images = vec![];
         for (j, node) in nodes.iter().enumerate() {
@@ -285,11 +287,36 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                 brdf: brdf.clone(),
             };
             let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
+            if j == 0 && name != "mirror" {
+                // Uniform light makes every normal look alike: Lambert's image is the white-furnace
+                // constant ρ·L, the microfacet's a constant set by its directional albedo at θ_o
+                // (drawn at the image's mean, which has no closed form here).
+                let (level, model) = if name == "lambert" {
+                    (ALBEDO * RADIANCE, format!("the constant ρ L = {ALBEDO} × {RADIANCE} (white furnace)"))
+                } else {
+                    let mean = ch.value.iter().sum::<f64>() / ch.value.len() as f64;
+                    (mean, "a constant image at the render's mean (uniform light: every normal alike)".to_string())
+                };
+                pictures.push(Picture::new(
+                    format!("uniform_factorization_{name}"),
+                    format!(
+                        "{name} sphere under uniform radiance {RADIANCE}, θ_o = {:.1}° (normal probe, {} spp)",
+                        node.theta_o.to_degrees(),
+                        spec.spp
+                    ),
+                    model,
+                    (w, h),
+                    ch.value.clone(),
+                    vec![level; w * h],
+                    ch.sigma.iter().map(|s| s.hypot(F32_FLOOR * level)).collect(),
+                ));
+            }
             images.push((*node, ch.value, ch.sigma));
         }
         measured.push((name, measure(w, h, &images)?));
     }
     let mut c = evaluate(&measured, ctx.wrong);
+    c.pictures = pictures;
     c.note(format!(
         "normal-probe {w}×{h}, {n_mu} μ × {n_phi} φ outgoing nodes per BRDF, {} spp, uniform radiance {RADIANCE}; renders: {}",
         ctx.spp(16, 32),

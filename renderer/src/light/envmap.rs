@@ -31,9 +31,10 @@ pub use vocab::Mapping;
 
 /// The importance-sampling structure of each mapping.
 #[derive(Clone, Debug)]
+/// Each keeps the map's [`Texel`]s in its sampling entries, one per pixel (row-major).
 enum EnvSampler {
-    LatLong(LatLongGrid),
-    Angular(PiecewiseConstant2D),
+    LatLong(LatLongGrid<Texel>),
+    Angular(PiecewiseConstant2D<Texel>),
 }
 
 /// Treat the public fields as read-only after construction: the sampling tables are built from them.
@@ -46,17 +47,17 @@ pub struct Envmap {
     pub rotation: glam::Mat3,
     /// rotationᵀ: world → map.
     inv_rotation: glam::Mat3,
+    /// The sampling tables, which also hold the hot-path texels (see [`Texel`]).
     sampler: EnvSampler,
-    /// Hot-path table, one 16-byte texel per pixel: radiance × scale (0 outside the angular disc)
-    /// and the sampling density (see [`Texel`]). Keeping both in one texel makes `eval_pdf` of a
-    /// BRDF-sampled direction a single cache miss (the table is megabytes, and such directions
-    /// land anywhere).
-    texels: Vec<Texel>,
 }
 
-/// One pixel of the hot-path table (16 bytes, aligned so it never straddles a cache line).
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+/// One pixel of the hot-path table: radiance × scale (0 outside the angular disc) and the sampling
+/// density. It is the payload of the pixel's entry in the sampling table (32 bytes with the CDF,
+/// aligned), so `eval_pdf` of a BRDF-sampled direction is a single cache line (the table is
+/// megabytes, and such directions land anywhere), and a light sample's own texel is in the line
+/// its CDF search read.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 struct Texel {
     radiance: [f32; 3],
     /// Lat-long: the solid-angle density of the pixel, exactly `LatLongGrid::pdf_cell` (the
@@ -106,10 +107,10 @@ impl Envmap {
                 image.pixels[i]
             )));
         }
-        let sampler = match mapping {
+        let mut sampler = match mapping {
             Mapping::LatLong => {
                 let g: Vec<f32> = image.pixels.iter().map(|&p| max_channel(p)).collect();
-                EnvSampler::LatLong(LatLongGrid::new(&g, w, h))
+                EnvSampler::LatLong(LatLongGrid::build(&g, w, h))
             }
             Mapping::Angular => {
                 let weights: Vec<f32> = image
@@ -121,10 +122,11 @@ impl Envmap {
                         None => 0.0,
                     })
                     .collect();
-                EnvSampler::Angular(PiecewiseConstant2D::new(&weights, w, h))
+                EnvSampler::Angular(PiecewiseConstant2D::build(&weights, w, h))
             }
         };
         let texels: Vec<Texel> = (0..w * h)
+            .into_par_iter()
             .map(|i| {
                 let radiance = match mapping {
                     Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
@@ -137,7 +139,11 @@ impl Envmap {
                 Texel { radiance: radiance.to_array(), pdf }
             })
             .collect();
-        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler, texels })
+        match &mut sampler {
+            EnvSampler::LatLong(grid) => grid.set_payloads(&texels),
+            EnvSampler::Angular(dist) => dist.set_payloads(&texels),
+        }
+        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler })
     }
 
     /// Reads an `.exr` / `.hdr` file and builds the light; every error names the file.
@@ -161,6 +167,15 @@ impl Envmap {
                 let (r, c, theta) = self.angular_lookup(d);
                 (r * self.image.width + c, theta)
             }
+        }
+    }
+
+    /// The texel of pixel `index` (row-major).
+    #[inline(always)]
+    fn texel(&self, index: usize) -> &Texel {
+        match &self.sampler {
+            EnvSampler::LatLong(grid) => grid.payload(index),
+            EnvSampler::Angular(dist) => dist.payload(index),
         }
     }
 
@@ -229,19 +244,19 @@ impl DistantLight for Envmap {
     #[inline]
     fn eval(&self, wi: Vec3) -> Rgb {
         let (i, _) = self.texel_index(wi);
-        Rgb::from(self.texels[i].radiance)
+        Rgb::from(self.texel(i).radiance)
     }
 
     #[inline]
     fn locate(&self, wi: Vec3) -> Located {
         let (index, theta) = self.texel_index(wi);
-        prefetch_read(&self.texels[index]);
+        prefetch_read(self.texel(index));
         Located { wi, index, theta }
     }
 
     #[inline]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
-        let t = &self.texels[at.index];
+        let t = self.texel(at.index);
         let pdf = match &self.sampler {
             EnvSampler::LatLong(_) => t.pdf,
             EnvSampler::Angular(_) => angular_pdf(t.pdf, at.theta),
@@ -266,12 +281,12 @@ impl DistantLight for Envmap {
     #[inline]
     fn sample(&self, u: Vec2) -> Option<LightSample> {
         let d = match &self.sampler {
-            EnvSampler::LatLong(grid) => grid.sample(u)?.0,
+            EnvSampler::LatLong(grid) => grid.sample_direction(u)?,
             EnvSampler::Angular(dist) => {
                 if dist.integral() <= 0.0 {
                     return None;
                 }
-                let (uv, _) = dist.sample_continuous(u);
+                let (uv, _) = dist.sample_point_cell(u);
                 let (a, b) = (2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y);
                 let rho2 = a * a + b * b;
                 if rho2 > 1.0 {

@@ -13,11 +13,14 @@
 use crate::math::{PI, Vec2, Vec3, fast};
 use crate::sampling::distribution::PiecewiseConstant2D;
 
+/// The grid's sampling table can carry a payload `P` per cell (see [`PiecewiseConstant2D`]): the
+/// environment map keeps its texels there, so the sampled cell's texel is in the cache line the
+/// search just read.
 #[derive(Clone, Debug)]
-pub struct LatLongGrid {
+pub struct LatLongGrid<P = ()> {
     width: usize,
     height: usize,
-    dist: PiecewiseConstant2D,
+    dist: PiecewiseConstant2D<P>,
     /// cos(πr/H) for r = 0..=H: the z range of each row.
     z_edge: Vec<f32>,
     /// 1 / (2π H Δz_r): converts the unit-square density to solid angle on row r.
@@ -27,6 +30,13 @@ pub struct LatLongGrid {
 impl LatLongGrid {
     /// `g` is row-major, `height` rows of `width` cells, all ≥ 0 (negative or NaN count as 0).
     pub fn new(g: &[f32], width: usize, height: usize) -> Self {
+        Self::build(g, width, height)
+    }
+}
+
+impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
+    /// As [`LatLongGrid::new`], with a payload per cell (`P::default()` until `set_payloads`).
+    pub fn build(g: &[f32], width: usize, height: usize) -> Self {
         assert!(width > 0 && height > 0 && g.len() == width * height, "LatLongGrid: bad size");
         let z64: Vec<f64> = (0..=height).map(|r| (std::f64::consts::PI * r as f64 / height as f64).cos()).collect();
         let dz: Vec<f64> = z64.windows(2).map(|w| w[0] - w[1]).collect();
@@ -40,10 +50,21 @@ impl LatLongGrid {
         LatLongGrid {
             width,
             height,
-            dist: PiecewiseConstant2D::new(&weights, width, height),
+            dist: PiecewiseConstant2D::build(&weights, width, height),
             z_edge: z64.iter().map(|&z| z as f32).collect(),
             inv_jacobian,
         }
+    }
+
+    /// Stores `payloads[row * width + column]` beside each cell. No effect on sampling.
+    pub fn set_payloads(&mut self, payloads: &[P]) {
+        self.dist.set_payloads(payloads);
+    }
+
+    /// The payload of cell `index = row * width + column`.
+    #[inline(always)]
+    pub fn payload(&self, index: usize) -> &P {
+        self.dist.payload(index)
     }
 
     /// False when every cell has g = 0 (nothing to sample).
@@ -74,14 +95,31 @@ impl LatLongGrid {
         if !self.can_sample() {
             return None;
         }
-        let (uv, p) = self.dist.sample_continuous(u);
+        let (uv, (iu, iv)) = self.dist.sample_point_cell(u);
+        let (d, r) = self.warp(uv);
+        Some((d, self.dist.pdf_index(iu, iv) * self.inv_jacobian[r]))
+    }
+
+    /// The direction of `sample(u)` without its density (which is not read: a caller that looks the
+    /// density up from the direction saves a cache miss), or None if nothing can be sampled.
+    #[inline]
+    pub fn sample_direction(&self, u: Vec2) -> Option<Vec3> {
+        if !self.can_sample() {
+            return None;
+        }
+        Some(self.warp(self.dist.sample_point_cell(u).0).0)
+    }
+
+    /// The direction of unit-square point `uv` (uniform in solid angle within its cell) and its row.
+    #[inline(always)]
+    fn warp(&self, uv: Vec2) -> (Vec3, usize) {
         let fv = uv.y * self.height as f32;
         let r = (fv as usize).min(self.height - 1);
         let t = (fv - r as f32).clamp(0.0, 1.0);
         let z = self.z_edge[r] + t * (self.z_edge[r + 1] - self.z_edge[r]);
         let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
         let (sp, cp) = (2.0 * PI * uv.x).sin_cos();
-        Some((Vec3::new(sin_theta * cp, sin_theta * sp, z), p * self.inv_jacobian[r]))
+        (Vec3::new(sin_theta * cp, sin_theta * sp, z), r)
     }
 
     /// A hint that `sample(u)` follows soon (starts loading its table entries; no effect on results).

@@ -17,10 +17,13 @@
 //! search finds. Unlike an alias table, the map u ↦ x stays monotone, so the stratification of
 //! the sampler's points (Sobol (0, m, 2)-nets) carries over to the sampled directions.
 //!
-//! **Layout.** Each CDF entry is stored beside its guide entry ([`CdfEntry`], 8 bytes), and the
-//! 2D distribution keeps all its conditional rows in one flat array (row stride n + 1), so that a
-//! sample touches the row's guide line and the CDF line of the answer, with no per-row heap
-//! header to dereference first. A caller that knows `u` early can `prefetch` the guide line.
+//! **Layout.** Each 1D CDF entry is stored beside its guide entry ([`CdfEntry`], 8 bytes). The 2D
+//! distribution keeps all its conditional rows in one flat row-major array of [`CellEntry`], one
+//! aligned 32-byte entry per cell holding cdf\[i\], cdf\[i + 1\], guide\[i\] and a caller's payload
+//! (the environment map keeps its texel there: radiance and density). A sample then touches the
+//! row's guide line and the line of the answer, which holds both CDF values of the cell and its
+//! payload, so looking the sampled texel up afterwards costs no further cache miss. A caller that
+//! knows `u` early can `prefetch` the guide line.
 //!
 //! Cells of zero weight are never chosen (the search skips zero-width CDF steps), so a density of 0
 //! really means "never sampled". An all-zero function gives a distribution with integral 0: it
@@ -41,6 +44,21 @@ pub struct CdfEntry {
     cdf: f32,
     /// guide[i]: the cell holding u = i/n (unused in entry n).
     guide: u32,
+}
+
+/// One cell of a 2D distribution's conditional row: its CDF interval, its guide entry and a
+/// payload `P` the caller stores beside them (see the module's "Layout"). 32 bytes, aligned, so an
+/// entry never straddles a cache line; a payload of up to 20 bytes fits.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct CellEntry<P> {
+    /// cdf[i]: the probability of the row's cells 0..i.
+    cdf: f32,
+    /// cdf[i + 1] (1 in the row's last cell).
+    cdf_next: f32,
+    /// guide[i]: the cell holding u = i/n.
+    guide: u32,
+    payload: P,
 }
 
 /// Builds the n + 1 entries of `func` (already sanitized, n ≥ 1) and returns Σ f (f64).
@@ -98,6 +116,28 @@ fn sample_entries(entries: &[CdfEntry], u: f32) -> (usize, f32) {
     let u = u.clamp(0.0, ONE_MINUS_EPSILON);
     let i = find(entries, u);
     let (c0, c1) = (entries[i].cdf, entries[i + 1].cdf);
+    let width = c1 - c0;
+    let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, ONE_MINUS_EPSILON) } else { 0.0 };
+    (i, remapped)
+}
+
+/// [`find`] on a 2D distribution's row (n entries, cdf[i + 1] stored in entry i): the same cell.
+#[inline(always)]
+fn find_cell<P>(row: &[CellEntry<P>], u: f32) -> usize {
+    let n = row.len();
+    let mut i = row[((u * n as f32) as usize).min(n - 1)].guide as usize;
+    while i + 1 < n && row[i].cdf_next <= u {
+        i += 1;
+    }
+    i
+}
+
+/// [`sample_entries`] on a 2D distribution's row: the same cell and the same remapped `u`, bit for bit.
+#[inline(always)]
+fn sample_cells<P>(row: &[CellEntry<P>], u: f32) -> (usize, f32) {
+    let u = u.clamp(0.0, ONE_MINUS_EPSILON);
+    let i = find_cell(row, u);
+    let (c0, c1) = (row[i].cdf, row[i].cdf_next);
     let width = c1 - c0;
     let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, ONE_MINUS_EPSILON) } else { 0.0 };
     (i, remapped)
@@ -190,11 +230,12 @@ impl PiecewiseConstant1D {
     }
 }
 
-/// A piecewise-constant density on [0, 1]², `nu` cells along u (columns) and `nv` along v (rows).
+/// A piecewise-constant density on [0, 1]², `nu` cells along u (columns) and `nv` along v (rows),
+/// with a payload `P` per cell stored in the cell's sampling entry (`()` when none is needed).
 #[derive(Clone, Debug)]
-pub struct PiecewiseConstant2D {
-    /// The conditional CDF and guide of every row in u, row after row (stride nu + 1).
-    conditional: Vec<CdfEntry>,
+pub struct PiecewiseConstant2D<P = ()> {
+    /// The conditional CDF, guide and payload of every cell, row-major (`iv * nu + iu`).
+    conditional: Vec<CellEntry<P>>,
     /// The sanitized function, row-major.
     func: Vec<f32>,
     /// Distribution of the rows, by their integrals ∫ f(u, v) du.
@@ -204,22 +245,59 @@ pub struct PiecewiseConstant2D {
 }
 
 impl PiecewiseConstant2D {
-    /// `func` is row-major: `func[iv * nu + iu]`, `nu * nv` values.
+    /// `func` is row-major: `func[iv * nu + iu]`, `nu * nv` values; no payload.
     ///
     /// # Panics
     /// When `func.len() != nu * nv` or a dimension is 0 (a programming error, never user data).
     pub fn new(func: &[f32], nu: usize, nv: usize) -> Self {
+        Self::build(func, nu, nv)
+    }
+}
+
+impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
+    /// As [`PiecewiseConstant2D::new`], with payloads of type `P`, all `P::default()` until
+    /// [`set_payloads`](Self::set_payloads).
+    ///
+    /// # Panics
+    /// When `func.len() != nu * nv` or a dimension is 0 (a programming error, never user data).
+    pub fn build(func: &[f32], nu: usize, nv: usize) -> Self {
+        const { assert!(std::mem::size_of::<CellEntry<P>>() == 32, "a cell entry is one 32-byte slot") };
         assert!(nu > 0 && nv > 0 && func.len() == nu * nv, "PiecewiseConstant2D: {} values for {nu}×{nv}", func.len());
         let func: Vec<f32> = func.par_iter().map(|&v| sanitize(v)).collect();
-        let mut conditional = vec![CdfEntry::default(); (nu + 1) * nv];
-        // Rows are independent: build them in parallel (each writes its own slice: deterministic).
+        let mut conditional = vec![CellEntry::<P>::default(); nu * nv];
+        // Rows are independent: build them in parallel (each writes its own slice: deterministic),
+        // through the 1D entries (n + 1 of them) so that the CDF values are those of a 1D row.
         let row_integrals: Vec<f32> = conditional
-            .par_chunks_exact_mut(nu + 1)
+            .par_chunks_exact_mut(nu)
             .zip(func.par_chunks_exact(nu))
-            .map(|(entries, f)| (build_entries(f, entries) / nu as f64) as f32)
+            .map_init(
+                || vec![CdfEntry::default(); nu + 1],
+                |entries, (cells, f)| {
+                    let total = build_entries(f, entries);
+                    for (i, c) in cells.iter_mut().enumerate() {
+                        (c.cdf, c.cdf_next, c.guide) = (entries[i].cdf, entries[i + 1].cdf, entries[i].guide);
+                    }
+                    (total / nu as f64) as f32
+                },
+            )
             .collect();
         let marginal = PiecewiseConstant1D::new(&row_integrals);
         PiecewiseConstant2D { conditional, func, marginal, nu, nv }
+    }
+
+    /// Stores `payloads[iv * nu + iu]` beside cell (iu, iv). No effect on sampling.
+    ///
+    /// # Panics
+    /// When `payloads.len() != nu * nv`.
+    pub fn set_payloads(&mut self, payloads: &[P]) {
+        assert_eq!(payloads.len(), self.conditional.len(), "PiecewiseConstant2D: one payload per cell");
+        self.conditional.par_iter_mut().zip(payloads.par_iter()).for_each(|(c, p)| c.payload = *p);
+    }
+
+    /// The payload of cell `index = iv * nu + iu`.
+    #[inline(always)]
+    pub fn payload(&self, index: usize) -> &P {
+        &self.conditional[index].payload
     }
 
     /// (nu, nv).
@@ -235,17 +313,24 @@ impl PiecewiseConstant2D {
     }
 
     #[inline(always)]
-    fn row(&self, iv: usize) -> &[CdfEntry] {
-        &self.conditional[iv * (self.nu + 1)..(iv + 1) * (self.nu + 1)]
+    fn row(&self, iv: usize) -> &[CellEntry<P>] {
+        &self.conditional[iv * self.nu..(iv + 1) * self.nu]
+    }
+
+    /// Draws (u, v) ∈ [0, 1)² with density f/∫∫f. Returns the point and its cell (column, row),
+    /// without reading the density (callers that recompute it from the point save a cache miss).
+    #[inline]
+    pub fn sample_point_cell(&self, u: Vec2) -> (Vec2, (usize, usize)) {
+        let (iv, dv) = sample_entries(&self.marginal.entries, u.y);
+        let (iu, du) = sample_cells(self.row(iv), u.x);
+        (Vec2::new(continuous(iu, du, self.nu), continuous(iv, dv, self.nv)), (iu, iv))
     }
 
     /// Draws (u, v) ∈ [0, 1)² with density f/∫∫f. Returns the point, its density with respect to
     /// the unit square (0 if f ≡ 0) and its cell (column, row).
     #[inline]
     pub fn sample_continuous_cell(&self, u: Vec2) -> (Vec2, f32, (usize, usize)) {
-        let (iv, dv) = sample_entries(&self.marginal.entries, u.y);
-        let (iu, du) = sample_entries(self.row(iv), u.x);
-        let p = Vec2::new(continuous(iu, du, self.nu), continuous(iv, dv, self.nv));
+        let (p, (iu, iv)) = self.sample_point_cell(u);
         (p, self.pdf_index(iu, iv), (iu, iv))
     }
 
@@ -264,7 +349,7 @@ impl PiecewiseConstant2D {
         let (iv, _) = sample_entries(&self.marginal.entries, u.y);
         let uu = u.x.clamp(0.0, ONE_MINUS_EPSILON);
         let k = ((uu * self.nu as f32) as usize).min(self.nu - 1);
-        crate::math::prefetch_read(&self.conditional[iv * (self.nu + 1) + k]);
+        crate::math::prefetch_read(&self.conditional[iv * self.nu + k]);
     }
 
     /// Density of cell (column `iu`, row `iv`) with respect to the unit square.
@@ -502,6 +587,9 @@ mod tests {
         let mut rng = TestRng::new(21);
         let f: Vec<f32> = (0..nu * nv).map(|k| if k % 11 == 0 { 0.0 } else { rng.next_f32().powi(6) * 50.0 }).collect();
         let d = PiecewiseConstant2D::new(&f, nu, nv);
+        // With a payload in every entry (its own index): the same draws, and each cell's payload.
+        let mut dp = PiecewiseConstant2D::<[u32; 5]>::build(&f, nu, nv);
+        dp.set_payloads(&(0..nu * nv).map(|k| [k as u32; 5]).collect::<Vec<_>>());
         let rows: Vec<PiecewiseConstant1D> = f.chunks(nu).map(PiecewiseConstant1D::new).collect();
         let marginal = PiecewiseConstant1D::new(&rows.iter().map(|r| r.integral() as f32).collect::<Vec<_>>());
         for _ in 0..100_000 {
@@ -511,6 +599,9 @@ mod tests {
             let (p, pdf, cell) = d.sample_continuous_cell(u);
             assert_eq!((p.x.to_bits(), p.y.to_bits(), cell), (x.to_bits(), v.to_bits(), (iu, iv)));
             assert_eq!(pdf, (rows[iv].func(iu) as f64 / marginal.integral()) as f32);
+            let (pp, cp) = dp.sample_point_cell(u);
+            assert_eq!((pp.x.to_bits(), pp.y.to_bits(), cp), (x.to_bits(), v.to_bits(), (iu, iv)));
+            assert_eq!(*dp.payload(iv * nu + iu), [(iv * nu + iu) as u32; 5]);
         }
     }
 
