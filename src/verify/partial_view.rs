@@ -17,9 +17,9 @@
 
 use super::Ctx;
 use super::check::{Check, Row};
-use super::scenes::lambert;
 use super::fit::Channel;
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Spec, render_spec_to_exr};
 use analysis::image::{Image, read_image};
 use analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION;

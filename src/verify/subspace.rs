@@ -37,8 +37,8 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega, normalize};
-use super::scenes::lambert;
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::{grace, transfer};
 use analysis::sh::rotation::{Rotation, rotate_coefficients};

@@ -28,8 +28,8 @@
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega, lsq, normalize, sh_design};
-use super::scenes::lambert;
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
 use super::{grace, transfer};
 use analysis::sh::{ShBasis, lm, num_coefficients};
