@@ -99,9 +99,17 @@ fn report_schemas_are_pinned() {
     }
     assert_eq!(order["estimate"].as_array().unwrap().len(), 3, "every channel");
     let fit = &a["filter_fit"][0];
-    for k in
-        ["chi2", "dof", "chi2_per_dof", "robust_chi2_per_dof", "p_value", "stderr_scale", "fitted_orders", "covariance"]
-    {
+    for k in [
+        "chi2",
+        "dof",
+        "chi2_per_dof",
+        "robust_chi2_per_dof",
+        "p_value",
+        "relative_misfit",
+        "stderr_scale",
+        "fitted_orders",
+        "covariance",
+    ] {
         assert!(fit.get(k).is_some(), "analyze.filter_fit[0].{k}: {fit}");
     }
 
@@ -159,6 +167,7 @@ fn report_schemas_are_pinned() {
             ("points", "number"),
             ("filter", "array"),
             ("profile", "array"),
+            ("filter_fit", "object|null"),
             ("warnings", "array"),
         ],
         "invert brdf",

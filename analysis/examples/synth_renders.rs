@@ -71,6 +71,7 @@ fn main() {
         height: n,
         channels: img.channels.iter().filter(|(k, _)| k.len() == 1).map(|(k, v)| (k.clone(), v.clone())).collect(),
         attributes: Default::default(),
+        matrices: Default::default(),
     };
     img.attributes.insert(
         "reflect:camera".into(),

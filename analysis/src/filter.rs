@@ -103,6 +103,20 @@ pub const MAX_AMPLIFICATION: f64 = 30.0;
 /// itself noisy: that only scales the error bars); a lighting rotated by 90° gives several.
 pub const MISMATCH_CHI2: f64 = 2.0;
 
+/// Relative misfit ([`crate::fit::relative_misfit`]) above which, with a robust χ²/ν above
+/// [`MISMATCH_CHI2`], a fit warns that its model does not describe the image. Measured on
+/// 256², 64-spp renders under Grace (tests/partial_view_renders.rs): the right lighting gives 0
+/// (its residual is within the noise on the quadrature-weighted average, though Phong's truncation
+/// above l_max + 2 and a few heavy-tailed pixels raise the robust χ²/ν to 2–7); a lighting rotated
+/// by 90° gives 0.31–0.62 (Lambert) and 0.77–0.88 (Phong s = 32).
+pub const MISMATCH_RELATIVE: f64 = 0.05;
+
+/// The mismatch rule of every pixel-space fit: robust χ²/ν > [`MISMATCH_CHI2`] (the residuals are
+/// not noise) and relative misfit > [`MISMATCH_RELATIVE`] (they are a sizable part of the image).
+pub fn mismatch(robust_chi2: f64, relative_misfit: f64) -> bool {
+    robust_chi2 > MISMATCH_CHI2 && relative_misfit > MISMATCH_RELATIVE
+}
+
 /// How well the pixels determine one order of the filter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -147,6 +161,11 @@ pub struct ChannelFit {
     pub robust_chi2_per_dof: Option<f64>,
     /// P(χ²_ν ≥ χ²); `None` without a `stderr` layer (then χ² only estimates σ²).
     pub p_value: Option<f64>,
+    /// Size of the misfit relative to the signal: √(Σ_p w_p (r_p² − σ_p²)₊ / Σ_p w_p B_p²) (the
+    /// noise's share of the squared residual removed; w the quadrature weights). Unlike χ²/ν it does
+    /// not grow as the noise shrinks: a model error of a fixed fraction of the image gives the same
+    /// value at any sample count.
+    pub relative_misfit: f64,
     /// Factor applied to the propagated standard errors (√(χ²/ν) when above 1, else 1).
     pub stderr_scale: f64,
     /// Orders fitted (in order), the index set of `covariance`.
@@ -240,6 +259,7 @@ pub fn fit_filter_pixels(
                 chi2_per_dof: None,
                 robust_chi2_per_dof: None,
                 p_value: None,
+                relative_misfit: 0.0,
                 stderr_scale: 1.0,
                 fitted_orders: vec![],
                 covariance: vec![],
@@ -267,13 +287,16 @@ pub fn fit_filter_pixels(
         };
         let p_value = if have_sigma { fit.p_value() } else { None };
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
+        let relative_misfit =
+            crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
         if have_sigma && let Some(x) = chi2_per_dof {
-            if let Some(r) = robust.filter(|&r| r > MISMATCH_CHI2) {
+            if let Some(r) = robust.filter(|&r| mismatch(r, relative_misfit)) {
                 warnings.push(format!(
                     "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm Y_lm does \
-                     not describe the image — a mismatched or rotated lighting, a wrong camera, extent or sphere, or a \
-                     BRDF that is not radially symmetric about the fitted direction; standard errors scaled by \
-                     √(χ²/ν) = {scale:.3}"
+                     not describe the image (misfit {:.0} % of the signal) — a mismatched or rotated lighting, a wrong \
+                     camera, extent or sphere, or a BRDF that is not radially symmetric about the fitted direction; \
+                     standard errors scaled by √(χ²/ν) = {scale:.3}",
+                    100.0 * relative_misfit
                 ));
             } else if x > 1.0 {
                 warnings.push(format!(
@@ -323,6 +346,7 @@ pub fn fit_filter_pixels(
             chi2_per_dof,
             robust_chi2_per_dof: robust,
             p_value,
+            relative_misfit,
             stderr_scale: scale,
             fitted_orders: cols.clone(),
             covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),

@@ -181,6 +181,24 @@ pub fn robust_chi2(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f6
     Some(*m / 0.454_936_423_119_572_8)
 }
 
+/// Misfit relative to the signal, √(Σ_p w_p (r_p² − σ_p²)₊ / Σ_p w_p v_p²) over rows with w_p ≠ 0,
+/// r_p = v_p − Σ_j A_pj c_j (σ_p = 0 without `sigma`). 0 for a model that explains the pixels up to
+/// their noise; about the relative size of a model error otherwise, independent of the sample count.
+pub fn relative_misfit(rows: &[Vec<f64>], value: &[f64], sigma: Option<&[f64]>, weight: &[f64], coef: &[f64]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (i, a) in rows.iter().enumerate() {
+        let w = weight[i];
+        if w == 0.0 {
+            continue;
+        }
+        let r = value[i] - a.iter().zip(coef).map(|(x, c)| x * c).sum::<f64>();
+        let s = sigma.map_or(0.0, |s| s[i]);
+        num += w * (r * r - s * s);
+        den += w * value[i] * value[i];
+    }
+    if den > 0.0 { (num.max(0.0) / den).sqrt() } else { 0.0 }
+}
+
 /// Noise amplification of each column of a weighted design: √((C⁻¹)_ii), where C = D^-1/2 G D^-1/2 is the
 /// unit-diagonal Gram matrix of `rows` (G = Σ_r w_r x_r x_rᵀ over the first `p` entries of each row, D its
 /// diagonal). 1 for orthogonal columns; large where the sampled directions cannot tell a column from the others.

@@ -30,20 +30,16 @@
 //! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
 //! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.
 use super::Error;
-use super::args::{CameraFlags, ParamArg, ViewArgs};
-use super::header::{first_sphere, json_vec3, lighting_of};
+use super::args::{BrdfFlags, ParamArg, ViewArgs};
+use super::header::{Camera, lighting_of, load};
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
-use analysis::image::{Image, read_image};
-use analysis::projection::{
-    OrthoCamera, OrthoView, Param, Sphere, fit_orthographic, ortho_samples, probe_samples, project_normal_probe,
-};
+use analysis::projection::{OrthoView, Param, fit_orthographic, ortho_samples, probe_samples, project_normal_probe};
 use analysis::sh::{lm, num_coefficients};
 use analysis::transfer::{TransferModel, parameterization};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use vocab::scene::BrdfSection;
 use vocab::{BrdfKind, Horizon, Mapping};
 
 #[derive(clap::Args, Debug)]
@@ -66,78 +62,22 @@ pub struct AnalyzeArgs {
     /// The camera and sphere of images whose header does not say them.
     #[command(flatten)]
     pub view: ViewArgs,
+    /// The BRDF of the sphere when the header and --scene do not say it (for the analytic column).
+    #[command(flatten)]
+    pub brdf: BrdfFlags,
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
 }
 
-/// The camera of one image.
-enum Camera {
-    Ortho(OrthoCamera),
-    NormalProbe { theta_o_deg: f64 },
-}
-
-fn camera_of(img: &Image, f: CameraFlags) -> Result<Camera, Error> {
-    if let Some(text) = img.attributes.get("reflect:camera") {
-        let v: Value =
-            serde_json::from_str(text).map_err(|e| Error::new(format!("header reflect:camera is not JSON: {e}")))?;
-        let ty = v.get("type").and_then(|t| t.as_str()).unwrap_or("");
-        return match ty {
-            "orthographic" => Ok(Camera::Ortho(OrthoCamera {
-                from: json_vec3(&v, "from")?,
-                to: json_vec3(&v, "to")?,
-                up: json_vec3(&v, "up")?,
-                extent: v
-                    .get("extent")
-                    .and_then(|e| e.as_f64())
-                    .ok_or_else(|| Error::new("header camera has no 'extent'"))?,
-            })),
-            "normal-probe" => {
-                Ok(Camera::NormalProbe { theta_o_deg: super::header::probe_theta_o_deg(&v, "analysed")? })
-            }
-            other => Err(Error::new(format!(
-                "camera type '{other}' cannot be analysed (use an orthographic or normal-probe render)"
-            ))),
-        };
-    }
-    f.camera().map(Camera::Ortho).ok_or_else(|| {
-        Error::new("no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera)")
-    })
-}
-
-/// The BRDF of the analysed sphere, from the header: transfer model, RGB scale, kind, horizon,
-/// table (as the header wrote it, for the report).
+/// The BRDF of the analysed sphere: transfer model, RGB scale, kind, horizon, table (as the
+/// header, scene or flags gave it, for the report).
 struct Brdf {
     model: Option<TransferModel>,
     scale: [f64; 3],
     kind: BrdfKind,
     horizon: Horizon,
     table: Value,
-}
-
-fn sphere_and_brdf(img: &Image, warnings: &mut Vec<String>) -> Result<(Option<Sphere>, Option<Brdf>), Error> {
-    let (sphere, brdf, count) = first_sphere(img)?;
-    if sphere.is_none() {
-        return Ok((None, None));
-    }
-    if count > 1 {
-        warnings.push(format!("the scene has {count} objects; analysing the first sphere"));
-    }
-    let brdf = brdf.as_ref().map(|b| {
-        // The one BRDF → transfer-model mapping (a malformed table is an error naming the key).
-        let section: BrdfSection = serde_json::from_value(b.clone())
-            .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
-        let t = TransferModel::of_brdf(&section, 0.0)
-            .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?;
-        Ok::<_, Error>(Brdf {
-            model: t.map(|t| t.model),
-            scale: t.map_or([1.0; 3], |t| t.scale),
-            kind: section.kind(),
-            horizon: t.map_or(Horizon::Clamp, |t| t.horizon),
-            table: b.clone(),
-        })
-    });
-    Ok((sphere, brdf.transpose()?))
 }
 
 /// The sphere analysed (world space).
@@ -197,16 +137,23 @@ pub struct AnalyzeReport {
 /// the problem (bad input, or views that cannot determine what was asked).
 pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     check_lmax(a.lmax)?;
-    let images: Vec<Image> = a.images.iter().map(read_image).collect::<Result<_, _>>()?;
-    let cameras: Vec<Camera> = images
-        .iter()
-        .zip(&a.images)
-        .zip(a.view.per_image(a.images.len())?)
-        .map(|((img, p), f)| camera_of(img, f).map_err(|e| e.in_file(p)))
-        .collect::<Result<_, _>>()?;
+    let (images, described) = load(&a.images, &a.view, "analysed")?;
+    let cameras = &described.cameras;
     let mut warnings = Vec::new();
-    let (header_sphere, brdf) = sphere_and_brdf(&images[0], &mut warnings).map_err(|e| e.in_file(&a.images[0]))?;
-    let sphere = a.view.sphere(header_sphere);
+    if described.object_count > 1 {
+        warnings.push(format!("the scene has {} objects; analysing the first sphere", described.object_count));
+    }
+    let brdf_at = |theta_o: f64| -> Result<Option<Brdf>, Error> {
+        Ok(described.transfer(&a.brdf, theta_o).map_err(|e| e.in_file(&a.images[0]))?.map(|r| Brdf {
+            model: r.transfer.map(|t| t.model),
+            scale: r.transfer.map_or([1.0; 3], |t| t.scale),
+            kind: r.kind,
+            horizon: r.transfer.map_or(Horizon::Clamp, |t| t.horizon),
+            table: r.table,
+        }))
+    };
+    let brdf = brdf_at(0.0)?;
+    let sphere = described.sphere;
     let param = match a.param {
         Some(p) => Param::from(p),
         None => brdf.as_ref().map_or(Param::Normal, |b| parameterization(b.kind)),
@@ -219,7 +166,9 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         if images.len() != 1 {
             return Err(Error::new("a normal-probe render must be analysed on its own (one image)"));
         }
-        let Camera::NormalProbe { theta_o_deg } = cameras[0] else { unreachable!() };
+        let Camera::NormalProbe { theta_o_deg, phi_o_deg } = cameras[0] else { unreachable!() };
+        let theta_o_deg =
+            Camera::probe_theta_o_deg(theta_o_deg, phi_o_deg, "analysed").map_err(|e| e.in_file(&a.images[0]))?;
         // Torrance–Sparrow seen at θ_o: the q = 0 coefficient at that exitance angle.
         // (θ_o passed the one exitance check when the header was read; validated again as a model.)
         if let Some(Brdf { model: Some(m), .. }) = brdf.as_mut()
@@ -244,7 +193,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     } else {
         let views: Vec<OrthoView> = images
             .iter()
-            .zip(&cameras)
+            .zip(cameras)
             .map(|(image, c)| match c {
                 Camera::Ortho(camera) => OrthoView { image, camera: *camera },
                 Camera::NormalProbe { .. } => unreachable!(),
@@ -276,7 +225,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         )
     };
 
-    let lighting = lighting_of(a.lighting.as_deref(), a.mapping, &images[0], &a.images[0])
+    let lighting = lighting_of(a.lighting.as_deref(), a.mapping, &described)
         .map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
     // Two orders beyond l_max estimate the truncation bias of the filter fit.
     let l_hi = match &lighting {
@@ -408,7 +357,12 @@ impl std::fmt::Display for AnalyzeReport {
             }
             let chi = |c: &ChannelFit| match (c.chi2_per_dof, c.p_value) {
                 (Some(x), Some(p)) => {
-                    format!("{x:.3} (ν {}, p {p:.1e}, robust {:.3})", c.dof, c.robust_chi2_per_dof.unwrap_or(f64::NAN))
+                    format!(
+                        "{x:.3} (ν {}, p {p:.1e}, robust {:.3}, misfit {:.1} %)",
+                        c.dof,
+                        c.robust_chi2_per_dof.unwrap_or(f64::NAN),
+                        100.0 * c.relative_misfit
+                    )
                 }
                 (Some(x), None) => format!("{x:.3e} (ν {}, σ² from residuals)", c.dof),
                 _ => "-".to_string(),
@@ -439,12 +393,21 @@ pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use analysis::image::write_exr;
+    use analysis::image::{Image, write_exr};
     use analysis::sh::{Reconstructor, latlong_direction};
     use serde_json::json;
 
     fn args(images: Vec<PathBuf>, lmax: usize) -> AnalyzeArgs {
-        AnalyzeArgs { images, lighting: None, mapping: None, lmax, param: None, view: ViewArgs::default(), json: true }
+        AnalyzeArgs {
+            images,
+            lighting: None,
+            mapping: None,
+            lmax,
+            param: None,
+            view: ViewArgs::default(),
+            brdf: BrdfFlags::default(),
+            json: true,
+        }
     }
 
     fn tmp(name: &str) -> PathBuf {
@@ -477,7 +440,10 @@ mod tests {
         assert!(run(args(vec![good.clone()], 2)).is_ok());
 
         // Perspective renders cannot be analysed: an error naming the file.
-        img.attributes.insert("reflect:camera".into(), r#"{"type":"perspective","fov_deg":40}"#.into());
+        img.attributes.insert(
+            "reflect:camera".into(),
+            r#"{"type":"perspective","from":[0,0,3],"to":[0,0,0],"fov_deg":40}"#.into(),
+        );
         let persp = tmp("persp.exr");
         write_exr(&persp, &img).unwrap();
         let e = run(args(vec![persp], 2)).unwrap_err().to_string();

@@ -1,25 +1,25 @@
 //! Arguments shared by several subcommands, defined once so that a flag name has one meaning
 //! everywhere (`#[command(flatten)]` or the same type): the view of an image whose header does not
-//! describe it ([`ViewArgs`]), the BRDF model and its parameters ([`BrdfFlags`]), the colour
-//! channel ([`Channel`]), and the closed sets of the
+//! describe it ([`ViewArgs`]), the colour channel ([`Channel`]), and the closed sets of the
 //! analysis as `clap::ValueEnum`s, so `--help` lists their names (those of the scene format,
 //! `--brdf`, `--mapping`, `--sampler`, come from `vocab` with its `clap` feature).
 
 use super::{Error, flags};
-use analysis::projection::{OrthoCamera, Param, Sphere};
+use analysis::projection::{OrthoCamera, Param};
 use analysis::transfer::TransferModel;
-use serde_json::Value;
-use vocab::BrdfKind;
-use vocab::scene::BrdfSection;
+use std::path::PathBuf;
 
 /// The orthographic camera of each image and the sphere they show, for images whose header does
 /// not say them (another renderer's images, in the renderer's camera convention). The one place
 /// these flags are parsed and documented: every command that takes a view flattens this struct.
 ///
 /// `--from/--to/--up/--extent` are given once per image, in the order of the images, or not at all
-/// ([`flags::per_image`]); a header's `reflect:camera` takes precedence over them. `--center` and
-/// `--radius` describe the one sphere; a header's first sphere in `reflect:objects` takes
-/// precedence. Positions and lengths are in world units; `--extent` is the half-width of the view.
+/// ([`flags::per_image`]); `--center` and `--radius` describe the one sphere; `--scene S.toml` says
+/// the images are renders of that scene (camera, sphere, BRDF, lighting; its `[render]` size must be
+/// the images'). A header's `reflect:camera` / `reflect:objects`, the scene and the flags are
+/// combined by [`super::header::describe`]: each fills in what the others leave open, and two that
+/// contradict each other are an error naming both values. Positions and lengths are in world units
+/// of our frame (CONVENTIONS §1, +z up); `--extent` is the half-width of the view.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ViewArgs {
     /// Orthographic camera position x,y,z of an image without reflect:camera; once per image, in
@@ -41,6 +41,70 @@ pub struct ViewArgs {
     /// Sphere radius when the header has no reflect:objects.
     #[arg(long)]
     pub radius: Option<f64>,
+    /// Scene file (TOML, our vocabulary) the images are renders of: camera, sphere, BRDF and
+    /// lighting for images whose header does not say them; its [render] size must be the images'.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// The radiance layer of a multi-layer EXR, by its channel prefix (e.g. ViewLayer.Combined for
+    /// ViewLayer.Combined.R/G/B); needed only when the file has several radiance layers.
+    #[arg(long)]
+    pub layer: Option<String>,
+}
+
+/// The BRDF of the sphere in an image, by flags: a kind plus its parameters, each named as the key
+/// of a scene file's `brdf` table (`--s` for Phong, `--sigma` for Torrance–Sparrow, `--brdf-param
+/// KEY=VALUE` for any other, so a new BRDF needs no new flag), and `--albedo` the albedo / k_s / k_r
+/// scale. Shared by every command that takes a BRDF by flags (`sh transfer`, `analyze`, `invert
+/// lighting`), all through the one mapping [`TransferModel::from_named`];
+/// a header's or `--scene`'s BRDF that contradicts the flags is an error naming both
+/// ([`super::header::Description::transfer`]).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct BrdfFlags {
+    /// BRDF model of the sphere (default: the header's or --scene's; microfacet and mix have no
+    /// transfer model).
+    #[arg(long, value_enum)]
+    pub brdf: Option<vocab::BrdfKind>,
+    /// Phong exponent s (with --brdf phong).
+    #[arg(long)]
+    pub s: Option<f64>,
+    /// Torrance–Sparrow roughness σ in radians (with --brdf torrance-sparrow).
+    #[arg(long)]
+    pub sigma: Option<f64>,
+    /// Any other parameter of the --brdf model, KEY=VALUE with KEY its key in a scene file's brdf
+    /// table (repeatable).
+    #[arg(long = "brdf-param", value_parser = parse_param)]
+    pub brdf_param: Vec<(String, f64)>,
+    /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's or scene's, else 1).
+    #[arg(long, value_parser = flags::parse_rgb)]
+    pub albedo: Option<[f64; 3]>,
+}
+
+/// `KEY=VALUE` with a number as the value.
+fn parse_param(s: &str) -> Result<(String, f64), String> {
+    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected KEY=VALUE, got \"{s}\""))?;
+    let v: f64 = v.trim().parse().map_err(|_| format!("the value of {k} is not a number: \"{v}\""))?;
+    Ok((k.trim().to_string(), v))
+}
+
+impl BrdfFlags {
+    /// The parameters given (`--s`, `--sigma`, each `--brdf-param`), as (key, value) pairs.
+    pub fn params(&self) -> Vec<(String, f64)> {
+        let named = [("s", self.s), ("sigma", self.sigma)].into_iter().filter_map(|(n, v)| Some((n.to_string(), v?)));
+        named.chain(self.brdf_param.iter().cloned()).collect()
+    }
+
+    /// The transfer model of `--brdf` and its parameters, with `theta_o_deg` an exitance given on
+    /// the command line (`sh transfer --theta-o`); `None` without `--brdf`, a parameter given
+    /// without `--brdf` being an error.
+    pub fn model(&self, theta_o_deg: Option<f64>) -> Result<Option<TransferModel>, Error> {
+        match self.brdf {
+            Some(kind) => Ok(Some(TransferModel::from_named(kind, &self.params(), theta_o_deg)?)),
+            None => match self.params().first() {
+                Some((name, _)) => Err(Error::new(format!("--{name} needs --brdf"))),
+                None => Ok(None),
+            },
+        }
+    }
 }
 
 /// The camera flags of one image (`None` where a flag is not given).
@@ -72,100 +136,6 @@ impl ViewArgs {
         let (from, to) = (flags::per_image(&self.from, "from", n)?, flags::per_image(&self.to, "to", n)?);
         let (up, extent) = (flags::per_image(&self.up, "up", n)?, flags::per_image(&self.extent, "extent", n)?);
         Ok((0..n).map(|i| CameraFlags { from: from[i], to: to[i], up: up[i], extent: extent[i] }).collect())
-    }
-
-    /// The sphere: `--center`/`--radius` where given, else the header's, else the unit sphere at
-    /// the origin.
-    pub fn sphere(&self, header: Option<Sphere>) -> Sphere {
-        Sphere {
-            center: self.center.or(header.map(|s| s.center)).unwrap_or([0.0; 3]),
-            radius: self.radius.or(header.map(|s| s.radius)).unwrap_or(1.0),
-        }
-    }
-}
-
-/// The BRDF model and its parameters, for every command that takes a BRDF on the command line
-/// (`sh transfer`, `invert lighting`, `analyze`): `--brdf KIND` with its parameters, each named as
-/// the key of the scene file's `brdf` table. `--s` and `--sigma` are the built-in models'
-/// parameters; `--brdf-param KEY=VALUE` gives any other (so a new BRDF needs no new flag).
-/// Everything goes through the one BRDF → transfer-model mapping, [`TransferModel::from_named`].
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct BrdfFlags {
-    /// BRDF model (microfacet and mix have no transfer model and are refused).
-    #[arg(long, value_enum)]
-    pub brdf: Option<BrdfKind>,
-    /// Phong exponent s (> 0).
-    #[arg(long)]
-    pub s: Option<f64>,
-    /// Torrance–Sparrow roughness σ (radians, > 0).
-    #[arg(long)]
-    pub sigma: Option<f64>,
-    /// Any other parameter of the --brdf model, KEY=VALUE with KEY its key in a scene file's brdf
-    /// table (repeatable).
-    #[arg(long = "brdf-param", value_parser = parse_param)]
-    pub brdf_param: Vec<(String, f64)>,
-}
-
-/// `KEY=VALUE` with a finite number as the value.
-fn parse_param(s: &str) -> Result<(String, f64), String> {
-    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected KEY=VALUE, got \"{s}\""))?;
-    let v: f64 = v.trim().parse().map_err(|_| format!("the value of {k} is not a number: \"{v}\""))?;
-    Ok((k.trim().to_string(), v))
-}
-
-/// The BRDF a command analyses with ([`BrdfFlags::resolve`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ResolvedBrdf {
-    pub kind: BrdfKind,
-    /// The transfer model at the view's exitance.
-    pub model: TransferModel,
-    /// The header table's RGB factor (albedo / k_s / k_r); `None` when the model came from flags.
-    pub header_scale: Option<[f64; 3]>,
-}
-
-impl BrdfFlags {
-    /// The parameters given, as (key, value) pairs.
-    pub fn params(&self) -> Vec<(String, f64)> {
-        let named = [("s", self.s), ("sigma", self.sigma)].into_iter().filter_map(|(n, v)| Some((n.to_string(), v?)));
-        named.chain(self.brdf_param.iter().cloned()).collect()
-    }
-
-    /// The transfer model of `--brdf` and its parameters, with `theta_o_deg` an exitance given on
-    /// the command line (`sh transfer --theta-o`); `None` without `--brdf`, a parameter given
-    /// without `--brdf` being an error.
-    pub fn model(&self, theta_o_deg: Option<f64>) -> Result<Option<TransferModel>, Error> {
-        match self.brdf {
-            Some(kind) => Ok(Some(TransferModel::from_named(kind, &self.params(), theta_o_deg)?)),
-            None => match self.params().first() {
-                Some((name, _)) => Err(Error::new(format!("--{name} needs --brdf"))),
-                None => Ok(None),
-            },
-        }
-    }
-
-    /// The BRDF kind: `--brdf`, else the `type` of the header's BRDF table (`None` when neither
-    /// says it, or the header's type is unknown: [`BrdfFlags::resolve`] then names the fault).
-    pub fn kind(&self, header: Option<&Value>) -> Option<BrdfKind> {
-        self.brdf.or_else(|| header.and_then(|b| b.get("type")?.as_str()?.parse::<BrdfKind>().ok()))
-    }
-
-    /// The BRDF of an image seen at exitance θ_o (radians, the view's): from the flags when
-    /// `--brdf` is given, else from the header's BRDF table (`reflect:objects`), both through the
-    /// one BRDF → transfer-model mapping. Errors: neither given, a bad flag or header table, or a
-    /// BRDF without a transfer model.
-    pub fn resolve(&self, header: Option<&Value>, theta_o: f64) -> Result<ResolvedBrdf, Error> {
-        if let Some(m) = self.model(None)? {
-            let kind = self.brdf.expect("model() is Some only with --brdf");
-            return Ok(ResolvedBrdf { kind, model: m.at_exitance(theta_o), header_scale: None });
-        }
-        let b = header.ok_or_else(|| Error::new("no BRDF: pass --brdf (the image header names none)"))?;
-        let table: BrdfSection = serde_json::from_value(b.clone())
-            .map_err(|e| Error::new(format!("header reflect:objects: BRDF table: {e}")))?;
-        let kind = table.kind();
-        let t = TransferModel::of_brdf(&table, theta_o)
-            .map_err(|e| Error::new(format!("header reflect:objects {}", e.message)))?
-            .ok_or_else(|| Error::new(format!("the header's BRDF '{kind}' has no transfer model: pass --brdf")))?;
-        Ok(ResolvedBrdf { kind, model: t.model, header_scale: Some(t.scale) })
     }
 }
 

@@ -37,7 +37,7 @@
 
 use super::Error;
 use super::args::{Channel, Quadrature};
-use super::header::{header_json, probe_exitance_deg};
+use super::header::Camera as ViewCamera;
 use super::sh::check_lmax;
 use analysis::image::{Image, read_image};
 use analysis::inverse::factorization::{
@@ -245,20 +245,24 @@ pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
 
 /// Camera of a header: (θ_o°, φ_o°), checked to be a pixel-centre normal-probe.
 fn probe_angles(img: &Image, p: &Path) -> Result<(f64, f64), Error> {
-    let cam = header_json(img, "reflect:camera").map_err(|e| e.in_file(p))?.ok_or_else(|| {
+    let cam = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?.camera.ok_or_else(|| {
         Error::file(p, "no reflect:camera in the header (factor needs normal-probe renders of reflect)")
     })?;
-    let ty = cam.get("type").and_then(|t| t.as_str()).unwrap_or("");
-    if ty != "normal-probe" {
-        return Err(Error::file(p, format!("camera type '{ty}' cannot be factored (normal-probe renders only)")));
-    }
-    if cam.get("jitter").and_then(|j| j.as_bool()) == Some(true) {
-        return Err(Error::file(
+    match cam {
+        vocab::CameraSection::NormalProbe { jitter: true, .. } => Err(Error::file(
             p,
             "a jittered normal-probe render holds pixel averages, not the pixel-centre samples the quadrature needs (render with jitter = false)",
-        ));
+        )),
+        vocab::CameraSection::NormalProbe { .. } => {
+            match ViewCamera::of_section(&cam, "factored").map_err(|e| e.in_file(p))? {
+                ViewCamera::NormalProbe { theta_o_deg, phi_o_deg } => Ok((theta_o_deg, phi_o_deg)),
+                ViewCamera::Ortho(_) => unreachable!(),
+            }
+        }
+        _ => {
+            Err(Error::file(p, format!("camera type '{}' cannot be factored (normal-probe renders only)", cam.kind())))
+        }
     }
-    probe_exitance_deg(&cam).map_err(|e| e.in_file(p))
 }
 
 /// The factored channel of an image as f64, and its largest standard error (if the layer exists).
@@ -882,7 +886,10 @@ mod tests {
         // A file that is not a normal-probe render, a missing file, a different grid.
         let ortho = tmp("sets/ortho.exr");
         let mut img = read_image(&paths[0]).unwrap();
-        img.attributes.insert("reflect:camera".into(), r#"{"type":"orthographic"}"#.into());
+        img.attributes.insert(
+            "reflect:camera".into(),
+            r#"{"type":"orthographic","from":[0,0,3],"to":[0,0,0],"extent":1}"#.into(),
+        );
         write_exr(&ortho, &img).unwrap();
         let mut p = paths.clone();
         p[1] = ortho.clone();

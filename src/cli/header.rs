@@ -1,98 +1,532 @@
-//! Reading what a render's EXR header says about how it was made (`reflect:camera`,
-//! `reflect:objects`, `reflect:lighting`, written by `renderer::output`), and the lighting given on
-//! the command line instead. Shared by `reflect analyze` and the `reflect invert` subcommands.
+//! The one description of an image to analyse, shared by `reflect analyze` and every `reflect invert`
+//! subcommand: its camera, the sphere it shows, that sphere's BRDF and the lighting, from
+//!
+//! 1. the image's own header: the `reflect:*` attributes our renderer writes, read back into the
+//!    typed scene vocabulary ([`vocab::header::Header`]; a malformed value is an error naming the key);
+//! 2. a sidecar scene file in our vocabulary (`--scene S.toml`: the image is that scene's render, so its
+//!    `[render]` size must be the image's);
+//! 3. flags ([`ViewArgs`]: `--from/--to/--up/--extent` per image, `--center/--radius`; BRDF flags
+//!    [`BrdfFlags`]).
+//!
+//! Every value may come from several of them; where two give it they must agree (a flag fills in
+//! what the header and scene leave open, it never silently replaces a different value): a
+//! contradiction is an error naming both values and where each came from. Everything is in our world
+//! frame (CONVENTIONS §1, §5): an image from a renderer with another up axis is described by flags
+//! in our frame.
 
 use super::Error;
-use analysis::image::Image;
+use super::args::{BrdfFlags, CameraFlags, ViewArgs};
+use analysis::image::{Image, read_image};
 use analysis::lighting::Lighting;
-use analysis::projection::{Mapping, Sphere};
-use serde_json::Value;
-use std::path::Path;
+use analysis::projection::{Mapping, OrthoCamera, Sphere};
+use analysis::transfer::{BrdfTransfer, TransferModel};
+use std::path::{Path, PathBuf};
+use vocab::BrdfKind;
+use vocab::header::Header;
+use vocab::scene::{BrdfSection, CameraSection, LightingSection, ObjectSection, SceneFile, decimal, decimal3};
 
-/// The JSON value of header attribute `key`, if present.
-pub fn header_json(img: &Image, key: &str) -> Result<Option<Value>, Error> {
-    img.attributes
-        .get(key)
-        .map(|t| serde_json::from_str(t).map_err(|e| Error::new(format!("header {key} is not JSON: {e}"))))
-        .transpose()
+/// The camera of one image, in our world frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Camera {
+    /// CONVENTIONS §5 orthographic camera (world units).
+    Ortho(OrthoCamera),
+    /// CONVENTIONS §6 normal-probe camera at exitance (θ_o, φ_o), degrees.
+    NormalProbe { theta_o_deg: f64, phi_o_deg: f64 },
 }
 
-/// `v[key]` as three numbers.
-pub fn json_vec3(v: &Value, key: &str) -> Result<[f64; 3], Error> {
-    let a = v.get(key).and_then(|a| a.as_array()).filter(|a| a.len() == 3);
-    let a = a.ok_or_else(|| Error::new(format!("header: '{key}' must be an array of 3 numbers")))?;
-    let mut o = [0.0; 3];
-    for (i, x) in a.iter().enumerate() {
-        o[i] = x.as_f64().ok_or_else(|| Error::new(format!("header: '{key}' must hold numbers")))?;
-    }
-    Ok(o)
-}
-
-/// (θ_o, φ_o) in degrees of a `normal-probe` camera header (`theta_o_deg`, `phi_o_deg`; absent
-/// = 0, CONVENTIONS §6 and our φ_o extension); a present value that is not a finite number is an
-/// error, and θ_o goes through the one exitance check of every command
-/// ([`analysis::transfer::validate_exitance`]: 0 ≤ θ_o < 90°, as the renderer's camera).
-pub fn probe_exitance_deg(cam: &Value) -> Result<(f64, f64), Error> {
-    let num = |k: &str| match cam.get(k) {
-        None => Ok(0.0),
-        Some(v) => v
-            .as_f64()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| Error::new(format!("header camera '{k}' is not a number"))),
-    };
-    let theta_o_deg = num("theta_o_deg")?;
-    analysis::transfer::validate_exitance(theta_o_deg.to_radians())
-        .map_err(|e| Error::new(format!("header camera: {}", e.message)))?;
-    Ok((theta_o_deg, num("phi_o_deg")?))
-}
-
-/// θ_o (degrees) of a `normal-probe` render for the per-order analysis of `analyze` and
-/// `invert lighting | brdf`, which reads the q = 0 term at (θ_o, φ_o = 0) (eq. 10): another
-/// azimuth at oblique exitance is refused (`what` names the command's verb in the message).
-pub fn probe_theta_o_deg(cam: &Value, what: &str) -> Result<f64, Error> {
-    let (theta_o_deg, phi_o_deg) = probe_exitance_deg(cam)?;
-    if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
-        return Err(Error::new(format!(
-            "a normal-probe render at phi_o_deg = {phi_o_deg} cannot be {what} (only phi_o_deg = 0)"
-        )));
-    }
-    Ok(theta_o_deg)
-}
-
-/// A colour as the scene format writes it: one number (grey) or `[r, g, b]`.
-pub fn json_rgb(v: Option<&Value>) -> Option<[f64; 3]> {
-    match v {
-        Some(Value::Number(n)) => n.as_f64().map(|x| [x; 3]),
-        Some(Value::Array(a)) if a.len() == 3 => {
-            let o = [0, 1, 2].map(|i| a[i].as_f64());
-            o.iter().all(|x| x.is_some()).then(|| o.map(|x| x.unwrap_or(0.0)))
+impl std::fmt::Display for Camera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Camera::Ortho(c) => {
+                write!(f, "orthographic from {} to {} up {} extent {}", v3(c.from), v3(c.to), v3(c.up), c.extent)
+            }
+            Camera::NormalProbe { theta_o_deg, phi_o_deg } => {
+                write!(f, "normal-probe theta_o_deg {theta_o_deg} phi_o_deg {phi_o_deg}")
+            }
         }
-        _ => None,
     }
 }
 
-/// The first sphere of `reflect:objects`, its BRDF table, and the number of objects.
-pub fn first_sphere(img: &Image) -> Result<(Option<Sphere>, Option<Value>, usize), Error> {
-    let Some(v) = header_json(img, "reflect:objects")? else { return Ok((None, None, 0)) };
-    let objs = v.as_array().ok_or_else(|| Error::new("header reflect:objects is not an array"))?;
-    let Some(o) = objs.iter().find(|o| o.get("shape").and_then(|s| s.as_str()) == Some("sphere")) else {
-        return Ok((None, None, objs.len()));
+fn v3(v: [f64; 3]) -> String {
+    format!("{},{},{}", v[0], v[1], v[2])
+}
+
+impl Camera {
+    /// θ_o (degrees) of a normal-probe camera for the per-order analysis of `analyze` and
+    /// `invert lighting | brdf`, which reads the q = 0 term at (θ_o, φ_o = 0) (eq. 10): another
+    /// azimuth at oblique exitance is refused (`what` names the command's verb in the message).
+    pub fn probe_theta_o_deg(theta_o_deg: f64, phi_o_deg: f64, what: &str) -> Result<f64, Error> {
+        if theta_o_deg != 0.0 && phi_o_deg.rem_euclid(360.0) != 0.0 {
+            return Err(Error::new(format!(
+                "a normal-probe render at phi_o_deg = {phi_o_deg} cannot be {what} (only phi_o_deg = 0)"
+            )));
+        }
+        Ok(theta_o_deg)
+    }
+
+    /// A scene or header camera table as a [`Camera`]; `what` is the command's verb ("analysed",
+    /// "inverted") for the refusal of a camera the analysis does not model (perspective). A
+    /// normal-probe θ_o goes through the one exitance check of every command
+    /// ([`analysis::transfer::validate_exitance`]: 0 ≤ θ_o < 90°, as the renderer's camera).
+    pub fn of_section(c: &CameraSection, what: &str) -> Result<Camera, Error> {
+        match c {
+            CameraSection::Orthographic { from, to, up, extent } => Ok(Camera::Ortho(OrthoCamera {
+                from: decimal3(*from),
+                to: decimal3(*to),
+                up: decimal3(*up),
+                extent: decimal(*extent),
+            })),
+            CameraSection::NormalProbe { theta_o_deg, phi_o_deg, .. } => {
+                let (t, p) = (decimal(*theta_o_deg), decimal(*phi_o_deg));
+                analysis::transfer::validate_exitance(t.to_radians())
+                    .map_err(|e| Error::new(format!("camera: {}", e.message)))?;
+                Ok(Camera::NormalProbe { theta_o_deg: t, phi_o_deg: p })
+            }
+            CameraSection::Perspective { .. } => Err(Error::new(format!(
+                "camera type 'perspective' cannot be {what} (use an orthographic or normal-probe render)"
+            ))),
+        }
+    }
+}
+
+/// Relative agreement of two lengths or coordinates written as f32 somewhere (headers, scenes).
+const AGREE: f64 = 1e-5;
+
+fn close(a: f64, b: f64, scale: f64) -> bool {
+    (a - b).abs() <= AGREE * scale.max(a.abs()).max(b.abs()).max(1.0)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let n = dot(a, a).sqrt();
+    if n > 0.0 { [a[0] / n, a[1] / n, a[2] / n] } else { a }
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+/// Two orthographic cameras make the same image (CONVENTIONS §5) when their forward and right
+/// vectors, extents and the line through the image centre agree: `from` may slide along the view
+/// direction and `up` may tilt within the plane of forward and up', as neither changes a ray.
+pub fn same_view(a: &OrthoCamera, b: &OrthoCamera) -> bool {
+    let (fa, fb) = (unit(sub(a.to, a.from)), unit(sub(b.to, b.from)));
+    let (ra, rb) = (unit(cross(fa, a.up)), unit(cross(fb, b.up)));
+    let d = sub(a.from, b.from);
+    let along = dot(d, fa);
+    let perp = sub(d, [fa[0] * along, fa[1] * along, fa[2] * along]);
+    let s = a.extent.abs().max(b.extent.abs());
+    (0..3).all(|i| close(fa[i], fb[i], 1.0) && close(ra[i], rb[i], 1.0) && close(perp[i], 0.0, s))
+        && close(a.extent, b.extent, s)
+}
+
+fn same_camera(a: &Camera, b: &Camera) -> bool {
+    match (a, b) {
+        (Camera::Ortho(x), Camera::Ortho(y)) => same_view(x, y),
+        (
+            Camera::NormalProbe { theta_o_deg: t1, phi_o_deg: p1 },
+            Camera::NormalProbe { theta_o_deg: t2, phi_o_deg: p2 },
+        ) => close(*t1, *t2, 90.0) && close((p1 - p2 + 180.0).rem_euclid(360.0) - 180.0, 0.0, 360.0),
+        _ => false,
+    }
+}
+
+/// A value and where it came from ("the header's reflect:camera", "--scene s.toml", "the flags").
+type Sourced<T> = Option<(T, String)>;
+
+/// Combines a value from two sources: each may be absent; when both are present they must agree.
+fn merge<T: std::fmt::Display>(
+    a: Sourced<T>,
+    b: Sourced<T>,
+    agree: impl Fn(&T, &T) -> bool,
+) -> Result<Sourced<T>, Error> {
+    match (a, b) {
+        (Some((x, sx)), Some((y, sy))) => {
+            if agree(&x, &y) {
+                Ok(Some((x, sx)))
+            } else {
+                Err(Error::new(format!("{sy} gives {y} but {sx} gives {x}: they contradict each other")))
+            }
+        }
+        (a, b) => Ok(a.or(b)),
+    }
+}
+
+/// The camera flags of one image laid over a base orthographic camera: the flags given replace the
+/// base's fields, the others are the base's.
+fn flags_over(f: &CameraFlags, base: &OrthoCamera) -> OrthoCamera {
+    OrthoCamera {
+        from: f.from.unwrap_or(base.from),
+        to: f.to.unwrap_or(base.to),
+        up: f.up.unwrap_or(base.up),
+        extent: f.extent.unwrap_or(base.extent),
+    }
+}
+
+impl std::fmt::Display for SphereShown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "sphere center {} radius {}", v3(self.0.center), self.0.radius)
+    }
+}
+
+/// A sphere, displayable in messages.
+#[derive(Clone, Copy, Debug)]
+struct SphereShown(Sphere);
+
+/// Reads the images of an analysis command and describes them ([`describe`]): each image's radiance
+/// layer is chosen by `view.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
+/// and the layers ignored), and a camera recovered from the standard `worldToNDC` / `worldToCamera`
+/// attributes ([`camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
+/// image of ours has its columns mirrored here, once, for every command.
+pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Description), Error> {
+    let mut images = Vec::with_capacity(paths.len());
+    for p in paths {
+        let (img, note) = read_image(p)?.select_layer(view.layer.as_deref()).map_err(|e| e.in_file(p))?;
+        if let Some(n) = note {
+            eprintln!("note: {}: {n}", p.display());
+        }
+        images.push(img);
+    }
+    let d = describe(&images, paths, view, what)?;
+    for ((img, p), mirrored) in images.iter_mut().zip(paths).zip(&d.mirrored) {
+        if *mirrored {
+            for data in img.channels.values_mut() {
+                data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
+            }
+            eprintln!(
+                "note: {}: the worldToNDC camera sees the mirror image of ours (CONVENTIONS §5); columns mirrored",
+                p.display()
+            );
+        }
+    }
+    Ok((images, d))
+}
+
+/// Reads a sidecar scene file (`--scene`).
+pub fn read_scene(path: &Path) -> Result<SceneFile, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read file: {e}")))?;
+    SceneFile::parse(&text).map_err(|m| Error::file(path, m))
+}
+
+/// Everything known about a set of images (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Description {
+    /// The camera of each image, in the order of the images.
+    pub cameras: Vec<Camera>,
+    /// The sphere analysed: flags, scene or header; else the unit sphere at the origin.
+    pub sphere: Sphere,
+    /// The BRDF of the first sphere of the scene or header (the flags' BRDF is resolved by
+    /// [`Description::transfer`]).
+    pub brdf: Option<(BrdfSection, String)>,
+    /// The number of objects of the scene or header (0 when neither says).
+    pub object_count: usize,
+    /// The lighting table of the scene or header, with the file relative paths in it are relative to.
+    pub lighting: Option<(LightingSection, PathBuf, String)>,
+    /// Per image: its camera came from `worldToNDC` and sees the mirror image of ours ([`load`]
+    /// mirrors the columns).
+    pub mirrored: Vec<bool>,
+}
+
+/// Whether the sidecar scene gives cameras, size, objects and lighting.
+fn scene_of(view: &ViewArgs) -> Result<Option<(PathBuf, SceneFile)>, Error> {
+    view.scene.as_ref().map(|p| read_scene(p).map(|s| (p.clone(), s))).transpose()
+}
+
+/// Describes `images` (read from `paths`) from their headers, `view.scene` and the flags of
+/// `view` (module docs). `what` is the command's verb for refusals ("analysed", "inverted").
+///
+/// Errors (each one line naming the file where there is one): a malformed header value (naming the
+/// key), a scene whose `[render]` size is not the image's (naming both sizes), a camera no source
+/// gives or one the analysis does not model (perspective), and two sources that contradict each
+/// other (naming both values).
+pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<Description, Error> {
+    let scene = scene_of(view)?;
+    let headers: Vec<Header> = images
+        .iter()
+        .zip(paths)
+        .map(|(img, p)| Header::read(&img.attributes).map_err(|e| e.in_file(p)))
+        .collect::<Result<_, _>>()?;
+    if let Some((sp, s)) = &scene {
+        for (img, p) in images.iter().zip(paths) {
+            let (w, h) = (s.render.width as usize, s.render.height as usize);
+            if (w, h) != (img.width, img.height) {
+                return Err(Error::file(
+                    p,
+                    format!(
+                        "the image is {}×{} but the [render] size of {} is {w}×{h}: --scene must be the scene this image is a render of",
+                        img.width,
+                        img.height,
+                        sp.display()
+                    ),
+                ));
+            }
+        }
+    }
+    let flags = view.per_image(images.len())?;
+    let mut cameras = Vec::with_capacity(images.len());
+    let mut mirrored = Vec::with_capacity(images.len());
+    for (((hd, p), f), img) in headers.iter().zip(paths).zip(&flags).zip(images) {
+        let in_p = |e: Error| e.in_file(p);
+        let from_header = hd
+            .camera
+            .as_ref()
+            .map(|c| Camera::of_section(c, what).map(|c| (c, "the header's reflect:camera".to_string())));
+        let matrix = camera_of_matrices(img).map_err(in_p)?;
+        if let Some((c, _)) = &matrix {
+            eprintln!(
+                "note: {}: camera from the worldToNDC{} attributes: {}",
+                p.display(),
+                if img.matrices.contains_key("worldToCamera") { " and worldToCamera" } else { "" },
+                Camera::Ortho(*c)
+            );
+        } else if img.matrices.contains_key("worldToCamera") && hd.camera.is_none() {
+            eprintln!(
+                "note: {}: worldToCamera without worldToNDC does not give the view's extent: not used (pass --from/--to/--up/--extent)",
+                p.display()
+            );
+        }
+        mirrored.push(matrix.is_some_and(|(_, m)| m));
+        let from_header = merge(
+            from_header.transpose().map_err(in_p)?,
+            matrix.map(|(c, _)| (Camera::Ortho(c), "the header's worldToNDC".to_string())),
+            same_camera,
+        )
+        .map_err(in_p)?
+        .map(Ok);
+        let from_scene = scene.as_ref().map(|(sp, s)| {
+            Camera::of_section(&s.camera, what).map(|c| (c, format!("the [camera] of {}", sp.display())))
+        });
+        let base = merge(from_header.transpose().map_err(in_p)?, from_scene.transpose().map_err(in_p)?, same_camera)
+            .map_err(in_p)?;
+        let given = f.from.is_some() || f.to.is_some() || f.up.is_some() || f.extent.is_some();
+        let camera = match base {
+            None => f.camera().map(Camera::Ortho).ok_or_else(|| {
+                Error::file(
+                    p,
+                    "no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera), or --scene S.toml",
+                )
+            })?,
+            Some((Camera::Ortho(b), src)) if given => {
+                let c = flags_over(f, &b);
+                if !same_view(&c, &b) {
+                    return Err(Error::file(
+                        p,
+                        format!(
+                            "the camera flags give {} but {src} gives {}: they contradict each other",
+                            Camera::Ortho(c),
+                            Camera::Ortho(b)
+                        ),
+                    ));
+                }
+                Camera::Ortho(b)
+            }
+            Some((Camera::NormalProbe { .. }, src)) if given => {
+                return Err(Error::file(
+                    p,
+                    format!("--from/--to/--up/--extent describe an orthographic camera but {src} is a normal-probe camera"),
+                ));
+            }
+            Some((c, _)) => c,
+        };
+        cameras.push(camera);
+    }
+
+    // The sphere and its BRDF: the first sphere of the first image's header and of the scene.
+    let first_sphere = |objs: &[ObjectSection]| {
+        objs.iter().find_map(|o| match o {
+            ObjectSection::Sphere { center, radius, brdf, .. } => {
+                Some((Sphere { center: decimal3(*center), radius: decimal(*radius) }, brdf.clone()))
+            }
+            _ => None,
+        })
     };
-    let sphere = Sphere {
-        center: json_vec3(o, "center").unwrap_or([0.0; 3]),
-        radius: o.get("radius").and_then(|r| r.as_f64()).unwrap_or(1.0),
+    let hd0 = headers.first().cloned().unwrap_or_default();
+    let in0 = |e: Error| match paths.first() {
+        Some(p) => e.in_file(p),
+        None => e,
     };
-    Ok((Some(sphere), o.get("brdf").cloned(), objs.len()))
+    let h_sphere = hd0.objects.as_deref().and_then(first_sphere);
+    let s_sphere = scene.as_ref().and_then(|(sp, s)| first_sphere(&s.objects).map(|x| (x, sp.display().to_string())));
+    let same_sphere = |a: &SphereShown, b: &SphereShown| {
+        let s = a.0.radius.abs().max(b.0.radius.abs());
+        (0..3).all(|i| close(a.0.center[i], b.0.center[i], s)) && close(a.0.radius, b.0.radius, s)
+    };
+    let base = merge(
+        h_sphere.as_ref().map(|(s, _)| (SphereShown(*s), "the header's reflect:objects".to_string())),
+        s_sphere.as_ref().map(|((s, _), sp)| (SphereShown(*s), format!("the [[objects]] of {sp}"))),
+        same_sphere,
+    )
+    .map_err(in0)?;
+    let default = base.as_ref().map_or(Sphere { center: [0.0; 3], radius: 1.0 }, |(s, _)| s.0);
+    let flagged =
+        Sphere { center: view.center.unwrap_or(default.center), radius: view.radius.unwrap_or(default.radius) };
+    if let Some((b, src)) = &base
+        && (view.center.is_some() || view.radius.is_some())
+        && !same_sphere(&SphereShown(flagged), b)
+    {
+        return Err(in0(Error::new(format!(
+            "--center/--radius give {} but {src} gives {b}: they contradict each other",
+            SphereShown(flagged)
+        ))));
+    }
+    let json = |b: &BrdfSection| serde_json::to_value(b).unwrap_or_default();
+    struct Shown(BrdfSection);
+    impl std::fmt::Display for Shown {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "the BRDF {}", serde_json::to_string(&self.0).unwrap_or_default())
+        }
+    }
+    let brdf = merge(
+        h_sphere.map(|(_, b)| (Shown(b), "the header's reflect:objects".to_string())),
+        s_sphere.map(|((_, b), sp)| (Shown(b), format!("the [[objects]] of {sp}"))),
+        |a, b| json(&a.0) == json(&b.0),
+    )
+    .map_err(in0)?
+    .map(|(b, s)| (b.0, s));
+    let object_count = match (&scene, hd0.objects.as_ref()) {
+        (_, Some(o)) => o.len(),
+        (Some((_, s)), None) => s.objects.len(),
+        (None, None) => 0,
+    };
+    // The lighting: the scene's (it describes this render), else the header's.
+    let lighting = match (&scene, hd0.lighting, paths.first()) {
+        (Some((sp, s)), _, _) => Some((s.lighting.clone(), sp.clone(), format!("[lighting] of {}", sp.display()))),
+        (None, Some(l), Some(p)) => Some((l, p.clone(), "reflect:lighting header".to_string())),
+        _ => None,
+    };
+    Ok(Description { cameras, sphere: flagged, brdf, object_count, lighting, mirrored })
+}
+
+/// A BRDF's transfer model, scale and kind, and the table it came from (for the report).
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    pub transfer: Option<BrdfTransfer>,
+    pub kind: BrdfKind,
+    /// The BRDF as JSON: the scene's or header's table, or the flags as a table.
+    pub table: serde_json::Value,
+    /// Where it came from: "the header's reflect:objects", "the [[objects]] of S", "--brdf".
+    pub source: String,
+}
+
+impl Description {
+    /// The BRDF of the sphere seen at exitance θ_o (radians): the flags ([`BrdfFlags`]) where given,
+    /// else the scene's or header's table, through the one BRDF → transfer-model mapping
+    /// ([`TransferModel::from_named`], [`TransferModel::of_brdf`]). Flags and a table that
+    /// contradict each other (another kind, exponent, roughness or albedo) are an error naming both.
+    /// `Ok(None)` when no source names a BRDF.
+    pub fn transfer(&self, flags: &BrdfFlags, theta_o: f64) -> Result<Option<Resolved>, Error> {
+        let table = match &self.brdf {
+            Some((b, src)) => {
+                let t = TransferModel::of_brdf(b, theta_o).map_err(|e| Error::new(format!("{src}: {}", e.message)))?;
+                Some((b, src, t))
+            }
+            None => None,
+        };
+        let params = !flags.params().is_empty();
+        if table.is_none() && flags.brdf.is_none() && (params || flags.albedo.is_some()) {
+            return Err(Error::new(
+                "--s, --sigma, --brdf-param and --albedo need --brdf (no header or scene names the BRDF)",
+            ));
+        }
+        // --s / --sigma without --brdf are parameters of the table's kind, checked against it below.
+        let kind = match (flags.brdf, &table) {
+            (Some(k), _) => k,
+            (None, Some((b, _, _))) if params => b.kind(),
+            (None, _) => {
+                return Ok(table.map(|(b, src, t)| {
+                    let mut t = t;
+                    if let Some(a) = flags.albedo
+                        && let Some(t) = t.as_mut()
+                    {
+                        t.scale = a;
+                    }
+                    Resolved {
+                        transfer: t,
+                        kind: b.kind(),
+                        table: serde_json::to_value(b).unwrap_or_default(),
+                        source: src.clone(),
+                    }
+                }))
+                .and_then(|r| self.check_albedo(r, flags));
+            }
+        };
+        let model = TransferModel::from_named(kind, &flags.params(), None)?.at_exitance(theta_o);
+        model.validate()?;
+        let scale = flags.albedo.or(table.as_ref().and_then(|(_, _, t)| t.map(|t| t.scale))).unwrap_or([1.0; 3]);
+        if let Some((b, src, t)) = &table {
+            let agrees = b.kind() == kind && t.is_none_or(|t| same_model(&t.model, &model));
+            if !agrees {
+                return Err(Error::new(format!(
+                    "--brdf {kind}{} but {src} gives the BRDF {}: they contradict each other",
+                    param_text(flags),
+                    serde_json::to_string(b).unwrap_or_default()
+                )));
+            }
+        }
+        let horizon = table.as_ref().and_then(|(_, _, t)| t.map(|t| t.horizon)).unwrap_or_default();
+        let mut flags_table = serde_json::json!({ "type": kind.name() });
+        for (key, v) in flags.params() {
+            flags_table[key] = v.into();
+        }
+        flags_table["albedo"] = serde_json::json!(scale);
+        let r = Resolved {
+            transfer: Some(BrdfTransfer { model, scale, horizon }),
+            kind,
+            table: flags_table,
+            source: "--brdf".into(),
+        };
+        self.check_albedo(Some(r), flags)
+    }
+
+    /// An `--albedo` that contradicts the table's albedo / k_s / k_r is an error naming both.
+    fn check_albedo(&self, r: Option<Resolved>, flags: &BrdfFlags) -> Result<Option<Resolved>, Error> {
+        if let (Some(a), Some((b, src))) = (flags.albedo, &self.brdf)
+            && let Ok(Some(t)) = TransferModel::of_brdf(b, 0.0)
+            && !(0..3).all(|i| close(a[i], t.scale[i], 1.0))
+        {
+            return Err(Error::new(format!(
+                "--albedo {} but {src} gives {}: they contradict each other",
+                v3(a),
+                v3(t.scale)
+            )));
+        }
+        Ok(r)
+    }
+}
+
+fn same_model(a: &TransferModel, b: &TransferModel) -> bool {
+    match (a, b) {
+        (TransferModel::Phong { s: x }, TransferModel::Phong { s: y }) => close(*x, *y, 1.0),
+        (TransferModel::TorranceSparrow { sigma: x, .. }, TransferModel::TorranceSparrow { sigma: y, .. }) => {
+            close(*x, *y, 1.0)
+        }
+        (a, b) => std::mem::discriminant(a) == std::mem::discriminant(b),
+    }
+}
+
+fn param_text(f: &BrdfFlags) -> String {
+    let flag = |k: &str, x: f64| match k {
+        "s" | "sigma" => format!(" --{k} {x}"),
+        _ => format!(" --brdf-param {k}={x}"),
+    };
+    f.params().iter().map(|(k, x)| flag(k, *x)).collect()
 }
 
 /// The lighting to compare with: `--lighting` (a scene TOML's `[lighting]` table, or an environment
-/// map with `--mapping` or a mapping inferred from its aspect ratio), else the `reflect:lighting`
-/// header of the first image (a relative file there is taken relative to that image).
+/// map with `--mapping` or a mapping inferred from its aspect ratio), else the described lighting
+/// (`--scene`'s, else the first image's `reflect:lighting` header; a relative file there is taken
+/// relative to that file).
 pub fn lighting_of(
     lighting: Option<&Path>,
     mapping: Option<Mapping>,
-    first: &Image,
-    first_path: &Path,
+    described: &Description,
 ) -> Result<Option<(Lighting, String)>, Error> {
     if let Some(p) = lighting {
         if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
@@ -103,13 +537,90 @@ pub fn lighting_of(
     if mapping.is_some() {
         return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
     }
-    match vocab::header::read_key::<vocab::LightingSection>(&first.attributes, vocab::header::LIGHTING)
-        .map_err(|e| e.in_file(first_path))?
-    {
-        Some(s) => Ok(Some((
-            Lighting::from_section(&s, first_path.parent()).map_err(|e| e.in_file(first_path))?,
-            "reflect:lighting header".to_string(),
-        ))),
+    match &described.lighting {
+        Some((s, file, source)) => {
+            Ok(Some((Lighting::from_section(s, file.parent()).map_err(|e| e.in_file(file))?, source.clone())))
+        }
         None => Ok(None),
     }
+}
+
+/// The orthographic camera of the standard OpenEXR attributes `worldToNDC` and (optionally)
+/// `worldToCamera` (m44f), as pbrt-v4 writes them: each the 4 × 4 matrix M with p' = M (p, 1)ᵀ
+/// (column vectors, M stored row by row; a matrix stored the other way round, Imath's row-vector
+/// convention with the translation in the last row, is transposed). NDC x ∈ [0, 1] runs left to
+/// right over the image, NDC y ∈ [0, 1] bottom to top, NDC z grows away from the camera (pbrt-v4's
+/// NDCFromWorld = Translate(½, ½, ½) · Scale(½, ½, ½) · screenFromWorld).
+///
+/// An orthographic camera maps world points affinely: ndc_x = a_x·p + b_x, ndc_y = a_y·p + b_y, so
+/// (CONVENTIONS §5) right = a_x/|a_x|, up' = a_y/|a_y|, extent = 1/(2|a_x|), forward f = right ×
+/// up'... taken from `worldToCamera` (camera +z) or NDC z when given, and the centre ray through the
+/// point where ndc = (½, ½). A camera whose forward is up' × right instead sees the mirror image of
+/// ours: `Ok(Some((camera, true)))` then asks the caller to mirror the image's columns.
+///
+/// `Ok(None)`: no `worldToNDC`. Errors: a projective (perspective) matrix, skewed axes or pixels that
+/// are not square, each said in words.
+pub fn camera_of_matrices(img: &Image) -> Result<Option<(OrthoCamera, bool)>, Error> {
+    let Some(ndc) = img.matrices.get("worldToNDC") else { return Ok(None) };
+    let m = column_convention(ndc);
+    let row = |i: usize| [m[4 * i] as f64, m[4 * i + 1] as f64, m[4 * i + 2] as f64];
+    let w_row = [m[12] as f64, m[13] as f64, m[14] as f64, m[15] as f64];
+    if w_row[0].abs() + w_row[1].abs() + w_row[2].abs() > 1e-6 * w_row[3].abs().max(1e-30) {
+        return Err(Error::new(
+            "worldToNDC is a perspective projection (its last row is not (0, 0, 0, 1)); the analysis models orthographic views only: render the sphere with an orthographic camera",
+        ));
+    }
+    let s = w_row[3];
+    let (ax, ay, az) = (scale(row(0), 1.0 / s), scale(row(1), 1.0 / s), scale(row(2), 1.0 / s));
+    let (bx, by) = (m[3] as f64 / s, m[7] as f64 / s);
+    let (nx, ny) = (dot(ax, ax).sqrt(), dot(ay, ay).sqrt());
+    if !(nx > 0.0 && ny > 0.0) || dot(ax, ay).abs() > 1e-4 * nx * ny {
+        return Err(Error::new("worldToNDC: the image's x and y axes are not perpendicular in the world"));
+    }
+    let (w, h) = (img.width as f64, img.height as f64);
+    // Square pixels: |a_y| / |a_x| = W / H.
+    if ((ny / nx) - w / h).abs() > 1e-4 * (w / h) {
+        return Err(Error::new(format!(
+            "worldToNDC: pixels are not square ({}×{} image, NDC scales {nx} and {ny} per world unit)",
+            img.width, img.height
+        )));
+    }
+    let right = scale(ax, 1.0 / nx);
+    let up = scale(ay, 1.0 / ny);
+    let extent = 1.0 / (2.0 * nx);
+    let ours = cross(up, right); // forward of a camera that sees the image as ours does: right = f × up'
+    // The direction the camera looks: worldToCamera's +z row, else NDC z growing with depth.
+    let look = match img.matrices.get("worldToCamera") {
+        Some(c) => {
+            let c = column_convention(c);
+            [c[8] as f64, c[9] as f64, c[10] as f64]
+        }
+        None => az,
+    };
+    let along = dot(look, ours);
+    let mirrored = along < 0.0;
+    let f = if mirrored { scale(ours, -1.0) } else { ours };
+    // The image centre (ndc ½, ½) on the plane spanned by a_x, a_y, then back along f.
+    let p0 = add(scale(ax, (0.5 - bx) / (nx * nx)), scale(ay, (0.5 - by) / (ny * ny)));
+    let from = add(p0, scale(f, -1e3 * extent.max(1.0)));
+    // A mirrored camera: the caller flips the columns, so the image's right is −right.
+    let right_used = if mirrored { scale(right, -1.0) } else { right };
+    debug_assert!(dot(cross(f, up), right_used) > 0.0);
+    Ok(Some((OrthoCamera { from, to: add(from, f), up, extent }, mirrored)))
+}
+
+/// `m` in the column-vector convention (translation in the last column): a matrix whose last
+/// column is (0, 0, 0, 1) and whose last row is not (Imath's row-vector layout) is transposed.
+fn column_convention(m: &[f32; 16]) -> [f32; 16] {
+    let last_col_unit = m[3] == 0.0 && m[7] == 0.0 && m[11] == 0.0 && m[15] != 0.0;
+    let last_row_unit = m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0;
+    if last_col_unit && !last_row_unit { std::array::from_fn(|k| m[(k % 4) * 4 + k / 4]) } else { *m }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
 }

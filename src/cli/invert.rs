@@ -20,22 +20,20 @@
 //! or orthographic views whose camera and sphere are in the header (weighted least squares, in the
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::Error;
-use super::args::{BrdfFlags, FitModel, LambdaRule};
-use super::header::{first_sphere, header_json, json_vec3, lighting_of, probe_theta_o_deg};
+use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
+use super::header::{Camera, Description, lighting_of, load};
 use super::sh::check_lmax;
-use analysis::filter::ChannelFit;
-use analysis::image::{Image, read_image, write_exr};
+use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
+use analysis::image::{Image, write_exr};
 use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
 use analysis::projection::{
-    OrthoCamera, OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples,
-    project_normal_probe,
+    OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples, project_normal_probe,
 };
 use analysis::sh::{lm, reconstruct_latlong};
 use analysis::transfer::{TransferModel, parameterization};
-use serde_json::Value;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use vocab::Mapping;
@@ -57,12 +55,12 @@ pub struct LightingArgs {
     /// Rendered images (OpenEXR): one normal-probe image, or orthographic views.
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// The BRDF (default: the header's; microfacet and mix have no transfer model).
+    /// The BRDF of the sphere (default: the header's or --scene's).
     #[command(flatten)]
     pub brdf: BrdfFlags,
-    /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's, else 1).
-    #[arg(long, value_parser = super::flags::parse_rgb)]
-    pub albedo: Option<[f64; 3]>,
+    /// The camera and sphere of images whose header does not say them.
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -97,6 +95,9 @@ pub struct BrdfArgs {
     /// The parametric model fitted.
     #[arg(long, value_enum)]
     pub model: FitModel,
+    /// The camera and sphere of images whose header does not say them.
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
@@ -141,34 +142,29 @@ struct Projected {
     lmax_carried: usize,
     /// Orthographic views: their used pixels and whether every view has a `stderr` layer.
     samples: Option<(Vec<Sample>, bool)>,
+    /// Cameras, sphere, BRDF and lighting of the images (header, --scene, flags).
+    described: Description,
 }
 
-fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Error> {
+/// Projects the images described by their headers, `view` (flags, `--scene`); `param` gives the
+/// parameterization of orthographic views from what is known of the BRDF.
+fn project(
+    paths: &[PathBuf],
+    view: &ViewArgs,
+    lmax: usize,
+    param: impl Fn(&Description) -> Param,
+) -> Result<Projected, Error> {
     check_lmax(lmax)?;
-    let images: Vec<Image> = paths.iter().map(read_image).collect::<Result<_, _>>()?;
+    let (images, described) = load(paths, view, "inverted")?;
+    let param = param(&described);
     let mut ortho = Vec::new();
     let mut probe = None;
-    for (img, p) in images.iter().zip(paths) {
-        let cam = header_json(img, "reflect:camera").map_err(|e| e.in_file(p))?.ok_or_else(|| {
-            Error::file(p, "no reflect:camera in the header (invert needs a render of reflect, or use analyze)")
-        })?;
-        match cam.get("type").and_then(|t| t.as_str()).unwrap_or("") {
-            "normal-probe" => probe = Some(probe_theta_o_deg(&cam, "inverted").map_err(|e| e.in_file(p))?),
-            "orthographic" => ortho.push(OrthoCamera {
-                from: json_vec3(&cam, "from").map_err(|e| e.in_file(p))?,
-                to: json_vec3(&cam, "to").map_err(|e| e.in_file(p))?,
-                up: json_vec3(&cam, "up").map_err(|e| e.in_file(p))?,
-                extent: cam
-                    .get("extent")
-                    .and_then(|e| e.as_f64())
-                    .ok_or_else(|| Error::file(p, "header camera has no 'extent'"))?,
-            }),
-            other => {
-                return Err(Error::file(
-                    p,
-                    format!("camera type '{other}' cannot be inverted (use orthographic or normal-probe)"),
-                ));
+    for (c, p) in described.cameras.iter().zip(paths) {
+        match *c {
+            Camera::NormalProbe { theta_o_deg, phi_o_deg } => {
+                probe = Some(Camera::probe_theta_o_deg(theta_o_deg, phi_o_deg, "inverted").map_err(|e| e.in_file(p))?)
             }
+            Camera::Ortho(o) => ortho.push(o),
         }
     }
     if let Some(theta_o_deg) = probe {
@@ -187,10 +183,10 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
             probe: true,
             lmax_carried,
             samples: None,
+            described,
         });
     }
-    let (sphere, _, _) = first_sphere(&images[0]).map_err(|e| e.in_file(&paths[0]))?;
-    let sphere = sphere.unwrap_or_default();
+    let sphere = described.sphere;
     let views: Vec<OrthoView> =
         images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
     let fit = fit_orthographic(&views, &sphere, param, lmax)
@@ -210,18 +206,24 @@ fn project(paths: &[PathBuf], lmax: usize, param: Param) -> Result<Projected, Er
         probe: false,
         lmax_carried: fit.lmax_carried,
         samples: Some(samples),
+        described,
     })
 }
 
-/// BRDF model and albedo from the command line, else from the header's BRDF table, both through
-/// the one BRDF → transfer-model mapping ([`BrdfFlags::resolve`]).
-fn brdf_of(a: &LightingArgs, header: Option<&Value>, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
-    let r = a.brdf.resolve(header, theta_o)?;
-    let albedo = a.albedo.or(r.header_scale).unwrap_or([1.0; 3]);
+/// BRDF model and albedo from the flags, else from the header's or scene's BRDF table, both through
+/// the one BRDF → transfer-model mapping ([`Description::transfer`]).
+fn brdf_of(a: &LightingArgs, d: &Description, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
+    let r = d
+        .transfer(&a.brdf, theta_o)?
+        .ok_or_else(|| Error::new("no BRDF: pass --brdf (the image header names none)"))?;
+    let t = r.transfer.ok_or_else(|| {
+        Error::new(format!("the BRDF '{}' of {} has no transfer model: pass --brdf", r.kind, r.source))
+    })?;
+    let albedo = t.scale;
     if albedo.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         return Err(Error::new(format!("albedo must be > 0, got {albedo:?}")));
     }
-    Ok((r.model, albedo, r.kind.name().to_string()))
+    Ok((t.model, albedo, r.kind.name().to_string()))
 }
 
 /// One order of `invert lighting`: the filter, its noise amplification and status.
@@ -295,12 +297,12 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         check_latlong(a.lmax, a.width, a.width / 2, "--output map (--width)").map_err(|e| e.in_file(out))?;
     }
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
-    let first = read_image(&a.images[0])?;
-    let (_, header_brdf, _) = first_sphere(&first).map_err(|e| e.in_file(&a.images[0]))?;
-    let kind = a.brdf.kind(header_brdf.as_ref());
-    let param = kind.map_or(Param::Reflection, parameterization);
-    let p = project(&a.images, a.lmax, param)?;
-    let (model, albedo, name) = brdf_of(a, header_brdf.as_ref(), p.theta_o)
+    let param = |d: &Description| {
+        let kind = a.brdf.brdf.or_else(|| d.brdf.as_ref().map(|(b, _)| b.kind()));
+        kind.map_or(Param::Reflection, parameterization)
+    };
+    let p = project(&a.images, &a.view, a.lmax, param)?;
+    let (model, albedo, name) = brdf_of(a, &p.described, p.theta_o)
         .map_err(|e| if a.brdf.brdf.is_none() { e.in_file(&a.images[0]) } else { e })?;
     let filter = model.lambda_rho(a.lmax);
     let inv = invert_lighting(&p.b, p.stderr.as_deref(), &filter, albedo, a.lmax, a.max_amplification, Some(rule))?;
@@ -391,9 +393,9 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
     })
 }
 
-fn lighting_for_brdf(a: &BrdfArgs, first: &Image) -> Result<(Lighting, String), Error> {
-    lighting_of(a.lighting.as_deref(), a.mapping, first, &a.images[0])?
-        .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting"))
+fn lighting_for_brdf(a: &BrdfArgs, d: &Description) -> Result<(Lighting, String), Error> {
+    lighting_of(a.lighting.as_deref(), a.mapping, d)?
+        .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting or --scene"))
 }
 
 /// One channel's generalised least-squares fit of `invert brdf`.
@@ -445,20 +447,32 @@ pub struct InvertBrdfReport {
     pub filter: Vec<BrdfOrder>,
     /// (parameter, Δχ²) along the profile.
     pub profile: Vec<[f64; 2]>,
+    /// Orthographic views: the pixel-space filter fit (error budget, conditioning, χ² per channel).
+    pub filter_fit: Option<FilterFitReport>,
     pub warnings: Vec<String>,
 }
 
 /// `reflect invert brdf` as a library call: the report, or an error naming the file and problem.
 pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
-    let p = project(&a.images, a.lmax, Param::Reflection)?;
+    let p = project(&a.images, &a.view, a.lmax, |_| Param::Reflection)?;
     let model = match a.model {
         FitModel::Phong => Model::Phong,
         FitModel::TorranceSparrow => Model::TorranceSparrow { theta_o: p.theta_o },
     };
     let (dlo, dhi) = model.default_range();
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
-    let (lighting, source) = lighting_for_brdf(a, &p.first)?;
-    let l = lighting.coefficients(a.lmax)?;
+    let (lighting, source) = lighting_for_brdf(a, &p.described)?;
+    // Two orders beyond l_max estimate the truncation bias of the pixel-space filter fit.
+    let l_hi = lighting.coefficients(a.lmax + 2)?;
+    let l = l_hi[..analysis::sh::num_coefficients(a.lmax)].to_vec();
+    let in_first = |e: Error| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e };
+    // Orthographic views: the filter is fitted in pixel space (the one fit `analyze` prints:
+    // conditioning from the design, truncation, χ²), not B_lm / L_lm, which is wrong on part of
+    // the sphere; the model is then fitted by GLS to it with its covariance ⊕ truncation².
+    if let Some((samples, have_sigma)) = &p.samples {
+        let pf = fit_filter_pixels(samples, *have_sigma, &l_hi, a.lmax).map_err(in_first)?;
+        return brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf);
+    }
     let est = estimate_transfer(&p.b, p.stderr.as_deref(), &l, a.lmax)?;
     // A normal-probe image with a stderr layer gives the full covariance of the per-order
     // estimates: they are correlated (≈ 0.85 between adjacent orders under a directional source),
@@ -538,8 +552,122 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
             .map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() })
             .collect(),
         profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
+        filter_fit: None,
         warnings: Vec::new(),
     })
+}
+
+/// `invert brdf` on orthographic views: the model fitted per channel by generalised least squares
+/// to the pixel-space filter `pf` ([`fit_filter_pixels`]) at its determined orders, with the fit's
+/// covariance plus the estimated truncation bias² on the diagonal (a bias of unknown sign, treated
+/// as an independent error per order); the channel with the narrowest interval is reported, as
+/// for a normal probe. Ill-conditioned orders are left out of the model fit (said in a warning).
+fn brdf_report_from_pixel_fit(
+    a: &BrdfArgs,
+    lmax_carried: usize,
+    method: String,
+    source: String,
+    model: Model,
+    range: (f64, f64),
+    pf: PixelFilterFit,
+) -> Result<InvertBrdfReport, Error> {
+    let mut warnings = pf.warnings.clone();
+    let mut fits = Vec::new();
+    for (ch, c) in pf.channels.iter().enumerate() {
+        let idx: Vec<usize> = (0..c.fitted_orders.len())
+            .filter(|&i| pf.orders[c.fitted_orders[i]].status[ch] == OrderStatus::Determined)
+            .collect();
+        if idx.len() < 2 {
+            warnings.push(format!("channel {}: fewer than two determined orders, no model fit", CHANNELS[ch]));
+            continue;
+        }
+        let orders: Vec<usize> = idx.iter().map(|&i| c.fitted_orders[i]).collect();
+        let f: Vec<f64> = orders.iter().map(|&l| pf.orders[l].estimate[ch].unwrap_or(0.0)).collect();
+        let n = idx.len();
+        let mut cov = vec![0.0; n * n];
+        for (r, &i) in idx.iter().enumerate() {
+            for (s, &j) in idx.iter().enumerate() {
+                cov[r * n + s] = c.covariance[i][j];
+            }
+            cov[r * n + r] += pf.orders[c.fitted_orders[i]].truncation[ch].unwrap_or(0.0).powi(2);
+        }
+        fits.push((ch, fit_model_gls(&orders, &f, &cov, model, Some(range))?));
+    }
+    let (ch, mut fit) = fits
+        .iter()
+        .min_by(|x, y| x.1.relative_width().total_cmp(&y.1.relative_width()))
+        .cloned()
+        .ok_or_else(|| Error::new("no channel has two determined filter orders to fit the model to"))?;
+    let k = fit.scale[0];
+    fit.scale = [None; 3];
+    fit.scale[ch] = k;
+    for (c, f) in &fits {
+        if let Some(p) = f.p_value().filter(|&p| p < 1e-3) {
+            warnings.push(format!(
+                "channel {}: the {} model does not describe the measured filter (χ² = {:.1} for ν = {}, p = {p:.1e})",
+                CHANNELS[*c],
+                model.name(),
+                f.chi2_min,
+                f.dof
+            ));
+        }
+    }
+    let channels: Vec<BrdfChannelFit> = fits
+        .iter()
+        .map(|(ch, f)| BrdfChannelFit {
+            channel: CHANNELS[*ch].into(),
+            estimate: f.parameter,
+            interval: [f.interval.0, f.interval.1],
+            chi2_min: f.chi2_min,
+            dof: f.dof,
+        })
+        .collect();
+    Ok(InvertBrdfReport {
+        fit: format!(
+            "filter fitted in pixel space over the views' pixels (as analyze), then the model by generalised least              squares with the filter's covariance and truncation, per channel over its determined orders; reported:              channel {}",
+            CHANNELS[ch]
+        ),
+        channels,
+        command: "invert brdf".into(),
+        lmax: a.lmax,
+        lmax_carried,
+        images: a.images.iter().map(|p| p.display().to_string()).collect(),
+        method,
+        lighting: source,
+        model: model.name().into(),
+        parameter: model.parameter_name().into(),
+        estimate: fit.parameter,
+        interval: [fit.interval.0, fit.interval.1],
+        relative_width: fit.relative_width().is_finite().then(|| fit.relative_width()),
+        range: [fit.range.0, fit.range.1],
+        scale: fit.scale,
+        chi2_min: fit.chi2_min,
+        dof: fit.dof,
+        weighted_by_stderr: fit.weighted_by_stderr,
+        points: fit.points,
+        filter: pf
+            .orders
+            .iter()
+            .map(|o| BrdfOrder {
+                l: o.l,
+                estimate: o.estimate,
+                stderr: o.stderr,
+                observable: o.estimate.iter().any(|e| e.is_some()),
+            })
+            .collect(),
+        profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
+        filter_fit: Some(FilterFitReport { orders: pf.orders, channels: pf.channels }),
+        warnings,
+    })
+}
+
+/// The pixel-space filter fit behind `invert brdf` on orthographic views (the one `analyze`
+/// prints): per order its noise, truncation, amplification and status; per channel χ², ν, p-value
+/// and covariance.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FilterFitReport {
+    pub orders: Vec<PixelOrder>,
+    pub channels: Vec<ChannelFit>,
 }
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
@@ -622,7 +750,9 @@ impl std::fmt::Display for InvertBrdfReport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
+    use analysis::image::read_image;
+    use serde_json::{Value, json};
+    use vocab::BrdfKind;
 
     /// The reports as JSON values, as `--json` prints them.
     fn lighting_doc(a: &LightingArgs) -> Result<Value, Error> {
@@ -641,6 +771,7 @@ mod tests {
             lighting: None,
             mapping: None,
             model: FitModel::Phong,
+            view: ViewArgs::default(),
             lmax,
             min: None,
             max: None,
@@ -676,7 +807,7 @@ mod tests {
         LightingArgs {
             images,
             brdf: BrdfFlags::default(),
-            albedo: None,
+            view: ViewArgs::default(),
             lmax,
             max_amplification: DEFAULT_MAX_AMPLIFICATION,
             lambda_rule: LambdaRule::Gcv,
@@ -743,8 +874,17 @@ mod tests {
             }
         }
         a.width = 64;
-        a.albedo = Some([1.0; 3]);
+        a.brdf.albedo = Some([1.0; 3]);
         a.output = None;
+        // The header says albedo 0.5: --albedo 1 contradicts it, an error naming both values ...
+        let e = lighting_doc(&a).unwrap_err().to_string();
+        assert!(e.contains("--albedo 1,1,1") && e.contains("0.5,0.5,0.5"), "{e}");
+        // ... and on the same image without reflect:objects the flags are taken: albedo 1 halves L_lm.
+        let mut bare = read_image(&path).unwrap();
+        bare.attributes.remove("reflect:objects");
+        write_exr(tmp("lambert-bare.exr"), &bare).unwrap();
+        a.images = vec![tmp("lambert-bare.exr")];
+        a.brdf.brdf = Some(BrdfKind::Lambert);
         let wrong = lighting_doc(&a).unwrap();
         assert!((wrong["coefficients"][0][0].as_f64().unwrap() - 0.5 * l[0][0]).abs() < 1e-3);
         // Bad input: absurd width, a BRDF without a transfer model (unknown names and rules are
@@ -753,7 +893,7 @@ mod tests {
         a.width = 3;
         assert!(lighting_doc(&a).is_err());
         a.output = None;
-        a.brdf.brdf = Some(vocab::BrdfKind::Microfacet);
+        a.brdf.brdf = Some(BrdfKind::Microfacet);
         assert!(lighting_doc(&a).is_err());
     }
 

@@ -27,7 +27,7 @@
 
 use super::Error;
 use super::args::Channel;
-use super::header::{first_sphere, header_json, json_rgb, probe_exitance_deg};
+use super::header::Camera;
 use analysis::image::{Image, RgbImage, read_image, write_exr};
 use analysis::inverse::separation::{
     LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
@@ -100,17 +100,27 @@ struct View {
 
 fn read_view(p: &Path) -> Result<(View, Image), Error> {
     let img = read_image(p)?;
-    let cam = header_json(&img, "reflect:camera")
+    let cam = vocab::header::Header::read(&img.attributes)
         .map_err(|e| e.in_file(p))?
+        .camera
         .ok_or_else(|| Error::file(p, "no reflect:camera in the header: not a normal-probe render of reflect"))?;
-    let ty = cam.get("type").and_then(|t| t.as_str()).unwrap_or("");
-    if ty != "normal-probe" {
-        return Err(Error::file(
-            p,
-            format!("not a normal-probe render (camera type '{ty}'): separation needs normal-probe views"),
-        ));
-    }
-    let (theta_o_deg, phi_o_deg) = probe_exitance_deg(&cam).map_err(|e| e.in_file(p))?;
+    let (theta_o_deg, phi_o_deg) = match cam {
+        vocab::CameraSection::NormalProbe { .. } => {
+            match Camera::of_section(&cam, "separated").map_err(|e| e.in_file(p))? {
+                Camera::NormalProbe { theta_o_deg, phi_o_deg } => (theta_o_deg, phi_o_deg),
+                Camera::Ortho(_) => unreachable!(),
+            }
+        }
+        _ => {
+            return Err(Error::file(
+                p,
+                format!(
+                    "not a normal-probe render (camera type '{}'): separation needs normal-probe views",
+                    cam.kind()
+                ),
+            ));
+        }
+    };
     let rgb = img.rgb().ok_or_else(|| Error::file(p, "no R, G, B channels"))?;
     if rgb.width != 2 * rgb.height || rgb.height < 4 {
         return Err(Error::file(
@@ -143,6 +153,18 @@ fn header_split(brdf: &Value) -> Option<([f64; 3], [f64; 3])> {
         }
     }
     Some((kd?, ks?))
+}
+
+/// A colour as the scene format writes it: one number (grey) or `[r, g, b]`.
+fn json_rgb(v: Option<&Value>) -> Option<[f64; 3]> {
+    match v {
+        Some(Value::Number(n)) => n.as_f64().map(|x| [x; 3]),
+        Some(Value::Array(a)) if a.len() == 3 => {
+            let o = [0, 1, 2].map(|i| a[i].as_f64());
+            o.iter().all(|x| x.is_some()).then(|| o.map(|x| x.unwrap_or(0.0)))
+        }
+        _ => None,
+    }
 }
 
 /// A per-channel weight from `--kd` / `--ks` (one number or r,g,b), else the header's.
@@ -199,7 +221,8 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
     for (i, p) in a.images.iter().enumerate() {
         let (v, img) = read_view(p)?;
         if i == 0 {
-            header_brdf = first_sphere(&img).map_err(|e| e.in_file(p))?.1;
+            let hd = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?;
+            header_brdf = hd.first_sphere().map(|(_, _, b)| serde_json::to_value(b).unwrap_or_default());
             if v.theta_o_deg != 0.0 {
                 return Err(Error::file(
                     p,

@@ -139,6 +139,9 @@ fn refuse_render(path: &std::path::Path) -> Result<(), Error> {
 fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
     check_lmax(a.lmax)?;
     let kind = a.brdf.brdf.ok_or_else(|| Error::new("sh transfer needs --brdf"))?;
+    if a.brdf.albedo.is_some() {
+        return Err(Error::new("--albedo does not apply to sh transfer (it prints Λ_l ρ̂_l for unit albedo / k_s)"));
+    }
     let model = a.brdf.model(a.theta_o)?.expect("--brdf is given");
     let f = model.lambda_rho(a.lmax);
     let approx = model.approximation(a.lmax);

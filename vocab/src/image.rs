@@ -17,6 +17,9 @@ pub struct Image {
     pub channels: BTreeMap<String, Vec<f32>>,
     /// String attributes of the EXR header (e.g. `reflect:camera`, a JSON object written by the renderer).
     pub attributes: BTreeMap<String, String>,
+    /// 4 × 4 float matrix attributes (m44f) of the EXR header, 16 numbers in the file's order (row
+    /// by row): e.g. `worldToCamera` and `worldToNDC`, which pbrt-v4 writes.
+    pub matrices: BTreeMap<String, [f32; 16]>,
 }
 
 /// An RGB float image, row 0 at the top.
@@ -103,6 +106,125 @@ impl Image {
             let y = self.channel("Y")?;
             Some(RgbImage { width: self.width, height: self.height, pixels: y.iter().map(|&v| [v, v, v]).collect() })
         })
+    }
+}
+
+/// Layer names (the last component of a channel prefix, case-insensitive) that hold something other
+/// than radiance: auxiliary outputs (AOVs) of our renderer, Blender, Mitsuba and pbrt. Their RGB
+/// channels are never taken as the image.
+const NON_RADIANCE: &[&str] = &[
+    "normal",
+    "normals",
+    "n",
+    "nn",
+    "sh_normal",
+    "geo_normal",
+    "stderr",
+    "variance",
+    "mask",
+    "albedo",
+    "diffcol",
+    "glosscol",
+    "transcol",
+    "denoising albedo",
+    "denoising normal",
+    "position",
+    "p",
+    "depth",
+    "dd",
+    "uv",
+];
+
+/// The radiance layers of `img`: channel prefixes (`""` for plain `R, G, B`; `ViewLayer.Combined`
+/// for `ViewLayer.Combined.R`) with R, G and B (or Y) channels, not named as an auxiliary output
+/// ([`NON_RADIANCE`]).
+pub fn radiance_layers(img: &Image) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for name in img.channels.keys() {
+        let (prefix, last) = match name.rsplit_once('.') {
+            Some((p, l)) => (p, l),
+            None => ("", name.as_str()),
+        };
+        let layer = prefix.rsplit('.').next().unwrap_or("").to_ascii_lowercase();
+        if !prefix.is_empty() && NON_RADIANCE.contains(&layer.as_str()) {
+            continue;
+        }
+        let dot = if prefix.is_empty() { String::new() } else { format!("{prefix}.") };
+        let has = |c: &str| img.channels.contains_key(&format!("{dot}{c}"));
+        let rgb = (last == "R" || last == "G" || last == "B") && has("R") && has("G") && has("B");
+        if (rgb || last == "Y") && !out.iter().any(|p| p == prefix) {
+            out.push(prefix.to_string());
+        }
+    }
+    out
+}
+
+impl Image {
+    /// The image with the radiance layer `layer` (a channel prefix such as `ViewLayer.Combined`; `None`:
+    /// the only radiance layer, plain `R, G, B` / `Y` first) moved to the plain channels `R, G, B` (or
+    /// `Y`), as every analysis reads them. Other layers stay as they are (our `normal.*`, `stderr.*`,
+    /// `mask.Y` are read by name; another renderer's auxiliary outputs are not), and an alpha channel
+    /// is ignored. Returns a one-line note naming the layer taken and the layers ignored, when the
+    /// image is not in our own layout.
+    ///
+    /// Errors: `layer` names no radiance layer, or several radiance layers and no `layer` (the message
+    /// lists them, for `--layer`).
+    pub fn select_layer(mut self, layer: Option<&str>) -> Result<(Image, Option<String>)> {
+        let layers = radiance_layers(&self);
+        let list = || {
+            layers
+                .iter()
+                .map(|l| if l.is_empty() { "(none: R, G, B)".to_string() } else { format!("'{l}'") })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let chosen = match layer {
+            Some(l) => {
+                let l = l.trim_end_matches('.');
+                if !layers.iter().any(|x| x == l) {
+                    return Err(Error::new(format!(
+                        "--layer {l}: no radiance layer of that name (radiance layers: {})",
+                        list()
+                    )));
+                }
+                l.to_string()
+            }
+            None if layers.iter().any(|x| x.is_empty()) => String::new(),
+            None if layers.len() == 1 => layers[0].clone(),
+            None if layers.is_empty() => return Ok((self, None)),
+            None => {
+                return Err(Error::new(format!(
+                    "{} radiance layers ({}): choose one with --layer",
+                    layers.len(),
+                    list()
+                )));
+            }
+        };
+        if chosen.is_empty() {
+            return Ok((self, None));
+        }
+        let dot = format!("{chosen}.");
+        for c in ["R", "G", "B", "Y"] {
+            if let Some(v) = self.channels.remove(&format!("{dot}{c}")) {
+                self.channels.insert(c.to_string(), v);
+            }
+        }
+        let mut ignored: Vec<String> = Vec::new();
+        for name in self.channels.keys() {
+            if name.len() == 1 || name.starts_with("normal.") || name.starts_with("stderr.") || name == "mask.Y" {
+                continue;
+            }
+            let p = name.rsplit_once('.').map_or(name.as_str(), |(p, _)| p).to_string();
+            if !ignored.contains(&p) {
+                ignored.push(p);
+            }
+        }
+        let note = if ignored.is_empty() {
+            format!("radiance from layer '{chosen}'")
+        } else {
+            format!("radiance from layer '{chosen}'; ignored (not radiance, or not chosen): {}", ignored.join(", "))
+        };
+        Ok((self, Some(note)))
     }
 }
 
@@ -279,7 +401,7 @@ pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
     for (i, name) in ["R", "G", "B"].iter().enumerate() {
         channels.insert(name.to_string(), rgb.iter().map(|p| p[i]).collect());
     }
-    Ok(Image { width: w, height: h, channels, attributes: BTreeMap::new() })
+    Ok(Image { width: w, height: h, channels, attributes: BTreeMap::new(), matrices: BTreeMap::new() })
 }
 
 /// One scanline of `scan.len()` RGBE pixels from `data[*p..]`, in any of the three encodings.
@@ -494,14 +616,30 @@ pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
         };
         channels.insert(name, data);
     }
-    let mut attributes = BTreeMap::new();
+    let (mut attributes, mut matrices) = (BTreeMap::new(), BTreeMap::new());
     let others = image_other.iter().chain(layer.attributes.other.iter());
     for (k, v) in others {
-        if let AttributeValue::Text(t) = v {
-            attributes.insert(k.to_string(), t.to_string());
+        match v {
+            AttributeValue::Text(t) => {
+                attributes.insert(k.to_string(), t.to_string());
+            }
+            AttributeValue::Matrix4x4(m) => {
+                matrices.insert(k.to_string(), *m);
+            }
+            _ => {}
         }
     }
-    Ok((Image { width: dw, height: dh, channels, attributes }, note))
+    // The standard attributes (reserved names, so the exr crate keeps them out of `other`).
+    let standard = [
+        ("worldToCamera", layer.attributes.world_to_camera),
+        ("worldToNDC", layer.attributes.world_to_normalized_device),
+    ];
+    for (k, m) in standard {
+        if let Some(m) = m {
+            matrices.insert(k.to_string(), m);
+        }
+    }
+    Ok((Image { width: dw, height: dh, channels, attributes, matrices }, note))
 }
 
 /// Images larger than this many pixels per side are refused as absurd rather than allocated.
@@ -539,6 +677,18 @@ pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
             return Err(Error::file(path, format!("attribute {k} is not representable in OpenEXR text")));
         };
         attrs.other.insert(k, AttributeValue::Text(v));
+    }
+    for (k, m) in &img.matrices {
+        // The standard attributes have their own fields (the exr crate refuses them as custom ones).
+        match k.as_str() {
+            "worldToCamera" => attrs.world_to_camera = Some(*m),
+            "worldToNDC" => attrs.world_to_normalized_device = Some(*m),
+            _ => {
+                let k = Text::new_or_none(k.as_str())
+                    .ok_or_else(|| Error::file(path, format!("attribute {k} is not representable in OpenEXR text")))?;
+                attrs.other.insert(k, AttributeValue::Matrix4x4(*m));
+            }
+        }
     }
     let layer = Layer::new(
         (img.width, img.height),

@@ -123,6 +123,11 @@ impl BrdfFit {
             _ => f64::INFINITY,
         }
     }
+    /// P(χ²_ν ≥ χ²_min) when the weights are 1/σ² (ν = `dof` > 0): small when the model does not
+    /// describe the estimates; `None` otherwise (then χ² only measures the scatter).
+    pub fn p_value(&self) -> Option<f64> {
+        (self.weighted_by_stderr && self.dof > 0).then(|| crate::special::chi2_survival(self.chi2_min, self.dof as f64))
+    }
     /// χ²(p) − χ²_min at the profile grid point nearest p (in ln p): the height of the error curve.
     pub fn delta_chi2_at(&self, p: f64) -> f64 {
         self.profile

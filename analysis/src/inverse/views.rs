@@ -140,8 +140,10 @@ pub fn invert_lighting_views(
         };
         let p_value = if have_sigma { fit.p_value() } else { None };
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
+        let relative_misfit =
+            crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
         if have_sigma && let Some(x) = x {
-            if let Some(r) = robust.filter(|&r| r > crate::filter::MISMATCH_CHI2) {
+            if let Some(r) = robust.filter(|&r| crate::filter::mismatch(r, relative_misfit)) {
                 warnings.push(format!(
                     "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the BRDF and l_max do not describe the image (a wrong BRDF or \
                      albedo, a wrong camera, extent or sphere, or lighting above l_max + 2 that the views alias); \
@@ -173,6 +175,7 @@ pub fn invert_lighting_views(
             chi2_per_dof: x,
             robust_chi2_per_dof: robust,
             p_value,
+            relative_misfit,
             stderr_scale: scale,
             fitted_orders: (0..=lmax).filter(|&l| observable(l)).collect(),
             covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),

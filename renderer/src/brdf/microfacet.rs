@@ -22,7 +22,7 @@
 //! Both refuse draws with ω_o·h ≤ 0 or ω_i below the horizon; `pdf` integrates to the kept fraction.
 use super::fresnel;
 use super::{BrdfSample, Bxdf};
-use crate::math::{INV_PI, PI, Rgb, Vec2, Vec3};
+use crate::math::{INV_PI, Rgb, Vec2, Vec3};
 
 /// The normal distribution D (`distribution`), defined in `vocab`.
 pub use vocab::Distribution as MicrofacetDistribution;
@@ -133,7 +133,7 @@ impl Microfacet {
         let t2 = vh.cross(t1);
         // Uniform disk point, squeezed onto the visible half of the projected hemisphere.
         let r = u.x.sqrt();
-        let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+        let (sp, cp) = crate::math::fast::sincos_2pi(u.y);
         let p1 = r * cp;
         let s = 0.5 * (1.0 + vh.z);
         let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * (r * sp);
@@ -174,7 +174,7 @@ impl Bxdf for Microfacet {
                 let tan2 = -self.alpha2 * (-u.x).ln_1p();
                 let c = 1.0 / (1.0 + tan2).sqrt();
                 let s = (1.0 - c * c).max(0.0).sqrt();
-                let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+                let (sp, cp) = crate::math::fast::sincos_2pi(u.y);
                 Vec3::new(s * cp, s * sp, c)
             }
         };

@@ -90,7 +90,7 @@ impl Bxdf for TorranceSparrow {
         // Inverse CDF of the truncated Rayleigh density; ln_1p keeps precision for small uZ.
         let theta = self.sigma * (-(-u.x * self.z_trunc).ln_1p()).max(0.0).sqrt();
         let (st, ct) = theta.sin_cos();
-        let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+        let (sp, cp) = crate::math::fast::sincos_2pi(u.y);
         let h = Vec3::new(st * cp, st * sp, ct);
         let woh = wo.dot(h);
         if woh <= 0.0 {

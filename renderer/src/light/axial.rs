@@ -142,7 +142,7 @@ impl DistantLight for Axial {
         let (i, _, t) = self.cells.sample_discrete(u.x);
         let z = self.z_edge[i] + t * (self.z_edge[i + 1] - self.z_edge[i]);
         let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
-        let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+        let (sp, cp) = crate::math::fast::sincos_2pi(u.y);
         let wi = self.frame.to_world(Vec3::new(sin_theta * cp, sin_theta * sp, z)).normalize();
         // Recomputed from wi so that (pdf, value) agree exactly with pdf(wi) and eval(wi).
         let pdf = self.pdf(wi);

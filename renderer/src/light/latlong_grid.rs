@@ -118,7 +118,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         let t = (fv - r as f32).clamp(0.0, 1.0);
         let z = self.z_edge[r] + t * (self.z_edge[r + 1] - self.z_edge[r]);
         let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
-        let (sp, cp) = (2.0 * PI * uv.x).sin_cos();
+        let (sp, cp) = fast::sincos_2pi(uv.x);
         (Vec3::new(sin_theta * cp, sin_theta * sp, z), r)
     }
 

@@ -25,7 +25,7 @@ impl Uniform {
 pub(crate) fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    let (s, c) = crate::math::fast::sincos_2pi(u.y);
     Vec3::new(r * c, r * s, z)
 }
 

@@ -20,7 +20,7 @@ use crate::math::{Frame, INV_2PI, INV_4PI, INV_PI, PI, Vec2, Vec3};
 #[inline]
 fn from_cos_and_phi(cos_t: f32, u_phi: f32) -> Vec3 {
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (sp, cp) = (2.0 * PI * u_phi).sin_cos();
+    let (sp, cp) = crate::math::fast::sincos_2pi(u_phi);
     Vec3::new(sin_t * cp, sin_t * sp, cos_t)
 }
 

@@ -1,0 +1,279 @@
+//! Images from another renderer (issue 14): `analyze` and `invert lighting` on renders written in
+//! other renderers' conventions, generated here with our own renderer and rewritten (no external
+//! tool): R, G, B only with no `reflect:` attributes, described by a sidecar scene (`--scene`); the
+//! pbrt-v4 standard attributes `worldToCamera` / `worldToNDC` (m44f) and pbrt's mirrored image axis
+//! instead of any camera flag; an RGBA file with Blender-style layer prefixes and auxiliary layers.
+//! The Lambert filter 0.8·(1, 2/3, 1/4) and the lighting from a mirror sphere (Grace's L_lm) must be
+//! recovered within the error bars the command prints.
+//!
+//! Tolerance: 4 × the printed total standard error (noise from the residuals, scaled by √(χ²/ν)
+//! when above 1, ⊕ the estimated truncation bias): 9 comparisons per Lambert case, so a spurious
+//! failure has probability ≈ 6e-4 per case if the error bars are honest. Renders: fixed seed,
+//! 128², 32 spp, independent sampler.
+
+mod common;
+use analysis::image::{Image, read_image, write_exr};
+use analysis::lighting::Lighting;
+use common::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// Lambert Λ_l ρ̂_l (albedo 1), l ≤ 2, CONVENTIONS §4.
+const LAMBERT: [f64; 3] = [1.0, 2.0 / 3.0, 0.25];
+const N: usize = 128;
+
+fn ok_json(args: &[&str]) -> (Value, String) {
+    let (code, out, err) = reflect_out(args);
+    assert_eq!(code, 0, "{args:?}: {err}");
+    (serde_json::from_str(&out).unwrap_or_else(|e| panic!("{args:?}: bad JSON ({e}): {out}")), err)
+}
+
+/// Renders `scenes/{name}.toml` at 128², 32 spp.
+fn render(dir: &Path, name: &str) -> PathBuf {
+    let out = dir.join(format!("{name}.exr"));
+    let scene = root().join(format!("scenes/{name}.toml"));
+    let (code, err) = reflect(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "128x128",
+        "--spp",
+        "32",
+        "--sampler",
+        "independent",
+        "-q",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    out
+}
+
+/// The radiance of `img` alone (R, G, B), no attributes: what any renderer writes.
+fn bare(img: &Image) -> Image {
+    let mut b = Image { width: img.width, height: img.height, ..Default::default() };
+    for n in ["R", "G", "B"] {
+        b.channels.insert(n.to_string(), img.channel(n).unwrap().to_vec());
+    }
+    b
+}
+
+/// `scenes/{name}.toml` at the test's size, its envmap path made absolute, written into `dir`.
+fn sidecar(dir: &Path, name: &str) -> PathBuf {
+    let text = std::fs::read_to_string(root().join(format!("scenes/{name}.toml"))).unwrap();
+    let text = text
+        .replace("width = 256", &format!("width = {N}"))
+        .replace("height = 256", &format!("height = {N}"))
+        .replace("\"../../shared/data/grace_probe.hdr\"", &format!("{:?}", grace().to_str().unwrap()));
+    let p = dir.join(format!("{name}-sidecar.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Whether every order and channel of `doc["filter"]` is within 4 printed σ of 0.8 Λ_l ρ̂_l.
+fn filter_within_bars(doc: &Value) -> bool {
+    doc["filter"].as_array().is_some_and(|f| {
+        f.iter().enumerate().all(|(l, o)| {
+            (0..3).all(|ch| {
+                let (e, s) = (o["estimate"][ch].as_f64().unwrap(), o["stderr"][ch].as_f64().unwrap());
+                (e - 0.8 * LAMBERT[l]).abs() <= 4.0 * s
+            })
+        })
+    })
+}
+
+/// Every order and channel of `doc["filter"]` within 4 printed σ of 0.8 Λ_l ρ̂_l.
+fn assert_filter_right(doc: &Value, what: &str) {
+    let filter = doc["filter"].as_array().unwrap_or_else(|| panic!("{what}: no filter: {doc}"));
+    assert_eq!(filter.len(), 3, "{what}");
+    for (l, o) in filter.iter().enumerate() {
+        for ch in 0..3 {
+            let est = o["estimate"][ch].as_f64().unwrap();
+            let se = o["stderr"][ch].as_f64().unwrap();
+            let expect = 0.8 * LAMBERT[l];
+            assert!(se < 0.05 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
+            assert!(
+                (est - expect).abs() <= 4.0 * se,
+                "{what} l={l} ch{ch}: {est} ± {se} against {expect} ({:.1} σ)",
+                (est - expect) / se
+            );
+        }
+    }
+}
+
+/// pbrt-v4's `worldToCamera` and `worldToNDC` for an orthographic LookAt camera (column vectors,
+/// stored row by row): camera x = normalize(up × dir) (pbrt's left-handed LookAt), y = dir × x,
+/// z = dir; NDC = ½ screen + ½ with screen = camera xy / extent, z over [0, 10].
+fn pbrt_matrices(from: [f64; 3], to: [f64; 3], up: [f64; 3], extent: f64) -> ([f32; 16], [f32; 16]) {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let unit = |a: [f64; 3]| {
+        let n = dot(a, a).sqrt();
+        [a[0] / n, a[1] / n, a[2] / n]
+    };
+    let dir = unit(sub(to, from));
+    let x = unit(cross(up, dir));
+    let y = cross(dir, x);
+    let rows = [x, y, dir];
+    let mut cam = [0f32; 16];
+    let mut ndc = [0f32; 16];
+    let (sx, sz) = (0.5 / extent, 0.5 / 10.0);
+    for (i, r) in rows.iter().enumerate() {
+        let t = -dot(*r, from);
+        let (s, o) = if i < 2 { (sx, 0.5) } else { (sz, 0.5) };
+        for j in 0..3 {
+            cam[4 * i + j] = r[j] as f32;
+            ndc[4 * i + j] = (s * r[j]) as f32;
+        }
+        cam[4 * i + 3] = t as f32;
+        ndc[4 * i + 3] = (s * t + o) as f32;
+    }
+    cam[15] = 1.0;
+    ndc[15] = 1.0;
+    (cam, ndc)
+}
+
+#[test]
+fn lambert_filter_from_foreign_images() {
+    let dir = temp_dir("foreign-lambert");
+    let ours = read_image(render(&dir, "lambert-grace")).unwrap();
+    let grace = grace();
+    let grace_s = grace.to_str().unwrap();
+    let plain = bare(&ours);
+    let plain_path = dir.join("plain.exr");
+    write_exr(&plain_path, &plain).unwrap();
+    let p = plain_path.to_str().unwrap();
+
+    // 1. A sidecar scene of another size: exit 2 naming both sizes.
+    let big = root().join("scenes/lambert-grace.toml");
+    let (code, err) = reflect(&["analyze", p, "--scene", big.to_str().unwrap(), "--lmax", "2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("128×128") && err.contains("256×256") && err.lines().count() == 1, "{err}");
+
+    // 2. The sidecar of this render: camera, sphere, lighting and BRDF from it, so the filter is
+    //    right and the analytic column is there.
+    let side = sidecar(&dir, "lambert-grace");
+    let side_s = side.to_str().unwrap();
+    let (doc, _) = ok_json(&["analyze", p, "--scene", side_s, "--lmax", "2", "--json"]);
+    assert_eq!(doc["stderr_source"], "residuals");
+    assert_filter_right(&doc, "sidecar scene");
+    let analytic = doc["lambda_rho_analytic"].as_array().expect("analytic column from the sidecar's BRDF");
+    assert!((analytic[1][0].as_f64().unwrap() - 0.8 * 2.0 / 3.0).abs() < 1e-12);
+    // The same analytic column from BRDF flags on a headerless image with camera flags.
+    let camera = ["--from", "3,0,1", "--to", "0,0,0", "--up", "0,0,1", "--extent", "1.05"];
+    let mut args = vec!["analyze", p, "--lighting", grace_s, "--lmax", "2", "--json", "--brdf", "lambert"];
+    args.extend_from_slice(&["--albedo", "0.8"]);
+    args.extend_from_slice(&camera);
+    let (flags_doc, _) = ok_json(&args);
+    assert_eq!(flags_doc["lambda_rho_analytic"], doc["lambda_rho_analytic"]);
+
+    // 3. A flag that contradicts the sidecar: an error naming both values.
+    let (code, err) = reflect(&["analyze", p, "--scene", side_s, "--extent", "1.2", "--lmax", "2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("extent 1.2") && err.contains("extent 1.05"), "{err}");
+    let (code, err) = reflect(&["analyze", p, "--scene", side_s, "--brdf", "phong", "--s", "8", "--lmax", "2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--brdf phong") && err.contains("lambert"), "{err}");
+
+    // 4. pbrt-v4 conventions: worldToCamera / worldToNDC and pbrt's mirrored x axis (its LookAt
+    //    camera x is up × dir), no camera flag.
+    let mut pbrt = plain.clone();
+    for data in pbrt.channels.values_mut() {
+        data.chunks_exact_mut(N).for_each(|row| row.reverse());
+    }
+    let (cam, ndc) = pbrt_matrices([3.0, 0.0, 1.0], [0.0; 3], [0.0, 0.0, 1.0], 1.05);
+    pbrt.matrices.insert("worldToCamera".into(), cam);
+    pbrt.matrices.insert("worldToNDC".into(), ndc);
+    let pbrt_path = dir.join("pbrt.exr");
+    write_exr(&pbrt_path, &pbrt).unwrap();
+    let (doc, err) = ok_json(&["analyze", pbrt_path.to_str().unwrap(), "--lighting", grace_s, "--lmax", "2", "--json"]);
+    assert!(err.contains("camera from the worldToNDC and worldToCamera attributes"), "{err}");
+    assert!(err.contains("columns mirrored"), "{err}");
+    assert_filter_right(&doc, "pbrt-style matrices");
+    // Not mirrored back, the same pixels are a different image: the fit must see it (planted error).
+    let mut unflipped = pbrt.clone();
+    unflipped.channels = plain.channels.clone();
+    let unflipped_path = dir.join("pbrt-unflipped.exr");
+    write_exr(&unflipped_path, &unflipped).unwrap();
+    let (doc, _) =
+        ok_json(&["analyze", unflipped_path.to_str().unwrap(), "--lighting", grace_s, "--lmax", "2", "--json"]);
+    assert!(!filter_within_bars(&doc), "a mirrored image must not fit: {}", doc["filter"]);
+    // A perspective worldToNDC is refused in words.
+    let mut persp = pbrt.clone();
+    let mut m = ndc;
+    m[12..16].copy_from_slice(&cam[8..12]);
+    persp.matrices.insert("worldToNDC".into(), m);
+    let persp_path = dir.join("pbrt-persp.exr");
+    write_exr(&persp_path, &persp).unwrap();
+    let (code, err) = reflect(&["analyze", persp_path.to_str().unwrap(), "--lighting", grace_s, "--lmax", "2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("perspective") && err.contains("pbrt-persp.exr"), "{err}");
+
+    // 5. RGBA with Blender-style layer prefixes, a second radiance layer and auxiliary layers.
+    let mut layered = Image { width: N, height: N, ..Default::default() };
+    for c in ["R", "G", "B"] {
+        layered.channels.insert(format!("ViewLayer.Combined.{c}"), plain.channel(c).unwrap().to_vec());
+        layered.channels.insert(format!("ViewLayer.Emit.{c}"), vec![0.0; N * N]);
+        layered.channels.insert(format!("ViewLayer.DiffCol.{c}"), vec![0.8; N * N]);
+    }
+    layered.channels.insert("ViewLayer.Combined.A".into(), vec![1.0; N * N]);
+    layered.channels.insert("ViewLayer.Depth.Z".into(), vec![3.0; N * N]);
+    for c in ["X", "Y", "Z"] {
+        layered.channels.insert(format!("ViewLayer.Normal.{c}"), vec![0.0; N * N]);
+    }
+    let layered_path = dir.join("layered.exr");
+    write_exr(&layered_path, &layered).unwrap();
+    let l = layered_path.to_str().unwrap();
+    let (code, err) = reflect(&["analyze", l, "--scene", side_s, "--lmax", "2"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("'ViewLayer.Combined'") && err.contains("'ViewLayer.Emit'") && err.contains("--layer"),
+        "{err}"
+    );
+    assert!(!err.contains("DiffCol"), "an albedo AOV is not a radiance layer: {err}");
+    let (doc, err) =
+        ok_json(&["analyze", l, "--scene", side_s, "--layer", "ViewLayer.Combined", "--lmax", "2", "--json"]);
+    assert!(err.contains("radiance from layer 'ViewLayer.Combined'") && err.contains("ViewLayer.Depth"), "{err}");
+    assert_filter_right(&doc, "layered RGBA");
+}
+
+#[test]
+fn mirror_sphere_lighting_from_a_headerless_image() {
+    let dir = temp_dir("foreign-mirror");
+    let ours = read_image(render(&dir, "mirror-grace")).unwrap();
+    let plain_path = dir.join("plain.exr");
+    write_exr(&plain_path, &bare(&ours)).unwrap();
+    let lmax = 4;
+    let (doc, _) = ok_json(&[
+        "invert",
+        "lighting",
+        plain_path.to_str().unwrap(),
+        "--brdf",
+        "mirror",
+        "--from",
+        "3,0,1",
+        "--to",
+        "0,0,0",
+        "--up",
+        "0,0,1",
+        "--extent",
+        "1.05",
+        "--lmax",
+        &lmax.to_string(),
+        "--json",
+    ]);
+    let truth =
+        Lighting::from_scene_file(&root().join("scenes/mirror-grace.toml")).unwrap().coefficients(lmax).unwrap();
+    let mut compared = 0;
+    for (k, t) in truth.iter().enumerate() {
+        let (Some(est), Some(se)) = (doc["coefficients"][k].as_array(), doc["stderr"][k].as_array()) else { continue };
+        for ch in 0..3 {
+            let (e, s) = (est[ch].as_f64().unwrap(), se[ch].as_f64().unwrap());
+            assert!((e - t[ch]).abs() <= 4.0 * s, "L_{k} ch{ch}: {e} ± {s} against Grace's {}", t[ch]);
+            compared += 1;
+        }
+    }
+    assert!(compared >= 27, "l ≤ 2 at least must be recovered from one view: {compared} compared");
+}
