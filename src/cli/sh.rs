@@ -47,7 +47,10 @@ pub struct ProjectArgs {
     pub json: bool,
 }
 
+/// `--albedo` of the shared [`BrdfFlags`] is hidden here (and refused): the coefficients are for unit
+/// albedo / k_s.
 #[derive(clap::Args, Debug)]
+#[command(mut_arg("albedo", |a| a.hide(true)))]
 pub struct TransferArgs {
     /// The BRDF (`--brdf` is required here).
     #[command(flatten)]
