@@ -6,27 +6,9 @@
 
 mod common;
 
+use common::json::{kind, reflect_json as run};
 use serde_json::Value;
 use std::collections::BTreeSet;
-use std::process::Command;
-
-fn run(args: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "reflect {args:?}: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("reflect {args:?}: bad JSON ({e}): {stdout}"))
-}
-
-fn kind(v: &Value) -> &'static str {
-    match v {
-        Value::Null => "null",
-        Value::Bool(_) => "bool",
-        Value::Number(_) => "number",
-        Value::String(_) => "string",
-        Value::Array(_) => "array",
-        Value::Object(_) => "object",
-    }
-}
 
 /// "path: type" for every node; array elements are merged under `path[]`.
 fn schema(v: &Value, path: &str, out: &mut BTreeSet<String>) {

@@ -3,28 +3,12 @@
 //! pinned here, so a renamed or retyped field is a deliberate change (scripts and the Python
 //! package read these documents).
 
+mod common;
+
 use analysis::image::{Image, write_exr};
 use analysis::sh::{Reconstructor, latlong_direction, num_coefficients};
+use common::json::{kind, reflect_json};
 use serde_json::Value;
-use std::process::Command;
-
-fn reflect_json(args: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
-    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: bad JSON ({e}): {stdout}"))
-}
-
-fn kind(v: &Value) -> &'static str {
-    match v {
-        Value::Null => "null",
-        Value::Bool(_) => "bool",
-        Value::Number(_) => "number",
-        Value::String(_) => "string",
-        Value::Array(_) => "array",
-        Value::Object(_) => "object",
-    }
-}
 
 /// `doc` has exactly the keys of `schema`, each of one of the listed types ("number|null").
 fn assert_schema(doc: &Value, schema: &[(&str, &str)], what: &str) {

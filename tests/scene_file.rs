@@ -76,6 +76,16 @@ fn defaults_and_parse_errors() {
     // A missing required key (the camera's `from`) is named.
     let e = SceneFile::parse(&BASE.replace("from = [3.0, 0.0, 1.0]\n", "")).unwrap_err();
     assert!(e.contains("from"), "{e}");
+    // A fault in the second [[objects]] entry names that entry and the line of its table (22 of
+    // the file), not the first entry's line or the line before a table (found wrong: "line 17").
+    let two =
+        format!("{BASE}\n[[objects]]\nshape = \"sphere\"\ngloss = 1\nbrdf = {{ type = \"lambert\", albedo = 0.5 }}\n");
+    let e = SceneFile::parse(&two).unwrap_err();
+    assert!(e.starts_with("line 22: objects[1]: ") && e.contains("gloss"), "{e}");
+    // A key-start span at the beginning of a line is on that line (a duplicate key on line 20).
+    let dup = BASE.replace("shape = \"sphere\"\n", "shape = \"sphere\"\nshape = \"sphere\"\n");
+    let e = SceneFile::parse(&dup).unwrap_err();
+    assert!(e.starts_with("line 20: ") && e.contains("duplicate"), "{e}");
 }
 
 #[test]

@@ -6,6 +6,7 @@
 
 use super::{Error, flags};
 use analysis::projection::{OrthoCamera, Param};
+use analysis::transfer::TransferModel;
 use std::path::PathBuf;
 
 /// The orthographic camera of each image and the sphere they show, for images whose header does
@@ -50,9 +51,11 @@ pub struct ViewArgs {
     pub layer: Option<String>,
 }
 
-/// The BRDF of the sphere in an image, by flags: a kind plus its parameters (`--s` for Phong,
-/// `--sigma` for Torrance–Sparrow, `--albedo` the albedo / k_s / k_r scale). Shared by every command
-/// that needs the BRDF of an image whose header does not name it (`analyze`, `invert lighting`);
+/// The BRDF of the sphere in an image, by flags: a kind plus its parameters, each named as the key
+/// of a scene file's `brdf` table (`--s` for Phong, `--sigma` for Torrance–Sparrow, `--brdf-param
+/// KEY=VALUE` for any other, so a new BRDF needs no new flag), and `--albedo` the albedo / k_s / k_r
+/// scale. Shared by every command that takes a BRDF by flags (`sh transfer`, `analyze`, `invert
+/// lighting`), all through the one mapping [`TransferModel::from_named`];
 /// a header's or `--scene`'s BRDF that contradicts the flags is an error naming both
 /// ([`super::header::Description::transfer`]).
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -67,9 +70,41 @@ pub struct BrdfFlags {
     /// Torrance–Sparrow roughness σ in radians (with --brdf torrance-sparrow).
     #[arg(long)]
     pub sigma: Option<f64>,
+    /// Any other parameter of the --brdf model, KEY=VALUE with KEY its key in a scene file's brdf
+    /// table (repeatable).
+    #[arg(long = "brdf-param", value_parser = parse_param)]
+    pub brdf_param: Vec<(String, f64)>,
     /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's or scene's, else 1).
     #[arg(long, value_parser = flags::parse_rgb)]
     pub albedo: Option<[f64; 3]>,
+}
+
+/// `KEY=VALUE` with a number as the value.
+fn parse_param(s: &str) -> Result<(String, f64), String> {
+    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected KEY=VALUE, got \"{s}\""))?;
+    let v: f64 = v.trim().parse().map_err(|_| format!("the value of {k} is not a number: \"{v}\""))?;
+    Ok((k.trim().to_string(), v))
+}
+
+impl BrdfFlags {
+    /// The parameters given (`--s`, `--sigma`, each `--brdf-param`), as (key, value) pairs.
+    pub fn params(&self) -> Vec<(String, f64)> {
+        let named = [("s", self.s), ("sigma", self.sigma)].into_iter().filter_map(|(n, v)| Some((n.to_string(), v?)));
+        named.chain(self.brdf_param.iter().cloned()).collect()
+    }
+
+    /// The transfer model of `--brdf` and its parameters, with `theta_o_deg` an exitance given on
+    /// the command line (`sh transfer --theta-o`); `None` without `--brdf`, a parameter given
+    /// without `--brdf` being an error.
+    pub fn model(&self, theta_o_deg: Option<f64>) -> Result<Option<TransferModel>, Error> {
+        match self.brdf {
+            Some(kind) => Ok(Some(TransferModel::from_named(kind, &self.params(), theta_o_deg)?)),
+            None => match self.params().first() {
+                Some((name, _)) => Err(Error::new(format!("--{name} needs --brdf"))),
+                None => Ok(None),
+            },
+        }
+    }
 }
 
 /// The camera flags of one image (`None` where a flag is not given).

@@ -418,7 +418,7 @@ pub struct Resolved {
 impl Description {
     /// The BRDF of the sphere seen at exitance θ_o (radians): the flags ([`BrdfFlags`]) where given,
     /// else the scene's or header's table, through the one BRDF → transfer-model mapping
-    /// ([`TransferModel::from_params`], [`TransferModel::of_brdf`]). Flags and a table that
+    /// ([`TransferModel::from_named`], [`TransferModel::of_brdf`]). Flags and a table that
     /// contradict each other (another kind, exponent, roughness or albedo) are an error naming both.
     /// `Ok(None)` when no source names a BRDF.
     pub fn transfer(&self, flags: &BrdfFlags, theta_o: f64) -> Result<Option<Resolved>, Error> {
@@ -429,9 +429,11 @@ impl Description {
             }
             None => None,
         };
-        let params = flags.s.is_some() || flags.sigma.is_some();
+        let params = !flags.params().is_empty();
         if table.is_none() && flags.brdf.is_none() && (params || flags.albedo.is_some()) {
-            return Err(Error::new("--s, --sigma and --albedo need --brdf (no header or scene names the BRDF)"));
+            return Err(Error::new(
+                "--s, --sigma, --brdf-param and --albedo need --brdf (no header or scene names the BRDF)",
+            ));
         }
         // --s / --sigma without --brdf are parameters of the table's kind, checked against it below.
         let kind = match (flags.brdf, &table) {
@@ -455,12 +457,8 @@ impl Description {
                 .and_then(|r| self.check_albedo(r, flags));
             }
         };
-        let th = (kind == BrdfKind::TorranceSparrow && theta_o != 0.0).then_some(theta_o.to_degrees());
-        let model = TransferModel::from_params(kind, flags.s, flags.sigma, th)?;
-        let model = match model {
-            TransferModel::TorranceSparrow { sigma, .. } => TransferModel::TorranceSparrow { sigma, theta_o },
-            m => m,
-        };
+        let model = TransferModel::from_named(kind, &flags.params(), None)?.at_exitance(theta_o);
+        model.validate()?;
         let scale = flags.albedo.or(table.as_ref().and_then(|(_, _, t)| t.map(|t| t.scale))).unwrap_or([1.0; 3]);
         if let Some((b, src, t)) = &table {
             let agrees = b.kind() == kind && t.is_none_or(|t| same_model(&t.model, &model));
@@ -474,11 +472,8 @@ impl Description {
         }
         let horizon = table.as_ref().and_then(|(_, _, t)| t.map(|t| t.horizon)).unwrap_or_default();
         let mut flags_table = serde_json::json!({ "type": kind.name() });
-        if let Some(s) = flags.s {
-            flags_table["s"] = s.into();
-        }
-        if let Some(s) = flags.sigma {
-            flags_table["sigma"] = s.into();
+        for (key, v) in flags.params() {
+            flags_table[key] = v.into();
         }
         flags_table["albedo"] = serde_json::json!(scale);
         let r = Resolved {
@@ -517,14 +512,11 @@ fn same_model(a: &TransferModel, b: &TransferModel) -> bool {
 }
 
 fn param_text(f: &BrdfFlags) -> String {
-    let mut s = String::new();
-    if let Some(x) = f.s {
-        s += &format!(" --s {x}");
-    }
-    if let Some(x) = f.sigma {
-        s += &format!(" --sigma {x}");
-    }
-    s
+    let flag = |k: &str, x: f64| match k {
+        "s" | "sigma" => format!(" --{k} {x}"),
+        _ => format!(" --brdf-param {k}={x}"),
+    };
+    f.params().iter().map(|(k, x)| flag(k, *x)).collect()
 }
 
 /// The lighting to compare with: `--lighting` (a scene TOML's `[lighting]` table, or an environment

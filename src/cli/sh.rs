@@ -6,20 +6,19 @@
 //!   exactly over each pixel's footprint, for the piecewise-constant map the renderer lights with
 //!   (analysis::projection::envmap), so every order is the exact expansion of that map.
 //! - `reflect sh transfer --brdf lambert|phong|mirror|torrance-sparrow [--s S] [--sigma X]
-//!   [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (CONVENTIONS §4), with the
+//!   [--brdf-param KEY=VALUE] [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (CONVENTIONS §4), with the
 //!   paper's approximation alongside where it has one (eq. 46, 57, 59).
 //!
 //! `--json` prints one JSON document (CONVENTIONS §7) to stdout; otherwise a table.
 use super::Error;
+use super::args::BrdfFlags;
 use analysis::image::read_rgb;
 use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::lm;
-use analysis::transfer::TransferModel;
 use serde::Serialize;
 use std::fmt;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use vocab::BrdfKind;
 
 /// Largest l_max accepted on the command line (the basis is accurate far beyond; this guards
 /// against accidental huge allocations).
@@ -48,17 +47,14 @@ pub struct ProjectArgs {
     pub json: bool,
 }
 
+/// `--albedo` of the shared [`BrdfFlags`] is hidden here (and refused): the coefficients are for unit
+/// albedo / k_s.
 #[derive(clap::Args, Debug)]
+#[command(mut_arg("albedo", |a| a.hide(true)))]
 pub struct TransferArgs {
-    /// BRDF model (microfacet and mix have no transfer model here and are refused).
-    #[arg(long, value_enum)]
-    pub brdf: BrdfKind,
-    /// Phong exponent s (> 0).
-    #[arg(long)]
-    pub s: Option<f64>,
-    /// Torrance–Sparrow roughness σ (radians, > 0).
-    #[arg(long)]
-    pub sigma: Option<f64>,
+    /// The BRDF (`--brdf` is required here).
+    #[command(flatten)]
+    pub brdf: BrdfFlags,
     /// Torrance–Sparrow exitance angle θ_o in degrees (default 0, normal exitance).
     #[arg(long = "theta-o")]
     pub theta_o: Option<f64>,
@@ -145,15 +141,19 @@ fn refuse_render(path: &std::path::Path) -> Result<(), Error> {
 
 fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
     check_lmax(a.lmax)?;
-    let model = TransferModel::from_params(a.brdf, a.s, a.sigma, a.theta_o)?;
+    let kind = a.brdf.brdf.ok_or_else(|| Error::new("sh transfer needs --brdf"))?;
+    if a.brdf.albedo.is_some() {
+        return Err(Error::new("--albedo does not apply to sh transfer (it prints Λ_l ρ̂_l for unit albedo / k_s)"));
+    }
+    let model = a.brdf.model(a.theta_o)?.expect("--brdf is given");
     let f = model.lambda_rho(a.lmax);
     let approx = model.approximation(a.lmax);
     let method = model.method();
     let report = TransferReport {
-        brdf: a.brdf.name().to_string(),
+        brdf: kind.name().to_string(),
         lmax: a.lmax,
-        s: a.s,
-        sigma: a.sigma,
+        s: a.brdf.s,
+        sigma: a.brdf.sigma,
         theta_o_deg: a.theta_o,
         method: method.to_string(),
         lambda_rho: f,

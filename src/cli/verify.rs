@@ -52,8 +52,10 @@ pub struct VerifyArgs {
 
 pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
     if a.list {
+        // Names padded to the longest, so the equations line up whatever a new check is called.
+        let w = CHECKS.iter().map(|e| e.name.chars().count()).max().unwrap_or(0);
         for e in CHECKS {
-            println!("{:<17} {}", e.name, e.equation);
+            println!("{:<w$} {}", e.name, e.equation);
         }
         return Ok(ExitCode::SUCCESS);
     }

@@ -45,8 +45,11 @@ use super::fit::{Channel, Fit, fit_filter_at, order_rms};
 use super::oblique::probe_geometry;
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec, sh_lighting};
+use super::scenes::{mirror, phong};
 use super::transfer;
 use analysis::sh::lm;
+use vocab::Horizon;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "ambiguity";
 pub const EQUATION: &str = "eq. 32, 47";
@@ -320,8 +323,8 @@ pub fn evaluate(
     Some(c)
 }
 
-fn brdf_phong(s: f64, horizon: &str) -> String {
-    format!("{{ type = \"phong\", ks = 1.0, s = {s:?}, horizon = \"{horizon}\" }}")
+fn brdf_phong(s: f64, horizon: Horizon) -> BrdfSection {
+    phong(1.0, s, horizon)
 }
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
@@ -329,7 +332,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let spp = ctx.spp(QUICK_SPP, FULL_SPP);
     let mirror_spp = 2; // deterministic: 2 samples so that the stderr layer is defined (and must be 0)
     let mut seed = ctx.seed.wrapping_mul(1000) + 700; // distinct render seeds: independent noise
-    let mut render = |theta: f64, spp: u32, light: &[f64], brdf: &str, label: &str| -> Result<Image, String> {
+    let mut render = |theta: f64, spp: u32, light: &[f64], brdf: BrdfSection, label: &str| -> Result<Image, String> {
         let mut spec = Spec::probe(ctx, spp, Lighting::Sh(light.to_vec()), brdf);
         (spec.width, spec.height) = (2 * PROBE_HEIGHT, PROBE_HEIGHT);
         spec.camera = Camera::Probe { theta_o_deg: theta, phi_o_deg: 0.0 };
@@ -346,9 +349,9 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         if ctx.verbose {
             eprintln!("  θo = {theta}°");
         }
-        let a = render(theta, spp, &lights.l, &brdf_phong(S, "ignore"), "A: Phong s=8 | L")?;
-        let b = render(theta, mirror_spp, &lights.blurred, "{ type = \"mirror\", kr = 1.0 }", "B: mirror | L'")?;
-        let cc = render(theta, spp, &lights.rescaled, &brdf_phong(S2, "ignore"), "C: Phong s=16 | L''")?;
+        let a = render(theta, spp, &lights.l, brdf_phong(S, Horizon::Ignore), "A: Phong s=8 | L")?;
+        let b = render(theta, mirror_spp, &lights.blurred, mirror(1.0), "B: mirror | L'")?;
+        let cc = render(theta, spp, &lights.rescaled, brdf_phong(S2, Horizon::Ignore), "C: Phong s=16 | L''")?;
         mirror_sigma = b.ch.sigma.iter().fold(mirror_sigma, |m, &v| m.max(v));
         mirror_max = b.ch.value.iter().fold(mirror_max, |m, &v| m.max(v.abs()));
         // The mirror's σ̂ is 0 everywhere: its ν never enters; ∞ keeps `compare` valid.
@@ -356,7 +359,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         per_angle.push((theta, a, vec![b, cc]));
     }
     let theta_c = THETA_O_DEG[THETA_O_DEG.len() - 1];
-    let clamp = render(theta_c, spp, &lights.l, &brdf_phong(S, "clamp"), "Phong s=8 clamp | L")?;
+    let clamp = render(theta_c, spp, &lights.l, brdf_phong(S, Horizon::Clamp), "Phong s=8 clamp | L")?;
     let mut c = {
         let (_, _, others) = per_angle.last().ok_or("no angle")?;
         let clamp_pair = Some((theta_c, &others[0], &clamp));

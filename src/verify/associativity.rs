@@ -10,8 +10,10 @@ use super::check::{Check, F32_FLOOR, Row};
 use super::fit::{Channel, latlong_dir, latlong_omega, lsq};
 use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
+use super::scenes::{mirror, phong};
 use super::transfer;
 use analysis::sh::{ShBasis, lm, num_coefficients};
+use vocab::Horizon;
 
 pub const NAME: &str = "associativity";
 pub const EQUATION: &str = "eq. 47";
@@ -57,13 +59,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let filter = transfer::phong(if ctx.wrong { 1.2 * S } else { S }, LMAX);
     let blurred: Vec<f64> = light.iter().enumerate().map(|(k, v)| v * filter[lm(k).0]).collect();
     let spp = ctx.spp(128, 256);
-    let pa = Spec::probe(
-        ctx,
-        spp,
-        Lighting::Sh(light),
-        &format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"),
-    );
-    let pb = Spec::probe(ctx, 4, Lighting::Sh(blurred), "{ type = \"mirror\", kr = 1.0 }");
+    let pa = Spec::probe(ctx, spp, Lighting::Sh(light), phong(1.0, S, Horizon::Ignore));
+    let pb = Spec::probe(ctx, 4, Lighting::Sh(blurred), mirror(1.0));
     let a = Channel::from_film(&render_spec(ctx, &pa)?, 0);
     let b = Channel::from_film(&render_spec(ctx, &pb)?, 0);
     let mut c = evaluate(&a, &b).ok_or("singular fit")?;

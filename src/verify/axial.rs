@@ -12,7 +12,9 @@ use super::check::{Check, Row};
 use super::fit::{Channel, latlong_dir, latlong_omega, lsq};
 use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
+use super::scenes::{lambert, phong};
 use analysis::sh::{ShBasis, lm, num_coefficients};
+use vocab::Horizon;
 
 pub const NAME: &str = "axial";
 pub const EQUATION: &str = "eq. 24";
@@ -81,10 +83,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let mut c = Check::new(NAME, EQUATION, "axially symmetric lighting: B_lm = 0 for m ≠ 0");
     let tilt = if ctx.wrong { 5f64.to_radians() } else { 0.0 };
     let axis = [tilt.sin(), 0.0, tilt.cos()];
-    for (label, brdf) in [
-        ("lambert", "{ type = \"lambert\", albedo = 1.0 }"),
-        ("phong s=8", "{ type = \"phong\", ks = 1.0, s = 8.0, horizon = \"ignore\" }"),
-    ] {
+    for (label, brdf) in [("lambert", lambert(1.0)), ("phong s=8", phong(1.0, 8.0, Horizon::Ignore))] {
         let spec = Spec::probe(ctx, ctx.spp(32, 256), Lighting::Axial { axis, profile: profile() }, brdf);
         let film = render_spec(ctx, &spec)?;
         let ch = Channel::from_film(&film, 0);

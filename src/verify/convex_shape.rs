@@ -19,6 +19,7 @@ use super::check::{Check, Plot, Row};
 use super::filter::{self, Measured};
 use super::fit::{Channel, dot, fit_filter_probe, lsq, normalize, order_parts};
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
 use super::transfer;
 use analysis::sh::{ShBasis, num_coefficients};
@@ -168,7 +169,7 @@ fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<
             camera: Camera::Ortho { from, up, extent: EXTENT },
             lighting: Lighting::Sh(light.to_vec()),
             shape: shape.clone(),
-            brdf: "{ type = \"lambert\", albedo = 1.0 }".into(),
+            brdf: lambert(1.0),
         };
         let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
         add_view_rows(&ch, from, up, light, use_layer, &mut d);
@@ -181,7 +182,7 @@ fn fit_views(ctx: &Ctx, light: &[f64], shape: Shape, use_layer: bool) -> Result<
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed + 5);
-    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), lambert(1.0));
     let film = render_spec(ctx, &spec)?;
     let probe =
         Measured::from_fit(&fit_filter_probe(&Channel::from_film(&film, 0), &light, LMAX).ok_or("singular fit")?, LMAX);

@@ -15,35 +15,28 @@ use super::check::{Check, F32_FLOOR, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, project_probe};
 use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
+use super::scenes::{lambert, phong, torrance_sparrow};
 use super::transfer;
 use analysis::sh::index;
+use vocab::Horizon;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "directional";
 pub const EQUATION: &str = "eq. 19-22";
 pub const LMAX: usize = 8;
 pub const IRRADIANCE: f64 = 2.0;
 
-/// One lobe: (label, BRDF TOML, ρ̂(γ), Λ_l ρ̂_l).
-pub type Lobe = (&'static str, &'static str, fn(f64) -> f64, Vec<f64>);
+/// One lobe: (label, BRDF table, ρ̂(γ), Λ_l ρ̂_l).
+pub type Lobe = (&'static str, BrdfSection, fn(f64) -> f64, Vec<f64>);
 
 /// The three lobes.
 pub fn lobes() -> Vec<Lobe> {
     vec![
-        (
-            "lambert",
-            "{ type = \"lambert\", albedo = 1.0 }",
-            transfer::lambert_lobe as fn(f64) -> f64,
-            transfer::lambert(LMAX),
-        ),
-        (
-            "phong s=8",
-            "{ type = \"phong\", ks = 1.0, s = 8.0, horizon = \"ignore\" }",
-            |g| transfer::phong_lobe(8.0, g),
-            transfer::phong(8.0, LMAX),
-        ),
+        ("lambert", lambert(1.0), transfer::lambert_lobe as fn(f64) -> f64, transfer::lambert(LMAX)),
+        ("phong s=8", phong(1.0, 8.0, Horizon::Ignore), |g| transfer::phong_lobe(8.0, g), transfer::phong(8.0, LMAX)),
         (
             "torrance-sparrow σ=0.1",
-            "{ type = \"torrance-sparrow\", ks = 1.0, sigma = 0.1, horizon = \"clamp\" }",
+            torrance_sparrow(1.0, 0.1, Horizon::Clamp),
             |g| transfer::ts_lobe_normal(0.1, g),
             transfer::torrance_sparrow(0.1, LMAX),
         ),

@@ -42,6 +42,7 @@ use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, normalize};
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec};
+use super::scenes::{beckmann, lambert};
 use analysis::inverse::factorization::{
     DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, Status, directional_lighting,
     filter_from_lighting, hemisphere_nodes, project,
@@ -49,6 +50,7 @@ use analysis::inverse::factorization::{
 use analysis::sh::index;
 use analysis::transfer::microfacet::beckmann_lambda;
 use std::f64::consts::PI;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "factorization";
 pub const EQUATION: &str = "eq. 18, 23";
@@ -56,8 +58,10 @@ pub const EQUATION: &str = "eq. 18, 23";
 pub const SOURCE: [f64; 3] = [0.48, -0.36, 0.8];
 /// Beckmann width of the glossy sphere.
 pub const ALPHA: f64 = 0.4;
-pub const GLOSSY: &str = "{ type = \"microfacet\", distribution = \"beckmann\", alpha = 0.4, fresnel = \"none\" }";
-pub const LAMBERT: &str = "{ type = \"lambert\", albedo = 1.0 }";
+/// The glossy sphere: Beckmann D of width [`ALPHA`], no Fresnel term.
+pub fn glossy() -> BrdfSection {
+    beckmann(ALPHA)
+}
 /// Lighting orders factored (l ≤ 2 decide, the rest is informative).
 pub const LMAX: usize = 5;
 /// Orders of the normal-exitance filter compared with the directional-source model.
@@ -384,7 +388,7 @@ pub fn closed_form(lambert: bool) -> impl FnMut(f64, f64, usize) -> Result<Vec<f
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let (coarse, fine) = plans(ctx.quick);
-    let render = |brdf: &'static str| {
+    let render = |brdf: BrdfSection| {
         move |theta_o_deg: f64, phi_o_deg: f64, h: usize| -> Result<Vec<f64>, String> {
             let spec = Spec {
                 width: 2 * h as u32,
@@ -394,7 +398,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                 camera: Camera::Probe { theta_o_deg, phi_o_deg },
                 lighting: Lighting::Directional { direction: SOURCE, irradiance: 1.0 },
                 shape: super::scenes::Shape::Sphere,
-                brdf: brdf.to_string(),
+                brdf: brdf.clone(),
             };
             let film = render_spec(ctx, &spec)?;
             Ok(Channel::from_film(&film, 0).value)
@@ -402,11 +406,13 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     };
     let t = std::time::Instant::now();
     let g = (
-        measure(coarse, (coarse.n_mu, coarse.n_phi), &mut render(GLOSSY))?,
-        measure(fine, (fine.n_mu, fine.n_phi), &mut render(GLOSSY))?,
+        measure(coarse, (coarse.n_mu, coarse.n_phi), &mut render(glossy()))?,
+        measure(fine, (fine.n_mu, fine.n_phi), &mut render(glossy()))?,
     );
-    let l =
-        (measure(coarse, LAMBERT_NODES, &mut render(LAMBERT))?, measure(fine, LAMBERT_NODES, &mut render(LAMBERT))?);
+    let l = (
+        measure(coarse, LAMBERT_NODES, &mut render(lambert(1.0)))?,
+        measure(fine, LAMBERT_NODES, &mut render(lambert(1.0)))?,
+    );
     let secs = t.elapsed().as_secs_f64();
     // Determinism: the renderer's own standard error of one node must be 0 (σ = 0 is claimed).
     let spec = Spec {
@@ -417,7 +423,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         camera: Camera::Probe { theta_o_deg: 40.0, phi_o_deg: 100.0 },
         lighting: Lighting::Directional { direction: SOURCE, irradiance: 1.0 },
         shape: super::scenes::Shape::Sphere,
-        brdf: GLOSSY.to_string(),
+        brdf: glossy(),
     };
     let film = render_spec(ctx, &spec)?;
     let ch = Channel::from_film(&film, 0);

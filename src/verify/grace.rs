@@ -9,8 +9,8 @@
 
 use super::Ctx;
 use super::scenes::grace_path;
+use analysis::projection::envmap::angular_pixel;
 use analysis::sh::{ShBasis, num_coefficients};
-use std::f64::consts::PI;
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -45,17 +45,8 @@ fn project(path: &Path) -> Result<Vec<f64>, String> {
             let mut y = vec![0.0; n];
             let mut acc = vec![0.0; n];
             for c in 0..w {
-                let u = (c as f64 + 0.5 - w as f64 / 2.0) / (w as f64 / 2.0);
-                let v = (w as f64 / 2.0 - r as f64 - 0.5) / (w as f64 / 2.0);
-                let rho = (u * u + v * v).sqrt();
-                if rho > 1.0 {
-                    continue;
-                }
-                let theta = PI * rho;
-                let phi = v.atan2(u);
-                let dir = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
-                let sinc = if theta > 1e-12 { theta.sin() / theta } else { 1.0 };
-                let om = (2.0 * PI / w as f64).powi(2) * sinc;
+                // The library's pixel-centre direction and exact solid angle (CONVENTIONS §2).
+                let Some((dir, om)) = angular_pixel(r, c, w) else { continue };
                 basis.eval_into(dir, &mut y);
                 let val = img.get(r, c)[CHANNEL] as f64 * om;
                 for k in 0..n {

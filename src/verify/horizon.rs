@@ -21,8 +21,11 @@ use super::check::{Check, Plot, Row, Series};
 use super::fit::Channel;
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
+use super::scenes::{phong, torrance_sparrow};
 use super::transfer;
 use rayon::prelude::*;
+use vocab::Horizon;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "horizon";
 pub const EQUATION: &str = "sec. 3.6";
@@ -142,29 +145,19 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let mut plot_curves = vec![];
     let mut plot_points = vec![];
     // (label, BRDF, prediction, deliberately wrong prediction).
-    type Case<'a> = (&'a str, String, Box<dyn Fn(f64) -> f64 + 'a>, Box<dyn Fn(f64) -> f64 + 'a>);
+    type Case<'a> = (&'a str, BrdfSection, Box<dyn Fn(f64) -> f64 + 'a>, Box<dyn Fn(f64) -> f64 + 'a>);
     let cases: Vec<Case> = vec![
-        (
-            "phong clamp",
-            format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"clamp\" }}"),
-            Box::new(|t| phong_clamp.at(t)),
-            Box::new(|_| 1.0),
-        ),
-        (
-            "phong ignore",
-            format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}"),
-            Box::new(|_| 1.0),
-            Box::new(|_| 1.0),
-        ),
+        ("phong clamp", phong(1.0, S, Horizon::Clamp), Box::new(|t| phong_clamp.at(t)), Box::new(|_| 1.0)),
+        ("phong ignore", phong(1.0, S, Horizon::Ignore), Box::new(|_| 1.0), Box::new(|_| 1.0)),
         (
             "TS clamp",
-            format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"clamp\" }}"),
+            torrance_sparrow(1.0, SIGMA, Horizon::Clamp),
             Box::new(|t| ts_clamp.at(t)),
             Box::new(|t| ts_ignore.at(t)),
         ),
         (
             "TS ignore",
-            format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?}, horizon = \"ignore\" }}"),
+            torrance_sparrow(1.0, SIGMA, Horizon::Ignore),
             Box::new(|t| ts_ignore.at(t)),
             Box::new(|t| ts_ignore.at(t)),
         ),

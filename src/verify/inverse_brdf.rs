@@ -32,9 +32,11 @@ use super::Ctx;
 use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, Fit, fit_filter_probe};
 use super::picture::Picture;
+use super::scenes::phong;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::brdf::{BrdfFit, Model, fit_model_gls};
 use analysis::sh::{index, lambda, num_coefficients};
+use vocab::Horizon;
 
 pub const NAME: &str = "inverse-brdf";
 pub const EQUATION: &str = "eq. 16, 43; sec. 3.3";
@@ -182,8 +184,8 @@ pub fn evaluate(f: &Fits, s_pred: f64) -> Check {
 /// true s on the same lighting).
 fn fit_one(ctx: &Ctx, l_light: usize) -> Result<(Fit, Picture), String> {
     let light = directional(l_light);
-    let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}");
-    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
+    let brdf = phong(1.0, S, Horizon::Ignore);
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), brdf.clone());
     let film = render_spec(ctx, &spec)?;
     let ch = Channel::from_film(&film, 0);
     let fit = fit_filter_probe(&ch, &light, l_light).ok_or("singular fit")?;

@@ -19,6 +19,7 @@ use super::check::{Check, Legend, Plot, Row, Series};
 use super::fit::{Channel, latlong_dir, order_rms, project_probe};
 use super::grace;
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Lighting, Spec, render_spec};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Status, invert_lighting};
 use analysis::sh::{ShBasis, index, lm, num_coefficients};
@@ -164,7 +165,7 @@ pub fn evaluate(b: &[f64], b_se: &[f64], q: &[f64], scale: f64) -> Result<Check,
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let lg = grace::coefficients(ctx)?;
-    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), lambert(1.0));
     let film = render_spec(ctx, &spec)?;
     let ch = Channel::from_film(&film, grace::CHANNEL);
     let (b, se) = project_probe(&ch, LMAX);

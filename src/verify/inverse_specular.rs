@@ -28,8 +28,10 @@ use super::grace;
 use super::inverse_lighting::predicted_quadrature_with;
 use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
+use super::scenes::{mirror, phong};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, InverseLighting, Status, invert_lighting};
 use analysis::sh::{index, lm, num_coefficients};
+use vocab::Horizon;
 
 pub const NAME: &str = "inverse-lighting-specular";
 pub const EQUATION: &str = "eq. 17, 30, 33, 43, 46";
@@ -224,7 +226,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     );
     // Mirror under a band-limited SH lighting.
     let light = sh_lighting(LMAX_MIRROR, 0.3, ctx.seed + 11);
-    let spec = Spec::probe(ctx, 1, Lighting::Sh(light.clone()), "{ type = \"mirror\", kr = 1.0 }");
+    let spec = Spec::probe(ctx, 1, Lighting::Sh(light.clone()), mirror(1.0));
     let film = render_spec(ctx, &spec)?;
     let ch = Channel::from_film(&film, 0);
     let (b, se, floor) = fit_sh(&ch, &light, LMAX_MIRROR).ok_or("singular SH fit of the mirror image")?;
@@ -235,8 +237,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     ));
     // Phong under Grace.
     let lg = grace::coefficients(ctx)?;
-    let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {S:?}, horizon = \"ignore\" }}");
-    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), &brdf);
+    let brdf = phong(1.0, S, Horizon::Ignore);
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), brdf.clone());
     let film = render_spec(ctx, &spec)?;
     let ch = Channel::from_film(&film, grace::CHANNEL);
     let (bp, sep) = project_probe(&ch, LMAX_PHONG);

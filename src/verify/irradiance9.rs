@@ -18,6 +18,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Row};
 use super::fit::{Channel, latlong_dir, latlong_omega, order_parts, project_probe};
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Lighting, Spec, render_spec};
 use super::{grace, transfer};
 use analysis::sh::{ShBasis, index, num_coefficients};
@@ -47,7 +48,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         "9-term (l ≤ 2) approximation of Lambertian reflection under Grace; energy share 127/128",
     );
     let lg = grace::coefficients(ctx)?;
-    let spec = Spec::probe(ctx, ctx.spp(256, 512), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(256, 512), Lighting::Grace(1.0), lambert(1.0));
     let ch = Channel::from_film(&render_spec(ctx, &spec)?, grace::CHANNEL);
     let m = nine_term_error(&ch).ok_or("non-positive pixel or singular fit")?;
     // The prediction on the same grid.
@@ -97,12 +98,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     );
 
     // Energy share on the directional (impulse-response) render.
-    let spec = Spec::probe(
-        ctx,
-        4,
-        Lighting::Directional { direction: [0.0, 0.0, 1.0], irradiance: 1.0 },
-        "{ type = \"lambert\", albedo = 1.0 }",
-    );
+    let spec = Spec::probe(ctx, 4, Lighting::Directional { direction: [0.0, 0.0, 1.0], irradiance: 1.0 }, lambert(1.0));
     let dch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
     let share = energy_share(&dch);
     let exact_img = Channel {

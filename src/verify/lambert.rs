@@ -10,6 +10,7 @@ use super::check::{Check, Plot};
 use super::filter::{self, Measured};
 use super::fit::{Channel, fit_filter_probe};
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use super::{grace, transfer};
 
@@ -36,7 +37,7 @@ pub fn evaluate(sh: &Measured, grace: Option<&Measured>, pred: &[f64]) -> Check 
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed);
-    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), lambert(1.0));
     let film = render_spec(ctx, &spec)?;
     let sh_ch = Channel::from_film(&film, 0);
     let fit = fit_filter_probe(&sh_ch, &light, LMAX).ok_or("singular fit")?;
@@ -44,7 +45,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
 
     // Grace: fit orders up to grace::LMAX so the (small) l > 8 content is modelled, report l ≤ 8.
     let lg = grace::coefficients(ctx)?;
-    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), "{ type = \"lambert\", albedo = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Grace(1.0), lambert(1.0));
     let film = render_spec(ctx, &spec)?;
     let g_ch = Channel::from_film(&film, grace::CHANNEL);
     let gfit = fit_filter_probe(&g_ch, &lg, grace::LMAX).ok_or("singular fit")?;

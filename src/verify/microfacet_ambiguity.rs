@@ -36,8 +36,11 @@ use super::fit::{Channel, dot, latlong_omega, normalize};
 use super::oblique::{LightTable, Resolution, predict_probe, probe_geometry};
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
+use super::scenes::{mirror, torrance_sparrow};
 use super::transfer;
 use std::f64::consts::PI;
+use vocab::Horizon;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "microfacet-ambiguity";
 pub const EQUATION: &str = "sec. 3.7.3, eq. 50, 57-59";
@@ -48,8 +51,8 @@ pub const THETA_O_DEG: [f64; 6] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0];
 /// D above which the directional pair counts as broken (reported, not deciding).
 pub const BREAK_D: f64 = 0.01;
 
-fn ts_brdf() -> String {
-    format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {SIGMA:?} }}")
+fn ts_brdf() -> BrdfSection {
+    torrance_sparrow(1.0, SIGMA, Horizon::Clamp)
 }
 
 /// Relative pair difference D² ± σ over a probe image; `pair` is the mirror-pair image B'.
@@ -243,12 +246,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             brdf: ts_brdf(),
         };
         let a = Channel::from_film(&render_spec(ctx, &base)?, 0);
-        let mirror = Spec {
-            spp: 1,
-            lighting: Lighting::Sh(blurred.clone()),
-            brdf: "{ type = \"mirror\", kr = 1.0 }".into(),
-            ..base.clone()
-        };
+        let mirror = Spec { spp: 1, lighting: Lighting::Sh(blurred.clone()), brdf: mirror(1.0), ..base.clone() };
         let b = Channel::from_film(&render_spec(ctx, &mirror)?, 0);
         let theta_o = t.to_radians();
         sh.measured.push(pair_diff(&a.value, &a.sigma, &b.value, w, h));

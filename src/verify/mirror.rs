@@ -12,6 +12,7 @@ use super::check::{Check, F32_FLOOR, Row};
 use super::filter::{self, Measured};
 use super::fit::{Channel, latlong_dir, lsq, order_parts};
 use super::picture::Picture;
+use super::scenes::mirror;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use analysis::sh::{ShBasis, num_coefficients};
 
@@ -82,7 +83,7 @@ pub fn evaluate(ch: &Channel, light: &[f64], gain: f64) -> Check {
 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let light = sh_lighting(LMAX, 0.5, ctx.seed + 3);
-    let spec = Spec::probe(ctx, ctx.spp(4, 16), Lighting::Sh(light.clone()), "{ type = \"mirror\", kr = 1.0 }");
+    let spec = Spec::probe(ctx, ctx.spp(4, 16), Lighting::Sh(light.clone()), mirror(1.0));
     let film = render_spec(ctx, &spec)?;
     let mut c = evaluate(&Channel::from_film(&film, 0), &light, if ctx.wrong { 0.95 } else { 1.0 });
     c.note(format!(

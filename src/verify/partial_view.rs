@@ -19,6 +19,7 @@ use super::Ctx;
 use super::check::{Check, Row};
 use super::fit::Channel;
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Spec, render_spec_to_exr};
 use analysis::image::{Image, read_image};
 use analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION;
@@ -123,7 +124,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         camera: Camera::Ortho { from, up: [0.0, 0.0, 1.0], extent: EXTENT },
         lighting: Lighting::Grace(1.0),
         shape: super::scenes::Shape::Sphere,
-        brdf: format!("{{ type = \"lambert\", albedo = {ALBEDO:?} }}"),
+        brdf: lambert(ALBEDO),
     };
     let front = (view([3.0, 0.0, 0.0], 31), "partial_view_front.exr");
     let back = (view([-3.0, 0.0, 0.0], 32), "partial_view_back.exr");

@@ -12,8 +12,10 @@ use super::check::{Check, Plot};
 use super::filter::{self, Measured};
 use super::fit::{Channel, fit_filter_probe};
 use super::picture::Picture;
+use super::scenes::phong;
 use super::scenes::{Lighting, Spec, render_spec, sh_lighting};
 use super::transfer;
+use vocab::Horizon;
 
 pub const NAME: &str = "phong";
 pub const EQUATION: &str = "eq. 41-46";
@@ -54,8 +56,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         if ctx.verbose {
             eprintln!("  phong s = {s}");
         }
-        let brdf = format!("{{ type = \"phong\", ks = 1.0, s = {s:?}, horizon = \"ignore\" }}");
-        let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
+        let brdf = phong(1.0, s, Horizon::Ignore);
+        let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), brdf.clone());
         let film = render_spec(ctx, &spec)?;
         let ch = Channel::from_film(&film, 0);
         let fit = fit_filter_probe(&ch, &light, LMAX).ok_or("singular fit")?;

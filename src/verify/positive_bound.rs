@@ -41,6 +41,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega};
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::{grace, subspace, transfer};
 use analysis::sh::{ShBasis, lm, num_coefficients};
@@ -326,7 +327,7 @@ fn plot(entries: &[Entry]) -> Plot {
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let h = if ctx.quick { 32 } else { 64 };
     let w = 2 * h;
-    let lambert = "{ type = \"lambert\", albedo = 1.0 }";
+    let lambert = lambert(1.0);
     let spec = |lighting: Lighting, spp: u32, seed: u64| Spec {
         width: w as u32,
         height: h as u32,
@@ -335,7 +336,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         camera: Camera::Probe { theta_o_deg: 0.0, phi_o_deg: 0.0 },
         lighting,
         shape: Shape::Sphere,
-        brdf: lambert.into(),
+        brdf: lambert.clone(),
     };
     let grace_coeffs = grace::coefficients(ctx)?;
     let mut entries = vec![];

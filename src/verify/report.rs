@@ -83,9 +83,12 @@ fn result_word(c: &CheckDoc) -> &'static str {
 impl std::fmt::Display for Report {
     /// The one-line-per-check table: the deciding row with the largest |Δ|/tolerance of each check.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Columns as wide as the longest name and equation (at least 17 and 20), so they line up.
+        let nw = self.checks.iter().map(|c| c.name.chars().count()).chain([17]).max().unwrap_or(17);
+        let ew = self.checks.iter().map(|c| c.equation.chars().count()).chain([20]).max().unwrap_or(20);
         writeln!(
             f,
-            "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {:<6} worst row",
+            "{:<nw$} {:<ew$} {:>12} {:>12} {:>11} {:>11}  {:<6} worst row",
             "check", "equation", "expected", "measured", "σ", "tolerance", "result"
         )?;
         for c in &self.checks {
@@ -93,7 +96,7 @@ impl std::fmt::Display for Report {
             match (worst(c), &c.error) {
                 (_, Some(e)) => writeln!(
                     f,
-                    "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {v:<6} error: {}",
+                    "{:<nw$} {:<ew$} {:>12} {:>12} {:>11} {:>11}  {v:<6} error: {}",
                     c.name,
                     c.equation,
                     "-",
@@ -104,7 +107,7 @@ impl std::fmt::Display for Report {
                 )?,
                 (Some(r), None) => writeln!(
                     f,
-                    "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {v:<6} {} ({} rows)",
+                    "{:<nw$} {:<ew$} {:>12} {:>12} {:>11} {:>11}  {v:<6} {} ({} rows)",
                     c.name,
                     c.equation,
                     opt(r.expected),
@@ -116,7 +119,7 @@ impl std::fmt::Display for Report {
                 )?,
                 (None, None) => writeln!(
                     f,
-                    "{:<17} {:<20} {:>12} {:>12} {:>11} {:>11}  {v:<6} nothing compared",
+                    "{:<nw$} {:<ew$} {:>12} {:>12} {:>11} {:>11}  {v:<6} nothing compared",
                     c.name, c.equation, "-", "-", "-", "-"
                 )?,
             }

@@ -1,14 +1,20 @@
-//! The scenes the checks render, built as TOML text (CONVENTIONS §6) in code, and the call that
-//! renders one. Every scene uses the `independent` sampler, whose per-pixel standard error is an
+//! The scenes the checks render, built as values of the scene-file types (CONVENTIONS §6, `vocab`)
+//! from a [`Spec`] (one constructor per common shape: [`Spec::probe`], and the BRDF tables
+//! [`lambert`], [`mirror`], [`phong`], [`torrance_sparrow`], [`beckmann`], [`mix`]), and the call
+//! that renders one. Every scene uses the `independent` sampler, whose per-pixel standard error is an
 //! honest estimate of the pixel's Monte Carlo error (the Sobol sampler's is conservative), and
 //! `max_depth = 1`: one convex object under distant light needs a single surface vertex.
 
 use super::Ctx;
 use renderer::film::Film;
 use renderer::render::{RenderOptions, render};
-use renderer::scene::{Scene, SceneFile};
-use std::fmt::Write;
+use renderer::scene::Scene;
 use std::path::{Path, PathBuf};
+use vocab::scene::{
+    BrdfSection, CameraSection, Color, LightingSection, MixLayer, ObjectSection, RenderSection, SceneFile,
+    TextureSection,
+};
+use vocab::{Distribution, FresnelKind, Horizon, Mapping, Sampler};
 
 /// The Grace Cathedral probe (angular map, 1000 × 1000) in the run's data folder (see [`super::data`]).
 pub fn grace_path(ctx: &Ctx) -> PathBuf {
@@ -68,16 +74,63 @@ pub struct Spec {
     pub camera: Camera,
     pub lighting: Lighting,
     pub shape: Shape,
-    /// Inline TOML table of the BRDF, e.g. `{ type = "lambert", albedo = 1.0 }`.
-    pub brdf: String,
+    /// The BRDF table (built with [`lambert`], [`phong`], … below).
+    pub brdf: BrdfSection,
 }
 
-fn v3(v: [f64; 3]) -> String {
-    format!("[{:?}, {:?}, {:?}]", v[0], v[1], v[2])
+/// An f64 as the f32 the scene holds: `as`, the conversion serde applies to a TOML float, so a
+/// scene built here is the scene its TOML text (`{x:?}`) would parse to, bit for bit.
+fn f(x: f64) -> f32 {
+    x as f32
+}
+
+fn f3(v: [f64; 3]) -> [f32; 3] {
+    v.map(f)
+}
+
+fn grey(x: f64) -> Color {
+    Color::Grey(f(x))
+}
+
+/// `lambert` with a grey albedo.
+pub fn lambert(albedo: f64) -> BrdfSection {
+    BrdfSection::Lambert { albedo: grey(albedo) }
+}
+
+/// `mirror` with a grey k_r.
+pub fn mirror(kr: f64) -> BrdfSection {
+    BrdfSection::Mirror { kr: grey(kr) }
+}
+
+/// `phong` (eq. 40) with a grey k_s, exponent `s`.
+pub fn phong(ks: f64, s: f64, horizon: Horizon) -> BrdfSection {
+    BrdfSection::Phong { ks: grey(ks), s: f(s), horizon }
+}
+
+/// `torrance-sparrow` (eq. 48) with a grey k_s, roughness `sigma` (radians).
+pub fn torrance_sparrow(ks: f64, sigma: f64, horizon: Horizon) -> BrdfSection {
+    BrdfSection::TorranceSparrow { ks: grey(ks), sigma: f(sigma), horizon }
+}
+
+/// `microfacet` with a Beckmann D of roughness `alpha` and no Fresnel term.
+pub fn beckmann(alpha: f64) -> BrdfSection {
+    BrdfSection::Microfacet {
+        distribution: Distribution::Beckmann,
+        alpha: f(alpha),
+        fresnel: FresnelKind::None,
+        f0: None,
+        eta: None,
+        k: None,
+    }
+}
+
+/// `mix` of (weight, BRDF) layers.
+pub fn mix(layers: Vec<(f64, BrdfSection)>) -> BrdfSection {
+    BrdfSection::Mix { layers: layers.into_iter().map(|(w, brdf)| MixLayer { weight: f(w), brdf }).collect() }
 }
 
 impl Spec {
-    pub fn probe(ctx: &Ctx, spp: u32, lighting: Lighting, brdf: &str) -> Spec {
+    pub fn probe(ctx: &Ctx, spp: u32, lighting: Lighting, brdf: BrdfSection) -> Spec {
         let h = ctx.probe_height();
         Spec {
             width: 2 * h,
@@ -87,100 +140,66 @@ impl Spec {
             camera: Camera::Probe { theta_o_deg: 0.0, phi_o_deg: 0.0 },
             lighting,
             shape: Shape::Sphere,
-            brdf: brdf.to_string(),
+            brdf,
         }
     }
 
-    /// The scene file text.
-    pub fn toml(&self, ctx: &Ctx) -> String {
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "[render]\nwidth = {}\nheight = {}\nspp = {}\nseed = {}\nmax_depth = 1\nsampler = \"independent\"\n",
-            self.width, self.height, self.spp, self.seed
-        );
-        match &self.camera {
+    /// The scene, as a value of the scene-file types (so a renamed field is a compile error here).
+    pub fn scene(&self, ctx: &Ctx) -> SceneFile {
+        let render = RenderSection {
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            seed: self.seed,
+            max_depth: 1,
+            sampler: Sampler::Independent,
+        };
+        let camera = match &self.camera {
             Camera::Probe { theta_o_deg, phi_o_deg } => {
-                let _ = writeln!(
-                    s,
-                    "[camera]\ntype = \"normal-probe\"\ntheta_o_deg = {theta_o_deg:?}\nphi_o_deg = {phi_o_deg:?}\n"
-                );
+                CameraSection::NormalProbe { theta_o_deg: f(*theta_o_deg), phi_o_deg: f(*phi_o_deg), jitter: false }
             }
             Camera::Ortho { from, up, extent } => {
-                let _ = writeln!(
-                    s,
-                    "[camera]\ntype = \"orthographic\"\nfrom = {}\nto = [0.0, 0.0, 0.0]\nup = {}\nextent = {extent:?}\n",
-                    v3(*from),
-                    v3(*up)
-                );
+                CameraSection::Orthographic { from: f3(*from), to: [0.0; 3], up: f3(*up), extent: f(*extent) }
             }
-        }
-        match &self.lighting {
-            Lighting::Sh(c) => {
-                let _ = write!(s, "[lighting]\ntype = \"sh\"\ncoefficients = [");
-                for (k, v) in c.iter().enumerate() {
-                    let _ = write!(s, "{}[{v:?}, {v:?}, {v:?}]", if k > 0 { ", " } else { "" });
-                }
-                let _ = writeln!(s, "]\n");
-            }
+        };
+        let grey3 = |v: f64| [f(v); 3];
+        let grace = |scale: f64, rotate_deg: [f64; 3]| LightingSection::Envmap {
+            file: grace_path(ctx).display().to_string(),
+            mapping: Some(Mapping::Angular),
+            scale: f(scale),
+            rotate_deg: f3(rotate_deg),
+        };
+        let lighting = match &self.lighting {
+            Lighting::Sh(c) => LightingSection::Sh { coefficients: c.iter().map(|&v| grey3(v)).collect() },
             Lighting::Directional { direction, irradiance } => {
-                let _ = writeln!(
-                    s,
-                    "[lighting]\ntype = \"directional\"\ndirection = {}\nirradiance = {irradiance:?}\n",
-                    v3(*direction)
-                );
+                LightingSection::Directional { direction: f3(*direction), irradiance: grey(*irradiance) }
             }
-            Lighting::Uniform(r) => {
-                let _ = writeln!(s, "[lighting]\ntype = \"uniform\"\nradiance = {r:?}\n");
-            }
-            Lighting::Axial { axis, profile } => {
-                let _ = write!(s, "[lighting]\ntype = \"axial\"\naxis = {}\nprofile = [", v3(*axis));
-                for (i, [t, v]) in profile.iter().enumerate() {
-                    let _ = write!(s, "{}[{t:?}, {v:?}, {v:?}, {v:?}]", if i > 0 { ", " } else { "" });
-                }
-                let _ = writeln!(s, "]\n");
-            }
-            Lighting::Grace(scale) => {
-                let _ = writeln!(
-                    s,
-                    "[lighting]\ntype = \"envmap\"\nfile = {:?}\nmapping = \"angular\"\nscale = {scale:?}\n",
-                    grace_path(ctx).display().to_string()
-                );
-            }
-            Lighting::GraceRotated { scale, rotate_deg } => {
-                let _ = writeln!(
-                    s,
-                    "[lighting]\ntype = \"envmap\"\nfile = {:?}\nmapping = \"angular\"\nscale = {scale:?}\nrotate_deg = {}\n",
-                    grace_path(ctx).display().to_string(),
-                    v3(*rotate_deg)
-                );
-            }
-        }
-        match &self.shape {
-            Shape::Sphere => {
-                let _ = writeln!(
-                    s,
-                    "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {}",
-                    self.brdf
-                );
-            }
+            Lighting::Uniform(r) => LightingSection::Uniform { radiance: grey(*r) },
+            Lighting::Axial { axis, profile } => LightingSection::Axial {
+                axis: f3(*axis),
+                profile: profile.iter().map(|&[t, v]| [f(t), f(v), f(v), f(v)]).collect(),
+            },
+            Lighting::Grace(scale) => grace(*scale, [0.0; 3]),
+            Lighting::GraceRotated { scale, rotate_deg } => grace(*scale, *rotate_deg),
+        };
+        let brdf = self.brdf.clone();
+        let sphere = |texture| ObjectSection::Sphere { center: [0.0; 3], radius: 1.0, texture, brdf: brdf.clone() };
+        let object = match &self.shape {
+            Shape::Sphere => sphere(None),
             Shape::TexturedSphere(t) => {
-                let _ = write!(
-                    s,
-                    "[[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {}\ntexture = {{ type = \"sh\", coefficients = [",
-                    self.brdf
-                );
-                for (k, v) in t.iter().enumerate() {
-                    let _ = write!(s, "{}[{v:?}, {v:?}, {v:?}]", if k > 0 { ", " } else { "" });
-                }
-                let _ = writeln!(s, "] }}");
+                sphere(Some(TextureSection::Sh { coefficients: t.iter().map(|&v| grey3(v)).collect() }))
             }
-            Shape::Mesh(file) => {
-                let _ =
-                    writeln!(s, "[[objects]]\nshape = \"mesh\"\nfile = {file:?}\nsmooth = true\nbrdf = {}", self.brdf);
-            }
-        }
-        s
+            Shape::Mesh(file) => ObjectSection::Mesh {
+                file: file.clone(),
+                smooth: true,
+                translate: [0.0; 3],
+                scale: 1.0,
+                rotate_deg: [0.0; 3],
+                texture: None,
+                brdf,
+            },
+        };
+        SceneFile { render, camera, lighting, objects: vec![object] }
     }
 }
 
@@ -188,9 +207,7 @@ impl Spec {
 /// and a panic inside the renderer (an unfinished piece) is caught and reported as an error so
 /// one broken check does not take the others down.
 pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
-    let text = spec.toml(ctx);
-    let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
-    let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
+    let scene = Scene::build(spec.scene(ctx), Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         render(&scene, &RenderOptions { progress: false, cancel: ctx.cancel.clone() })
@@ -248,9 +265,7 @@ pub fn sh_lighting(lmax: usize, per_order: f64, seed: u64) -> Vec<f64> {
 /// with the `reflect:` header and the `stderr`, `normal`, `mask` layers), for checks that analyse
 /// the file through the same reader as `reflect analyze`.
 pub fn render_spec_to_exr(ctx: &Ctx, spec: &Spec, path: &Path) -> Result<Film, String> {
-    let text = spec.toml(ctx);
-    let file = SceneFile::parse(&text).map_err(|e| format!("scene rejected: {e}\n{text}"))?;
-    let scene = Scene::build(file, Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
+    let scene = Scene::build(spec.scene(ctx), Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let film = render_spec(ctx, spec)?;
     renderer::output::write_exr(path, &film, &renderer::output::header_attributes(&scene))
         .map_err(|e| format!("{}: {e}", path.display()))?;

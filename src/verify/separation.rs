@@ -39,6 +39,7 @@ use super::fit::{Channel, latlong_dir, order_rms};
 use super::grace;
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, grace_path, render_spec};
+use super::scenes::{lambert, mirror, mix};
 use super::transfer;
 use analysis::inverse::separation::{
     LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
@@ -301,13 +302,11 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let lg = grace::coefficients(ctx)?;
     let img = analysis::image::read_rgb(grace_path(ctx)).map_err(|e| e.to_string())?;
     let lmax = if ctx.quick { 8 } else { 12 };
-    let brdf = format!(
-        "{{ type = \"mix\", layers = [ {{ weight = {KD:?}, brdf = {{ type = \"lambert\", albedo = 1.0 }} }}, {{ weight = {KS:?}, brdf = {{ type = \"mirror\" }} }} ] }}"
-    );
+    let brdf = mix(vec![(KD, lambert(1.0)), (KS, mirror(1.0))]);
     let spp = ctx.spp(256, 256);
     let mut films = vec![];
     for (theta_o_deg, phi_o_deg) in [(0.0, 0.0), (THETA_O_DEG, 0.0), (THETA_O_DEG, 180.0)] {
-        let mut spec = Spec::probe(ctx, spp, Lighting::Grace(1.0), &brdf);
+        let mut spec = Spec::probe(ctx, spp, Lighting::Grace(1.0), brdf.clone());
         spec.camera = Camera::Probe { theta_o_deg, phi_o_deg };
         films.push((render_spec(ctx, &spec)?, spec));
     }

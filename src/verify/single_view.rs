@@ -20,10 +20,13 @@ use super::filter::{self, Measured};
 use super::fit::Channel;
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Spec, render_spec_to_exr, sh_lighting};
+use super::scenes::{lambert, phong};
 use super::transfer;
 use analysis::filter::{PixelFilterFit, fit_filter_pixels};
 use analysis::image::{Image, read_image};
 use analysis::projection::{OrthoCamera, OrthoView, Param, Sphere, ortho_samples};
+use vocab::Horizon;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "single-view";
 pub const EQUATION: &str = "eq. 15, 38, 43";
@@ -90,7 +93,7 @@ pub fn evaluate(lambert: &PixelFilterFit, phong: &PixelFilterFit, pred_lambert: 
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let size = if ctx.quick { 96 } else { 256 };
     let scale = if ctx.wrong { 1.05 } else { 1.0 };
-    let ortho = |from: [f64; 3], lighting: Lighting, brdf: &str, spp: u32| Spec {
+    let ortho = |from: [f64; 3], lighting: Lighting, brdf: BrdfSection, spp: u32| Spec {
         width: size,
         height: size,
         spp,
@@ -98,31 +101,22 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         camera: Camera::Ortho { from, up: [0.0, 0.0, 1.0], extent: EXTENT },
         lighting,
         shape: super::scenes::Shape::Sphere,
-        brdf: brdf.to_string(),
+        brdf,
     };
 
     // Lambert under Grace: L_lm as `analyze --lighting grace_probe.hdr` computes them (two orders
     // beyond l_max for the truncation estimate).
     let grace = analysis::lighting::Lighting::from_envmap_file(&super::scenes::grace_path(ctx), None);
     let l_grace = grace.coefficients(LMAX_LAMBERT + 2).map_err(|e| e.to_string())?;
-    let spec_l = ortho(
-        [3.0, 0.0, 1.0],
-        Lighting::Grace(1.0),
-        &format!("{{ type = \"lambert\", albedo = {ALBEDO:?} }}"),
-        ctx.spp(32, 64),
-    );
+    let spec_l = ortho([3.0, 0.0, 1.0], Lighting::Grace(1.0), lambert(ALBEDO), ctx.spp(32, 64));
     let (lambert, img_l) =
         analyse_view(ctx, &spec_l, "single_view_lambert.exr", Param::Normal, &l_grace, LMAX_LAMBERT)?;
 
     // Phong under a band-limited SH lighting (exact L_lm).
     let light = sh_lighting(LMAX_LIGHT, 0.5, ctx.seed + 22);
     let l_sh: Vec<[f64; 3]> = light.iter().map(|&v| [v; 3]).collect();
-    let spec_p = ortho(
-        [1.0, 0.0, 0.0],
-        Lighting::Sh(light.clone()),
-        &format!("{{ type = \"phong\", ks = 1.0, s = {PHONG_S:?}, horizon = \"ignore\" }}"),
-        ctx.spp(32, 64),
-    );
+    let spec_p =
+        ortho([1.0, 0.0, 0.0], Lighting::Sh(light.clone()), phong(1.0, PHONG_S, Horizon::Ignore), ctx.spp(32, 64));
     let (phong, img_p) = analyse_view(ctx, &spec_p, "single_view_phong.exr", Param::Reflection, &l_sh, LMAX_PHONG)?;
 
     let pred_l: Vec<f64> = transfer::lambert(LMAX_LAMBERT).iter().map(|v| ALBEDO * v * scale).collect();

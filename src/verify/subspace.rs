@@ -38,6 +38,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega, normalize};
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
 use super::{grace, transfer};
 use analysis::sh::rotation::{Rotation, rotate_coefficients};
@@ -582,7 +583,7 @@ fn spectrum_plot(file: &str, object: &str, m: &Stats, pred: &Stats) -> Plot {
 pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let lights = lightings(ctx.quick, ctx.seed);
     let coeffs = field_coefficients(ctx, &lights)?;
-    let lambert = "{ type = \"lambert\", albedo = 1.0 }";
+    let lambert = lambert(1.0);
     // The sphere through the normal probe.
     let h = if ctx.quick { 16 } else { 24 };
     let probe = |lighting: Lighting, spp: u32, seed: u64| Spec {
@@ -593,7 +594,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         camera: Camera::Probe { theta_o_deg: 0.0, phi_o_deg: 0.0 },
         lighting,
         shape: Shape::Sphere,
-        brdf: lambert.into(),
+        brdf: lambert.clone(),
     };
     let probe_renders = render_all(ctx, &lights, &probe, (1, ctx.spp(64, 128)))?;
     // The icosphere mesh through an orthographic camera.
@@ -610,7 +611,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         camera: Camera::Ortho { from: VIEW.0, up: VIEW.1, extent: EXTENT },
         lighting,
         shape: Shape::Mesh(obj.clone()),
-        brdf: lambert.into(),
+        brdf: lambert.clone(),
     };
     let mesh_renders = render_all(ctx, &lights, &ortho, (ctx.spp(16, 32), ctx.spp(32, 64)))?;
     // The pixel geometry of the mesh view, from one render's mask and normal layers.

@@ -29,6 +29,7 @@ use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::{Channel, dot, latlong_dir, latlong_omega, lsq, normalize, sh_design};
 use super::picture::Picture;
+use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
 use super::{grace, transfer};
 use analysis::sh::{ShBasis, lm, num_coefficients};
@@ -254,7 +255,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                 camera: Camera::Probe { theta_o_deg: 0.0, phi_o_deg: 0.0 },
                 lighting,
                 shape: Shape::TexturedSphere(tex.clone()),
-                brdf: "{ type = \"lambert\", albedo = 1.0 }".into(),
+                brdf: lambert(1.0),
             };
             let x = Channel::from_film(&render_spec(ctx, &spec)?, channel);
             let (_, l2) = explain(&x.value, &x.sigma, w, h).ok_or("singular 9-term fit")?;

@@ -22,8 +22,10 @@ use super::filter::{self, Measured};
 use super::fit::{Channel, fit_filter_at, fit_filter_probe};
 use super::oblique::{self, LightTable, Resolution};
 use super::picture::Picture;
+use super::scenes::torrance_sparrow;
 use super::scenes::{Camera, Lighting, Spec, render_spec, sh_lighting};
 use super::transfer;
+use vocab::Horizon;
 
 pub const NAME: &str = "torrance-sparrow";
 pub const EQUATION: &str = "eq. 50-59";
@@ -80,8 +82,8 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         if ctx.verbose {
             eprintln!("  torrance-sparrow σ = {sigma}");
         }
-        let brdf = format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {sigma:?}, horizon = \"clamp\" }}");
-        let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), &brdf);
+        let brdf = torrance_sparrow(1.0, sigma, Horizon::Clamp);
+        let spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(light.clone()), brdf.clone());
         let film = render_spec(ctx, &spec)?;
         let ch = Channel::from_film(&film, 0);
         let fit = fit_filter_probe(&ch, &light, LMAX).ok_or("singular fit")?;
@@ -104,7 +106,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         }
         let mut oblique = vec![];
         for t in THETA_O_DEG {
-            let mut spec = Spec::probe(ctx, ctx.spp(16, 128), Lighting::Uniform(1.0), &brdf);
+            let mut spec = Spec::probe(ctx, ctx.spp(16, 128), Lighting::Uniform(1.0), brdf.clone());
             spec.camera = Camera::Probe { theta_o_deg: t, phi_o_deg: 0.0 };
             let film = render_spec(ctx, &spec)?;
             let (mean, sd) = probe_mean(&Channel::from_film(&film, 0));
@@ -135,13 +137,13 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let fine = LightTable::new(&olight, LOBL, 512);
     let coarse = LightTable::new(&olight, LOBL, 256);
     for (si, sigma) in SIGMAS.into_iter().enumerate() {
-        let brdf = format!("{{ type = \"torrance-sparrow\", ks = 1.0, sigma = {sigma:?}, horizon = \"clamp\" }}");
+        let brdf = torrance_sparrow(1.0, sigma, Horizon::Clamp);
         let psig = if ctx.wrong { 1.2 * sigma } else { sigma };
         for t in THETA_O_DEG {
             if ctx.verbose {
                 eprintln!("  torrance-sparrow σ = {sigma}, θo = {t}°");
             }
-            let mut spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(olight.clone()), &brdf);
+            let mut spec = Spec::probe(ctx, ctx.spp(128, 256), Lighting::Sh(olight.clone()), brdf.clone());
             spec.camera = Camera::Probe { theta_o_deg: t, phi_o_deg: 0.0 };
             let ch = Channel::from_film(&render_spec(ctx, &spec)?, 0);
             let (w, h) = (ch.width, ch.height);

@@ -14,7 +14,9 @@ use super::check::{Check, F32_FLOOR, Row};
 use super::fit::{Channel, lsq, sh_design};
 use super::picture::Picture;
 use super::scenes::{Lighting, Spec, render_spec};
+use super::scenes::{lambert, mirror, phong};
 use analysis::sh::{lm, num_coefficients};
+use vocab::Horizon;
 
 pub const NAME: &str = "uniform";
 pub const EQUATION: &str = "eq. 25-28";
@@ -52,12 +54,10 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     let mut c = Check::new(NAME, EQUATION, "uniform lighting: B constant = L ∫ρ̂; mirror and Lambert indistinguishable");
     let expected = RADIANCE * ALBEDO * if ctx.wrong { 1.05 } else { 1.0 };
     let mut means = vec![];
-    for (label, brdf) in [
-        ("lambert", format!("{{ type = \"lambert\", albedo = {ALBEDO:?} }}")),
-        ("mirror", format!("{{ type = \"mirror\", kr = {ALBEDO:?} }}")),
-        ("phong s=8", format!("{{ type = \"phong\", ks = {ALBEDO:?}, s = 8.0, horizon = \"ignore\" }}")),
-    ] {
-        let spec = Spec::probe(ctx, ctx.spp(16, 64), Lighting::Uniform(RADIANCE), &brdf);
+    for (label, brdf) in
+        [("lambert", lambert(ALBEDO)), ("mirror", mirror(ALBEDO)), ("phong s=8", phong(ALBEDO, 8.0, Horizon::Ignore))]
+    {
+        let spec = Spec::probe(ctx, ctx.spp(16, 64), Lighting::Uniform(RADIANCE), brdf.clone());
         let film = render_spec(ctx, &spec)?;
         let ch = Channel::from_film(&film, 0);
         let m = evaluate_into(&mut c, label, &ch, expected).ok_or("singular fit")?;

@@ -35,12 +35,14 @@ use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
 use super::fit::Channel;
 use super::picture::Picture;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
+use super::scenes::{lambert, mirror};
 use analysis::inverse::factorization::{
     DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, OutgoingNode, Status, hemisphere_nodes,
     row_weights,
 };
 use analysis::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
 use std::f64::consts::PI;
+use vocab::scene::BrdfSection;
 
 pub const NAME: &str = "uniform-factorization";
 pub const EQUATION: &str = "sec. 3.3, eq. 18, 25-28";
@@ -48,15 +50,9 @@ pub const RADIANCE: f64 = 1.5;
 pub const ALBEDO: f64 = 0.8;
 /// Lighting orders factored.
 pub const LMAX: usize = 4;
-pub const GLOSSY: &str = super::factorization::GLOSSY;
-
-/// The BRDFs (label, inline TOML).
-pub fn brdfs() -> [(&'static str, String); 3] {
-    [
-        ("microfacet", GLOSSY.to_string()),
-        ("lambert", format!("{{ type = \"lambert\", albedo = {ALBEDO:?} }}")),
-        ("mirror", format!("{{ type = \"mirror\", kr = {ALBEDO:?} }}")),
-    ]
+/// The BRDFs (label, table).
+pub fn brdfs() -> [(&'static str, BrdfSection); 3] {
+    [("microfacet", super::factorization::glossy()), ("lambert", lambert(ALBEDO)), ("mirror", mirror(ALBEDO))]
 }
 
 /// The light field of one BRDF reduced for eq. 18, plus what the error propagation needs.

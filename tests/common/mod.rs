@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod json;
+
 use renderer::film::Film;
 use renderer::render::{RenderOptions, render};
 use renderer::scene::{Scene, SceneFile};

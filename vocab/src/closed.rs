@@ -3,12 +3,9 @@
 //! and its default. With the `clap` feature each is a `clap::ValueEnum`, so `--help` lists the names.
 
 use crate::error::{Error, Result};
-use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
 
 /// Defines a closed set: a fieldless enum with one spelling per variant, serde and (feature `clap`)
-/// `clap::ValueEnum` under that spelling, [`fmt::Display`], [`FromStr`] and `Deserialize` (an error
+/// `clap::ValueEnum` under that spelling, [`std::fmt::Display`], [`std::str::FromStr`] and `Deserialize` (an error
 /// names the set and lists the names),
 /// `name()` and `ALL`.
 macro_rules! closed_set {
@@ -17,7 +14,7 @@ macro_rules! closed_set {
         $what:literal, $name:ident { $( $(#[$vmeta:meta])* $variant:ident = $text:literal ),+ $(,)? }
     ) => {
         $(#[$meta])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
         #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
         pub enum $name {
             $(
@@ -42,30 +39,33 @@ macro_rules! closed_set {
 
         /// By name; an unknown name is an error naming the set and listing its names (so a scene
         /// file's message says which key holds the bad value).
-        impl<'de> Deserialize<'de> for $name {
+        impl<'de> serde::Deserialize<'de> for $name {
             fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-                let s = String::deserialize(d)?;
-                s.parse().map_err(|e: Error| serde::de::Error::custom(e.message))
+                let s = <String as serde::Deserialize>::deserialize(d)?;
+                s.parse().map_err(|e: $crate::error::Error| serde::de::Error::custom(e.message))
             }
         }
 
-        impl fmt::Display for $name {
-            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
                 f.write_str(self.name())
             }
         }
 
-        impl FromStr for $name {
-            type Err = Error;
-            fn from_str(s: &str) -> Result<Self> {
+        impl std::str::FromStr for $name {
+            type Err = $crate::error::Error;
+            fn from_str(s: &str) -> $crate::error::Result<Self> {
                 $name::ALL.iter().copied().find(|v| v.name() == s).ok_or_else(|| {
                     let names: Vec<String> = $name::ALL.iter().map(|v| format!("\"{}\"", v.name())).collect();
-                    Error::new(format!("unknown {} \"{s}\" (expected {})", $what, names.join(" | ")))
+                    $crate::error::Error::new(format!("unknown {} \"{s}\" (expected {})", $what, names.join(" | ")))
                 })
             }
         }
     };
 }
+
+// `scene` derives `BrdfKind` from the list of `BrdfSection` variants with this macro.
+pub(crate) use closed_set;
 
 closed_set! {
     /// The sample generator of a render (`render.sampler`).
@@ -149,24 +149,6 @@ impl Mapping {
 }
 
 closed_set! {
-    /// The BRDF models of CONVENTIONS §4 (the `type` of a `brdf` table).
-    "BRDF type", BrdfKind {
-        /// ρ̂ = k_r δ(ω_i = R).
-        Mirror = "mirror",
-        /// BRDF = albedo / π.
-        Lambert = "lambert",
-        /// The normalized Phong lobe of eq. 40.
-        Phong = "phong",
-        /// The Torrance–Sparrow lobe of eq. 48.
-        TorranceSparrow = "torrance-sparrow",
-        /// Beckmann or GGX D, Smith G, Fresnel F.
-        Microfacet = "microfacet",
-        /// A weighted sum of the others.
-        Mix = "mix",
-    }
-}
-
-closed_set! {
     /// The lighting types of CONVENTIONS §6 (the `type` of the `[lighting]` table).
     "lighting type", LightingKind {
         /// Constant radiance.
@@ -216,7 +198,7 @@ mod tests {
             assert_eq!(serde_json::to_string(m).unwrap(), format!("\"{m}\""));
             assert_eq!(m.name().parse::<Mapping>().unwrap(), *m);
         }
-        assert_eq!(BrdfKind::TorranceSparrow.name(), "torrance-sparrow");
+        assert_eq!(crate::BrdfKind::TorranceSparrow.name(), "torrance-sparrow");
         assert_eq!(serde_json::from_str::<CameraKind>("\"normal-probe\"").unwrap(), CameraKind::NormalProbe);
         let e = "mercator".parse::<Mapping>().unwrap_err().to_string();
         assert!(e.contains("mercator") && e.contains("\"latlong\" | \"angular\""), "{e}");

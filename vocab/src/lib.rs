@@ -2,8 +2,9 @@
 //!
 //! - [`scene`]: the scene tables of CONVENTIONS §6 as serde types (the renderer builds from them,
 //!   the analysis reads its lighting from them, `reflect verify` builds its scenes as values of them);
-//! - [`closed`]: every closed set (`sampler`, `horizon`, `distribution`, `fresnel`, `mapping`, BRDF,
-//!   lighting, camera and shape kinds), one spelling each in files, headers and on the command line;
+//! - [`closed`]: every closed set (`sampler`, `horizon`, `distribution`, `fresnel`, `mapping`,
+//!   lighting, camera and shape kinds), one spelling each in files, headers and on the command line
+//!   (the BRDF kinds, [`BrdfKind`], are derived from the list of [`scene::BrdfSection`] tables);
 //! - [`header`]: the `reflect:*` EXR header attributes, written from and read back into those types;
 //! - [`error`]: the one user-facing error type (one line naming the file and the problem);
 //! - [`image`]: EXR/HDR reading and EXR writing (CONVENTIONS §5).
@@ -19,8 +20,8 @@ pub mod header;
 pub mod image;
 pub mod scene;
 
-pub use closed::{BrdfKind, CameraKind, Distribution, FresnelKind, Horizon, LightingKind, Mapping, Sampler, ShapeKind};
+pub use closed::{CameraKind, Distribution, FresnelKind, Horizon, LightingKind, Mapping, Sampler, ShapeKind};
 pub use error::{Error, Result};
 pub use scene::{
-    BrdfSection, CameraSection, Color, LightingSection, MixLayer, ObjectSection, RenderSection, SceneFile,
+    BrdfKind, BrdfSection, CameraSection, Color, LightingSection, MixLayer, ObjectSection, RenderSection, SceneFile,
 };

@@ -212,31 +212,64 @@ impl ObjectSection {
     }
 }
 
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum BrdfSection {
-    Mirror {
+/// Defines the BRDF tables once: [`BrdfSection`] (the `brdf` table of an object, its variants
+/// tagged by `type`) and, from the same list, the closed set [`BrdfKind`] of their names and
+/// [`BrdfSection::kind`]. Adding a BRDF to the scene format is one entry here (README "Adding a
+/// BRDF").
+macro_rules! brdf_tables {
+    ($( $(#[$vmeta:meta])* $variant:ident = $text:literal { $($fields:tt)* } ),+ $(,)?) => {
+        /// A `brdf` table (CONVENTIONS §4 and §6), tagged by `type`.
+        #[derive(Clone, Debug, Deserialize, Serialize)]
+        #[serde(tag = "type", deny_unknown_fields)]
+        pub enum BrdfSection {
+            $( $(#[$vmeta])* #[serde(rename = $text)] $variant { $($fields)* }, )+
+        }
+
+        crate::closed::closed_set! {
+            /// The BRDF models of CONVENTIONS §4 (the `type` of a `brdf` table), one per
+            /// [`BrdfSection`] variant.
+            "BRDF type", BrdfKind { $( $(#[$vmeta])* $variant = $text ),+ }
+        }
+
+        impl BrdfSection {
+            /// The BRDF's `type`.
+            pub fn kind(&self) -> BrdfKind {
+                match self {
+                    $( BrdfSection::$variant { .. } => BrdfKind::$variant, )+
+                }
+            }
+        }
+    };
+}
+
+brdf_tables! {
+    /// ρ̂ = k_r δ(ω_i = R).
+    Mirror = "mirror" {
         #[serde(default = "one")]
         kr: Color,
     },
-    Lambert {
+    /// BRDF = albedo / π.
+    Lambert = "lambert" {
         albedo: Color,
     },
-    Phong {
+    /// The normalized Phong lobe of eq. 40.
+    Phong = "phong" {
         #[serde(default = "one")]
         ks: Color,
         s: f32,
         #[serde(default)]
         horizon: Horizon,
     },
-    TorranceSparrow {
+    /// The Torrance–Sparrow lobe of eq. 48.
+    TorranceSparrow = "torrance-sparrow" {
         #[serde(default = "one")]
         ks: Color,
         sigma: f32,
         #[serde(default)]
         horizon: Horizon,
     },
-    Microfacet {
+    /// Beckmann or GGX D, Smith G, Fresnel F.
+    Microfacet = "microfacet" {
         #[serde(default)]
         distribution: Distribution,
         alpha: f32,
@@ -251,7 +284,8 @@ pub enum BrdfSection {
         #[serde(default)]
         k: Option<Color>,
     },
-    Mix {
+    /// A weighted sum of the others.
+    Mix = "mix" {
         layers: Vec<MixLayer>,
     },
 }
@@ -265,16 +299,44 @@ pub struct MixLayer {
 
 impl SceneFile {
     /// Parses TOML text; errors carry the line number and serde's one-line message.
+    ///
+    /// An error inside an `[[objects]]` entry names the entry (`objects[i]`) and the line of its
+    /// table: the `shape`-tagged entries are read whole, so the parser's own span covers the whole
+    /// array and cannot say which entry (or line) is at fault.
     pub fn parse(text: &str) -> Result<Self, String> {
         toml::from_str::<SceneFile>(text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+            if let Some(located) = locate_object_error(text) {
+                return located;
+            }
             let msg = e.message().trim().replace('\n', " ");
-            match line {
-                Some(l) => format!("line {l}: {msg}"),
+            match e.span() {
+                Some(s) => format!("line {}: {msg}", line_of(text, s.start)),
                 None => msg,
             }
         })
     }
+}
+
+/// The 1-based line holding byte `offset` of `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+/// The first `[[objects]]` entry that does not parse on its own, as "line L: objects[i]: message"
+/// (L the first line of its table); `None` when every entry parses (the fault is elsewhere).
+fn locate_object_error(text: &str) -> Option<String> {
+    #[derive(Deserialize)]
+    struct Objects {
+        #[serde(default)]
+        objects: Vec<toml::Spanned<toml::Table>>,
+    }
+    let all: Objects = toml::from_str(text).ok()?;
+    all.objects.into_iter().enumerate().find_map(|(i, o)| {
+        let start = o.span().start;
+        let err = toml::Value::Table(o.into_inner()).try_into::<ObjectSection>().err()?;
+        let msg = err.message().trim().replace('\n', " ");
+        Some(format!("line {}: objects[{i}]: {msg}", line_of(text, start)))
+    })
 }
 
 impl CameraSection {
@@ -308,20 +370,6 @@ impl ObjectSection {
             ObjectSection::Sphere { .. } => crate::ShapeKind::Sphere,
             ObjectSection::Mesh { .. } => crate::ShapeKind::Mesh,
             ObjectSection::Icosphere { .. } => crate::ShapeKind::Icosphere,
-        }
-    }
-}
-
-impl BrdfSection {
-    /// The BRDF's `type`.
-    pub fn kind(&self) -> crate::BrdfKind {
-        match self {
-            BrdfSection::Mirror { .. } => crate::BrdfKind::Mirror,
-            BrdfSection::Lambert { .. } => crate::BrdfKind::Lambert,
-            BrdfSection::Phong { .. } => crate::BrdfKind::Phong,
-            BrdfSection::TorranceSparrow { .. } => crate::BrdfKind::TorranceSparrow,
-            BrdfSection::Microfacet { .. } => crate::BrdfKind::Microfacet,
-            BrdfSection::Mix { .. } => crate::BrdfKind::Mix,
         }
     }
 }

@@ -92,74 +92,96 @@ impl TransferModel {
         }
     }
 
-    /// The one mapping from a BRDF kind and its parameters to a transfer model, for every command
-    /// (`sh transfer` and `invert lighting` from flags, and through [`TransferModel::of_brdf`]
-    /// `analyze`, `invert` and `verify` from a header or scene): `s` is Phong's exponent, `sigma`
-    /// Torrance–Sparrow's roughness (radians), `theta_o_deg` the exitance angle in degrees (only
-    /// Torrance–Sparrow depends on it, eq. 49/59; absent = 0).
-    ///
-    /// Errors: a parameter the model needs is missing or one it does not take is given (named as
-    /// the flag `--s`, `--sigma`, `--theta-o`), a kind without a transfer model here
-    /// (`microfacet`, `mix`), or a value [`TransferModel::validate`] refuses.
+    /// [`TransferModel::from_named`] with the parameters of the built-in models as arguments:
+    /// `s` (Phong's exponent), `sigma` (Torrance–Sparrow's roughness, radians), each `None` when
+    /// not given.
     pub fn from_params(
         kind: BrdfKind,
         s: Option<f64>,
         sigma: Option<f64>,
         theta_o_deg: Option<f64>,
     ) -> Result<TransferModel> {
-        let unused = |name: &str, v: Option<f64>| match v {
-            Some(_) => Err(Error::new(format!("--{name} does not apply to --brdf {kind}"))),
-            None => Ok(()),
+        let named: Vec<(String, f64)> =
+            [("s", s), ("sigma", sigma)].into_iter().filter_map(|(n, v)| Some((n.to_string(), v?))).collect();
+        TransferModel::from_named(kind, &named, theta_o_deg)
+    }
+
+    /// The one mapping from a BRDF kind and its parameters to a transfer model, for every command
+    /// (`sh transfer`, `analyze` and `invert` from flags, and through [`TransferModel::of_brdf`]
+    /// from a header or scene): `params` are (key, value) pairs named as the BRDF table's keys
+    /// (`s` is Phong's exponent, `sigma` Torrance–Sparrow's roughness in radians); `theta_o_deg`
+    /// is an exitance angle in degrees given explicitly (only a model that depends on it takes it,
+    /// Torrance–Sparrow, eq. 49/59; absent = 0). The exitance of an image's view is applied with
+    /// [`TransferModel::at_exitance`] instead, which every model takes.
+    ///
+    /// Errors: a parameter the model needs is missing or one it does not take is given (named as
+    /// the flag, `--s`, `--sigma`, `--theta-o`), a kind without a transfer model here
+    /// (`microfacet`, `mix`), or a value [`TransferModel::validate`] refuses.
+    pub fn from_named(kind: BrdfKind, params: &[(String, f64)], theta_o_deg: Option<f64>) -> Result<TransferModel> {
+        let mut given: Vec<(String, f64)> = params.to_vec();
+        let mut take = |name: &str| -> Result<f64> {
+            let i = given
+                .iter()
+                .position(|(n, _)| n == name)
+                .ok_or_else(|| Error::new(format!("--brdf {kind} needs {}", flag(name))))?;
+            Ok(given.remove(i).1)
         };
         let m = match kind {
-            BrdfKind::Lambert | BrdfKind::Mirror => {
-                unused("s", s)?;
-                unused("sigma", sigma)?;
-                unused("theta-o", theta_o_deg)?;
-                if kind == BrdfKind::Lambert { TransferModel::Lambert } else { TransferModel::Mirror }
-            }
-            BrdfKind::Phong => {
-                unused("sigma", sigma)?;
-                unused("theta-o", theta_o_deg)?;
-                TransferModel::Phong { s: s.ok_or_else(|| Error::new("--brdf phong needs --s"))? }
-            }
-            BrdfKind::TorranceSparrow => {
-                unused("s", s)?;
-                TransferModel::TorranceSparrow {
-                    sigma: sigma.ok_or_else(|| Error::new("--brdf torrance-sparrow needs --sigma"))?,
-                    theta_o: theta_o_deg.unwrap_or(0.0).to_radians(),
-                }
-            }
+            BrdfKind::Lambert => TransferModel::Lambert,
+            BrdfKind::Mirror => TransferModel::Mirror,
+            BrdfKind::Phong => TransferModel::Phong { s: take("s")? },
+            BrdfKind::TorranceSparrow => TransferModel::TorranceSparrow {
+                sigma: take("sigma")?,
+                theta_o: theta_o_deg.unwrap_or(0.0).to_radians(),
+            },
             BrdfKind::Microfacet | BrdfKind::Mix => {
                 return Err(Error::new(format!(
                     "BRDF '{kind}' has no transfer model (expected lambert, phong, mirror or torrance-sparrow)"
                 )));
             }
         };
+        if let Some((name, _)) = given.first() {
+            return Err(Error::new(format!("{} does not apply to --brdf {kind}", flag(name))));
+        }
+        if theta_o_deg.is_some() && !m.depends_on_exitance() {
+            return Err(Error::new(format!("--theta-o does not apply to --brdf {kind}")));
+        }
         m.validate()?;
         Ok(m)
     }
 
+    /// Whether Λ_l ρ̂_l depends on the exitance θ_o (Torrance–Sparrow, eq. 49/59).
+    pub fn depends_on_exitance(&self) -> bool {
+        matches!(self, TransferModel::TorranceSparrow { .. })
+    }
+
+    /// The model seen at exitance θ_o (radians, the view's): only a model whose coefficients depend
+    /// on the exitance (Torrance–Sparrow, eq. 49/59) changes; the others are returned as they are.
+    pub fn at_exitance(self, theta_o: f64) -> TransferModel {
+        match self {
+            TransferModel::TorranceSparrow { sigma, .. } => TransferModel::TorranceSparrow { sigma, theta_o },
+            m => m,
+        }
+    }
+
     /// The transfer model of a BRDF table (a scene file's or a `reflect:objects` header's) seen at
-    /// exitance θ_o (radians), through [`TransferModel::from_params`], with the table's scale and
+    /// exitance θ_o (radians, [`TransferModel::at_exitance`]), with the table's scale and
     /// horizon; `Ok(None)` for a BRDF with no transfer model here (`microfacet`, `mix`). The table's
     /// f32 values are taken as the decimals they were written as ([`vocab::scene::decimal`]).
     /// Errors: a parameter [`TransferModel::validate`] refuses, the message naming the BRDF type.
     pub fn of_brdf(brdf: &BrdfSection, theta_o: f64) -> Result<Option<BrdfTransfer>> {
-        let (s, sigma, scale, horizon) = match brdf {
-            BrdfSection::Lambert { albedo } => (None, None, albedo, Horizon::Clamp),
-            BrdfSection::Mirror { kr } => (None, None, kr, Horizon::Clamp),
-            BrdfSection::Phong { ks, s, horizon } => (Some(decimal(*s)), None, ks, *horizon),
-            BrdfSection::TorranceSparrow { ks, sigma, horizon } => (None, Some(decimal(*sigma)), ks, *horizon),
+        let (model, scale, horizon) = match brdf {
+            BrdfSection::Lambert { albedo } => (TransferModel::Lambert, albedo, Horizon::Clamp),
+            BrdfSection::Mirror { kr } => (TransferModel::Mirror, kr, Horizon::Clamp),
+            BrdfSection::Phong { ks, s, horizon } => (TransferModel::Phong { s: decimal(*s) }, ks, *horizon),
+            BrdfSection::TorranceSparrow { ks, sigma, horizon } => {
+                (TransferModel::TorranceSparrow { sigma: decimal(*sigma), theta_o }, ks, *horizon)
+            }
             BrdfSection::Microfacet { .. } | BrdfSection::Mix { .. } => return Ok(None),
         };
-        let named = |e: Error| Error::new(format!("{} BRDF: {}", brdf.kind(), e.message));
-        // θ_o in radians as given (no round trip through degrees): only Torrance–Sparrow takes it.
-        let model = match TransferModel::from_params(brdf.kind(), s, sigma, None).map_err(named)? {
-            TransferModel::TorranceSparrow { sigma, .. } => TransferModel::TorranceSparrow { sigma, theta_o },
-            m => m,
-        };
-        model.validate().map_err(named)?;
+        // θ_o in radians as given (no round trip through degrees).
+        let model = model.at_exitance(theta_o);
+        model.validate().map_err(|e| Error::new(format!("{} BRDF: {}", brdf.kind(), e.message)))?;
         Ok(Some(BrdfTransfer { model, scale: decimal3(scale.rgb()), horizon }))
     }
 
@@ -189,6 +211,15 @@ impl TransferModel {
             }
             _ => None,
         }
+    }
+}
+
+/// How the command line spells BRDF parameter `name`: the built-in models' `--s` and `--sigma`,
+/// any other as `--brdf-param NAME=…` (README "Adding a BRDF").
+fn flag(name: &str) -> String {
+    match name {
+        "s" | "sigma" => format!("--{name}"),
+        _ => format!("--brdf-param {name}=…"),
     }
 }
 
@@ -227,6 +258,9 @@ mod tests {
         assert!(m(TorranceSparrow, None, Some(0.1), Some(95.0)).is_err());
         assert!(m(TorranceSparrow, None, Some(f64::NAN), None).is_err());
         assert!(m(Microfacet, None, None, None).unwrap_err().message.contains("no transfer model"));
+        let k = TransferModel::from_named(Lambert, &[("k".to_string(), 1.0)], None).unwrap_err().message;
+        assert!(k.contains("--brdf-param k=… does not apply"), "{k}");
+        assert!(m(Lambert, None, None, Some(10.0)).unwrap_err().message.contains("--theta-o does not apply"));
         assert_eq!(m(Mirror, None, None, None).unwrap(), TransferModel::Mirror);
         assert_eq!(
             m(TorranceSparrow, None, Some(0.2), Some(30.0)).unwrap(),

@@ -24,6 +24,9 @@ pub use phong::Phong;
 pub use torrance_sparrow::TorranceSparrow;
 
 use crate::math::{Rgb, Vec2, Vec3};
+use crate::scene::build::color;
+use vocab::FresnelKind;
+use vocab::scene::BrdfSection;
 
 /// Whether a lobe sees light from below the local horizon (CONVENTIONS §4, paper sec. 3.6), defined in
 /// `vocab`.
@@ -106,4 +109,53 @@ impl Bxdf for Brdf {
     fn is_delta(&self) -> bool {
         dispatch!(self, b => b.is_delta())
     }
+}
+
+/// A lobe parameter, checked finite and positive (`what` names it).
+fn positive(v: f32, what: &str) -> std::result::Result<f32, String> {
+    if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be positive, got {v}")) }
+}
+
+/// Builds a BRDF from its scene-file table (CONVENTIONS §4), checking every value: colours finite
+/// and non-negative, lobe parameters finite and positive, mix weights finite and non-negative.
+/// Errors: one line naming the key (the caller adds the object).
+pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
+    Ok(match b {
+        BrdfSection::Mirror { kr } => Brdf::Mirror(Mirror::new(color(*kr, "kr")?)),
+        BrdfSection::Lambert { albedo } => Brdf::Lambert(Lambert::new(color(*albedo, "albedo")?)),
+        BrdfSection::Phong { ks, s, horizon: hz } => {
+            Brdf::Phong(Phong::new(color(*ks, "ks")?, positive(*s, "phong s")?, *hz))
+        }
+        BrdfSection::TorranceSparrow { ks, sigma, horizon: hz } => Brdf::TorranceSparrow(TorranceSparrow::new(
+            color(*ks, "ks")?,
+            positive(*sigma, "torrance-sparrow sigma")?,
+            *hz,
+        )),
+        BrdfSection::Microfacet { distribution, alpha, fresnel, f0, eta, k } => {
+            let fr = match fresnel {
+                FresnelKind::None => Fresnel::None,
+                FresnelKind::Schlick => {
+                    Fresnel::Schlick { f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")? }
+                }
+                FresnelKind::Conductor => Fresnel::Conductor {
+                    eta: color(eta.ok_or("fresnel = \"conductor\" needs eta")?, "eta")?,
+                    k: color(k.ok_or("fresnel = \"conductor\" needs k")?, "k")?,
+                },
+            };
+            Brdf::Microfacet(Microfacet::new(*distribution, positive(*alpha, "microfacet alpha")?, fr))
+        }
+        BrdfSection::Mix { layers } => {
+            if layers.is_empty() {
+                return Err("mix needs at least one layer".into());
+            }
+            let mut v = Vec::with_capacity(layers.len());
+            for l in layers {
+                if !(l.weight >= 0.0 && l.weight.is_finite()) {
+                    return Err(format!("mix weight must be finite and non-negative, got {}", l.weight));
+                }
+                v.push((l.weight, build_brdf(&l.brdf)?));
+            }
+            Brdf::Mix(Mix::new(v))
+        }
+    })
 }

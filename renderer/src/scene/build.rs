@@ -2,7 +2,7 @@
 //! absurd sizes, positive parameters), loads meshes and environment maps relative to the scene
 //! file, and builds the BVH. Every failure is one line naming the scene file (or the data file).
 
-use super::file::{BrdfSection, CameraSection, LightingSection, ObjectSection, SceneFile};
+use super::file::{CameraSection, LightingSection, ObjectSection, SceneFile};
 use crate::brdf::{self, Brdf};
 use crate::camera::{Camera, NormalProbe, Orthographic, Perspective};
 use crate::geometry::{SceneGeometry, Shape, Sphere};
@@ -11,7 +11,6 @@ use crate::math::{Rgb, Vec3, rotation_xyz_deg};
 use crate::sampling::SamplerKind;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
-use vocab::FresnelKind;
 
 /// Largest accepted image side and samples per pixel: beyond these a request is taken as a typo.
 pub const MAX_RESOLUTION: u32 = 16384;
@@ -148,7 +147,7 @@ impl Scene {
                     shapes.push(Shape::Mesh(mesh));
                 }
             }
-            brdfs.push(build_brdf(obj.brdf()).map_err(ctx)?);
+            brdfs.push(brdf::build_brdf(obj.brdf()).map_err(ctx)?);
             textures.push(match obj.texture() {
                 Some(super::file::TextureSection::Sh { coefficients }) => {
                     Some(crate::texture::ShTexture::new(coefficients).map_err(|e| ctx(format!("texture: {e}")))?)
@@ -211,59 +210,14 @@ fn vec3(v: [f32; 3], what: &str) -> std::result::Result<Vec3, String> {
     if v.iter().all(|x| x.is_finite()) { Ok(Vec3::from(v)) } else { Err(format!("{what} has a non-finite component")) }
 }
 
-fn color(c: super::file::Color, what: &str) -> std::result::Result<Rgb, String> {
+/// A colour of the scene file, checked finite and non-negative (`what` names its key).
+pub(crate) fn color(c: super::file::Color, what: &str) -> std::result::Result<Rgb, String> {
     let v = c.rgb();
     if v.iter().all(|x| x.is_finite() && *x >= 0.0) {
         Ok(Rgb::from(v))
     } else {
         Err(format!("{what} must be finite and non-negative, got {v:?}"))
     }
-}
-
-fn positive(v: f32, what: &str) -> std::result::Result<f32, String> {
-    if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be positive, got {v}")) }
-}
-
-/// Builds a BRDF from its table (CONVENTIONS §4).
-pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
-    Ok(match b {
-        BrdfSection::Mirror { kr } => Brdf::Mirror(brdf::Mirror::new(color(*kr, "kr")?)),
-        BrdfSection::Lambert { albedo } => Brdf::Lambert(brdf::Lambert::new(color(*albedo, "albedo")?)),
-        BrdfSection::Phong { ks, s, horizon: hz } => {
-            Brdf::Phong(brdf::Phong::new(color(*ks, "ks")?, positive(*s, "phong s")?, *hz))
-        }
-        BrdfSection::TorranceSparrow { ks, sigma, horizon: hz } => Brdf::TorranceSparrow(brdf::TorranceSparrow::new(
-            color(*ks, "ks")?,
-            positive(*sigma, "torrance-sparrow sigma")?,
-            *hz,
-        )),
-        BrdfSection::Microfacet { distribution, alpha, fresnel, f0, eta, k } => {
-            let fr = match fresnel {
-                FresnelKind::None => brdf::Fresnel::None,
-                FresnelKind::Schlick => {
-                    brdf::Fresnel::Schlick { f0: color(f0.ok_or("fresnel = \"schlick\" needs f0")?, "f0")? }
-                }
-                FresnelKind::Conductor => brdf::Fresnel::Conductor {
-                    eta: color(eta.ok_or("fresnel = \"conductor\" needs eta")?, "eta")?,
-                    k: color(k.ok_or("fresnel = \"conductor\" needs k")?, "k")?,
-                },
-            };
-            Brdf::Microfacet(brdf::Microfacet::new(*distribution, positive(*alpha, "microfacet alpha")?, fr))
-        }
-        BrdfSection::Mix { layers } => {
-            if layers.is_empty() {
-                return Err("mix needs at least one layer".into());
-            }
-            let mut v = Vec::with_capacity(layers.len());
-            for l in layers {
-                if !(l.weight >= 0.0 && l.weight.is_finite()) {
-                    return Err(format!("mix weight must be finite and non-negative, got {}", l.weight));
-                }
-                v.push((l.weight, build_brdf(&l.brdf)?));
-            }
-            Brdf::Mix(brdf::Mix::new(v))
-        }
-    })
 }
 
 fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {

@@ -1,0 +1,25 @@
+//! `reflect … --json` as a JSON value, and the JSON type of a value, for the tests that pin the
+//! commands' JSON schemas (`json_schema`, `report_schema`).
+
+use serde_json::Value;
+use std::process::Command;
+
+/// Runs `reflect ARGS` (which must print one JSON document and exit 0) and parses its stdout.
+pub fn reflect_json(args: &[&str]) -> Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "reflect {args:?}: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("reflect {args:?}: bad JSON ({e}): {stdout}"))
+}
+
+/// The JSON type of `v`: "null", "bool", "number", "string", "array" or "object".
+pub fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "bool",
+        Value::Number(_) => "number",
+        Value::String(_) => "string",
+        Value::Array(_) => "array",
+        Value::Object(_) => "object",
+    }
+}
