@@ -133,6 +133,19 @@ fn temporaries(dir: &Path) -> Vec<String> {
 }
 
 /// Renders `toml` (GOOD with replacements) to `dir/name`, through the binary.
+/// A render of a sphere with an albedo texture is refused by analyze and invert (which assume a
+/// uniform albedo), not analysed as uniform. Planted: without the check `analyze` exits 0 and
+/// prints a filter of the uniform model.
+#[test]
+fn textured_sphere_is_refused_by_analyze_and_invert() {
+    let d = temp_dir("cli-textured");
+    let none = d.join("no-output.exr");
+    let tex = "{ type = \"lambert\", albedo = 0.5 }\ntexture = { type = \"sh\", coefficients = [[1.0, 1.0, 1.0], [0.0, 0.0, 0.0], [0.3, 0.3, 0.3], [0.0, 0.0, 0.0]] }";
+    let p = render_to(&d, "textured.exr", &probe_toml(0.0, 0.0, tex));
+    assert_bad_input(&["analyze", &p, "--lmax", "2"], "textured.exr", "texture", &none);
+    assert_bad_input(&["invert", "lighting", &p, "--lmax", "2"], "textured.exr", "texture", &none);
+}
+
 fn probe_toml(theta_o: f64, phi_o: f64, brdf: &str) -> String {
     GOOD.replace("width = 8", "width = 32")
         .replace("height = 8", "height = 16")

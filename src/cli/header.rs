@@ -352,6 +352,20 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
         Some(p) => e.in_file(p),
         None => e,
     };
+    // A textured sphere's radiance is T(n) times a uniform sphere's: every analysis here assumes one
+    // albedo, so such a render is refused rather than analysed as uniform (issue 19).
+    let textured = |objs: &[ObjectSection]| {
+        objs.iter().find(|o| matches!(o, ObjectSection::Sphere { .. })).is_some_and(|o| o.texture().is_some())
+    };
+    let refuse = "the sphere has an albedo texture, and analyze and invert assume a uniform albedo";
+    if hd0.objects.as_deref().is_some_and(textured) {
+        return Err(in0(Error::new(format!("header reflect:objects: {refuse}"))));
+    }
+    if let Some((sp, s)) = &scene
+        && textured(&s.objects)
+    {
+        return Err(Error::file(sp, refuse));
+    }
     let h_sphere = hd0.objects.as_deref().and_then(first_sphere);
     let s_sphere = scene.as_ref().and_then(|(sp, s)| first_sphere(&s.objects).map(|x| (x, sp.display().to_string())));
     let same_sphere = |a: &SphereShown, b: &SphereShown| {
