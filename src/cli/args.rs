@@ -42,7 +42,7 @@ pub struct ViewArgs {
     #[arg(long)]
     pub radius: Option<f64>,
     /// Scene file (TOML, our vocabulary) the images are renders of: camera, sphere, BRDF and
-    /// lighting for images whose header does not say them; its [render] size must be the images'.
+    /// lighting for images whose header does not say them; its `[render]` size must be the images'.
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// The radiance layer of a multi-layer EXR, by its channel prefix (e.g. ViewLayer.Combined for

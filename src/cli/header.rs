@@ -425,7 +425,7 @@ pub struct Resolved {
     pub kind: BrdfKind,
     /// The BRDF as JSON: the scene's or header's table, or the flags as a table.
     pub table: serde_json::Value,
-    /// Where it came from: "the header's reflect:objects", "the [[objects]] of S", "--brdf".
+    /// Where it came from: "the header's reflect:objects", "the `[[objects]]` of S", "--brdf".
     pub source: String,
 }
 

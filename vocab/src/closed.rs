@@ -142,7 +142,7 @@ impl Mapping {
         }
     }
 
-    /// Parses a mapping name (as [`FromStr`]).
+    /// Parses a mapping name (as [`std::str::FromStr`]).
     pub fn parse(s: &str) -> Result<Mapping> {
         s.parse()
     }

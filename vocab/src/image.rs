@@ -112,7 +112,7 @@ impl Image {
 /// Layer names (the last component of a channel prefix, case-insensitive) that hold something other
 /// than radiance: auxiliary outputs (AOVs) of our renderer, Blender, Mitsuba and pbrt. Their RGB
 /// channels are never taken as the image.
-const NON_RADIANCE: &[&str] = &[
+pub const NON_RADIANCE: &[&str] = &[
     "normal",
     "normals",
     "n",
