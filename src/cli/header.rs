@@ -201,7 +201,7 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
                 data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
             }
             eprintln!(
-                "note: {}: the worldToNDC camera sees the mirror image of ours (CONVENTIONS §5); columns mirrored",
+                "note: {}: the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored",
                 p.display()
             );
         }

@@ -201,9 +201,14 @@ fn build_camera(
     })
 }
 
+/// The file `f` of the scene at `base`, as an absolute path: it is written into the render's header
+/// (`reflect:lighting`, `reflect:objects`), which `analyze` and `invert` read from any directory, so
+/// a path relative to the directory the render ran in would name the wrong file (or none). The
+/// canonical path when the file exists; else the absolute, un-normalised one (the loader then names it).
 fn resolve(base: &Path, f: &str) -> PathBuf {
     let p = Path::new(f);
-    if p.is_absolute() { p.to_path_buf() } else { base.join(p) }
+    let joined = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
+    joined.canonicalize().or_else(|_| std::path::absolute(&joined)).unwrap_or(joined)
 }
 
 fn vec3(v: [f32; 3], what: &str) -> std::result::Result<Vec3, String> {
