@@ -25,7 +25,7 @@ use super::header::{Camera, Description, lighting_of, load};
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, write_exr};
-use analysis::inverse::brdf::{Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
+use analysis::inverse::brdf::{BrdfFit, Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
@@ -496,30 +496,13 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
                 let sub: Vec<f64> = orders.iter().flat_map(|&i| orders.iter().map(move |&j| cv[i * n + j])).collect();
                 fits.push((ch, fit_model_gls(&orders, &f, &sub, model, Some(range))?));
             }
-            let best = fits
-                .iter()
-                .min_by(|x, y| x.1.relative_width().total_cmp(&y.1.relative_width()))
-                .cloned()
-                .ok_or_else(|| Error::new("no channel has two observable orders to fit"))?;
-            let per: Vec<BrdfChannelFit> = fits
-                .iter()
-                .map(|(ch, f)| BrdfChannelFit {
-                    channel: CHANNELS[*ch].into(),
-                    estimate: f.parameter,
-                    interval: [f.interval.0, f.interval.1],
-                    chi2_min: f.chi2_min,
-                    dof: f.dof,
-                })
-                .collect();
+            let (ch, fit) =
+                narrowest(&fits).ok_or_else(|| Error::new("no channel has two observable orders to fit"))?;
             let how = format!(
                 "generalised least squares with the full covariance of the per-order estimates, per channel (channels share their paths, so they are not combined); reported: channel {}",
-                CHANNELS[best.0]
+                CHANNELS[ch]
             );
-            let (ch, mut fit) = best;
-            let k = fit.scale[0];
-            fit.scale = [None; 3];
-            fit.scale[ch] = k;
-            (fit, how, per)
+            (fit, how, channel_fits(&fits))
         }
         None => (
             fit_model(&est, model, Some(range))?,
@@ -527,14 +510,55 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
             Vec::new(),
         ),
     };
-    Ok(InvertBrdfReport {
+    let filter =
+        est.iter().map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() });
+    Ok(brdf_report(a, (p.lmax_carried, p.method, source), &fit, how, per_channel, filter.collect(), None, Vec::new()))
+}
+
+/// The channel whose model fit has the narrowest interval, its `scale` kept for that channel only.
+fn narrowest(fits: &[(usize, BrdfFit)]) -> Option<(usize, BrdfFit)> {
+    let (ch, mut fit) = fits.iter().min_by(|x, y| x.1.relative_width().total_cmp(&y.1.relative_width())).cloned()?;
+    let k = fit.scale[0];
+    fit.scale = [None; 3];
+    fit.scale[ch] = k;
+    Some((ch, fit))
+}
+
+/// Each channel's model fit, as reported.
+fn channel_fits(fits: &[(usize, BrdfFit)]) -> Vec<BrdfChannelFit> {
+    fits.iter()
+        .map(|(ch, f)| BrdfChannelFit {
+            channel: CHANNELS[*ch].into(),
+            estimate: f.parameter,
+            interval: [f.interval.0, f.interval.1],
+            chi2_min: f.chi2_min,
+            dof: f.dof,
+        })
+        .collect()
+}
+
+/// The report of `invert brdf` from the reported model fit (`how` it was fitted) and the per-order
+/// filter it was fitted to; `(lmax_carried, method, lighting source)` come from the projection.
+#[allow(clippy::too_many_arguments)]
+fn brdf_report(
+    a: &BrdfArgs,
+    (lmax_carried, method, source): (usize, String, String),
+    fit: &BrdfFit,
+    how: String,
+    channels: Vec<BrdfChannelFit>,
+    filter: Vec<BrdfOrder>,
+    filter_fit: Option<FilterFitReport>,
+    warnings: Vec<String>,
+) -> InvertBrdfReport {
+    let model = fit.model;
+    InvertBrdfReport {
         fit: how,
-        channels: per_channel,
+        channels,
         command: "invert brdf".into(),
         lmax: a.lmax,
-        lmax_carried: p.lmax_carried,
+        lmax_carried,
         images: a.images.iter().map(|p| p.display().to_string()).collect(),
-        method: p.method,
+        method,
         lighting: source,
         model: model.name().into(),
         parameter: model.parameter_name().into(),
@@ -547,14 +571,11 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
         dof: fit.dof,
         weighted_by_stderr: fit.weighted_by_stderr,
         points: fit.points,
-        filter: est
-            .iter()
-            .map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() })
-            .collect(),
+        filter,
         profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
-        filter_fit: None,
-        warnings: Vec::new(),
-    })
+        filter_fit,
+        warnings,
+    }
 }
 
 /// `invert brdf` on orthographic views: the model fitted per channel by generalised least squares
@@ -593,14 +614,8 @@ fn brdf_report_from_pixel_fit(
         }
         fits.push((ch, fit_model_gls(&orders, &f, &cov, model, Some(range))?));
     }
-    let (ch, mut fit) = fits
-        .iter()
-        .min_by(|x, y| x.1.relative_width().total_cmp(&y.1.relative_width()))
-        .cloned()
+    let (ch, fit) = narrowest(&fits)
         .ok_or_else(|| Error::new("no channel has two determined filter orders to fit the model to"))?;
-    let k = fit.scale[0];
-    fit.scale = [None; 3];
-    fit.scale[ch] = k;
     for (c, f) in &fits {
         if let Some(p) = f.p_value().filter(|&p| p < 1e-3) {
             warnings.push(format!(
@@ -612,53 +627,21 @@ fn brdf_report_from_pixel_fit(
             ));
         }
     }
-    let channels: Vec<BrdfChannelFit> = fits
-        .iter()
-        .map(|(ch, f)| BrdfChannelFit {
-            channel: CHANNELS[*ch].into(),
-            estimate: f.parameter,
-            interval: [f.interval.0, f.interval.1],
-            chi2_min: f.chi2_min,
-            dof: f.dof,
-        })
-        .collect();
-    Ok(InvertBrdfReport {
-        fit: format!(
-            "filter fitted in pixel space over the views' pixels (as analyze), then the model by generalised least              squares with the filter's covariance and truncation, per channel over its determined orders; reported:              channel {}",
-            CHANNELS[ch]
-        ),
-        channels,
-        command: "invert brdf".into(),
-        lmax: a.lmax,
-        lmax_carried,
-        images: a.images.iter().map(|p| p.display().to_string()).collect(),
-        method,
-        lighting: source,
-        model: model.name().into(),
-        parameter: model.parameter_name().into(),
-        estimate: fit.parameter,
-        interval: [fit.interval.0, fit.interval.1],
-        relative_width: fit.relative_width().is_finite().then(|| fit.relative_width()),
-        range: [fit.range.0, fit.range.1],
-        scale: fit.scale,
-        chi2_min: fit.chi2_min,
-        dof: fit.dof,
-        weighted_by_stderr: fit.weighted_by_stderr,
-        points: fit.points,
-        filter: pf
-            .orders
-            .iter()
-            .map(|o| BrdfOrder {
-                l: o.l,
-                estimate: o.estimate,
-                stderr: o.stderr,
-                observable: o.estimate.iter().any(|e| e.is_some()),
-            })
-            .collect(),
-        profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
-        filter_fit: Some(FilterFitReport { orders: pf.orders, channels: pf.channels }),
-        warnings,
-    })
+    let how = format!(
+        "filter fitted in pixel space over the views' pixels (as analyze), then the model by generalised least \
+         squares with the filter's covariance and truncation, per channel over its determined orders; reported: \
+         channel {}",
+        CHANNELS[ch]
+    );
+    let filter = pf.orders.iter().map(|o| BrdfOrder {
+        l: o.l,
+        estimate: o.estimate,
+        stderr: o.stderr,
+        observable: o.estimate.iter().any(|e| e.is_some()),
+    });
+    let filter = filter.collect();
+    let filter_fit = Some(FilterFitReport { orders: pf.orders, channels: pf.channels });
+    Ok(brdf_report(a, (lmax_carried, method, source), &fit, how, channel_fits(&fits), filter, filter_fit, warnings))
 }
 
 /// The pixel-space filter fit behind `invert brdf` on orthographic views (the one `analyze`

@@ -27,7 +27,7 @@
 //! the z map uses ColorBrewer's diverging RdBu map (blue z < 0, white z = 0, red z > 0), saturated
 //! at |z| = [`Z_SCALE`].
 
-use super::fit::{Channel, latlong_dir, normalize, order_parts};
+use super::fit::{Channel, dot, latlong_dir, normalize, order_parts};
 use analysis::sh::{ShBasis, num_coefficients};
 use image::{Rgba, RgbaImage};
 use serde::Serialize;
@@ -91,6 +91,19 @@ pub struct PictureDoc {
     pub white: f64,
 }
 
+/// B(d) = Σ_l filter\[l\] Σ_m L_lm Y_lm(d) for the SH lighting `light` (index order k), as a function
+/// of the unit direction d (scratch buffers allocated once).
+fn filtered_lighting<'a>(light: &'a [f64], filter: &'a [f64]) -> impl FnMut([f64; 3]) -> f64 + 'a {
+    let lmax = filter.len().saturating_sub(1);
+    let basis = ShBasis::new(lmax);
+    let mut y = vec![0.0; num_coefficients(lmax)];
+    let mut parts = vec![0.0; lmax + 1];
+    move |d| {
+        order_parts(&basis, light, d, &mut y, &mut parts);
+        parts.iter().zip(filter).map(|(s, a)| s * a).sum()
+    }
+}
+
 impl Picture {
     /// A picture from row-major W × H slices (see the module docs). Panics if a slice's length is
     /// not W × H (a programming error in the check).
@@ -134,17 +147,8 @@ impl Picture {
         extra_sigma: impl Fn(usize) -> f64,
     ) -> Picture {
         let (w, h) = (ch.width, ch.height);
-        let lmax = filter.len().saturating_sub(1);
-        let basis = ShBasis::new(lmax);
-        let mut y = vec![0.0; num_coefficients(lmax)];
-        let mut parts = vec![0.0; lmax + 1];
-        let mut predicted = Vec::with_capacity(w * h);
-        for r in 0..h {
-            for c in 0..w {
-                order_parts(&basis, light, latlong_dir(r, c, w, h), &mut y, &mut parts);
-                predicted.push(parts.iter().zip(filter).map(|(s, a)| s * a).sum());
-            }
-        }
+        let mut at = filtered_lighting(light, filter);
+        let predicted = (0..w * h).map(|i| at(latlong_dir(i / w, i % w, w, h))).collect();
         let sigma = ch.sigma.iter().enumerate().map(|(i, s)| s.hypot(extra_sigma(i))).collect();
         Picture::new(stem, title, model, (w, h), ch.value.clone(), predicted, sigma)
     }
@@ -176,7 +180,7 @@ impl Picture {
         wo: [f64; 3],
     ) -> Picture {
         Picture::filter_at(stem, title, model, ch, light, filter, |n| {
-            let c = 2.0 * (n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2]);
+            let c = 2.0 * dot(n, wo);
             [c * n[0] - wo[0], c * n[1] - wo[1], c * n[2] - wo[2]]
         })
     }
@@ -191,20 +195,10 @@ impl Picture {
         filter: &[f64],
         dir: impl Fn([f64; 3]) -> [f64; 3],
     ) -> Picture {
-        let lmax = filter.len().saturating_sub(1);
-        let basis = ShBasis::new(lmax);
-        let mut y = vec![0.0; num_coefficients(lmax)];
-        let mut parts = vec![0.0; lmax + 1];
+        let mut at = filtered_lighting(light, filter);
         let covered = |i: usize| ch.mask.get(i).is_some_and(|m| *m >= 1.0);
-        let predicted = (0..ch.value.len())
-            .map(|i| {
-                if !covered(i) {
-                    return f64::NAN;
-                }
-                order_parts(&basis, light, dir(normalize(ch.normal[i])), &mut y, &mut parts);
-                parts.iter().zip(filter).map(|(s, a)| s * a).sum()
-            })
-            .collect();
+        let predicted =
+            (0..ch.value.len()).map(|i| if covered(i) { at(dir(normalize(ch.normal[i]))) } else { f64::NAN }).collect();
         let measured = (0..ch.value.len()).map(|i| if covered(i) { ch.value[i] } else { f64::NAN }).collect();
         Picture::new(stem, title, model, (ch.width, ch.height), measured, predicted, ch.sigma.clone())
     }

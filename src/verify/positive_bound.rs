@@ -393,10 +393,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             // so the z map shows where the energy above l = 2 (the 1 − share the bound limits) sits.
             let zero = vec![0.0; w * h];
             let (b, _) = super::texture_ambiguity::explain(&a, &zero, w, h).ok_or("singular 9-term fit")?;
-            let basis = ShBasis::new(2);
-            let nine: Vec<f64> = (0..w * h)
-                .map(|p| basis.eval(latlong_dir(p / w, p % w, w, h)).iter().zip(&b).map(|(y, v)| y * v).sum())
-                .collect();
+            let nine = super::texture_ambiguity::nine_term_image(&b, w, h);
             pictures.push(Picture::new(
                 "positive_bound_directional",
                 format!("{label}: Lambertian sphere under one directional source (normal probe, 1 spp, exact)"),

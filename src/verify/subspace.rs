@@ -183,20 +183,25 @@ pub fn captured(s: &ImageSet, pca: &Pca, k: usize) -> (f64, f64) {
     let total: f64 = pca.values.iter().sum();
     let e = pca.values[..k].iter().sum::<f64>() / total;
     // (X Q_k)_j = Σ_i x_i (Q_k)_ij, Q_k = V_k V_kᵀ.
-    let n = s.images.len();
-    let vk = pca.vectors.columns(0, k);
-    let q = vk * vk.transpose();
-    let proj: Vec<Vec<f64>> = (0..n)
-        .map(|j| (0..s.weight.len()).map(|p| (0..n).map(|i| s.images[i][p] * q[(i, j)]).sum()).collect())
-        .collect();
+    let q = projector(pca, k);
+    let proj: Vec<Vec<f64>> = (0..s.images.len()).map(|j| project(s, &q, j)).collect();
     (e, fraction_sigma(s, e, total, &proj))
 }
 
 /// Image j of the set projected onto the span of the first k principal components (the part of it
 /// a k-dimensional subspace explains): Σ_i x_i (V_k V_kᵀ)_ij, as in [`captured`].
 pub fn reconstruction(s: &ImageSet, pca: &Pca, k: usize, j: usize) -> Vec<f64> {
+    project(s, &projector(pca, k), j)
+}
+
+/// Q_k = V_k V_kᵀ (n × n, image index space): the projector onto the first k components.
+fn projector(pca: &Pca, k: usize) -> DMatrix<f64> {
     let vk = pca.vectors.columns(0, k);
-    let q = vk * vk.transpose();
+    vk * vk.transpose()
+}
+
+/// (X Q)_j = Σ_i x_i Q_ij: image j's part in the span `q` projects onto.
+fn project(s: &ImageSet, q: &DMatrix<f64>, j: usize) -> Vec<f64> {
     (0..s.weight.len()).map(|p| (0..s.images.len()).map(|i| s.images[i][p] * q[(i, j)]).sum()).collect()
 }
 

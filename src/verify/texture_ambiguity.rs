@@ -99,6 +99,12 @@ pub fn explain(value: &[f64], sigma: &[f64], w: usize, h: usize) -> Option<(Vec<
     Some((b, l2))
 }
 
+/// The image Σ_{l ≤ 2} b_lm Y_lm(n) on a W × H normal-probe grid (the 9-term part [`explain`] fits).
+pub fn nine_term_image(b: &[f64], w: usize, h: usize) -> Vec<f64> {
+    let basis = ShBasis::new(2);
+    (0..w * h).map(|p| basis.eval(latlong_dir(p / w, p % w, w, h)).iter().zip(b).map(|(y, v)| y * v).sum()).collect()
+}
+
 /// Analytic image of the textured sphere: T(n) E₁(n).
 pub fn analytic(texture: &[f64], light: &Light1, grace_coeffs: &[f64], w: usize, h: usize) -> Vec<f64> {
     let tb = ShBasis::new(analysis::sh::reconstruct::lmax_of(texture.len()).unwrap_or(0));
@@ -284,10 +290,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             let xa = analytic(&tex, light, &grace_coeffs, w, h);
             let zero = vec![0.0; w * h];
             let (b, _) = explain(&xa, &zero, w, h).ok_or("singular 9-term fit")?;
-            let basis = ShBasis::new(2);
-            let ya: Vec<f64> = (0..w * h)
-                .map(|p| basis.eval(latlong_dir(p / w, p % w, w, h)).iter().zip(&b).map(|(y, v)| y * v).sum())
-                .collect();
+            let ya = nine_term_image(&b, w, h);
             let predicted = residual(&xa, &zero, &ya, &zero, w, h).0;
             cases.push(Case { texture: tname, light: light.name().into(), measured, predicted, deterministic: false });
         }
