@@ -172,6 +172,12 @@ pub struct ChannelFit {
     pub fitted_orders: Vec<usize>,
     /// Covariance of the fitted Â_l (noise part, scaled like the standard errors), row-major.
     pub covariance: Vec<Vec<f64>>,
+    /// Highest order of the fits the truncation estimate compares with (`None`: no higher order
+    /// could be fitted).
+    pub truncation_lmax: Option<usize>,
+    /// χ²/ν of that highest-order fit: what is left when the truncated orders up to
+    /// `truncation_lmax` are fitted too (the noise scale comes from it, [`crate::fit::noise_scale`]).
+    pub truncation_chi2_per_dof: Option<f64>,
 }
 
 /// The per-order filter fitted in pixel space ([`fit_filter_pixels`]).
@@ -224,7 +230,7 @@ pub fn fit_filter_pixels(
             lmax + 1
         )));
     }
-    let l_hi = light_lmax.min(lmax + 2);
+    let l_hi = light_lmax.min(crate::inverse::views::truncation_lmax(lmax));
     let dirs: Vec<[f64; 3]> = samples.iter().map(|s| s.dir).collect();
     let weight: Vec<f64> = samples.iter().map(|s| s.w).collect();
     let mut orders: Vec<PixelOrder> = (0..=lmax)
@@ -250,7 +256,6 @@ pub fn fit_filter_pixels(
         let emax = energy[..=lmax].iter().copied().fold(0.0, f64::max);
         let observable = |l: usize| energy[l] > 1e-10 * emax && emax > 0.0;
         let cols: Vec<usize> = (0..=lmax).filter(|&l| observable(l)).collect();
-        let cols_hi: Vec<usize> = (0..=l_hi).filter(|&l| observable(l)).collect();
         if cols.is_empty() {
             warnings.push(format!("channel {name}: the lighting has no energy over the visible directions"));
             channels.push(ChannelFit {
@@ -263,6 +268,8 @@ pub fn fit_filter_pixels(
                 stderr_scale: 1.0,
                 fitted_orders: vec![],
                 covariance: vec![],
+                truncation_lmax: None,
+                truncation_chi2_per_dof: None,
             });
             continue;
         }
@@ -280,11 +287,37 @@ pub fn fit_filter_pixels(
         let p = cols.len();
         let amplification = crate::fit::design_amplification(&rows, &weight, p);
         let chi2_per_dof = fit.chi2_per_dof();
-        let scale = match (have_sigma, chi2_per_dof) {
-            (true, Some(x)) if x > 1.0 => x.sqrt(),
-            (false, Some(x)) => x.sqrt(),
-            _ => 1.0,
+        // Truncation: the same fit with orders up to H = lmax + 2, lmax + 4, … ≤ l_hi while the
+        // directions separate them (the module docs of `crate::inverse::views`).
+        let mut seq: Vec<(Vec<usize>, crate::fit::Fit)> = Vec::new();
+        let mut hs: Vec<usize> = (lmax + 2..=l_hi).step_by(2).collect();
+        if l_hi > lmax && hs.last() != Some(&l_hi) {
+            hs.push(l_hi);
+        }
+        for h in hs {
+            let c: Vec<usize> = (0..=h).filter(|&l| observable(l)).collect();
+            if c.len() <= seq.last().map_or(p, |s| s.0.len()) {
+                continue;
+            }
+            if samples.len() < 4 * c.len() {
+                break;
+            }
+            let r = pick(&c);
+            let ok = seq.is_empty()
+                || crate::fit::design_amplification(&r, &weight, c.len()).is_some_and(|a| {
+                    a.iter().all(|&v| v <= crate::inverse::views::TRUNCATION_MAX_DESIGN_AMPLIFICATION)
+                });
+            match lsq(&r, &value, &sigma, &weight).filter(|_| ok) {
+                Some(f) => seq.push((c, f)),
+                None => break,
+            }
+        }
+        let x_top = seq.last().and_then(|s| s.1.chi2_per_dof()).or(chi2_per_dof);
+        let robust_top = match seq.last() {
+            Some((c, f)) if have_sigma => crate::fit::robust_chi2(&pick(c), &value, &sigma, &weight, &f.coef),
+            _ => None,
         };
+        let scale = crate::fit::noise_scale(have_sigma, x_top, robust_top);
         let p_value = if have_sigma { fit.p_value() } else { None };
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
         let relative_misfit =
@@ -298,14 +331,20 @@ pub fn fit_filter_pixels(
                      standard errors scaled by √(χ²/ν) = {scale:.3}",
                     100.0 * relative_misfit
                 ));
-            } else if x > 1.0 {
-                warnings.push(format!(
-                    "channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {scale:.3} for model inadequacy"
-                ));
+            }
+            match (x_top, robust_top) {
+                (Some(xt), Some(rt)) if rt > crate::fit::NOISE_CHI2_MAX => warnings.push(format!(
+                    "channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) with the orders up to the truncation \
+                     fit's: the residual is signal the model does not carry, not noise — noise standard errors \
+                     unscaled"
+                )),
+                (Some(xt), _) if xt > 1.0 => warnings.push(format!(
+                    "channel {name}: χ²/ν = {xt:.3} > 1 (χ²/ν = {x:.3} at l ≤ {lmax}; the first at the highest order \
+                     fitted): noise standard errors scaled by √(χ²/ν) = {scale:.3}"
+                )),
+                _ => {}
             }
         }
-        // Truncation: the same fit with orders up to l_hi.
-        let hi = (l_hi > lmax).then(|| lsq(&pick(&cols_hi), &value, &sigma, &weight)).flatten();
         for (i, &l) in cols.iter().enumerate() {
             let o = &mut orders[l];
             let noise = fit.sigma[i] * scale;
@@ -317,11 +356,16 @@ pub fn fit_filter_pixels(
                 Some(a) if a <= MAX_AMPLIFICATION => OrderStatus::Determined,
                 _ => OrderStatus::IllConditioned,
             };
-            let trunc = hi.as_ref().map(|h| {
-                let j = cols_hi.iter().position(|&x| x == l).expect("order fitted at l_hi");
-                let delta = fit.coef[i] - h.coef[j];
-                let var_delta = ((h.sigma[j] * scale).powi(2) - noise * noise).max(0.0);
-                (delta * delta - var_delta).max(0.0).sqrt()
+            // The largest noise-corrected difference over the sequence (the bias estimate).
+            let trunc = (!seq.is_empty()).then(|| {
+                seq.iter()
+                    .map(|(c, h)| {
+                        let j = c.iter().position(|&x| x == l).expect("fitted orders are a prefix");
+                        let delta = fit.coef[i] - h.coef[j];
+                        let var_delta = ((h.sigma[j] * scale).powi(2) - noise * noise).max(0.0);
+                        (delta * delta - var_delta).max(0.0).sqrt()
+                    })
+                    .fold(0.0, f64::max)
             });
             o.truncation[ch] = trunc;
             o.stderr[ch] = Some((noise * noise + trunc.unwrap_or(0.0).powi(2)).sqrt());
@@ -350,6 +394,8 @@ pub fn fit_filter_pixels(
             stderr_scale: scale,
             fitted_orders: cols.clone(),
             covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),
+            truncation_lmax: seq.last().and_then(|s| s.0.last().copied()),
+            truncation_chi2_per_dof: seq.last().and_then(|s| s.1.chi2_per_dof()),
         });
     }
     Ok(PixelFilterFit { lmax, pixels: samples.len(), orders, channels, warnings })

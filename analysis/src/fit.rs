@@ -158,6 +158,28 @@ pub fn lsq(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64]) -> O
     })
 }
 
+/// Robust χ²/ν ([`robust_chi2`], of the highest-order fit) above which a fit with per-pixel
+/// standard errors no longer scales its noise bars by √(χ²/ν): the bulk of the pixels then misfit,
+/// which is signal the model does not carry (truncation, a wrong model) — the truncation part and
+/// the mismatch warning report it — not noise. Scaling the noise by it gave a near-noiseless mirror
+/// sphere ±8 on L_00 = 2.5 (χ²/ν ≈ 10⁶, robust 10⁵). Below it a large plain χ²/ν comes from a few
+/// pixels whose Monte Carlo σ misses a heavy-tailed error (robust 2–7, plain up to 400 on Phong
+/// renders under Grace, tests/partial_view_renders.rs): those errors are in the estimates, so the
+/// noise is scaled.
+pub const NOISE_CHI2_MAX: f64 = 10.0;
+
+/// Factor on the propagated noise standard errors given χ²/ν `x` and robust χ²/ν `robust` of the
+/// highest-order fit: with per-pixel σ (`have_sigma`), √x when x > 1 unless `robust` >
+/// [`NOISE_CHI2_MAX`] (then 1); without them (σ_p = 1), √x, the residual σ.
+pub fn noise_scale(have_sigma: bool, x: Option<f64>, robust: Option<f64>) -> f64 {
+    match (have_sigma, x) {
+        (true, _) if robust.is_some_and(|r| r > NOISE_CHI2_MAX) => 1.0,
+        (true, Some(x)) if x > 1.0 => x.sqrt(),
+        (false, Some(x)) => x.sqrt(),
+        _ => 1.0,
+    }
+}
+
 /// Robust χ²/ν: median over pixels with σ_p > 0 (and weight ≠ 0) of (residual_p / σ_p)², divided
 /// by the median of χ²₁ (0.454936). ≈ 1 for a right model; unlike Σ z²/ν it is hardly moved by a
 /// few pixels whose Monte Carlo σ_p underestimates a heavy-tailed error (a bright light source hit

@@ -229,7 +229,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         .map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
     // Two orders beyond l_max estimate the truncation bias of the filter fit.
     let l_hi = match &lighting {
-        Some((l, _)) => Some(l.coefficients(a.lmax + 2)?),
+        Some((l, _)) => Some(l.coefficients(analysis::inverse::views::truncation_lmax(a.lmax))?),
         None => None,
     };
     let l_coeffs: Option<Vec<[f64; 3]>> = l_hi.as_ref().map(|l| l[..num_coefficients(a.lmax)].to_vec());

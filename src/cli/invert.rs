@@ -336,7 +336,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         let v = invert_lighting_views(
             samples,
             *have_sigma,
-            &model.lambda_rho(a.lmax + 2),
+            &model.lambda_rho(analysis::inverse::views::truncation_lmax(a.lmax)),
             albedo,
             a.lmax,
             a.max_amplification,
@@ -463,7 +463,7 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
     let (lighting, source) = lighting_for_brdf(a, &p.described)?;
     // Two orders beyond l_max estimate the truncation bias of the pixel-space filter fit.
-    let l_hi = lighting.coefficients(a.lmax + 2)?;
+    let l_hi = lighting.coefficients(analysis::inverse::views::truncation_lmax(a.lmax))?;
     let l = l_hi[..analysis::sh::num_coefficients(a.lmax)].to_vec();
     let in_first = |e: Error| if a.images.len() == 1 { e.in_file(&a.images[0]) } else { e };
     // Orthographic views: the filter is fitted in pixel space (the one fit `analyze` prints:

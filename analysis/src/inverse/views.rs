@@ -9,20 +9,249 @@
 //!   one view's hemisphere of normals barely separates Y_lm from the others. An order is
 //!   `recovered` when every m has a_k ≤ the threshold, `ill-conditioned` otherwise, `unobservable`
 //!   where the filter is zero (not fitted); a design the pixels cannot solve is an error;
-//! - **truncation in the error bars**: B has energy above L; on part of the sphere it is not
-//!   orthogonal to the fitted orders and biases them. The same fit with orders up to L + 2 (the
-//!   filter known there) estimates that bias, |L̂(L) − L̂(L + 2)| with the noise of the difference
-//!   (σ²(L + 2) − σ²(L)) removed, stated apart from the noise;
-//! - **consistency**: χ²/ν and its p-value per channel from the per-pixel standard errors; noise
-//!   error bars scaled by √(χ²/ν) when it is above 1; without a `stderr` layer σ² comes from the
-//!   residuals.
+//! - **truncation in the error bars**: B has energy above L; on part of the sphere (and on one
+//!   view's pixels, which are no orthogonal quadrature for the Y_lm even where they cover the
+//!   whole sphere, as a mirror's do) it is not orthogonal to the fitted orders and biases them:
+//!   bias = (AᵀWA)⁻¹AᵀW t, t the part of B above L. A fit to l ≤ H gives L̂_L − L̂_H =
+//!   (AᵀWA)⁻¹AᵀW A_(L,H] L̂_(L,H], the aliasing operator applied to the fitted orders L < l ≤ H: the
+//!   bias from those orders. One step (H = L + 2) misses the orders beyond, which can dominate (a
+//!   mirror under Grace at L = 8: the error of L̂_00(R), +0.075, comes from l = 9 … 16 — their
+//!   aliasing with the true L_lm reproduces the error to 10 %, while L + 2 gives 0.006). So the
+//!   sequence H = L + 2, L + 4, … up to [`truncation_lmax`] (2L, at most [`TRUNCATION_LMAX_CAP`],
+//!   stopping after L + 2 where the design amplification exceeds [`TRUNCATION_MAX_DESIGN_AMPLIFICATION`] or the
+//!   pixels are fewer than 4 per column) is fitted from one Gram matrix, and the truncation part
+//!   is the largest |L̂_L − L̂_H| over it with the noise of each difference removed
+//!   (Var(L̂_H) − Var(L̂_L), exact for nested least squares with the same weights up to the
+//!   noise's heteroskedasticity). Why it covers: each difference estimates the aliasing of the
+//!   orders up to H; the estimates move as each band of higher orders enters, and the largest
+//!   bounds the converged value once the orders that alias most (those the pixels resolve least
+//!   evenly, up to about 2L) are in. It does not see orders above the top fit: measured on one
+//!   view of a mirror under Grace (tests/mirror_truncation.rs), the total bars cover at about the
+//!   Gaussian rate. The truncation part is stated apart from the noise (`truncation`,
+//!   `stderr_noise`);
+//! - **consistency**: χ²/ν and its p-value per channel from the per-pixel standard errors. The
+//!   noise part is the propagated σ, scaled by √(χ²/ν) of the *highest-order* fit (what the
+//!   truncated orders do not explain) when that is in (1, [`crate::fit::NOISE_CHI2_MAX`]]; a larger
+//!   χ²/ν is signal the model does not carry, not noise (a mirror's near-noiseless pixels give
+//!   10⁶), so the noise is left unscaled and a warning says so. Without a `stderr` layer σ² comes
+//!   from the residuals of the highest-order fit (said in a warning): then it also holds what that
+//!   fit leaves unexplained, an overestimate of the noise.
 
 use super::lighting::{Status, ZERO_FILTER_REL};
 use crate::error::{Error, Result};
 use crate::filter::ChannelFit;
-use crate::fit::{design_amplification, lsq};
+use crate::fit::{design_amplification, lsq, noise_scale};
 use crate::projection::Sample;
 use crate::sh::{ShBasis, lm, num_coefficients};
+
+/// Cap on the highest order of the truncation sequence ([`truncation_lmax`]): the Gram matrix of
+/// (l + 1)² columns costs (l + 1)⁴ / 2 per pixel (289 columns at l = 16).
+pub const TRUNCATION_LMAX_CAP: usize = 16;
+
+/// Largest design amplification (unit-diagonal Gram, filter left out; the value of
+/// [`crate::filter::MAX_AMPLIFICATION`]) at which a higher-order fit of the truncation sequence
+/// beyond the first (H = L + 2, always used when solvable) is still used: beyond it the views
+/// cannot separate the extra orders and the fit's differences are noise, not bias.
+pub const TRUNCATION_MAX_DESIGN_AMPLIFICATION: f64 = 30.0;
+
+/// Highest order fitted to estimate the truncation bias of a fit to l ≤ `lmax`: 2 `lmax`, at most
+/// [`TRUNCATION_LMAX_CAP`], at least `lmax` + 2 (see the module docs). Callers pass the filter up
+/// to this order.
+pub fn truncation_lmax(lmax: usize) -> usize {
+    (2 * lmax).min(TRUNCATION_LMAX_CAP).max(lmax + 2)
+}
+
+/// The nested higher-order fits of the truncation estimate: L̂ for l ≤ H, H = l_max + 2, l_max + 4,
+/// … up to `l_top`, from one Gram matrix.
+struct TruncationSequence {
+    /// Highest order fitted.
+    l_top: usize,
+    /// Per fit: its first p coefficients per channel (the orders ≤ l_max) and the ratio
+    /// Var(L̂_H) / Var(L̂_L) − 1 per coefficient (≥ 0: the extra variance of the difference).
+    fits: Vec<([Vec<f64>; 3], Vec<f64>)>,
+    /// The l ≤ l_max fit from the same Gram (the differences use it, so both share their rounding).
+    base: [Vec<f64>; 3],
+    /// χ²/ν of the fit up to `l_top` per channel (σ = the samples' σ; `None` without dof).
+    chi2_per_dof: [Option<f64>; 3],
+    /// Robust χ²/ν ([`crate::fit::robust_chi2`]) of that fit per channel.
+    robust_chi2: [Option<f64>; 3],
+}
+
+impl TruncationSequence {
+    /// Bias estimate of coefficient i of channel `ch`: the largest over the sequence of
+    /// |L̂_L − L̂_H| with the noise of the difference removed, √((Δ² − Var Δ)₊); `var_l` the
+    /// (scaled) noise variance of L̂_L.
+    fn bias(&self, ch: usize, i: usize, var_l: f64) -> f64 {
+        self.fits
+            .iter()
+            .map(|(x, extra)| {
+                let d = self.base[ch][i] - x[ch][i];
+                (d * d - var_l * extra[i]).max(0.0).sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Accumulates, over the samples, the Gram matrix G = Σ w a aᵀ, S = Σ w² σ̄² a aᵀ (σ̄² the mean of the
+/// channels' variances: one matrix for the noise ratios) and the right-hand sides Σ w a b / albedo,
+/// for the columns `cols_hi` (filter × Y_k up to `l_hi`). Chunks in a fixed order: the same bits
+/// at any thread count.
+fn gram(
+    samples: &[Sample],
+    albedo: [f64; 3],
+    filter: &[f64],
+    cols_hi: &[usize],
+    l_hi: usize,
+) -> (Vec<f64>, Vec<f64>, [Vec<f64>; 3]) {
+    use rayon::prelude::*;
+    let q = cols_hi.len();
+    let parts: Vec<(Vec<f64>, Vec<f64>, [Vec<f64>; 3])> = samples
+        .par_chunks(4096)
+        .map(|chunk| {
+            let basis = ShBasis::new(l_hi);
+            let mut y = vec![0.0; num_coefficients(l_hi)];
+            let mut a = vec![0.0; q];
+            let (mut g, mut s) = (vec![0.0; q * q], vec![0.0; q * q]);
+            let mut rhs = [vec![0.0; q], vec![0.0; q], vec![0.0; q]];
+            for smp in chunk {
+                basis.eval_into(smp.dir, &mut y);
+                for (j, &k) in cols_hi.iter().enumerate() {
+                    a[j] = filter[lm(k).0] * y[k];
+                }
+                let w = smp.w;
+                let v = (0..3).map(|c| smp.var[c] / (albedo[c] * albedo[c])).sum::<f64>() / 3.0;
+                let b = [smp.b[0] / albedo[0], smp.b[1] / albedo[1], smp.b[2] / albedo[2]];
+                for i in 0..q {
+                    let (wa, sa) = (w * a[i], w * w * v * a[i]);
+                    for j in i..q {
+                        g[i * q + j] += wa * a[j];
+                        s[i * q + j] += sa * a[j];
+                    }
+                    for c in 0..3 {
+                        rhs[c][i] += wa * b[c];
+                    }
+                }
+            }
+            (g, s, rhs)
+        })
+        .collect();
+    let (mut g, mut s) = (vec![0.0; q * q], vec![0.0; q * q]);
+    let mut rhs = [vec![0.0; q], vec![0.0; q], vec![0.0; q]];
+    for (pg, ps, pr) in parts {
+        g.iter_mut().zip(&pg).for_each(|(a, b)| *a += b);
+        s.iter_mut().zip(&ps).for_each(|(a, b)| *a += b);
+        for c in 0..3 {
+            rhs[c].iter_mut().zip(&pr[c]).for_each(|(a, b)| *a += b);
+        }
+    }
+    for i in 0..q {
+        for j in 0..i {
+            g[i * q + j] = g[j * q + i];
+            s[i * q + j] = s[j * q + i];
+        }
+    }
+    (g, s, rhs)
+}
+
+/// The leading m × m block of a q × q row-major matrix.
+fn block(a: &[f64], q: usize, m: usize) -> Vec<f64> {
+    (0..m).flat_map(|i| a[i * q..i * q + m].iter().copied()).collect()
+}
+
+/// (G⁻¹ S G⁻¹)_ii for i < p, G⁻¹ given (m × m).
+fn sandwich_diag(ginv: &[f64], s: &[f64], m: usize, p: usize) -> Vec<f64> {
+    (0..p)
+        .map(|i| {
+            let gi = &ginv[i * m..(i + 1) * m];
+            (0..m).map(|a| gi[a] * (0..m).map(|b| s[a * m + b] * gi[b]).sum::<f64>()).sum()
+        })
+        .collect()
+}
+
+/// The truncation sequence of the module docs: the first `p` of `cols_hi` are the fitted
+/// columns (l ≤ `lmax`); fits up to H = lmax + 2, lmax + 4, … ≤ `l_hi` while the design stays
+/// solvable, (after the first) its amplification ≤ [`TRUNCATION_MAX_DESIGN_AMPLIFICATION`] and the pixels ≥ 4 × the
+/// columns. `None` when no higher order can be fitted.
+fn truncation_sequence(
+    samples: &[Sample],
+    albedo: [f64; 3],
+    filter: &[f64],
+    cols_hi: &[usize],
+    p: usize,
+    lmax: usize,
+    l_hi: usize,
+) -> Option<TruncationSequence> {
+    if cols_hi.len() <= p {
+        return None;
+    }
+    let q = cols_hi.len();
+    let (g, s, rhs) = gram(samples, albedo, filter, cols_hi, l_hi);
+    let solve = |m: usize| -> Option<(Vec<f64>, [Vec<f64>; 3], Vec<f64>)> {
+        let gm = block(&g, q, m);
+        let ginv = crate::fit::invert(&gm, m)?;
+        let x = [0, 1, 2].map(|c| (0..m).map(|i| (0..m).map(|j| ginv[i * m + j] * rhs[c][j]).sum()).collect());
+        let v = sandwich_diag(&ginv, &block(&s, q, m), m, p);
+        Some((ginv, x, v))
+    };
+    let (_, base, v_l) = solve(p)?;
+    let mut hs: Vec<usize> = (lmax + 2..=l_hi).step_by(2).collect();
+    if hs.last() != Some(&l_hi) {
+        hs.push(l_hi);
+    }
+    let mut fits = Vec::new();
+    let mut top: Option<(usize, usize, [Vec<f64>; 3])> = None;
+    for h in hs {
+        let m = cols_hi.iter().take_while(|&&k| lm(k).0 <= h).count();
+        if m <= top.as_ref().map_or(p, |t| t.1) {
+            continue;
+        }
+        if samples.len() < 4 * m {
+            break;
+        }
+        // Design amplification of the extended fit, the filter left out.
+        let gm = block(&g, q, m);
+        let d: Vec<f64> = (0..m).map(|i| gm[i * m + i].sqrt()).collect();
+        let c: Vec<f64> = (0..m * m).map(|ij| gm[ij] / (d[ij / m] * d[ij % m])).collect();
+        let Some(cinv) = crate::fit::invert(&c, m) else { break };
+        if !fits.is_empty() && (0..m).any(|i| !(cinv[i * m + i].sqrt() <= TRUNCATION_MAX_DESIGN_AMPLIFICATION)) {
+            break;
+        }
+        let Some((_, x, v)) = solve(m) else { break };
+        let extra: Vec<f64> = (0..p).map(|i| if v_l[i] > 0.0 { (v[i] / v_l[i] - 1.0).max(0.0) } else { 0.0 }).collect();
+        fits.push(([0, 1, 2].map(|c| x[c][..p].to_vec()), extra));
+        top = Some((h, m, x));
+    }
+    let (l_top, m, x_top) = top?;
+    // χ² of the top fit per channel: one more pass over the pixels.
+    let basis = ShBasis::new(l_top);
+    let mut y = vec![0.0; num_coefficients(l_top)];
+    let (mut chi2, mut count) = ([0.0; 3], [0usize; 3]);
+    let mut z2: [Vec<f64>; 3] = Default::default();
+    for smp in samples {
+        if smp.w == 0.0 {
+            continue;
+        }
+        basis.eval_into(smp.dir, &mut y);
+        for c in 0..3 {
+            let sd = smp.var[c].sqrt() / albedo[c];
+            if sd > 0.0 {
+                let model: f64 = cols_hi[..m].iter().zip(&x_top[c]).map(|(&k, x)| filter[lm(k).0] * y[k] * x).sum();
+                let z = ((smp.b[c] / albedo[c] - model) / sd).powi(2);
+                chi2[c] += z;
+                z2[c].push(z);
+                count[c] += 1;
+            }
+        }
+    }
+    let chi2_per_dof = [0, 1, 2].map(|c| (count[c] > m).then(|| chi2[c] / (count[c] - m) as f64));
+    let robust_chi2 = z2.map(|mut z| {
+        (!z.is_empty()).then(|| {
+            let mid = z.len() / 2;
+            *z.select_nth_unstable_by(mid, f64::total_cmp).1 / 0.454_936_423_119_572_8
+        })
+    });
+    Some(TruncationSequence { l_top, fits, base, chi2_per_dof, robust_chi2 })
+}
 
 /// One order of [`invert_lighting_views`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -86,7 +315,7 @@ pub fn invert_lighting_views(
         return Err(Error::new("the BRDF's transfer coefficients are all zero"));
     }
     let observable = |l: usize| filter[l].abs() > ZERO_FILTER_REL * fmax;
-    let l_hi = (filter.len() - 1).min(lmax + 2);
+    let l_hi = (filter.len() - 1).min(truncation_lmax(lmax));
     let n = num_coefficients(lmax);
     let cols: Vec<usize> = (0..n).filter(|&k| observable(lm(k).0)).collect();
     let cols_hi: Vec<usize> = (0..num_coefficients(l_hi)).filter(|&k| observable(lm(k).0)).collect();
@@ -97,17 +326,16 @@ pub fn invert_lighting_views(
             cols.len()
         )));
     }
-    let basis = ShBasis::new(l_hi);
+    let basis = ShBasis::new(lmax);
     let weight: Vec<f64> = samples.iter().map(|s| s.w).collect();
-    let full: Vec<Vec<f64>> = samples
+    let rows: Vec<Vec<f64>> = samples
         .iter()
         .map(|s| {
             let y = basis.eval(s.dir);
-            cols_hi.iter().map(|&k| filter[lm(k).0] * y[k]).collect()
+            cols.iter().map(|&k| filter[lm(k).0] * y[k]).collect()
         })
         .collect();
     let p = cols.len();
-    let rows: Vec<Vec<f64>> = full.iter().map(|r| r[..p].to_vec()).collect();
     // Design amplification: √((C⁻¹)_kk), C the unit-diagonal Gram of the (unscaled) Y columns.
     let amp = design_amplification(&rows, &weight, p).ok_or_else(|| {
         Error::new(format!(
@@ -119,6 +347,7 @@ pub fn invert_lighting_views(
     for (i, &k) in cols.iter().enumerate() {
         amplification[k] = Some(fmax / filter[lm(k).0].abs() * amp[i]);
     }
+    let seq = truncation_sequence(samples, albedo, filter, &cols_hi, p, lmax, l_hi);
     let mut coefficients = vec![None; n];
     let mut stderr = vec![None; n];
     let mut stderr_noise = vec![None; n];
@@ -133,34 +362,48 @@ pub fn invert_lighting_views(
             Error::new(format!("these views cannot determine the lighting up to l_max {lmax} (channel {name})"))
         })?;
         let x = fit.chi2_per_dof();
-        let scale = match (have_sigma, x) {
-            (true, Some(x)) if x > 1.0 => x.sqrt(),
-            (false, Some(x)) => x.sqrt(),
-            _ => 1.0,
-        };
-        let p_value = if have_sigma { fit.p_value() } else { None };
+        // The noise scale comes from the highest-order fit: the χ² that orders above l_max explain
+        // is truncation (carried by the truncation part), not noise.
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
+        let x_top = seq.as_ref().and_then(|q| q.chi2_per_dof[ch]).or(x);
+        let robust_top = seq.as_ref().map_or(robust, |q| q.robust_chi2[ch]);
+        let scale = noise_scale(have_sigma, x_top, robust_top);
+        let p_value = if have_sigma { fit.p_value() } else { None };
         let relative_misfit =
             crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
+        let top = seq.as_ref().map_or(lmax, |q| q.l_top);
         if have_sigma && let Some(x) = x {
             if let Some(r) = robust.filter(|&r| crate::filter::mismatch(r, relative_misfit)) {
                 warnings.push(format!(
-                    "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the BRDF and l_max do not describe the image (a wrong BRDF or \
-                     albedo, a wrong camera, extent or sphere, or lighting above l_max + 2 that the views alias); \
-                     standard errors scaled by {scale:.3}"
+                    "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}, misfit {:.0} % of the signal): the BRDF and \
+                     l_max do not describe the image — lighting above l_max (a mirror under a detailed map: then the \
+                     truncation part of the error bars, from fits up to l = {top}, carries it), or a wrong BRDF, \
+                     albedo, camera, extent or sphere",
+                    100.0 * relative_misfit
                 ));
-            } else if x > 1.0 {
-                warnings
-                    .push(format!("channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {scale:.3}"));
             }
+            match (x_top, robust_top) {
+                (Some(xt), Some(rt)) if rt > crate::fit::NOISE_CHI2_MAX => warnings.push(format!(
+                    "channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) even with orders up to l = {top}: the \
+                     residual is signal the fit does not carry (lighting above l = {top}, or a wrong model), not \
+                     noise — the noise part is the propagated per-pixel σ, unscaled; the truncation part carries \
+                     the orders up to l = {top}"
+                )),
+                (Some(xt), _) if xt > 1.0 => warnings.push(format!(
+                    "channel {name}: χ²/ν = {xt:.3} > 1 with orders up to l = {top}: noise standard errors scaled by \
+                     √(χ²/ν) = {scale:.3}"
+                )),
+                _ => {}
+            }
+        } else if !have_sigma && ch == 0 {
+            warnings.push(format!(
+                "no per-pixel standard errors (stderr layer): the noise σ is estimated from the residuals of the fit \
+                 up to l = {top}, and so also holds whatever that fit leaves unexplained"
+            ));
         }
-        let hi = (cols_hi.len() > p).then(|| lsq(&full, &value, &sigma, &weight)).flatten();
         for (i, &k) in cols.iter().enumerate() {
             let noise = fit.sigma[i] * scale;
-            let t = hi.as_ref().map(|h| {
-                let var_d = ((h.sigma[i] * scale).powi(2) - noise * noise).max(0.0);
-                ((fit.coef[i] - h.coef[i]).powi(2) - var_d).max(0.0).sqrt()
-            });
+            let t = seq.as_ref().map(|q| q.bias(ch, i, fit.sigma[i] * fit.sigma[i] * scale * scale));
             coefficients[k].get_or_insert([0.0; 3])[ch] = fit.coef[i];
             stderr_noise[k].get_or_insert([0.0; 3])[ch] = noise;
             if let Some(t) = t {
@@ -179,6 +422,8 @@ pub fn invert_lighting_views(
             stderr_scale: scale,
             fitted_orders: (0..=lmax).filter(|&l| observable(l)).collect(),
             covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),
+            truncation_lmax: seq.as_ref().map(|q| q.l_top),
+            truncation_chi2_per_dof: seq.as_ref().and_then(|q| q.chi2_per_dof[ch]),
         });
     }
     let orders: Vec<ViewOrder> = (0..=lmax)
