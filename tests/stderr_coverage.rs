@@ -194,3 +194,34 @@ fn plain_scene_error_bars_are_not_inflated() {
     let cw = Coverage::of(&wide);
     assert!(!not_inflated(&cw), "σ × 1.25 passes: {}", cw.line("wide σ"));
 }
+
+/// `analyze` and `invert` read the `stderr_flag.Y` layer and state the flagged pixels in their
+/// warnings (text and JSON): the error bars they propagate are the renderer's pooled bound there.
+#[test]
+fn analyze_and_invert_state_the_flagged_pixels() {
+    let case = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/cases/env-sun/conv_independent_256.toml");
+    if !case.exists() {
+        eprintln!("skipped: ../shared/cases/env-sun is not present");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("reflect-stderr-flags-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let exr = dir.join("sun.exr");
+    let run = |args: &[&str]| -> serde_json::Value {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).output().expect("run reflect");
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&o.stdout).expect("JSON")
+    };
+    let (case, exr_s) = (case.to_str().unwrap(), exr.to_str().unwrap());
+    let n = run(&["render", case, "--out", exr_s, "--json", "--quiet"])["unreliable_pixels"].as_u64().unwrap();
+    assert!(n > 0, "the case's render has flagged pixels");
+    let says = format!("{n} pixels have stderr_flag.Y = 1");
+    for args in
+        [vec!["analyze", exr_s, "--lmax", "2", "--json"], vec!["invert", "lighting", exr_s, "--lmax", "2", "--json"]]
+    {
+        let doc = run(&args);
+        let warnings = doc["warnings"].as_array().expect("warnings");
+        assert!(warnings.iter().any(|w| w.as_str().is_some_and(|w| w.contains(&says))), "{args:?}: {warnings:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
