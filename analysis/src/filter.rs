@@ -328,7 +328,7 @@ pub fn fit_filter_pixels(
                     "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm Y_lm does \
                      not describe the image (misfit {:.0} % of the signal) — a mismatched or rotated lighting, a wrong \
                      camera, extent or sphere, or a BRDF that is not radially symmetric about the fitted direction; \
-                     standard errors scaled by √(χ²/ν) = {scale:.3}",
+                     noise standard errors × {scale:.3}",
                     100.0 * relative_misfit
                 ));
             }
