@@ -139,7 +139,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     check_lmax(a.lmax)?;
     let (images, described) = load(&a.images, &a.view, "analysed")?;
     let cameras = &described.cameras;
-    let mut warnings = Vec::new();
+    let mut warnings = described.stderr_notes.clone();
     if described.object_count > 1 {
         warnings.push(format!("the scene has {} objects; analysing the first sphere", described.object_count));
     }

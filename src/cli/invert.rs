@@ -317,7 +317,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
             .insert("reflect:lighting-source".into(), format!("invert lighting, {} regularisation", rule.name()));
         write_exr(out, &img)?;
     }
-    let mut warnings = Vec::new();
+    let mut warnings = p.described.stderr_notes.clone();
     let mut orders: Vec<LightingOrder> = inv
         .orders
         .iter()
@@ -471,7 +471,11 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     // the sphere; the model is then fitted by GLS to it with its covariance ⊕ truncation².
     if let Some((samples, have_sigma)) = &p.samples {
         let pf = fit_filter_pixels(samples, *have_sigma, &l_hi, a.lmax).map_err(in_first)?;
-        return brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf);
+        let notes = p.described.stderr_notes.clone();
+        return brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf).map(|mut r| {
+            r.warnings.splice(0..0, notes);
+            r
+        });
     }
     let est = estimate_transfer(&p.b, p.stderr.as_deref(), &l, a.lmax)?;
     // A normal-probe image with a stderr layer gives the full covariance of the per-order
@@ -512,7 +516,8 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     };
     let filter =
         est.iter().map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() });
-    Ok(brdf_report(a, (p.lmax_carried, p.method, source), &fit, how, per_channel, filter.collect(), None, Vec::new()))
+    let notes = p.described.stderr_notes.clone();
+    Ok(brdf_report(a, (p.lmax_carried, p.method, source), &fit, how, per_channel, filter.collect(), None, notes))
 }
 
 /// The channel whose model fit has the narrowest interval, its `scale` kept for that channel only.
