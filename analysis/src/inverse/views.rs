@@ -92,20 +92,21 @@ impl TruncationSequence {
     }
 }
 
+/// Per channel R, G, B.
+type Rgb = [Vec<f64>; 3];
+/// G, S (q × q row-major) and the right-hand sides of [`gram`].
+type Gram = (Vec<f64>, Vec<f64>, Rgb);
+/// G⁻¹, the coefficients per channel and the noise-ratio diagonal of one nested fit.
+type Solved = (Vec<f64>, Rgb, Vec<f64>);
+
 /// Accumulates, over the samples, the Gram matrix G = Σ w a aᵀ, S = Σ w² σ̄² a aᵀ (σ̄² the mean of the
 /// channels' variances: one matrix for the noise ratios) and the right-hand sides Σ w a b / albedo,
 /// for the columns `cols_hi` (filter × Y_k up to `l_hi`). Chunks in a fixed order: the same bits
 /// at any thread count.
-fn gram(
-    samples: &[Sample],
-    albedo: [f64; 3],
-    filter: &[f64],
-    cols_hi: &[usize],
-    l_hi: usize,
-) -> (Vec<f64>, Vec<f64>, [Vec<f64>; 3]) {
+fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize], l_hi: usize) -> Gram {
     use rayon::prelude::*;
     let q = cols_hi.len();
-    let parts: Vec<(Vec<f64>, Vec<f64>, [Vec<f64>; 3])> = samples
+    let parts: Vec<Gram> = samples
         .par_chunks(4096)
         .map(|chunk| {
             let basis = ShBasis::new(l_hi);
@@ -186,7 +187,7 @@ fn truncation_sequence(
     }
     let q = cols_hi.len();
     let (g, s, rhs) = gram(samples, albedo, filter, cols_hi, l_hi);
-    let solve = |m: usize| -> Option<(Vec<f64>, [Vec<f64>; 3], Vec<f64>)> {
+    let solve = |m: usize| -> Option<Solved> {
         let gm = block(&g, q, m);
         let ginv = crate::fit::invert(&gm, m)?;
         let x = [0, 1, 2].map(|c| (0..m).map(|i| (0..m).map(|j| ginv[i * m + j] * rhs[c][j]).sum()).collect());
