@@ -11,7 +11,7 @@ theory of reflection, with NumPy arrays in and out.
 Conventions (frame, SH basis, image layers, scene files) are those of the project's README
 (sections "Frames and directions", "Spherical harmonics: the terms the commands print", "Output
 images", "Scene files"). Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the
-CLI's one-line message.
+CLI's one-line message, its flags named as this API's keywords (``--from`` → ``from_=``).
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ def analyze(
     ``estimate``/``stderr`` (3,) per channel), ``lambda_rho_analytic`` (lmax+1, 3),
     ``predicted`` (eq. 15 B_lm), ``lmax_carried``, ``pixels_used``, ``warnings`` (list of str).
     Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the CLI's
-    one-line message.
+    one-line message, its flags named as this API's keywords (``--lmax`` → ``lmax=``).
     """
     from ._commands import run
 

@@ -18,8 +18,10 @@ lists, empty lists stay ``[]``.
 from __future__ import annotations
 
 import json
+import keyword as keyword_module
 import math
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
@@ -152,7 +154,11 @@ class _Inputs:
                 raise ValueError(f"stderr of image {i} has shape {s.shape}, the image {a.shape}")
             channels.update({f"stderr.{c}": np.ascontiguousarray(s[..., k]) for k, c in enumerate("RGB")})
         p = self._new(f"image{i}.exr", f"<array {i}>")
-        _reflect.write_image(str(p), channels, header)
+        try:
+            _reflect.write_image(str(p), channels, header)
+        except ValueError as e:
+            # The array's own name first: "channel R: non-finite value" alone does not say which input.
+            raise ValueError(f"image {i} (array): {e}") from None
         return str(p)
 
     def lighting(self, lighting: Any) -> str:
@@ -171,7 +177,10 @@ class _Inputs:
             return str(p)
         a = _rgb_array(a, "lighting map")
         p = self._new("lighting.exr", "<lighting map>")
-        _reflect.write_image(str(p), {c: np.ascontiguousarray(a[..., k]) for k, c in enumerate("RGB")}, {})
+        try:
+            _reflect.write_image(str(p), {c: np.ascontiguousarray(a[..., k]) for k, c in enumerate("RGB")}, {})
+        except ValueError as e:
+            raise ValueError(f"lighting map (array): {e}") from None
         return str(p)
 
     def relabel(self, v: Any) -> Any:
@@ -321,19 +330,39 @@ def run(
         try:
             doc = _reflect.report(argv)
         except FileNotFoundError as e:
-            raise FileNotFoundError(inputs.relabel(str(e))) from None
+            raise FileNotFoundError(_keywords(inputs.relabel(str(e)))) from None
         except ValueError as e:
-            raise ValueError(inputs.relabel(str(e))) from None
+            raise ValueError(_keywords(inputs.relabel(str(e)))) from None
         return _arrays(inputs.relabel(doc))
     finally:
         inputs.close()
+
+
+_KEYWORD_FLAG = re.compile(r"(?<![\w-])--([a-z][a-z0-9-]*)")
+
+
+def _keywords(message: str) -> str:
+    """The command's message in this API's terms: each ``--flag-name`` becomes the keyword
+    ``flag_name=`` that gives it (``--from`` → ``from_=``, as :func:`_flags` maps them back)."""
+
+    def keyword(m: "re.Match[str]") -> str:
+        name = m.group(1).replace("-", "_")
+        return f"{name}_=" if keyword_module.iskeyword(name) else f"{name}="
+
+    return _KEYWORD_FLAG.sub(keyword, message)
 
 
 def _image_list(images: Any) -> List[Any]:
     if isinstance(images, (str, os.PathLike, RenderResult)):
         return [images]
     if isinstance(images, np.ndarray):
-        return [images] if images.ndim == 3 else list(images)
+        # One array is one image (H, W, 3) or a stack of them (N, H, W, 3); anything else is named
+        # whole, not split into rows that are then each "the wrong shape".
+        if images.ndim == 3:
+            return [images]
+        if images.ndim == 4:
+            return list(images)
+        raise ValueError(f"an image array must have shape (H, W, 3) (or (N, H, W, 3) for N images), got {images.shape}")
     imgs = list(images)
     if imgs and all(isinstance(x, (int, float)) for x in imgs):
         raise ValueError("images must be paths, renders or (H, W, 3) arrays, not numbers")

@@ -8,7 +8,7 @@ the command's flags (``max_amplification=20`` is ``--max-amplification 20``, ``f
 ``--from``; True is a bare flag;
 vectors and RGB triples are sequences; one value per image is a list); a flag the CLI gains is
 accepted here too. Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with
-the command's one-line message.
+the command's one-line message, its flags named as keywords (``--from`` → ``from_=``).
 """
 
 from __future__ import annotations

@@ -97,7 +97,7 @@ pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
         }
     }
     let image = Image::from_layer(layer);
-    stage(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))
+    stage(path, |tmp| vocab::exr_order::write_exr_canonical(tmp, |c| image.write().to_buffered(c)))
 }
 
 /// sRGB transfer of a linear value in [0, 1].

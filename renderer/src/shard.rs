@@ -128,7 +128,7 @@ pub fn write_partial(path: &Path, p: &Partial, header: &PartialHeader, attribute
         }
     }
     let image = Image::from_layer(layer);
-    crate::output::stage(path, |tmp| image.write().to_file(tmp).map_err(|e| format!("cannot write OpenEXR: {e}")))?
+    crate::output::stage(path, |tmp| vocab::exr_order::write_exr_canonical(tmp, |c| image.write().to_buffered(c)))?
         .commit()
 }
 

@@ -700,10 +700,9 @@ pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
     // write leaves neither a partial file nor a temporary behind (and never truncates an old file).
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out.exr".into());
     let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    let written = exr::prelude::Image::from_layer(layer)
-        .write()
-        .to_file(&tmp)
-        .map_err(|e| Error::file(path, format!("cannot write OpenEXR: {e}")))
+    let image = exr::prelude::Image::from_layer(layer);
+    let written = crate::exr_order::write_exr_canonical(&tmp, |c| image.write().to_buffered(c))
+        .map_err(|e| Error::file(path, e))
         .and_then(|()| {
             std::fs::rename(&tmp, path).map_err(|e| Error::file(path, format!("cannot move output into place: {e}")))
         });

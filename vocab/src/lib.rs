@@ -7,7 +7,8 @@
 //!   (the BRDF kinds, [`BrdfKind`], are derived from the list of [`scene::BrdfSection`] tables);
 //! - [`header`]: the `reflect:*` EXR header attributes, written from and read back into those types;
 //! - [`error`]: the one user-facing error type (one line naming the file and the problem);
-//! - [`image`]: EXR/HDR reading and EXR writing (CONVENTIONS §5).
+//! - [`image`]: EXR/HDR reading and EXR writing (CONVENTIONS §5);
+//! - [`exr_order`]: every EXR written with its header attributes in one canonical order.
 //!
 //! It depends on neither the renderer nor the analysis, so both (and the binary) can use it.
 
@@ -16,6 +17,7 @@
 
 pub mod closed;
 pub mod error;
+pub mod exr_order;
 pub mod header;
 pub mod image;
 pub mod scene;

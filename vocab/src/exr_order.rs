@@ -1,0 +1,160 @@
+//! One byte layout for one image: OpenEXR headers with their attributes in a canonical order.
+//!
+//! The `exr` crate keeps custom attributes (`reflect:camera`, …) in a `HashMap` and writes them
+//! in its iteration order, which is seeded anew for every map, so the same film written twice
+//! gave two different files (same pixels, permuted header). Every EXR writer of the project
+//! therefore encodes to memory, sorts each header's attributes by name here, and writes those
+//! bytes: the same seed gives the same file, byte for byte.
+//!
+//! Sorting in place is safe because a permutation of the attributes keeps the header's length,
+//! so the offset table that follows (absolute file positions of the chunks) stays valid. The
+//! layout read is the one of the OpenEXR file-layout specification: magic number 20000630, a
+//! 4-byte version field (bit 12: multi-part), then each header as a list of attributes (name and
+//! type as NUL-terminated strings, a little-endian i32 size, the value) closed by a NUL byte; a
+//! multi-part file closes its list of headers with one more NUL.
+
+use std::io::Cursor;
+use std::path::Path;
+
+const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+const MULTIPART: u32 = 1 << 12;
+
+/// One header: where its attributes start and end, and each attribute's byte span.
+type HeaderSpans = (usize, usize, Vec<(usize, usize)>);
+
+/// Sorts the attributes of every header of the OpenEXR file in `bytes` by name (byte order), in
+/// place. Returns `None`, leaving `bytes` untouched, when the bytes are not a header layout this
+/// function understands (then they are written as they are: a permuted header is still a valid
+/// file).
+pub fn sort_header_attributes(bytes: &mut [u8]) -> Option<()> {
+    if bytes.len() < 8 || bytes[..4] != MAGIC {
+        return None;
+    }
+    let version = u32::from_le_bytes(bytes[4..8].try_into().ok()?);
+    let multipart = version & MULTIPART != 0;
+    // Parse every header first, so that bytes this function does not understand stay untouched.
+    let mut headers: Vec<HeaderSpans> = Vec::new();
+    let mut at = 8;
+    loop {
+        let start = at;
+        let mut spans: Vec<(usize, usize)> = Vec::new();
+        while *bytes.get(at)? != 0 {
+            let name_end = at + bytes[at..].iter().position(|&b| b == 0)?;
+            let type_end = name_end + 1 + bytes[name_end + 1..].iter().position(|&b| b == 0)?;
+            let size_at = type_end + 1;
+            let size = i32::from_le_bytes(bytes.get(size_at..size_at + 4)?.try_into().ok()?);
+            let end = size_at + 4 + usize::try_from(size).ok()?;
+            if end > bytes.len() {
+                return None;
+            }
+            spans.push((at, end));
+            at = end;
+        }
+        let header_end = at;
+        at += 1; // the header's closing NUL
+        if spans.is_empty() {
+            // An empty header closes a multi-part file's list (a single-part file has exactly one).
+            break;
+        }
+        headers.push((start, header_end, spans));
+        if !multipart {
+            break;
+        }
+    }
+    for (start, end, mut spans) in headers {
+        let name = |&(s, _): &(usize, usize)| {
+            let b = &bytes[s..];
+            b[..b.iter().position(|&c| c == 0).unwrap_or(0)].to_vec()
+        };
+        spans.sort_by_key(name);
+        let sorted: Vec<u8> = spans.iter().flat_map(|&(s, e)| bytes[s..e].iter().copied()).collect();
+        bytes[start..end].copy_from_slice(&sorted);
+    }
+    Some(())
+}
+
+/// Encodes an image with `encode` (e.g. `|c| image.write().to_buffered(c)`), puts its header
+/// attributes in canonical order ([`sort_header_attributes`]) and writes the bytes to `path`.
+/// Errors are the encoder's or the file system's, as text without the file name (callers add it).
+pub fn write_exr_canonical(
+    path: &Path,
+    encode: impl FnOnce(&mut Cursor<Vec<u8>>) -> exr::error::UnitResult,
+) -> Result<(), String> {
+    let mut cursor = Cursor::new(Vec::new());
+    encode(&mut cursor).map_err(|e| format!("cannot write OpenEXR: {e}"))?;
+    let mut bytes = cursor.into_inner();
+    sort_header_attributes(&mut bytes);
+    std::fs::write(path, &bytes).map_err(|e| format!("cannot write OpenEXR: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use exr::prelude::*;
+
+    fn encode(attributes: &[(&str, &str)]) -> Vec<u8> {
+        let mut layer = Layer::new(
+            (2, 2),
+            LayerAttributes::default(),
+            Encoding::UNCOMPRESSED,
+            AnyChannels::sort(
+                std::iter::once(AnyChannel::new("Y", FlatSamples::F32(vec![1.0, 2.0, 3.0, 4.0]))).collect(),
+            ),
+        );
+        for (k, v) in attributes {
+            layer.attributes.other.insert(Text::from(*k), AttributeValue::Text(Text::from(*v)));
+        }
+        let mut c = Cursor::new(Vec::new());
+        Image::from_layer(layer).write().to_buffered(&mut c).unwrap();
+        c.into_inner()
+    }
+
+    const ATTRS: [(&str, &str); 6] =
+        [("reflect:camera", "c"), ("reflect:scene", "s"), ("a", "1"), ("zz", "2"), ("reflect:seed", "7"), ("m", "x")];
+
+    /// The crate's order changes from one map to the next (a fresh hash seed each); sorted, every
+    /// encoding is the same bytes, and it still reads back with every attribute.
+    #[test]
+    fn encodings_of_one_image_become_identical_and_stay_readable() {
+        let raw: Vec<Vec<u8>> = (0..16).map(|_| encode(&ATTRS)).collect();
+        // Without the sort, 16 encodings of six attributes are not all the same bytes (a planted
+        // check that the test can fail: the chance of one order 16 times is (1/720)^15).
+        assert!(raw.iter().any(|r| r != &raw[0]), "the crate's own order did not vary");
+        let sorted: Vec<Vec<u8>> = raw
+            .into_iter()
+            .map(|mut b| {
+                sort_header_attributes(&mut b).expect("a header this module understands");
+                b
+            })
+            .collect();
+        assert!(sorted.iter().all(|s| s == &sorted[0]));
+        let read = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_buffered(Cursor::new(&sorted[0]))
+            .unwrap();
+        let other = &read.layer_data[0].attributes.other;
+        for (k, v) in ATTRS {
+            assert_eq!(other.get(&Text::from(k)), Some(&AttributeValue::Text(Text::from(v))), "{k}");
+        }
+        if let AnyChannel { sample_data: FlatSamples::F32(d), .. } = &read.layer_data[0].channel_data.list[0] {
+            assert_eq!(d, &vec![1.0, 2.0, 3.0, 4.0]);
+        } else {
+            panic!("the channel changed type");
+        }
+    }
+
+    #[test]
+    fn other_bytes_are_left_alone() {
+        let mut junk = b"not an exr file".to_vec();
+        assert!(sort_header_attributes(&mut junk).is_none());
+        assert_eq!(junk, b"not an exr file");
+        let mut truncated = encode(&ATTRS)[..40].to_vec();
+        let before = truncated.clone();
+        assert!(sort_header_attributes(&mut truncated).is_none());
+        assert_eq!(truncated, before);
+    }
+}
