@@ -29,6 +29,11 @@
 //! l ≤ l_max + 2), with the design's noise amplification per order; orders the visible directions
 //! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
 //! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.
+//!
+//! Orthographic views: noise correlated between neighbouring pixels by a reconstruction filter
+//! (`--pixel-filter`, else measured from the residuals) widens the noise part of every error bar by
+//! √F (`super::pixels::prepare`, `pixel_noise` in the report); a camera not from the image's own
+//! header is checked against the sphere's silhouette when the image is read (`super::header::load`).
 use super::Error;
 use super::args::{BrdfFlags, ParamArg, ViewArgs};
 use super::header::{Camera, lighting_of, load};

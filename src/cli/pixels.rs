@@ -254,7 +254,7 @@ pub fn disc(camera: &OrthoCamera, sphere: &Sphere, width: usize, height: usize) 
     let f = unit(sub(camera.to, camera.from))?;
     let right = unit(cross(f, camera.up))?;
     let up = cross(right, f);
-    if !(camera.extent > 0.0) || width == 0 || height == 0 {
+    if camera.extent.is_nan() || camera.extent <= 0.0 || width == 0 || height == 0 {
         return None;
     }
     let (w, h) = (width as f64, height as f64);
@@ -398,7 +398,14 @@ pub fn check_silhouette(
             rgb.pixels[i].iter().zip(&bg).any(|(v, b)| (v - b).abs() > 1e-6 * (1.0 + b.abs()) || !v.is_finite())
         };
         let reach = filter.map_or(0.5, |f| f.radius().max(0.5));
-        let m = blob(w, h, differs);
+        let Some(m) = blob(w, h, differs) else {
+            return Ok(Some(
+                "every pixel has the background's value, so the camera and sphere given cannot be checked against the \
+                 sphere's silhouette"
+                    .to_string(),
+            ));
+        };
+        let m = Some(m);
         let p = blob(w, h, |i| dist(i) < r + reach);
         (
             m.map(|(c, r)| Silhouette { center: c, radius: r, from: "background" }),
