@@ -96,8 +96,8 @@ pub fn write_foreign_render(root: &Path, out: &Path, size: usize, spp: u32, seed
                         continue;
                     }
                     let p = &film.pixels[fy * fw + fx];
-                    for ch in 0..3 {
-                        acc[ch] += w * p.rgb[ch] as f64;
+                    for (a, v) in acc.iter_mut().zip(p.rgb) {
+                        *a += w * v as f64;
                     }
                     acc[3] += w * p.mask as f64;
                     wsum += w;

@@ -236,6 +236,8 @@ fn verify_schema() {
             ".checks[].error: null",
             ".checks[].errored: bool",
             ".checks[].seconds: number",
+            ".checks[].stderr_flagged_pixels: number",
+            ".checks[].stderr_pooled_pixels: number",
         ],
     );
     // The pictures the JSON lists are in the report folder, and the report links them.

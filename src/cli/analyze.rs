@@ -148,7 +148,8 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     check_lmax(a.lmax)?;
     let (mut images, described) = load(&a.images, &a.view, "analysed")?;
     let cameras = &described.cameras;
-    let mut warnings = described.warnings.clone();
+    let mut warnings = described.stderr_notes.clone();
+    warnings.extend(described.warnings.iter().cloned());
     if described.object_count > 1 {
         warnings.push(format!("the scene has {} objects; analysing the first sphere", described.object_count));
     }

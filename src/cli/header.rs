@@ -199,7 +199,8 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
         }
         images.push(img);
     }
-    let d = describe(&images, paths, view, what)?;
+    let mut d = describe(&images, paths, view, what)?;
+    d.stderr_notes = images.iter().zip(paths).filter_map(|(img, p)| stderr_flag_note(img, p)).collect();
     for ((img, p), mirrored) in images.iter_mut().zip(paths).zip(&d.mirrored) {
         if *mirrored {
             for data in img.channels.values_mut() {
@@ -211,7 +212,7 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
             );
         }
     }
-    let mut d = d;
+
     for ((img, p), cam) in images.iter().zip(paths).zip(&d.cameras) {
         // Our own renders' header camera is the one that made the image; any other camera (flags,
         // --scene, worldToNDC) is checked against the sphere's silhouette.
@@ -253,6 +254,27 @@ pub struct Description {
     /// Warnings about the images (from [`load`]: a camera that cannot be checked against the
     /// sphere's silhouette), each one sentence naming the file.
     pub warnings: Vec<String>,
+    /// One note per image with pixels flagged in a `stderr_flag.Y` layer (set by [`load`]; the
+    /// commands add them to their warnings, text and JSON).
+    pub stderr_notes: Vec<String>,
+}
+
+/// The note for an image whose `stderr_flag.Y` layer flags pixels (`reflect render`'s diagnostic: one
+/// rare sample dominated the pixel's own error bar). Their `stderr`, and that of their neighbours,
+/// is the renderer's neighbourhood-pooled bound (`renderer::film::pool_heavy_tails`), which analyses
+/// use as is: no pixel is excluded, since dropping the pixels where a rare heavy sample landed would
+/// bias the coefficients. (An image from before that bound carries the pixels' own σ: the note says
+/// to re-render.) `None` without the layer or without a flagged pixel.
+pub fn stderr_flag_note(img: &Image, path: &Path) -> Option<String> {
+    let n = img.channel("stderr_flag.Y")?.iter().filter(|&&v| v > 0.0).count();
+    (n > 0).then(|| {
+        format!(
+            "{}: {n} pixels have stderr_flag.Y = 1 (one rare sample dominated their own error bar); their stderr \
+             and that of their neighbours within 2 pixels is the renderer's neighbourhood-pooled bound, used as is \
+             (no pixel excluded; an image rendered before that bound should be re-rendered)",
+            path.display()
+        )
+    })
 }
 
 /// Whether the sidecar scene gives cameras, size, objects and lighting.
@@ -436,7 +458,16 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
         (None, Some(l), Some(p)) => Some((l, p.clone(), "reflect:lighting header".to_string())),
         _ => None,
     };
-    Ok(Description { cameras, sphere: flagged, brdf, object_count, lighting, mirrored, warnings: Vec::new() })
+    Ok(Description {
+        cameras,
+        sphere: flagged,
+        brdf,
+        object_count,
+        lighting,
+        mirrored,
+        warnings: Vec::new(),
+        stderr_notes: Vec::new(),
+    })
 }
 
 /// A BRDF's transfer model, scale and kind, and the table it came from (for the report).

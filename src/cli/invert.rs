@@ -333,7 +333,8 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
             .insert("reflect:lighting-source".into(), format!("invert lighting, {} regularisation", rule.name()));
         write_exr(out, &img)?;
     }
-    let mut warnings = p.described.warnings.clone();
+    let mut warnings = p.described.stderr_notes.clone();
+    warnings.extend(p.described.warnings.iter().cloned());
     if let Some(n) = p.noise.as_ref().filter(|n| n.source != "none") {
         warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", n.note));
     }
@@ -497,7 +498,7 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
         let pf = fit_filter_pixels(samples, *have_sigma, p.noise.as_ref().map_or(1.0, |n| n.inflation), &l_hi, a.lmax)
             .map_err(in_first)?;
         let mut r = brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf)?;
-        r.warnings.splice(0..0, p.described.warnings.iter().cloned());
+        r.warnings.splice(0..0, p.described.stderr_notes.iter().chain(&p.described.warnings).cloned());
         if let Some(n) = p.noise.as_ref().filter(|n| n.source != "none") {
             r.warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", n.note));
         }
@@ -543,7 +544,8 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     };
     let filter =
         est.iter().map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() });
-    Ok(brdf_report(a, (p.lmax_carried, p.method, source), &fit, how, per_channel, filter.collect(), None, Vec::new()))
+    let notes = p.described.stderr_notes.clone();
+    Ok(brdf_report(a, (p.lmax_carried, p.method, source), &fit, how, per_channel, filter.collect(), None, notes))
 }
 
 /// The channel whose model fit has the narrowest interval, its `scale` kept for that channel only.

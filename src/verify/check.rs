@@ -166,6 +166,12 @@ pub struct Check {
     pub seconds: f64,
     /// Set when the check could not run (e.g. a render failed): then it fails.
     pub error: Option<String>,
+    /// Rendered pixels flagged `stderr_flag.Y` = 1 (their own error bar rests on one rare sample),
+    /// over the check's renders ([`super::run_entry`]).
+    pub stderr_flagged: usize,
+    /// Rendered pixels whose σ is the renderer's neighbourhood-pooled bound (the flagged ones and
+    /// their neighbours, `renderer::film::Film::pooled_count`); none is excluded.
+    pub stderr_pooled: usize,
 }
 
 impl Check {
@@ -244,6 +250,8 @@ impl Check {
             error: self.error.clone(),
             errored: self.error.is_some(),
             seconds: self.seconds,
+            stderr_flagged_pixels: self.stderr_flagged,
+            stderr_pooled_pixels: self.stderr_pooled,
         }
     }
 }
@@ -322,6 +330,11 @@ pub struct CheckDoc {
     pub errored: bool,
     /// Wall time of the check (renders + analysis), seconds.
     pub seconds: f64,
+    /// Rendered pixels flagged `stderr_flag.Y` = 1 over the check's renders.
+    pub stderr_flagged_pixels: usize,
+    /// Rendered pixels whose σ is the renderer's neighbourhood-pooled bound (flagged ones included);
+    /// the check uses that σ, never a flagged pixel's own, and excludes none.
+    pub stderr_pooled_pixels: usize,
 }
 
 #[cfg(test)]

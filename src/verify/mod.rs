@@ -123,13 +123,61 @@ pub const CHECKS: &[Entry] = &[
 ];
 
 /// Runs one entry, timing it and turning an error into a failed check.
+///
+/// Every σ a check uses comes from the renders' `stderr`, which the renderer already bounds by the
+/// neighbourhood-pooled relative error wherever a pixel is flagged unreliable (`renderer::film`): a
+/// flagged pixel's own error bar is never used, and no pixel is excluded (dropping the pixels where
+/// a rare heavy sample landed would bias the fits). The check states how many of its rendered pixels
+/// were flagged and how many had their σ raised to the pooled bound ([`Check::stderr_flagged`]).
 pub fn run_entry(ctx: &Ctx, e: &Entry) -> Check {
     let t = std::time::Instant::now();
+    let before = scenes::stderr_flag_totals();
     let mut c = match (e.run)(ctx) {
         Ok(c) => c,
         Err(msg) => Check::failed_to_run(e.name, e.equation, msg),
     };
+    let after = scenes::stderr_flag_totals();
+    (c.stderr_flagged, c.stderr_pooled) = (after.0 - before.0, after.1 - before.1);
+    if c.stderr_flagged > 0 {
+        c.note(format!(
+            "{} rendered pixels had stderr_flag = 1 (one rare sample dominated their own error bar); their σ and \
+             that of {} neighbours is the renderer's neighbourhood-pooled bound (down-weighted, none excluded)",
+            c.stderr_flagged,
+            c.stderr_pooled - c.stderr_flagged
+        ));
+    }
     c.apply_family_k();
     c.seconds = t.elapsed().as_secs_f64();
     c
+}
+
+#[cfg(test)]
+mod stderr_flag_tests {
+    use super::*;
+
+    fn renders_one_flagged_pixel(_: &Ctx) -> Result<Check, String> {
+        let mut film = renderer::film::Film::new(3, 3);
+        film.pixels[4].unreliable = true;
+        scenes::count_stderr_flags(&film);
+        Ok(Check::new("flagged", "-", "a render with one flagged pixel"))
+    }
+
+    /// A check whose render has a flagged pixel says so in its report (JSON fields and a detail line).
+    /// Other tests render concurrently into the same totals, so the counts are lower bounds here.
+    #[test]
+    fn a_check_states_its_flagged_pixels() {
+        let ctx = Ctx {
+            quick: true,
+            wrong: false,
+            seed: 0,
+            out: PathBuf::new(),
+            verbose: false,
+            data: PathBuf::new(),
+            cancel: None,
+        };
+        let e = Entry { name: "flagged", equation: "-", run: renders_one_flagged_pixel };
+        let doc = run_entry(&ctx, &e).doc();
+        assert!(doc.stderr_flagged_pixels >= 1 && doc.stderr_pooled_pixels >= 9, "{doc:?}");
+        assert!(doc.details.iter().any(|d| d.contains("stderr_flag = 1")), "{:?}", doc.details);
+    }
 }

@@ -10,6 +10,7 @@ use renderer::film::Film;
 use renderer::render::{RenderOptions, render};
 use renderer::scene::Scene;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use vocab::scene::{
     BrdfSection, CameraSection, Color, LightingSection, MixLayer, ObjectSection, RenderSection, SceneFile,
     TextureSection,
@@ -203,6 +204,24 @@ impl Spec {
     }
 }
 
+/// Pixels flagged `stderr_flag.Y` = 1 ([`Film::unreliable_count`]) and pixels whose `stderr` is the
+/// renderer's neighbourhood-pooled bound ([`Film::pooled_count`], flagged ones included), summed over
+/// every film [`render_spec`] returned in this process. [`super::run_entry`] reads them before and
+/// after a check (checks run one after another) to state them in the check's report.
+static STDERR_FLAGGED: AtomicUsize = AtomicUsize::new(0);
+static STDERR_POOLED: AtomicUsize = AtomicUsize::new(0);
+
+/// The running totals (flagged, pooled) of [`STDERR_FLAGGED`] and [`STDERR_POOLED`].
+pub fn stderr_flag_totals() -> (usize, usize) {
+    (STDERR_FLAGGED.load(Ordering::Relaxed), STDERR_POOLED.load(Ordering::Relaxed))
+}
+
+/// Adds a rendered film's flagged and pooled pixels to the running totals ([`stderr_flag_totals`]).
+pub fn count_stderr_flags(film: &Film) {
+    STDERR_FLAGGED.fetch_add(film.unreliable_count(), Ordering::Relaxed);
+    STDERR_POOLED.fetch_add(film.pooled_count(), Ordering::Relaxed);
+}
+
 /// Renders a spec on the current rayon pool. Errors (a scene the renderer refuses) are returned,
 /// and a panic inside the renderer (an unfinished piece) is caught and reported as an error so
 /// one broken check does not take the others down.
@@ -226,6 +245,7 @@ pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
             if stats.cancelled {
                 return Err("the run was cancelled".into());
             }
+            count_stderr_flags(&film);
             Ok(film)
         }
         Err(p) => {
