@@ -166,7 +166,8 @@ pub struct ChannelFit {
     /// not grow as the noise shrinks: a model error of a fixed fraction of the image gives the same
     /// value at any sample count.
     pub relative_misfit: f64,
-    /// Factor applied to the propagated standard errors (√(χ²/ν) when above 1, else 1).
+    /// Factor applied to the propagated standard errors: √(χ²/ν) when above 1 (else 1), times √F for
+    /// pixel noise correlated by a reconstruction filter ([`crate::noise`]).
     pub stderr_scale: f64,
     /// Orders fitted (in order), the index set of `covariance`.
     pub fitted_orders: Vec<usize>,
@@ -208,11 +209,16 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 /// estimated from a fit to l ≤ lmax + 2 (stated apart). An order whose lighting energy over the
 /// visible directions is below 1e-10 of the largest is unobservable (not fitted).
 ///
+/// `noise_inflation`: the variance inflation F ≥ 1 of noise correlated between neighbouring pixels
+/// by a reconstruction filter ([`crate::noise`]; 1 for independent pixels): the noise covariance
+/// (and the noise part of every error bar, squared) is multiplied by it, on top of the χ²/ν scale.
+///
 /// Errors: fewer pixels than twice the orders, or a design the directions cannot determine
 /// (singular after dropping unobservable orders), naming the orders.
 pub fn fit_filter_pixels(
     samples: &[crate::projection::Sample],
     have_sigma: bool,
+    noise_inflation: f64,
     light: &[[f64; 3]],
     lmax: usize,
 ) -> crate::error::Result<PixelFilterFit> {
@@ -317,7 +323,7 @@ pub fn fit_filter_pixels(
             Some((c, f)) if have_sigma => crate::fit::robust_chi2(&pick(c), &value, &sigma, &weight, &f.coef),
             _ => None,
         };
-        let scale = crate::fit::noise_scale(have_sigma, x_top, robust_top);
+        let scale = crate::fit::noise_scale(have_sigma, x_top, robust_top) * noise_inflation.max(1.0).sqrt();
         let p_value = if have_sigma { fit.p_value() } else { None };
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
         let relative_misfit =

@@ -774,6 +774,25 @@ mod tests {
         assert!(c.iter().all(|v| v.is_finite() && *v >= 0.0));
     }
 
+    /// The Grace lat-long map (PIZ-compressed blocks) decodes to the same bits on this thread alone
+    /// (a 1-thread pool: the sequential branch) and on a 2-thread pool (the parallel branch, whose
+    /// pool is sized by the caller's thread count).
+    #[test]
+    fn exr_decodes_the_same_on_one_and_two_threads() {
+        let p = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/grace_latlong.exr");
+        let read = |n: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+            pool.install(|| read_image(p).expect("grace lat-long"))
+        };
+        let (one, two) = (read(1), read(2));
+        assert_eq!((one.width, one.height), (two.width, two.height));
+        assert!(one.width > 0 && !one.channels.is_empty());
+        for (name, a) in &one.channels {
+            let b = &two.channels[name];
+            assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "channel {name}");
+        }
+    }
+
     #[test]
     fn corrupt_hdr_is_an_error_naming_the_file() {
         let dir = std::env::temp_dir().join(format!("reflect-img-test-{}", std::process::id()));
