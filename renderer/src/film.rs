@@ -30,7 +30,7 @@
 //! case cannot be seen in the pixel, but it can in its neighbours: the estimator's variance is a
 //! smooth function of the pixel's normal and view (the rare outcome has about the same probability
 //! and size in adjacent pixels), and a flag shows that the rare outcome occurs in this part of the
-//! image. So [`Partial::finish`] raises, in every channel, the error bar of each pixel within
+//! image. So [`Partial::finish_pooled`] raises, in every channel, the error bar of each pixel within
 //! [`POOL_TRIGGER_RADIUS`] pixels of a flagged one (the flagged one included) to the *pooled* error
 //! of its (2 [`POOL_RADIUS`] + 1)² window:
 //!
@@ -49,6 +49,14 @@
 //! 92.49 %) to 99.69 % (flagged: 99.89 %; README "Error bars"). The pooled bound is conservative where the rare event was
 //! seen and honest where it was not; an event too rare to be flagged anywhere in a pixel's
 //! neighbourhood stays a documented limit.
+//!
+//! **Not applied to renders yet.** [`Partial::finish`] (what `reflect render` writes) keeps the own
+//! σ: the pooled bound is conservative in the neighbourhood of a flag, and `verify`'s checks that
+//! subtract the noise energy Σ w σ² (`subspace`) or choose orders by noise amplification
+//! (`partial-view`) need a calibrated σ there — with pooled error bars in renders, `verify --quick`
+//! failed both (their renders flag terminator and silhouette pixels of directional lights, whose
+//! neighbours have near-zero own σ). Applying the bound to renders needs those checks to use the own
+//! σ for debiasing and the bound for tolerances.
 //!
 //! The pooling is a fixed sequential function of the finished own values, so the result is the same
 //! bits whatever the thread count or shard partition.
@@ -304,7 +312,7 @@ pub struct Pixel {
     pub mask: f32,
     /// The pixel's own error bar rests on one rare heavy contribution and is not to be trusted (see
     /// [`UNRELIABLE_SHARE`]); written as the `stderr_flag.Y` layer (1 = unreliable). After
-    /// [`Partial::finish`], `stderr` of this pixel and of its neighbours within
+    /// [`Partial::finish_pooled`], `stderr` of this pixel and of its neighbours within
     /// [`POOL_TRIGGER_RADIUS`] is the pooled bound of [`pool_heavy_tails`], not the own value.
     pub unreliable: bool,
 }
@@ -333,7 +341,7 @@ impl Film {
     }
 
     /// Number of pixels within [`POOL_TRIGGER_RADIUS`] of a flagged pixel (flagged ones included):
-    /// those whose `stderr` [`pool_heavy_tails`] bounds by the pooled error of their window.
+    /// those whose `stderr` [`pool_heavy_tails`] bounds (would bound) by the pooled error of their window.
     pub fn pooled_count(&self) -> usize {
         let (w, h, r) = (self.width as usize, self.height as usize, POOL_TRIGGER_RADIUS);
         let flagged = |row: usize, col: usize| {
@@ -465,17 +473,23 @@ impl Partial {
     }
 
     /// The image of a complete render: per pixel, the left-to-right fold of the canonical blocks
-    /// of `[0, spp)` ([`Partial::finish_own`]), then the error bars near flagged pixels pooled over
-    /// their neighbourhood ([`pool_heavy_tails`], module docs). Panics if the range is not complete
-    /// (check [`Partial::is_complete`]).
+    /// of `[0, spp)`, every error bar from the pixel's own samples ([`Partial::finish_own`]). Renders
+    /// write this: the pooled bound ([`Partial::finish_pooled`]) is not applied to renders yet (module
+    /// docs). Panics if the range is not complete (check [`Partial::is_complete`]).
     pub fn finish(&self) -> Film {
+        self.finish_own()
+    }
+
+    /// [`Partial::finish`] with the error bars near flagged pixels pooled over their neighbourhood
+    /// ([`pool_heavy_tails`], module docs). Panics like `finish`.
+    pub fn finish_pooled(&self) -> Film {
         let mut film = self.finish_own();
         pool_heavy_tails(&mut film);
         film
     }
 
     /// The image with every pixel's error bar from its own samples only (no pooling): what
-    /// [`Partial::finish`] starts from; for measurements of the pooling. Panics like `finish`.
+    /// [`Partial::finish`] returns and [`Partial::finish_pooled`] starts from. Panics like `finish`.
     pub fn finish_own(&self) -> Film {
         assert!(self.is_complete(), "finish() of an incomplete range [{}, {})", self.start, self.end);
         let bl = self.batch_log2;
