@@ -166,7 +166,8 @@ pub struct ChannelFit {
     /// not grow as the noise shrinks: a model error of a fixed fraction of the image gives the same
     /// value at any sample count.
     pub relative_misfit: f64,
-    /// Factor applied to the propagated standard errors (√(χ²/ν) when above 1, else 1).
+    /// Factor applied to the propagated standard errors: √(χ²/ν) when above 1 (else 1), times √F for
+    /// pixel noise correlated by a reconstruction filter ([`crate::noise`]).
     pub stderr_scale: f64,
     /// Orders fitted (in order), the index set of `covariance`.
     pub fitted_orders: Vec<usize>,
@@ -202,11 +203,16 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 /// estimated from a fit to l ≤ lmax + 2 (stated apart). An order whose lighting energy over the
 /// visible directions is below 1e-10 of the largest is unobservable (not fitted).
 ///
+/// `noise_inflation`: the variance inflation F ≥ 1 of noise correlated between neighbouring pixels
+/// by a reconstruction filter ([`crate::noise`]; 1 for independent pixels): the noise covariance
+/// (and the noise part of every error bar, squared) is multiplied by it, on top of the χ²/ν scale.
+///
 /// Errors: fewer pixels than twice the orders, or a design the directions cannot determine
 /// (singular after dropping unobservable orders), naming the orders.
 pub fn fit_filter_pixels(
     samples: &[crate::projection::Sample],
     have_sigma: bool,
+    noise_inflation: f64,
     light: &[[f64; 3]],
     lmax: usize,
 ) -> crate::error::Result<PixelFilterFit> {
@@ -280,11 +286,12 @@ pub fn fit_filter_pixels(
         let p = cols.len();
         let amplification = crate::fit::design_amplification(&rows, &weight, p);
         let chi2_per_dof = fit.chi2_per_dof();
-        let scale = match (have_sigma, chi2_per_dof) {
+        let chi_scale = match (have_sigma, chi2_per_dof) {
             (true, Some(x)) if x > 1.0 => x.sqrt(),
             (false, Some(x)) => x.sqrt(),
             _ => 1.0,
         };
+        let scale = chi_scale * noise_inflation.max(1.0).sqrt();
         let p_value = if have_sigma { fit.p_value() } else { None };
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
         let relative_misfit =
@@ -295,12 +302,12 @@ pub fn fit_filter_pixels(
                     "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm Y_lm does \
                      not describe the image (misfit {:.0} % of the signal) — a mismatched or rotated lighting, a wrong \
                      camera, extent or sphere, or a BRDF that is not radially symmetric about the fitted direction; \
-                     standard errors scaled by √(χ²/ν) = {scale:.3}",
+                     standard errors scaled by √(χ²/ν) = {chi_scale:.3}",
                     100.0 * relative_misfit
                 ));
             } else if x > 1.0 {
                 warnings.push(format!(
-                    "channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {scale:.3} for model inadequacy"
+                    "channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {chi_scale:.3} for model inadequacy"
                 ));
             }
         }

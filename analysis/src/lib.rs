@@ -13,6 +13,7 @@
 //! - [`predict`], [`filter`]: B_lm from L_lm and the per-order filter measured from renders;
 //! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
+//! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
@@ -23,6 +24,7 @@ pub mod fit;
 pub mod inverse;
 pub mod lighting;
 pub mod lsq;
+pub mod noise;
 pub mod predict;
 pub mod projection;
 pub mod quadrature;

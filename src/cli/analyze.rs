@@ -29,9 +29,15 @@
 //! l ≤ l_max + 2), with the design's noise amplification per order; orders the visible directions
 //! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
 //! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.
+//!
+//! Orthographic views: noise correlated between neighbouring pixels by a reconstruction filter
+//! (`--pixel-filter`, else measured from the residuals) widens the noise part of every error bar by
+//! √F (`super::pixels::prepare`, `pixel_noise` in the report); a camera not from the image's own
+//! header is checked against the sphere's silhouette when the image is read (`super::header::load`).
 use super::Error;
 use super::args::{BrdfFlags, ParamArg, ViewArgs};
 use super::header::{Camera, lighting_of, load};
+use super::pixels::{PixelNoise, prepare as pixel_noise_of};
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
 use analysis::projection::{OrthoView, Param, fit_orthographic, ortho_samples, probe_samples, project_normal_probe};
@@ -129,6 +135,9 @@ pub struct AnalyzeReport {
     pub lambda_rho_analytic: Option<Vec<[f64; 3]>>,
     /// B_lm predicted by eq. 15 from the lighting and the analytic filter.
     pub predicted: Option<Vec<[f64; 3]>>,
+    /// Orthographic views: the correlation of neighbouring pixels' noise (a reconstruction filter
+    /// wider than a pixel) and the variance inflation applied to every error bar's noise part.
+    pub pixel_noise: Option<PixelNoise>,
     /// Notes and warnings, each one sentence (also printed on stderr).
     pub warnings: Vec<String>,
 }
@@ -137,9 +146,10 @@ pub struct AnalyzeReport {
 /// the problem (bad input, or views that cannot determine what was asked).
 pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     check_lmax(a.lmax)?;
-    let (images, described) = load(&a.images, &a.view, "analysed")?;
+    let (mut images, described) = load(&a.images, &a.view, "analysed")?;
     let cameras = &described.cameras;
     let mut warnings = described.stderr_notes.clone();
+    warnings.extend(described.warnings.iter().cloned());
     if described.object_count > 1 {
         warnings.push(format!("the scene has {} objects; analysing the first sphere", described.object_count));
     }
@@ -162,6 +172,8 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
 
     let n_probe = cameras.iter().filter(|c| matches!(c, Camera::NormalProbe { .. })).count();
     let mut brdf = brdf;
+    let pixel_noise_report =
+        pixel_noise_of(&mut images, cameras, &sphere, param, a.lmax, a.view.pixel_filter).map_err(in_first)?;
     let (b, b_se, method, pixels, se_source, rms, carried, samples) = if n_probe > 0 {
         if images.len() != 1 {
             return Err(Error::new("a normal-probe render must be analysed on its own (one image)"));
@@ -199,7 +211,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
                 Camera::NormalProbe { .. } => unreachable!(),
             })
             .collect();
-        let fit = fit_orthographic(&views, &sphere, param, a.lmax).map_err(in_first)?;
+        let mut fit = fit_orthographic(&views, &sphere, param, a.lmax).map_err(in_first)?;
         if views.len() == 1 && param == Param::Normal {
             warnings.push(
                 "one orthographic view sees one hemisphere of normals: the B_lm fit there is not a projection, energy of \
@@ -209,6 +221,12 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
             );
         }
         let samples = ortho_samples(&views, &sphere, param).map_err(in_first)?;
+        if let Some(noise) = &pixel_noise_report {
+            fit.stderr.iter_mut().flatten().for_each(|s| *s *= noise.stderr_scale);
+            if noise.source != "none" {
+                warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", noise.note));
+            }
+        }
         (
             fit.coefficients,
             Some(fit.stderr),
@@ -236,7 +254,8 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     let filter = match &l_hi {
         Some(l) => {
             let (samples, have_sigma) = &samples;
-            Some(fit_filter_pixels(samples, *have_sigma, l, a.lmax).map_err(in_first)?)
+            let inflation = pixel_noise_report.as_ref().map_or(1.0, |n| n.inflation);
+            Some(fit_filter_pixels(samples, *have_sigma, inflation, l, a.lmax).map_err(in_first)?)
         }
         None => None,
     };
@@ -285,6 +304,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         brdf: brdf.map(|b| b.table),
         lambda_rho_analytic: analytic,
         predicted,
+        pixel_noise: pixel_noise_report,
         warnings,
     })
 }
@@ -299,6 +319,9 @@ impl std::fmt::Display for AnalyzeReport {
         )?;
         if let Some(r) = self.rms_residual {
             writeln!(f, "# weighted RMS residual of the fit: {:.3e} {:.3e} {:.3e}", r[0], r[1], r[2])?;
+        }
+        if let Some(n) = &self.pixel_noise {
+            writeln!(f, "{}", n.line())?;
         }
         if let Some(l) = &self.lighting {
             writeln!(f, "# lighting: {}", l.source)?;
@@ -364,10 +387,23 @@ impl std::fmt::Display for AnalyzeReport {
                         100.0 * c.relative_misfit
                     )
                 }
-                (Some(x), None) => format!("{x:.3e} (ν {}, σ² from residuals)", c.dof),
+                (Some(x), None) => format!("{x:.3e} (ν {})", c.dof),
                 _ => "-".to_string(),
             };
-            writeln!(f, "# filter fit χ²/ν: R {}, G {}, B {}", chi(&fits[0]), chi(&fits[1]), chi(&fits[2]))?;
+            if fits.iter().all(|c| c.p_value.is_none()) {
+                // Without per-pixel standard errors Σ r²/ν is not a χ² (there is no σ to divide by):
+                // it is the residual variance the noise is estimated from.
+                writeln!(
+                    f,
+                    "# filter fit residual variance σ̂² = Σ_p r_p²/ν (no stderr layer: the noise estimate, not a χ² test): \
+                     R {}, G {}, B {}",
+                    chi(&fits[0]),
+                    chi(&fits[1]),
+                    chi(&fits[2])
+                )?;
+            } else {
+                writeln!(f, "# filter fit χ²/ν: R {}, G {}, B {}", chi(&fits[0]), chi(&fits[1]), chi(&fits[2]))?;
+            }
         }
         for w in &self.warnings {
             writeln!(f, "# warning: {w}")?;

@@ -5,6 +5,7 @@
 //! `--brdf`, `--mapping`, `--sampler`, come from `vocab` with its `clap` feature).
 
 use super::{Error, flags};
+use analysis::noise::PixelFilter;
 use analysis::projection::{OrthoCamera, Param};
 use analysis::transfer::TransferModel;
 use std::path::PathBuf;
@@ -49,6 +50,17 @@ pub struct ViewArgs {
     /// ViewLayer.Combined.R/G/B); needed only when the file has several radiance layers.
     #[arg(long)]
     pub layer: Option<String>,
+    /// The reconstruction filter of a renderer that splats each sample into the pixels its filter
+    /// reaches (Mitsuba 3): box, gaussian:STDDEV or gaussian:STDDEV:RADIUS (radius 4·STDDEV by default; Mitsuba's
+    /// default is gaussian:0.5), tent:RADIUS, in pixels. Its kernel gives the correlation of
+    /// neighbouring pixels' noise, hence the widening of the error bars, and the margin of pixels
+    /// near the silhouette left out; without it the correlation is measured from the residuals.
+    #[arg(long, value_parser = parse_pixel_filter)]
+    pub pixel_filter: Option<PixelFilter>,
+}
+
+fn parse_pixel_filter(s: &str) -> Result<PixelFilter, String> {
+    s.parse()
 }
 
 /// The BRDF of the sphere in an image, by flags: a kind plus its parameters, each named as the key

@@ -184,7 +184,12 @@ struct SphereShown(Sphere);
 /// layer is chosen by `view.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
 /// and the layers ignored), and a camera recovered from the standard `worldToNDC` / `worldToCamera`
 /// attributes ([`camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
-/// image of ours has its columns mirrored here, once, for every command.
+/// image of ours has its columns mirrored here, once, for every command. An orthographic camera not
+/// from the image's own `reflect:camera` is checked against the sphere's silhouette
+/// ([`super::pixels::check_silhouette`]: a mismatch is an error; an image with nothing to check
+/// against gives a warning in [`Description::warnings`]). The pixels' noise correlation is decided
+/// after this, by [`super::pixels::prepare`]. With `--pixel-filter`, the
+/// pixels whose filter footprint reaches the silhouette are masked out ([`super::pixels::edge_margin`]).
 pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Description), Error> {
     let mut images = Vec::with_capacity(paths.len());
     for p in paths {
@@ -205,6 +210,19 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
                 "note: {}: the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored",
                 p.display()
             );
+        }
+    }
+
+    for ((img, p), cam) in images.iter().zip(paths).zip(&d.cameras) {
+        // Our own renders' header camera is the one that made the image; any other camera (flags,
+        // --scene, worldToNDC) is checked against the sphere's silhouette.
+        if let Camera::Ortho(c) = cam
+            && !img.attributes.contains_key("reflect:camera")
+            && let Some(w) =
+                super::pixels::check_silhouette(img, view.layer.as_deref(), c, &d.sphere, view.pixel_filter)
+                    .map_err(|e| e.in_file(p))?
+        {
+            d.warnings.push(format!("{}: {w}", p.display()));
         }
     }
     Ok((images, d))
@@ -233,6 +251,9 @@ pub struct Description {
     /// Per image: its camera came from `worldToNDC` and sees the mirror image of ours ([`load`]
     /// mirrors the columns).
     pub mirrored: Vec<bool>,
+    /// Warnings about the images (from [`load`]: a camera that cannot be checked against the
+    /// sphere's silhouette), each one sentence naming the file.
+    pub warnings: Vec<String>,
     /// One note per image with pixels flagged in a `stderr_flag.Y` layer (set by [`load`]; the
     /// commands add them to their warnings, text and JSON).
     pub stderr_notes: Vec<String>,
@@ -434,7 +455,16 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
         (None, Some(l), Some(p)) => Some((l, p.clone(), "reflect:lighting header".to_string())),
         _ => None,
     };
-    Ok(Description { cameras, sphere: flagged, brdf, object_count, lighting, mirrored, stderr_notes: Vec::new() })
+    Ok(Description {
+        cameras,
+        sphere: flagged,
+        brdf,
+        object_count,
+        lighting,
+        mirrored,
+        warnings: Vec::new(),
+        stderr_notes: Vec::new(),
+    })
 }
 
 /// A BRDF's transfer model, scale and kind, and the table it came from (for the report).

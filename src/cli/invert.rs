@@ -22,6 +22,7 @@
 use super::Error;
 use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
 use super::header::{Camera, Description, lighting_of, load};
+use super::pixels::PixelNoise;
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, write_exr};
@@ -144,6 +145,9 @@ struct Projected {
     samples: Option<(Vec<Sample>, bool)>,
     /// Cameras, sphere, BRDF and lighting of the images (header, --scene, flags).
     described: Description,
+    /// Orthographic views: the correlation of neighbouring pixels' noise and the variance
+    /// inflation every pixel fit applies ([`super::pixels::noise`]).
+    noise: Option<PixelNoise>,
 }
 
 /// Projects the images described by their headers, `view` (flags, `--scene`); `param` gives the
@@ -155,8 +159,12 @@ fn project(
     param: impl Fn(&Description) -> Param,
 ) -> Result<Projected, Error> {
     check_lmax(lmax)?;
-    let (images, described) = load(paths, view, "inverted")?;
+    let (mut images, described) = load(paths, view, "inverted")?;
     let param = param(&described);
+    let in_first = |e: Error| if paths.len() == 1 { e.in_file(&paths[0]) } else { e };
+    let noise =
+        super::pixels::prepare(&mut images, &described.cameras, &described.sphere, param, lmax, view.pixel_filter)
+            .map_err(in_first)?;
     let mut ortho = Vec::new();
     let mut probe = None;
     for (c, p) in described.cameras.iter().zip(paths) {
@@ -184,17 +192,21 @@ fn project(
             lmax_carried,
             samples: None,
             described,
+            noise: None,
         });
     }
     let sphere = described.sphere;
     let views: Vec<OrthoView> =
         images.iter().zip(&ortho).map(|(image, camera)| OrthoView { image, camera: *camera }).collect();
-    let fit = fit_orthographic(&views, &sphere, param, lmax)
+    let mut fit = fit_orthographic(&views, &sphere, param, lmax)
         .map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
     let method =
         format!("weighted least squares over {} orthographic view(s), {} parameterization", views.len(), param.name());
     let samples =
         ortho_samples(&views, &sphere, param).map_err(|e| if paths.len() == 1 { e.in_file(&paths[0]) } else { e })?;
+    if let Some(n) = &noise {
+        fit.stderr.iter_mut().flatten().for_each(|s| *s *= n.stderr_scale);
+    }
     drop(views);
     let first = images.into_iter().next().unwrap_or_default();
     Ok(Projected {
@@ -207,6 +219,7 @@ fn project(
         lmax_carried: fit.lmax_carried,
         samples: Some(samples),
         described,
+        noise,
     })
 }
 
@@ -280,6 +293,9 @@ pub struct InvertLightingReport {
     pub regularised: RegularisedReport,
     /// The lat-long EXR written with `--output`.
     pub output: Option<String>,
+    /// Orthographic views: the correlation of neighbouring pixels' noise (a reconstruction filter
+    /// wider than a pixel) and the variance inflation applied to the noise part of every error bar.
+    pub pixel_noise: Option<PixelNoise>,
     pub warnings: Vec<String>,
 }
 
@@ -318,6 +334,10 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         write_exr(out, &img)?;
     }
     let mut warnings = p.described.stderr_notes.clone();
+    warnings.extend(p.described.warnings.iter().cloned());
+    if let Some(n) = p.noise.as_ref().filter(|n| n.source != "none") {
+        warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", n.note));
+    }
     let mut orders: Vec<LightingOrder> = inv
         .orders
         .iter()
@@ -336,6 +356,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         let v = invert_lighting_views(
             samples,
             *have_sigma,
+            p.noise.as_ref().map_or(1.0, |n| n.inflation),
             &model.lambda_rho(a.lmax + 2),
             albedo,
             a.lmax,
@@ -389,6 +410,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
             coefficients: inv.regularised.coefficients,
         },
         output: a.output.as_ref().map(|p| p.display().to_string()),
+        pixel_noise: p.noise,
         warnings,
     })
 }
@@ -449,6 +471,9 @@ pub struct InvertBrdfReport {
     pub profile: Vec<[f64; 2]>,
     /// Orthographic views: the pixel-space filter fit (error budget, conditioning, χ² per channel).
     pub filter_fit: Option<FilterFitReport>,
+    /// Orthographic views: the correlation of neighbouring pixels' noise and the variance inflation
+    /// applied to the noise part of every error bar.
+    pub pixel_noise: Option<PixelNoise>,
     pub warnings: Vec<String>,
 }
 
@@ -470,12 +495,15 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     // conditioning from the design, truncation, χ²), not B_lm / L_lm, which is wrong on part of
     // the sphere; the model is then fitted by GLS to it with its covariance ⊕ truncation².
     if let Some((samples, have_sigma)) = &p.samples {
-        let pf = fit_filter_pixels(samples, *have_sigma, &l_hi, a.lmax).map_err(in_first)?;
-        let notes = p.described.stderr_notes.clone();
-        return brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf).map(|mut r| {
-            r.warnings.splice(0..0, notes);
-            r
-        });
+        let pf = fit_filter_pixels(samples, *have_sigma, p.noise.as_ref().map_or(1.0, |n| n.inflation), &l_hi, a.lmax)
+            .map_err(in_first)?;
+        let mut r = brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf)?;
+        r.warnings.splice(0..0, p.described.stderr_notes.iter().chain(&p.described.warnings).cloned());
+        if let Some(n) = p.noise.as_ref().filter(|n| n.source != "none") {
+            r.warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", n.note));
+        }
+        r.pixel_noise = p.noise;
+        return Ok(r);
     }
     let est = estimate_transfer(&p.b, p.stderr.as_deref(), &l, a.lmax)?;
     // A normal-probe image with a stderr layer gives the full covariance of the per-order
@@ -579,6 +607,7 @@ fn brdf_report(
         filter,
         profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
         filter_fit,
+        pixel_noise: None,
         warnings,
     }
 }
@@ -696,6 +725,9 @@ impl std::fmt::Display for InvertLightingReport {
             writeln!(f, "{l:>4} {m:>4} {cell:>30} {:>14}", fmt_opt(reg))?;
         }
         writeln!(f, "# Tikhonov: {}, λ = {:?}", self.regularised.rule, self.regularised.lambda)?;
+        if let Some(n) = &self.pixel_noise {
+            writeln!(f, "{}", n.line())?;
+        }
         for w in &self.warnings {
             writeln!(f, "# warning: {w}")?;
         }
@@ -728,6 +760,9 @@ impl std::fmt::Display for InvertBrdfReport {
             iv(self.interval[1]),
             self.range
         )?;
+        if let Some(n) = &self.pixel_noise {
+            writeln!(f, "{}", n.line())?;
+        }
         for w in &self.warnings {
             writeln!(f, "# warning: {w}")?;
         }

@@ -8,6 +8,7 @@ pub mod header;
 pub mod invert;
 pub mod merge;
 pub mod passes;
+pub mod pixels;
 pub mod png;
 pub mod render;
 pub mod separate;

@@ -131,7 +131,8 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
 
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let t_start = std::time::Instant::now();
-    let mut scene = load_scene(&a)?;
+    // On the render's pool: decoding the map and building its sampling tables use `--threads` too.
+    let mut scene = with_threads(a.threads, || load_scene(&a))??;
     let t_load = t_start.elapsed();
     let stem = a
         .scene

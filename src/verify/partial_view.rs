@@ -52,7 +52,7 @@ fn invert_views(ctx: &Ctx, specs: &[(Spec, &str)]) -> Result<(ViewsLighting, Vec
     let (samples, have_sigma) = ortho_samples(&views, &Sphere::default(), Param::Normal).map_err(|e| e.to_string())?;
     // The CLI hands the filter to l_max + 2 (the truncation estimate's orders).
     let filter = TransferModel::Lambert.lambda_rho(LMAX + 2);
-    let v = invert_lighting_views(&samples, have_sigma, &filter, [ALBEDO; 3], LMAX, DEFAULT_MAX_AMPLIFICATION)
+    let v = invert_lighting_views(&samples, have_sigma, 1.0, &filter, [ALBEDO; 3], LMAX, DEFAULT_MAX_AMPLIFICATION)
         .map_err(|e| e.to_string())?;
     Ok((v, images))
 }

@@ -56,7 +56,7 @@ fn analyse_view(
     let Camera::Ortho { from, up, extent } = spec.camera else { return Err("not an orthographic spec".into()) };
     let views = [OrthoView { image: &image, camera: OrthoCamera { from, to: [0.0; 3], up, extent } }];
     let (samples, have_sigma) = ortho_samples(&views, &Sphere::default(), param).map_err(|e| e.to_string())?;
-    Ok((fit_filter_pixels(&samples, have_sigma, light, lmax).map_err(|e| e.to_string())?, image))
+    Ok((fit_filter_pixels(&samples, have_sigma, 1.0, light, lmax).map_err(|e| e.to_string())?, image))
 }
 
 /// Channel `ch` of a fit as a measured filter (total standard error).

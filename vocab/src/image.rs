@@ -558,17 +558,41 @@ pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
             meta.headers.len()
         )
     });
-    let image = exr::prelude::read()
+    // Decoded by the exr crate's own pieces rather than its `from_buffered`, whose parallel reader
+    // builds a pool of one thread per CPU whatever `--threads` says: here the blocks decompress on
+    // a pool of the caller's rayon thread count (on this thread alone when that is 1).
+    use exr::block::reader::{ChunksReader, ParallelBlockDecompressor};
+    use exr::image::read::image::LayersReader;
+    let chunks = exr::block::read(std::io::Cursor::new(bytes), false).map_err(corrupt)?;
+    let image_other = chunks.headers().first().map(|h| h.shared_attributes.other.clone()).unwrap_or_default();
+    let mut layers = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .all_layers()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
+        .create_layers_reader(chunks.headers())
         .map_err(corrupt)?;
-    let image_other = image.attributes.other;
-    let layer = image
-        .layer_data
+    let chunks =
+        chunks.filter_chunks(false, |meta, tile, block| layers.filter_block(meta, tile, block)).map_err(corrupt)?;
+    let threads = rayon::current_num_threads();
+    let sequential = |chunks: exr::block::reader::FilteredChunksReader<_>, layers: &mut _| {
+        chunks.decompress_sequential(false, |meta, block| LayersReader::read_block(layers, &meta.headers, block))
+    };
+    if threads > 1 {
+        let pool = || rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+        match ParallelBlockDecompressor::new_with_thread_pool(chunks, false, pool) {
+            Ok(mut blocks) => {
+                while let Some(block) = blocks.next() {
+                    layers.read_block(&blocks.meta_data().headers, block.map_err(corrupt)?).map_err(corrupt)?;
+                }
+            }
+            Err(chunks) => sequential(chunks, &mut layers).map_err(corrupt)?,
+        }
+    } else {
+        sequential(chunks, &mut layers).map_err(corrupt)?;
+    }
+    let layer = layers
+        .into_layers()
         .into_iter()
         .nth(chosen)
         .ok_or_else(|| Error::new(format!("{} could not be read", part_name(chosen))))?;
@@ -748,6 +772,25 @@ mod tests {
         // Centre of the probe (world +z, up) is bright-ish and finite.
         let c = img.get(500, 500);
         assert!(c.iter().all(|v| v.is_finite() && *v >= 0.0));
+    }
+
+    /// The Grace lat-long map (PIZ-compressed blocks) decodes to the same bits on this thread alone
+    /// (a 1-thread pool: the sequential branch) and on a 2-thread pool (the parallel branch, whose
+    /// pool is sized by the caller's thread count).
+    #[test]
+    fn exr_decodes_the_same_on_one_and_two_threads() {
+        let p = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/grace_latlong.exr");
+        let read = |n: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+            pool.install(|| read_image(p).expect("grace lat-long"))
+        };
+        let (one, two) = (read(1), read(2));
+        assert_eq!((one.width, one.height), (two.width, two.height));
+        assert!(one.width > 0 && !one.channels.is_empty());
+        for (name, a) in &one.channels {
+            let b = &two.channels[name];
+            assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "channel {name}");
+        }
     }
 
     #[test]

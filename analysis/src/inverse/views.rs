@@ -59,7 +59,9 @@ pub struct ViewsLighting {
 /// Fits L_lm, l ≤ `lmax`, to `samples` (see the module docs). `filter` = Λ_l ρ̂_l (unit albedo)
 /// for l ≤ at least `lmax` (orders up to `lmax` + 2 are used for the truncation estimate when
 /// given), `albedo` per channel, `have_sigma` whether the sample variances are per-pixel
-/// standard errors, `max_amplification` the threshold of `recovered` (the CLI's default is
+/// standard errors, `noise_inflation` the variance inflation F ≥ 1 of pixel noise correlated by a
+/// reconstruction filter ([`crate::noise`]; 1 for independent pixels: noise error bars × √F),
+/// `max_amplification` the threshold of `recovered` (the CLI's default is
 /// [`super::lighting::DEFAULT_MAX_AMPLIFICATION`]).
 ///
 /// Errors: a filter shorter than `lmax` + 1 or all zero, a non-positive albedo, a threshold < 1,
@@ -67,6 +69,7 @@ pub struct ViewsLighting {
 pub fn invert_lighting_views(
     samples: &[Sample],
     have_sigma: bool,
+    noise_inflation: f64,
     filter: &[f64],
     albedo: [f64; 3],
     lmax: usize,
@@ -133,11 +136,12 @@ pub fn invert_lighting_views(
             Error::new(format!("these views cannot determine the lighting up to l_max {lmax} (channel {name})"))
         })?;
         let x = fit.chi2_per_dof();
-        let scale = match (have_sigma, x) {
+        let chi_scale = match (have_sigma, x) {
             (true, Some(x)) if x > 1.0 => x.sqrt(),
             (false, Some(x)) => x.sqrt(),
             _ => 1.0,
         };
+        let scale = chi_scale * noise_inflation.max(1.0).sqrt();
         let p_value = if have_sigma { fit.p_value() } else { None };
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
         let relative_misfit =
@@ -147,11 +151,12 @@ pub fn invert_lighting_views(
                 warnings.push(format!(
                     "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the BRDF and l_max do not describe the image (a wrong BRDF or \
                      albedo, a wrong camera, extent or sphere, or lighting above l_max + 2 that the views alias); \
-                     standard errors scaled by {scale:.3}"
+                     standard errors scaled by {chi_scale:.3}"
                 ));
             } else if x > 1.0 {
-                warnings
-                    .push(format!("channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {scale:.3}"));
+                warnings.push(format!(
+                    "channel {name}: χ²/ν = {x:.3} > 1: standard errors scaled by √(χ²/ν) = {chi_scale:.3}"
+                ));
             }
         }
         let hi = (cols_hi.len() > p).then(|| lsq(&full, &value, &sigma, &weight)).flatten();
@@ -246,7 +251,7 @@ mod tests {
         // Band-limited: lighting l ≤ 3, Lambert filter (l = 3 is a zero: unobservable).
         let f = crate::transfer::lambert::lambert(3);
         let full = samples(&light, &f, |_| true);
-        let r = invert_lighting_views(&full, true, &f, [1.0, 0.5, 2.0], 2, 10.0).unwrap();
+        let r = invert_lighting_views(&full, true, 1.0, &f, [1.0, 0.5, 2.0], 2, 10.0).unwrap();
         for k in 0..9 {
             let c = r.coefficients[k].unwrap();
             for ch in 0..3 {
@@ -259,7 +264,7 @@ mod tests {
         assert!(r.orders.iter().all(|o| o.status == "recovered"));
         // One hemisphere (x > 0): still exact for band-limited B, but the amplification grows.
         let half = samples(&light, &f, |d| d[0] > 0.0);
-        let h = invert_lighting_views(&half, true, &f, [1.0, 0.5, 2.0], 2, 10.0).unwrap();
+        let h = invert_lighting_views(&half, true, 1.0, &f, [1.0, 0.5, 2.0], 2, 10.0).unwrap();
         for k in 0..9 {
             assert!((h.coefficients[k].unwrap()[0] - light[k]).abs() < 1e-5, "k={k}");
             // Never better than the whole sphere (yz stays orthogonal to the rest on x > 0).
@@ -286,7 +291,7 @@ mod tests {
             .collect();
         let f = crate::transfer::lambert::lambert(4);
         let half = samples(&light, &f, |d| d[0] > 0.0);
-        let h = invert_lighting_views(&half, true, &f, [1.0; 3], 2, 100.0).unwrap();
+        let h = invert_lighting_views(&half, true, 1.0, &f, [1.0; 3], 2, 100.0).unwrap();
         for k in 0..9 {
             let (c, s) = (h.coefficients[k].unwrap()[0], h.stderr[k].unwrap()[0]);
             assert!((c - light[k]).abs() <= 1.5 * s + 1e-6, "k={k}: {c} ± {s} vs {}", light[k]);
@@ -294,7 +299,7 @@ mod tests {
         assert!(h.truncation.iter().flatten().any(|t| t[0] > 1e-4), "a bias to estimate");
         // A tiny cap sees too little to separate 9 coefficients well: ill-conditioned orders said.
         let cap = samples(&light, &f, |d| d[2] > 0.95);
-        match invert_lighting_views(&cap, true, &f, [1.0; 3], 2, 10.0) {
+        match invert_lighting_views(&cap, true, 1.0, &f, [1.0; 3], 2, 10.0) {
             Ok(r) => assert!(r.orders.iter().any(|o| o.status == "ill-conditioned"), "{:?}", r.orders),
             Err(e) => assert!(e.message.contains("cannot determine"), "{e}"),
         }

@@ -129,7 +129,7 @@ pub fn ortho_samples(views: &[OrthoView], sphere: &Sphere, param: Param) -> Resu
     let mut samples = Vec::new();
     let mut all_have_stderr = true;
     for v in views {
-        all_have_stderr &= collect_samples(v, sphere, param, &mut samples)?;
+        all_have_stderr &= collect_samples(v, sphere, param, &mut samples, &mut Vec::new())?;
     }
     if !all_have_stderr {
         samples.iter_mut().for_each(|s| s.var = [1.0; 3]);
@@ -137,7 +137,27 @@ pub fn ortho_samples(views: &[OrthoView], sphere: &Sphere, param: Param) -> Resu
     Ok((samples, all_have_stderr))
 }
 
-fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Vec<Sample>) -> Result<bool> {
+/// The pixel (view index, row, column) of each sample of [`ortho_samples`], in the same order: where
+/// per-pixel quantities (residuals) sit on the image grid, for statistics over neighbouring pixels
+/// ([`crate::noise`]).
+pub fn ortho_sample_pixels(views: &[OrthoView], sphere: &Sphere, param: Param) -> Result<Vec<[usize; 3]>> {
+    let mut at = Vec::new();
+    for (k, v) in views.iter().enumerate() {
+        let mut pix = Vec::new();
+        collect_samples(v, sphere, param, &mut Vec::new(), &mut pix)?;
+        at.extend(pix.into_iter().map(|[r, c]| [k, r, c]));
+    }
+    Ok(at)
+}
+
+/// Appends the covered pixels of `view` to `out` and their (row, column) to `at`.
+fn collect_samples(
+    view: &OrthoView,
+    sphere: &Sphere,
+    param: Param,
+    out: &mut Vec<Sample>,
+    at: &mut Vec<[usize; 2]>,
+) -> Result<bool> {
     let img = view.image;
     let cam = &view.camera;
     let rgb = img.rgb().ok_or_else(|| Error::new("image has no R, G, B channels"))?;
@@ -206,6 +226,7 @@ fn collect_samples(view: &OrthoView, sphere: &Sphere, param: Param, out: &mut Ve
                 None => [1.0; 3],
             };
             out.push(Sample { dir, w: wt, b: [px[0] as f64, px[1] as f64, px[2] as f64], var });
+            at.push([row, col]);
         }
     }
     Ok(stderr.is_some())

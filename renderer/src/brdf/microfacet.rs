@@ -70,7 +70,7 @@ fn erfc_pos(x: f64) -> f64 {
                     + t * (-0.186_288_06
                         + t * (0.278_868_07
                             + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
-    t * (-x * x + p).exp()
+    t * crate::math::fast::exp_f64(-x * x + p)
 }
 
 /// Beckmann's Smith Λ as a function of a = cotθ / α: (e^{−a²}/(a√π) − erfc(a)) / 2.
@@ -81,7 +81,7 @@ fn beckmann_lambda(a: f32) -> f32 {
     }
     let a = a as f64;
     const INV_SQRT_PI: f64 = 0.564_189_583_547_756_3;
-    (0.5 * ((-a * a).exp() * INV_SQRT_PI / a - erfc_pos(a))).max(0.0) as f32
+    (0.5 * (crate::math::fast::exp_f64(-a * a) * INV_SQRT_PI / a - erfc_pos(a))).max(0.0) as f32
 }
 
 impl Microfacet {
@@ -100,7 +100,7 @@ impl Microfacet {
         match self.distribution {
             MicrofacetDistribution::Beckmann => {
                 let tan2 = (1.0 - c2).max(0.0) / c2;
-                (-tan2 * self.inv_alpha2).exp() * (INV_PI * self.inv_alpha2) / (c2 * c2)
+                crate::math::fast::exp(-tan2 * self.inv_alpha2) * (INV_PI * self.inv_alpha2) / (c2 * c2)
             }
             MicrofacetDistribution::Ggx => {
                 let t = (self.alpha2 - 1.0) * c2 + 1.0;
@@ -171,7 +171,7 @@ impl Bxdf for Microfacet {
         let m = match self.distribution {
             MicrofacetDistribution::Ggx => self.sample_ggx_vndf(wo, u),
             MicrofacetDistribution::Beckmann => {
-                let tan2 = -self.alpha2 * (-u.x).ln_1p();
+                let tan2 = -self.alpha2 * crate::math::fast::ln_1p(-u.x);
                 let c = 1.0 / (1.0 + tan2).sqrt();
                 let s = (1.0 - c * c).max(0.0).sqrt();
                 let (sp, cp) = crate::math::fast::sincos_2pi(u.y);

@@ -79,7 +79,7 @@ impl Bxdf for TorranceSparrow {
             return Rgb::ZERO;
         }
         let Some((theta, _, _)) = half_angle(wo, wi) else { return Rgb::ZERO };
-        self.ks * (self.norm * (-theta * theta * self.inv_sigma2).exp() / wo.z)
+        self.ks * (self.norm * crate::math::fast::exp(-theta * theta * self.inv_sigma2) / wo.z)
     }
 
     #[inline]
@@ -88,7 +88,7 @@ impl Bxdf for TorranceSparrow {
             return None;
         }
         // Inverse CDF of the truncated Rayleigh density; ln_1p keeps precision for small uZ.
-        let theta = self.sigma * (-(-u.x * self.z_trunc).ln_1p()).max(0.0).sqrt();
+        let theta = self.sigma * (-crate::math::fast::ln_1p(-u.x * self.z_trunc)).max(0.0).sqrt();
         let (st, ct) = theta.sin_cos();
         let (sp, cp) = crate::math::fast::sincos_2pi(u.y);
         let h = Vec3::new(st * cp, st * sp, ct);
@@ -107,7 +107,7 @@ impl Bxdf for TorranceSparrow {
         if woh <= 0.0 {
             return None;
         }
-        let pdf = self.pdf_norm * (-theta * theta * self.inv_sigma2).exp() * ratio / woh;
+        let pdf = self.pdf_norm * crate::math::fast::exp(-theta * theta * self.inv_sigma2) * ratio / woh;
         if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
@@ -124,7 +124,7 @@ impl Bxdf for TorranceSparrow {
         if woh <= 0.0 || (self.horizon == Horizon::Clamp && theta >= 0.5 * PI) {
             return 0.0;
         }
-        self.pdf_norm * (-theta * theta * self.inv_sigma2).exp() * ratio / woh
+        self.pdf_norm * crate::math::fast::exp(-theta * theta * self.inv_sigma2) * ratio / woh
     }
 
     #[inline]
