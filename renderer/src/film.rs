@@ -27,25 +27,36 @@
 //! sample in a hundred), no error bar computed from a pixel's own samples can be trusted when the
 //! rare event was drawn once or not at all. The first case is detected and *flagged*
 //! ([`Pixel::unreliable`], the `stderr_flag.Y` layer; rule at [`UNRELIABLE_SHARE`]). The second
-//! case cannot be seen in the pixel, but it can in its neighbours: the estimator's *relative*
-//! variance σ²/μ² is a smooth function of the pixel's normal and view (the rare outcome has about the
-//! same probability and relative size in adjacent pixels), and a flag shows that the rare outcome
-//! occurs in this part of the image. So [`Partial::finish`] raises, in every channel, the error bar
-//! of each pixel within [`POOL_TRIGGER_RADIUS`] pixels of a flagged one (the flagged one included) to
-//! the *pooled* relative error of its (2 [`POOL_RADIUS`] + 1)² window:
+//! case cannot be seen in the pixel, but it can in its neighbours: the estimator's variance is a
+//! smooth function of the pixel's normal and view (the rare outcome has about the same probability
+//! and size in adjacent pixels), and a flag shows that the rare outcome occurs in this part of the
+//! image. So [`Partial::finish_pooled`] raises, in every channel, the error bar of each pixel within
+//! [`POOL_TRIGGER_RADIUS`] pixels of a flagged one (the flagged one included) to the *pooled* error
+//! of its (2 [`POOL_RADIUS`] + 1)² window:
 //!
-//! σ_p ← max(σ_p, |μ_p| · √(Σ_q σ_q² / Σ_q μ_q²)), q over the window (clipped at the image edges),
+//! σ_p ← max(σ_p, √(Σ_q σ_q² / |W|)), q over the window W (clipped at the image edges),
 //!
-//! where σ_q, μ_q are the pixels' own standard errors and means ([`pool_heavy_tails`]). The pooled
-//! ratio rests on the rare events of nine pixels instead of one, and the max keeps a pixel's own
-//! larger error. Pixels with no flag near them keep their own σ bit for bit, so a plain scene's
-//! error bars do not change (its only flags are the ≈ 1e-4 false alarms of the rule and silhouette
-//! pixels that catch a bright background in a few samples). Measured by tests/stderr_coverage.rs
-//! (`env-sun`, 64 seeds × 512 pixels at 256 spp, |z| < 3 against the leave-one-out mean; nominal
-//! 99.73 %): the pixels' own σ covers the unflagged pixels at 91.9 %, the pooled σ at 99.86 %, and
-//! the flagged at 99.99 % (own σ: 99.70 %). The pooled bound is conservative where the rare event was
-//! seen (its median σ rises 1.25× on flagged pixels) and honest where it was not; an event too rare
-//! to be flagged anywhere in a pixel's neighbourhood stays a documented limit (README "Error bars").
+//! where σ_q are the pixels' own standard errors ([`pool_heavy_tails`]). The pooled variance rests on
+//! the rare events of nine pixels instead of one, and it does not depend on the pixel's own luck:
+//! under a skewed estimator a pixel that drew fewer rare heavy samples than expected has both a low
+//! value and a low own σ (its z is then large and negative), so neither its own σ nor a relative
+//! error scaled by its own value can be trusted there. The max keeps a pixel's own larger error.
+//! Pixels with no flag near them keep their own σ bit for bit, so the error bars of a scene without
+//! flags do not change. Measured by tests/stderr_coverage.rs (`env-sun`, 64 seeds × 512 pixels at
+//! 256 spp, |z| < 3 against the leave-one-out mean; nominal 99.73 %): the pixels' own σ covers the
+//! unflagged pixels at 91.9 %, the pooled σ at 99.90 %, and the flagged at 100.00 % (own σ:
+//! 99.70 %); the Grace probe at 64 spp, which flags 8.7 % of its pixels, goes from 98.42 % (flagged:
+//! 92.49 %) to 99.69 % (flagged: 99.89 %; README "Error bars"). The pooled bound is conservative where the rare event was
+//! seen and honest where it was not; an event too rare to be flagged anywhere in a pixel's
+//! neighbourhood stays a documented limit.
+//!
+//! **Not applied to renders yet.** [`Partial::finish`] (what `reflect render` writes) keeps the own
+//! σ: the pooled bound is conservative in the neighbourhood of a flag, and `verify`'s checks that
+//! subtract the noise energy Σ w σ² (`subspace`) or choose orders by noise amplification
+//! (`partial-view`) need a calibrated σ there — with pooled error bars in renders, `verify --quick`
+//! failed both (their renders flag terminator and silhouette pixels of directional lights, whose
+//! neighbours have near-zero own σ). Applying the bound to renders needs those checks to use the own
+//! σ for debiasing and the bound for tolerances.
 //!
 //! The pooling is a fixed sequential function of the finished own values, so the result is the same
 //! bits whatever the thread count or shard partition.
@@ -71,7 +82,7 @@ pub const UNRELIABLE_SHARE: f64 = 0.5;
 /// The fewest batches for which the reliability flag is computed.
 pub const UNRELIABLE_MIN_BATCHES: f64 = 16.0;
 
-/// Radius of the window of the pooled relative error: (2 r + 1)² pixels (see the module docs).
+/// Radius of the window of the pooled error: (2 r + 1)² pixels (see the module docs).
 pub const POOL_RADIUS: usize = 1;
 /// A pixel's error bar is pooled when a flagged pixel is within this many pixels (Chebyshev
 /// distance). 2 rather than 1: measured on `env-sun`, the unflagged pixels farther than 1 but within
@@ -301,7 +312,7 @@ pub struct Pixel {
     pub mask: f32,
     /// The pixel's own error bar rests on one rare heavy contribution and is not to be trusted (see
     /// [`UNRELIABLE_SHARE`]); written as the `stderr_flag.Y` layer (1 = unreliable). After
-    /// [`Partial::finish`], `stderr` of this pixel and of its neighbours within
+    /// [`Partial::finish_pooled`], `stderr` of this pixel and of its neighbours within
     /// [`POOL_TRIGGER_RADIUS`] is the pooled bound of [`pool_heavy_tails`], not the own value.
     pub unreliable: bool,
 }
@@ -330,7 +341,7 @@ impl Film {
     }
 
     /// Number of pixels within [`POOL_TRIGGER_RADIUS`] of a flagged pixel (flagged ones included):
-    /// those whose `stderr` [`pool_heavy_tails`] bounds by the pooled relative error of their window.
+    /// those whose `stderr` [`pool_heavy_tails`] bounds (would bound) by the pooled error of their window.
     pub fn pooled_count(&self) -> usize {
         let (w, h, r) = (self.width as usize, self.height as usize, POOL_TRIGGER_RADIUS);
         let flagged = |row: usize, col: usize| {
@@ -462,17 +473,23 @@ impl Partial {
     }
 
     /// The image of a complete render: per pixel, the left-to-right fold of the canonical blocks
-    /// of `[0, spp)` ([`Partial::finish_own`]), then the error bars near flagged pixels pooled over
-    /// their neighbourhood ([`pool_heavy_tails`], module docs). Panics if the range is not complete
-    /// (check [`Partial::is_complete`]).
+    /// of `[0, spp)`, every error bar from the pixel's own samples ([`Partial::finish_own`]). Renders
+    /// write this: the pooled bound ([`Partial::finish_pooled`]) is not applied to renders yet (module
+    /// docs). Panics if the range is not complete (check [`Partial::is_complete`]).
     pub fn finish(&self) -> Film {
+        self.finish_own()
+    }
+
+    /// [`Partial::finish`] with the error bars near flagged pixels pooled over their neighbourhood
+    /// ([`pool_heavy_tails`], module docs). Panics like `finish`.
+    pub fn finish_pooled(&self) -> Film {
         let mut film = self.finish_own();
         pool_heavy_tails(&mut film);
         film
     }
 
     /// The image with every pixel's error bar from its own samples only (no pooling): what
-    /// [`Partial::finish`] starts from; for measurements of the pooling. Panics like `finish`.
+    /// [`Partial::finish`] returns and [`Partial::finish_pooled`] starts from. Panics like `finish`.
     pub fn finish_own(&self) -> Film {
         assert!(self.is_complete(), "finish() of an incomplete range [{}, {})", self.start, self.end);
         let bl = self.batch_log2;
@@ -489,10 +506,10 @@ impl Partial {
 }
 
 /// Raises the error bar of every pixel within [`POOL_TRIGGER_RADIUS`] of a [flagged](Pixel::unreliable)
-/// pixel to the pooled relative error of its (2 [`POOL_RADIUS`] + 1)² window, per channel:
-/// σ_p ← max(σ_p, |μ_p| √(Σ σ_q² / Σ μ_q²)) (module docs, "Standard error and its reliability flag").
+/// pixel to the pooled error of its (2 [`POOL_RADIUS`] + 1)² window W, per channel:
+/// σ_p ← max(σ_p, √(Σ_q σ_q² / |W|)) (module docs, "Standard error and its reliability flag").
 /// Reads only the own values (a copy), in a fixed order in f64: deterministic. Pixels with no flag
-/// near them are untouched; a window whose Σ μ² is 0 leaves σ_p as it is.
+/// near them are untouched.
 pub fn pool_heavy_tails(film: &mut Film) {
     let (w, h) = (film.width as usize, film.height as usize);
     if !film.pixels.iter().any(|p| p.unreliable) {
@@ -511,15 +528,12 @@ pub fn pool_heavy_tails(film: &mut Film) {
             }
             let p = &mut film.pixels[r * w + c];
             for ch in 0..3 {
-                let (mut var, mut sq) = (0.0f64, 0.0f64);
+                let (mut var, mut n) = (0.0f64, 0.0f64);
                 for q in window(r, c, POOL_RADIUS) {
                     var += (own[q].stderr[ch] as f64).powi(2);
-                    sq += (own[q].rgb[ch] as f64).powi(2);
+                    n += 1.0;
                 }
-                if sq > 0.0 {
-                    let pooled = ((p.rgb[ch] as f64).abs() * (var / sq).sqrt()) as f32;
-                    p.stderr[ch] = p.stderr[ch].max(pooled);
-                }
+                p.stderr[ch] = p.stderr[ch].max((var / n).sqrt() as f32);
             }
         }
     }
@@ -675,7 +689,7 @@ mod tests {
         assert_eq!(flagged, 0);
     }
 
-    /// Pooling raises the error bars within [`POOL_TRIGGER_RADIUS`] of a flag to the window's relative
+    /// Pooling raises the error bars within [`POOL_TRIGGER_RADIUS`] of a flag to the window's pooled
     /// error and leaves every other pixel (and any film without a flag) bit for bit.
     #[test]
     fn pooling_bounds_the_neighbourhood_of_a_flag_only() {
@@ -703,20 +717,20 @@ mod tests {
                     continue;
                 }
                 // Window of (r, c): clipped 3 × 3; expected pooled bound from the own values.
-                let (mut var, mut sq) = ([0.0f64; 3], [0.0f64; 3]);
+                let (mut var, mut n) = ([0.0f64; 3], 0.0);
                 for rr in r.saturating_sub(1)..(r + 2).min(5) {
                     for cc in c.saturating_sub(1)..(c + 2).min(9) {
-                        for ch in 0..3 {
-                            var[ch] += (own.get(rr, cc).stderr[ch] as f64).powi(2);
-                            sq[ch] += (own.get(rr, cc).rgb[ch] as f64).powi(2);
+                        for (v, se) in var.iter_mut().zip(own.get(rr, cc).stderr) {
+                            *v += (se as f64).powi(2);
                         }
+                        n += 1.0;
                     }
                 }
-                for ch in 0..2 {
-                    let pooled = (o.rgb[ch] as f64 * (var[ch] / sq[ch]).sqrt()) as f32;
+                for (ch, v) in var.iter().enumerate().take(2) {
+                    let pooled = (v / n).sqrt() as f32;
                     assert_eq!(p.stderr[ch], o.stderr[ch].max(pooled), "({r}, {c}) channel {ch}");
                 }
-                assert_eq!(p.stderr[2], 0.0, "a black channel keeps σ = 0");
+                assert_eq!(p.stderr[2], 0.0, "a noise-free channel keeps σ = 0");
                 assert_eq!(p.rgb, o.rgb);
             }
         }

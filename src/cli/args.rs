@@ -51,7 +51,7 @@ pub struct ViewArgs {
     #[arg(long)]
     pub layer: Option<String>,
     /// The reconstruction filter of a renderer that splats each sample into the pixels its filter
-    /// reaches (Mitsuba 3): box, gaussian:STDDEV[:RADIUS] (radius 4·STDDEV by default; Mitsuba's
+    /// reaches (Mitsuba 3): box, gaussian:STDDEV or gaussian:STDDEV:RADIUS (radius 4·STDDEV by default; Mitsuba's
     /// default is gaussian:0.5), tent:RADIUS, in pixels. Its kernel gives the correlation of
     /// neighbouring pixels' noise, hence the widening of the error bars, and the margin of pixels
     /// near the silhouette left out; without it the correlation is measured from the residuals.

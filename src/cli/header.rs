@@ -260,18 +260,15 @@ pub struct Description {
 }
 
 /// The note for an image whose `stderr_flag.Y` layer flags pixels (`reflect render`'s diagnostic: one
-/// rare sample dominated the pixel's own error bar). Their `stderr`, and that of their neighbours,
-/// is the renderer's neighbourhood-pooled bound (`renderer::film::pool_heavy_tails`), which analyses
-/// use as is: no pixel is excluded, since dropping the pixels where a rare heavy sample landed would
-/// bias the coefficients. (An image from before that bound carries the pixels' own σ: the note says
-/// to re-render.) `None` without the layer or without a flagged pixel.
+/// rare sample dominated the pixel's own error bar). Analyses use their `stderr` as is: no pixel is
+/// excluded, since dropping the pixels where a rare heavy sample landed would bias the coefficients.
+/// `None` without the layer or without a flagged pixel.
 pub fn stderr_flag_note(img: &Image, path: &Path) -> Option<String> {
     let n = img.channel("stderr_flag.Y")?.iter().filter(|&&v| v > 0.0).count();
     (n > 0).then(|| {
         format!(
-            "{}: {n} pixels have stderr_flag.Y = 1 (one rare sample dominated their own error bar); their stderr \
-             and that of their neighbours within 2 pixels is the renderer's neighbourhood-pooled bound, used as is \
-             (no pixel excluded; an image rendered before that bound should be re-rendered)",
+            "{}: {n} pixels have stderr_flag.Y = 1 (one rare sample dominated their own error bar, which may be \
+             too small nearby, README \"Error bars\"); stderr used as is, no pixel excluded",
             path.display()
         )
     })

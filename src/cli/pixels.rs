@@ -366,8 +366,8 @@ fn blob(w: usize, h: usize, covered: impl Fn(usize) -> bool) -> Option<([f64; 2]
 /// The camera-consistency check of an orthographic view whose camera does not come from our own
 /// header: the sphere's silhouette in the image against the disc `camera` and `sphere` predict.
 ///
-/// Covered pixels are those with alpha ≥ 0.5 ([`alpha`], when some pixels have alpha < 0.5), else those whose radiance differs from the
-/// uniform background ([`background`]); the predicted disc is rasterized by the same rule (pixel
+/// Covered pixels are those with alpha ≥ 0.5 (`alpha`, when some pixels have alpha < 0.5), else those whose radiance differs from the
+/// uniform background (`background`); the predicted disc is rasterized by the same rule (pixel
 /// centres within r of the centre for alpha; within r + the filter's reach for the background
 /// rule, as a filter spreads the sphere into every pixel it reaches, `filter` or, unknown, a box,
 /// with up to 1.5 px more allowed for an unknown filter as wide as Mitsuba's default), both clipped

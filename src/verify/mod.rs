@@ -124,11 +124,11 @@ pub const CHECKS: &[Entry] = &[
 
 /// Runs one entry, timing it and turning an error into a failed check.
 ///
-/// Every σ a check uses comes from the renders' `stderr`, which the renderer already bounds by the
-/// neighbourhood-pooled relative error wherever a pixel is flagged unreliable (`renderer::film`): a
-/// flagged pixel's own error bar is never used, and no pixel is excluded (dropping the pixels where
-/// a rare heavy sample landed would bias the fits). The check states how many of its rendered pixels
-/// were flagged and how many had their σ raised to the pooled bound ([`Check::stderr_flagged`]).
+/// Every σ a check uses comes from the renders' `stderr`, the pixels' own error bars (the pooled
+/// bound of `renderer::film` is not applied to renders yet: see its module docs). A pixel flagged
+/// unreliable keeps its own σ and is not excluded (dropping the pixels where a rare heavy sample
+/// landed would bias the fits). The check states how many of its rendered pixels were flagged and
+/// how many the pooled bound would raise ([`Check::stderr_flagged`]).
 pub fn run_entry(ctx: &Ctx, e: &Entry) -> Check {
     let t = std::time::Instant::now();
     let before = scenes::stderr_flag_totals();
@@ -140,8 +140,8 @@ pub fn run_entry(ctx: &Ctx, e: &Entry) -> Check {
     (c.stderr_flagged, c.stderr_pooled) = (after.0 - before.0, after.1 - before.1);
     if c.stderr_flagged > 0 {
         c.note(format!(
-            "{} rendered pixels had stderr_flag = 1 (one rare sample dominated their own error bar); their σ and \
-             that of {} neighbours is the renderer's neighbourhood-pooled bound (down-weighted, none excluded)",
+            "{} rendered pixels had stderr_flag = 1 (one rare sample dominated their own error bar); the check uses \
+             their own σ, none excluded ({} neighbours are within reach of the pooled bound, not applied to renders)",
             c.stderr_flagged,
             c.stderr_pooled - c.stderr_flagged
         ));

@@ -211,7 +211,7 @@ impl Spec {
 static STDERR_FLAGGED: AtomicUsize = AtomicUsize::new(0);
 static STDERR_POOLED: AtomicUsize = AtomicUsize::new(0);
 
-/// The running totals (flagged, pooled) of [`STDERR_FLAGGED`] and [`STDERR_POOLED`].
+/// The running totals (flagged, pooled) of `STDERR_FLAGGED` and `STDERR_POOLED`.
 pub fn stderr_flag_totals() -> (usize, usize) {
     (STDERR_FLAGGED.load(Ordering::Relaxed), STDERR_POOLED.load(Ordering::Relaxed))
 }
