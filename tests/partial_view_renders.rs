@@ -78,9 +78,8 @@ fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_came
     // Two opposite views, the right lighting: invert brdf fits s by GLS on the pixel-space filter
     // (the `fit` says so, and carries the filter fit's χ² per channel), and the true s = 32 is within
     // 3 half-widths of the Δχ² = 1 (1σ) interval: a 1σ interval misses 32 % of the time with honest
-    // bars. Measured s = 33.0, [32.03, 33.97] (z = 1.03; the noise scaled by √(χ²/ν) of the l ≤ 16
-    // fit, 111 / 92 / 49, not of the l ≤ 12 fit, 224 / 291 / 243, which the orders 13–16 explain half
-    // of); it was [31.5, 35.8] with the l ≤ 12 scale and the renderer's σ before heavy-tail pooling.
+    // bars. Measured s = 32.8, [31.71, 33.85] (the noise scaled by √(χ²/ν) of the l ≤ 16 fit,
+    // 90 / 63 / 44, not of the l ≤ 12 fit, 224 / 301 / 362, which the orders 13–16 explain most of); it was [31.5, 35.8] with the l ≤ 12 scale and the renderer's σ before heavy-tail pooling.
     let both = run_json(&["invert", "brdf", f, b, "--lighting", g, "--model", "phong", "--lmax", "12", "--json"]);
     assert!(both["fit"].as_str().unwrap().starts_with("filter fitted in pixel space"), "{}", both["fit"]);
     let ff = &both["filter_fit"];
