@@ -192,6 +192,37 @@ fn lambert_filter_from_foreign_images() {
     assert!(err.contains("camera from the worldToNDC and worldToCamera attributes"), "{err}");
     assert!(err.contains("columns mirrored"), "{err}");
     assert_filter_right(&doc, "pbrt-style matrices");
+    // The true camera as flags, with --to/--up left at their documented defaults, agrees with the
+    // header's matrices (it was refused: --from took the matrix camera's own `to`).
+    let (doc, _) = ok_json(&[
+        "analyze",
+        pbrt_path.to_str().unwrap(),
+        "--lighting",
+        grace_s,
+        "--lmax",
+        "2",
+        "--from",
+        "3,0,1",
+        "--extent",
+        "1.05",
+        "--json",
+    ]);
+    assert_filter_right(&doc, "pbrt-style matrices with the true camera as flags");
+    // A flag camera that differs from the matrices is still a contradiction.
+    let (code, err) = reflect(&[
+        "analyze",
+        pbrt_path.to_str().unwrap(),
+        "--lighting",
+        grace_s,
+        "--lmax",
+        "2",
+        "--from",
+        "0,3,1",
+        "--extent",
+        "1.05",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("contradict"), "{err}");
     // Not mirrored back, the same pixels are a different image: the fit must see it (planted error).
     let mut unflipped = pbrt.clone();
     unflipped.channels = plain.channels.clone();

@@ -159,14 +159,25 @@ fn merge<T: std::fmt::Display>(
     }
 }
 
-/// The camera flags of one image laid over a base orthographic camera: the flags given replace the
-/// base's fields, the others are the base's.
+/// The camera flags of one image laid over a base orthographic camera. A `--from` given describes
+/// the flags' own camera: `--to` and `--up` then take their documented defaults (0,0,0 and 0,0,1)
+/// when absent, as for an image with no camera at all, never the base's (a pbrt matrix camera's `to`
+/// is a point on its own view axis, so `--from` with the base's `to` would look elsewhere). Without
+/// `--from`, the flags given replace the base's fields and the others are the base's.
 fn flags_over(f: &CameraFlags, base: &OrthoCamera) -> OrthoCamera {
-    OrthoCamera {
-        from: f.from.unwrap_or(base.from),
-        to: f.to.unwrap_or(base.to),
-        up: f.up.unwrap_or(base.up),
-        extent: f.extent.unwrap_or(base.extent),
+    match f.from {
+        Some(from) => OrthoCamera {
+            from,
+            to: f.to.unwrap_or([0.0; 3]),
+            up: f.up.unwrap_or([0.0, 0.0, 1.0]),
+            extent: f.extent.unwrap_or(base.extent),
+        },
+        None => OrthoCamera {
+            from: base.from,
+            to: f.to.unwrap_or(base.to),
+            up: f.up.unwrap_or(base.up),
+            extent: f.extent.unwrap_or(base.extent),
+        },
     }
 }
 
@@ -663,13 +674,17 @@ pub fn camera_of_matrices(img: &Image) -> Result<Option<(OrthoCamera, bool)>, Er
     let along = dot(look, ours);
     let mirrored = along < 0.0;
     let f = if mirrored { scale(ours, -1.0) } else { ours };
-    // The image centre (ndc ½, ½) on the plane spanned by a_x, a_y, then back along f.
+    // The image centre (ndc ½, ½) on the plane spanned by a_x, a_y; `to` is the point of the central
+    // ray nearest the world origin (where a scene's sphere usually is) and `from` 4 extents before it
+    // (outside a sphere the view frames). An orthographic view does not depend on where `from` lies
+    // on its axis; this only makes the camera the notes print read like one a user would write.
     let p0 = add(scale(ax, (0.5 - bx) / (nx * nx)), scale(ay, (0.5 - by) / (ny * ny)));
-    let from = add(p0, scale(f, -1e3 * extent.max(1.0)));
+    let to = add(p0, scale(f, -dot(p0, f)));
+    let from = add(to, scale(f, -4.0 * extent.max(1.0)));
     // A mirrored camera: the caller flips the columns, so the image's right is −right.
     let right_used = if mirrored { scale(right, -1.0) } else { right };
     debug_assert!(dot(cross(f, up), right_used) > 0.0);
-    Ok(Some((OrthoCamera { from, to: add(from, f), up, extent }, mirrored)))
+    Ok(Some((OrthoCamera { from, to, up, extent }, mirrored)))
 }
 
 /// `m` in the column-vector convention (translation in the last column): a matrix whose last
