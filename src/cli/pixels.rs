@@ -245,15 +245,8 @@ fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>) -> Pixel
 pub fn disc(camera: &OrthoCamera, sphere: &Sphere, width: usize, height: usize) -> Option<([f64; 2], f64)> {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let unit = |a: [f64; 3]| {
-        let n = dot(a, a).sqrt();
-        (n > 0.0 && n.is_finite()).then(|| [a[0] / n, a[1] / n, a[2] / n])
-    };
-    let f = unit(sub(camera.to, camera.from))?;
-    let right = unit(cross(f, camera.up))?;
-    let up = cross(right, f);
+    // The frame the fits sample pixels with (one definition, `OrthoCamera::basis`).
+    let [_, right, up] = camera.basis().ok()?;
     if camera.extent.is_nan() || camera.extent <= 0.0 || width == 0 || height == 0 {
         return None;
     }

@@ -34,6 +34,17 @@ pub struct OrthoCamera {
     pub extent: f64,
 }
 
+impl OrthoCamera {
+    /// The camera's orthonormal frame (forward f, right, up) of CONVENTIONS §5: f = unit(to − from),
+    /// right = unit(f × up), up' = right × f. Errors: `from` equals `to`, or `up` is parallel to f.
+    pub fn basis(&self) -> Result<[[f64; 3]; 3]> {
+        let f = normalize(sub(self.to, self.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
+        let right =
+            normalize(cross(f, self.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
+        Ok([f, right, cross(right, f)])
+    }
+}
+
 /// A sphere in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
@@ -167,10 +178,7 @@ fn collect_samples(
         (Some(x), Some(y), Some(z)) => Some((x, y, z)),
         _ => None,
     };
-    let f = normalize(sub(cam.to, cam.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
-    let right =
-        normalize(cross(f, cam.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
-    let up = cross(right, f);
+    let [f, right, up] = cam.basis()?;
     if !(cam.extent > 0.0) || !(sphere.radius > 0.0) {
         return Err(Error::new("camera extent and sphere radius must be positive"));
     }
