@@ -133,6 +133,7 @@ fn report_schemas_are_pinned() {
             ("stderr", "array"),
             ("stderr_noise", "array|null"),
             ("truncation", "array|null"),
+            ("truncation_bound", "array|null"),
             ("coefficient_amplification", "array|null"),
             ("channel_fits", "array|null"),
             ("pixel_noise", "object|null"),

@@ -236,7 +236,7 @@ pub fn fit_filter_pixels(
             lmax + 1
         )));
     }
-    let l_hi = light_lmax.min(crate::inverse::views::truncation_lmax(lmax));
+    let l_hi = light_lmax.min(crate::inverse::views::sequence_lmax(lmax));
     let dirs: Vec<[f64; 3]> = samples.iter().map(|s| s.dir).collect();
     let weight: Vec<f64> = samples.iter().map(|s| s.w).collect();
     let mut orders: Vec<PixelOrder> = (0..=lmax)

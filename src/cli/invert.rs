@@ -284,8 +284,12 @@ pub struct InvertLightingReport {
     pub stderr: Vec<Option<[f64; 3]>>,
     /// Orthographic views: the noise part (scaled by √(χ²/ν) when above 1).
     pub stderr_noise: Option<Vec<Option<[f64; 3]>>>,
-    /// Orthographic views: the estimated truncation bias (fit to l_max + 2).
+    /// Orthographic views: the estimated truncation bias, a standard deviation (`analysis::inverse::views`).
     pub truncation: Option<Vec<Option<[f64; 3]>>>,
+    /// Orthographic views: worst case of the truncation bias over lightings with the calibrated band
+    /// energies (`analysis::inverse::views`); an order whose bound reaches 25 % of its size is
+    /// `undetermined` ("cannot be determined from these views").
+    pub truncation_bound: Option<Vec<Option<[f64; 3]>>>,
     /// Orthographic views: amplification per coefficient (filter × design).
     pub coefficient_amplification: Option<Vec<Option<f64>>>,
     /// Orthographic views: χ², ν, χ²/ν, p-value, error scale, covariance per channel.
@@ -350,6 +354,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         .collect();
     let (mut coefficients, mut stderr) = (inv.coefficients, inv.stderr);
     let (mut stderr_noise, mut truncation, mut coefficient_amplification, mut channel_fits) = (None, None, None, None);
+    let mut truncation_bound = None;
     if let Some((samples, have_sigma)) = &p.samples {
         // Views that see part of the sphere: L_lm fitted in pixel space, with the conditioning of
         // the actual design and the truncation bias (issue 16).
@@ -377,6 +382,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         stderr = v.stderr;
         stderr_noise = Some(v.stderr_noise);
         truncation = Some(v.truncation);
+        truncation_bound = Some(v.truncation_bound);
         coefficient_amplification = Some(v.amplification);
         channel_fits = Some(v.channels);
         warnings.extend(v.warnings);
@@ -401,6 +407,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         stderr,
         stderr_noise,
         truncation,
+        truncation_bound,
         coefficient_amplification,
         channel_fits,
         regularised: RegularisedReport {

@@ -177,6 +177,7 @@ mod tests {
             stderr: vec![Some([se; 3]); n],
             stderr_noise: vec![Some([se; 3]); n],
             truncation: vec![None; n],
+            truncation_bound: vec![None; n],
             amplification: vec![Some(amp); n],
             channels: vec![],
             warnings: vec![],

@@ -29,6 +29,26 @@
 //!   view of a mirror under Grace (tests/mirror_truncation.rs), the total bars cover at about the
 //!   Gaussian rate. The truncation part is stated apart from the noise (`truncation`,
 //!   `stderr_noise`);
+//! - **predicted truncation** (the "predicted residual energy" of sec. 3.5's 9-term analysis): the
+//!   sequence cannot see what a fit to l ≤ H absorbs itself, and on one view's hemisphere the
+//!   orders just above L lie largely inside the fitted orders' span (a Lambert sphere at L = 2: the
+//!   l = 4 band alone biases L̂_00(R) by −0.545 of Grace's 2.533, while the l ≤ 4 fit moves it by
+//!   0.14). So a prior on the orders L < l ≤ [`truncation_lmax`] (where the filter is not zero),
+//!   E[L_lm²] = κ_l (l + 1)^−γ, isotropic over m ([`PRIOR_GAMMA`]), gives the bias of L̂_L,
+//!   (AᵀWA)⁻¹AᵀW T h = M h, the covariance Σ_b κ_b M_b Σ₀ M_bᵀ per order band b (from the blocks of
+//!   one Gram matrix up to the top order); the truncation part is the larger of its standard
+//!   deviation and the sequence's estimate. κ_b is calibrated by the data: the weighted residual sum
+//!   of squares that adding band b to the fit removes, minus its noise expectation (tr(G⁻¹S)
+//!   differences, × the noise scale²), over its expectation per unit κ (bands up to the highest
+//!   whose design amplification stays ≤ [`PRIOR_CALIBRATION_MAX_AMPLIFICATION`]; beyond, the last
+//!   band's κ) — and at least the natural spectrum through the fitted orders 1 … L, the mean of
+//!   (L̂_lm² − σ²)(l + 1)^γ. The residual sees only the part of a band outside the fitted span, so
+//!   where a lighting's band is aligned with the span (Grace's l = 4 on one view: its residual
+//!   calibrates κ_4 = 1.1, its true power is 2.7) the standard deviation understates the bias; so
+//!   the worst case over lightings with the calibrated band energies, Σ_b √(n_b κ_b u_ib)
+//!   (`truncation_bound`), classifies: an order whose RMS bound reaches
+//!   [`UNDETERMINED_TRUNCATION`] of its RMS value is reported [`UNDETERMINED`] ("cannot be
+//!   determined from these views"), not `recovered`;
 //! - **consistency**: χ²/ν and its p-value per channel from the per-pixel standard errors. The
 //!   noise part is the propagated σ, scaled by √(χ²/ν) of the *highest-order* fit (what the
 //!   truncated orders do not explain) when that is in (1, [`crate::fit::NOISE_CHI2_MAX`]]; a larger
@@ -54,10 +74,16 @@ pub const TRUNCATION_LMAX_CAP: usize = 16;
 /// cannot separate the extra orders and the fit's differences are noise, not bias.
 pub const TRUNCATION_MAX_DESIGN_AMPLIFICATION: f64 = 30.0;
 
-/// Highest order fitted to estimate the truncation bias of a fit to l ≤ `lmax`: 2 `lmax`, at most
-/// [`TRUNCATION_LMAX_CAP`], at least `lmax` + 2 (see the module docs). Callers pass the filter up
-/// to this order.
+/// Highest order of the truncation estimates of a fit to l ≤ `lmax` (the predicted truncation's
+/// prior and its calibration; the sequence stops at [`sequence_lmax`]): [`TRUNCATION_LMAX_CAP`], at
+/// least `lmax` + 2 (see the module docs). Callers pass the filter (or lighting) up to this order.
 pub fn truncation_lmax(lmax: usize) -> usize {
+    TRUNCATION_LMAX_CAP.max(lmax + 2)
+}
+
+/// Highest order of the truncation sequence of a fit to l ≤ `lmax` (2 `lmax`, at most
+/// [`TRUNCATION_LMAX_CAP`], at least `lmax` + 2).
+pub fn sequence_lmax(lmax: usize) -> usize {
     (2 * lmax).min(TRUNCATION_LMAX_CAP).max(lmax + 2)
 }
 
@@ -94,14 +120,15 @@ impl TruncationSequence {
 
 /// Per channel R, G, B.
 type Rgb = [Vec<f64>; 3];
-/// G, S (q × q row-major) and the right-hand sides of [`gram`].
-type Gram = (Vec<f64>, Vec<f64>, Rgb);
+/// G, S (q × q row-major), the right-hand sides and per channel (Σ w b², Σ w² σ²) of [`gram`].
+type Gram = (Vec<f64>, Vec<f64>, Rgb, [[f64; 2]; 3]);
 /// G⁻¹, the coefficients per channel and the noise-ratio diagonal of one nested fit.
 type Solved = (Vec<f64>, Rgb, Vec<f64>);
 
 /// Accumulates, over the samples, the Gram matrix G = Σ w a aᵀ, S = Σ w² σ̄² a aᵀ (σ̄² the mean of the
-/// channels' variances: one matrix for the noise ratios) and the right-hand sides Σ w a b / albedo,
-/// for the columns `cols_hi` (filter × Y_k up to `l_hi`). Chunks in a fixed order: the same bits
+/// channels' variances: one matrix for the noise ratios), the right-hand sides Σ w a b / albedo and
+/// per channel Σ w (b / albedo)² and Σ w² σ² / albedo² (the RSS and the channel's share of S), for
+/// the columns `cols_hi` (filter × Y_k up to `l_hi`). Chunks in a fixed order: the same bits
 /// at any thread count.
 fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize], l_hi: usize) -> Gram {
     use rayon::prelude::*;
@@ -114,6 +141,7 @@ fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize],
             let mut a = vec![0.0; q];
             let (mut g, mut s) = (vec![0.0; q * q], vec![0.0; q * q]);
             let mut rhs = [vec![0.0; q], vec![0.0; q], vec![0.0; q]];
+            let mut bb = [[0.0; 2]; 3];
             for smp in chunk {
                 basis.eval_into(smp.dir, &mut y);
                 for (j, &k) in cols_hi.iter().enumerate() {
@@ -122,6 +150,10 @@ fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize],
                 let w = smp.w;
                 let v = (0..3).map(|c| smp.var[c] / (albedo[c] * albedo[c])).sum::<f64>() / 3.0;
                 let b = [smp.b[0] / albedo[0], smp.b[1] / albedo[1], smp.b[2] / albedo[2]];
+                for c in 0..3 {
+                    bb[c][0] += w * b[c] * b[c];
+                    bb[c][1] += w * w * smp.var[c] / (albedo[c] * albedo[c]);
+                }
                 for i in 0..q {
                     let (wa, sa) = (w * a[i], w * w * v * a[i]);
                     for j in i..q {
@@ -133,12 +165,17 @@ fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize],
                     }
                 }
             }
-            (g, s, rhs)
+            (g, s, rhs, bb)
         })
         .collect();
     let (mut g, mut s) = (vec![0.0; q * q], vec![0.0; q * q]);
     let mut rhs = [vec![0.0; q], vec![0.0; q], vec![0.0; q]];
-    for (pg, ps, pr) in parts {
+    let mut bb = [[0.0; 2]; 3];
+    for (pg, ps, pr, pb) in parts {
+        for c in 0..3 {
+            bb[c][0] += pb[c][0];
+            bb[c][1] += pb[c][1];
+        }
         g.iter_mut().zip(&pg).for_each(|(a, b)| *a += b);
         s.iter_mut().zip(&ps).for_each(|(a, b)| *a += b);
         for c in 0..3 {
@@ -151,7 +188,7 @@ fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize],
             s[i * q + j] = s[j * q + i];
         }
     }
-    (g, s, rhs)
+    (g, s, rhs, bb)
 }
 
 /// The leading m × m block of a q × q row-major matrix.
@@ -173,6 +210,7 @@ fn sandwich_diag(ginv: &[f64], s: &[f64], m: usize, p: usize) -> Vec<f64> {
 /// columns (l ≤ `lmax`); fits up to H = lmax + 2, lmax + 4, … ≤ `l_hi` while the design stays
 /// solvable, (after the first) its amplification ≤ [`TRUNCATION_MAX_DESIGN_AMPLIFICATION`] and the pixels ≥ 4 × the
 /// columns. `None` when no higher order can be fitted.
+#[allow(clippy::too_many_arguments)]
 fn truncation_sequence(
     samples: &[Sample],
     albedo: [f64; 3],
@@ -180,24 +218,25 @@ fn truncation_sequence(
     cols_hi: &[usize],
     p: usize,
     lmax: usize,
-    l_hi: usize,
+    l_seq: usize,
+    gram: &Gram,
 ) -> Option<TruncationSequence> {
     if cols_hi.len() <= p {
         return None;
     }
     let q = cols_hi.len();
-    let (g, s, rhs) = gram(samples, albedo, filter, cols_hi, l_hi);
+    let (g, s, rhs, _) = gram;
     let solve = |m: usize| -> Option<Solved> {
-        let gm = block(&g, q, m);
+        let gm = block(g, q, m);
         let ginv = crate::fit::invert(&gm, m)?;
         let x = [0, 1, 2].map(|c| (0..m).map(|i| (0..m).map(|j| ginv[i * m + j] * rhs[c][j]).sum()).collect());
-        let v = sandwich_diag(&ginv, &block(&s, q, m), m, p);
+        let v = sandwich_diag(&ginv, &block(s, q, m), m, p);
         Some((ginv, x, v))
     };
     let (_, base, v_l) = solve(p)?;
-    let mut hs: Vec<usize> = (lmax + 2..=l_hi).step_by(2).collect();
-    if hs.last() != Some(&l_hi) {
-        hs.push(l_hi);
+    let mut hs: Vec<usize> = (lmax + 2..=l_seq).step_by(2).collect();
+    if hs.last() != Some(&l_seq) {
+        hs.push(l_seq);
     }
     let mut fits = Vec::new();
     let mut top: Option<(usize, usize, [Vec<f64>; 3])> = None;
@@ -210,7 +249,7 @@ fn truncation_sequence(
             break;
         }
         // Design amplification of the extended fit, the filter left out.
-        let gm = block(&g, q, m);
+        let gm = block(g, q, m);
         let d: Vec<f64> = (0..m).map(|i| gm[i * m + i].sqrt()).collect();
         let c: Vec<f64> = (0..m * m).map(|ij| gm[ij] / (d[ij / m] * d[ij % m])).collect();
         let Some(cinv) = crate::fit::invert(&c, m) else { break };
@@ -254,6 +293,179 @@ fn truncation_sequence(
     Some(TruncationSequence { l_top, fits, base, chi2_per_dof, robust_chi2 })
 }
 
+/// Exponent γ of the prior per-coefficient power of natural lighting, E[L_lm²] ∝ (l + 1)^−γ, of the
+/// predicted truncation ([`PredictedTruncation`]). Least-squares slopes of log(Σ_m L_lm² / (2l + 1))
+/// on log(l + 1) over l = 1 … 16 (`reflect sh project … --lmax 16 --json`): Grace (grace_latlong.exr)
+/// 1.45 / 1.30 / 1.49 (R G B), the sky map (sky_latlong.exr) 1.06. The smaller value is used: it
+/// puts more of the prior's energy at the high orders that are extrapolated, not measured.
+pub const PRIOR_GAMMA: f64 = 1.0;
+
+/// Largest design amplification (unit-diagonal Gram, [`crate::fit::design_amplification`]) of the
+/// fit whose residual calibrates the prior of [`PredictedTruncation`]: beyond it the Gram matrix's
+/// rounding (condition ≈ amplification²) would reach the residual differences measured.
+pub const PRIOR_CALIBRATION_MAX_AMPLIFICATION: f64 = 1.0e3;
+
+/// The predicted truncation of a fit to l ≤ L (module docs, "predicted truncation"): per fitted
+/// coefficient i and order band b above L the bias variance per unit prior power,
+/// u_ib = Σ_(j in b) M_ij² Σ₀_jj, M = G_AA⁻¹ G_AT, and per band the calibration of its power from the
+/// weighted residual sum of squares that adding the band to the fit removes.
+struct PredictedTruncation {
+    /// u_ib, i < p (row-major p × bands).
+    u: Vec<f64>,
+    /// The orders of the bands above L (observable ones only).
+    bands: Vec<usize>,
+    /// Per calibrated band (the first `steps.len()` bands): per channel ΔRSS_b (weighted,
+    /// albedo-normalized), its noise expectation for σ = the samples' σ, and d_b, the truncation
+    /// part of E[ΔRSS_b] per unit power.
+    steps: Vec<([f64; 3], [f64; 3], f64)>,
+    /// Per band its number of coefficients n_b (the worst-case bound of [`Self::bound`]).
+    sizes: Vec<usize>,
+}
+
+impl PredictedTruncation {
+    /// Highest order calibrated from the residuals (`None`: none could be).
+    fn l_cal(&self) -> Option<usize> {
+        self.steps.len().checked_sub(1).map(|b| self.bands[b])
+    }
+
+    /// The prior power scale κ_b of each band for channel `ch` (noise variance scale `s2`):
+    /// (ΔRSS_b − s² · noise_b)₊ / d_b for the calibrated bands, the last calibrated value beyond.
+    fn kappa(&self, ch: usize, s2: f64) -> Vec<f64> {
+        let mut k: Vec<f64> = self.steps.iter().map(|(r, n, d)| (r[ch] - s2 * n[ch]).max(0.0) / d).collect();
+        let last = k.last().copied().unwrap_or(0.0);
+        k.resize(self.bands.len(), last);
+        k
+    }
+
+    /// The worst case of the bias of coefficient i over lightings whose band energies are the
+    /// prior's, Σ_b √(n_b κ_b u_ib) (Cauchy–Schwarz per band: |Σ_(j in b) M_ij h_j| ≤
+    /// ‖M_ib‖ ‖h_b‖, E‖h_b‖² = n_b κ_b Σ₀_b).
+    fn bound(&self, kappa: &[f64], i: usize) -> f64 {
+        let nb = self.bands.len();
+        (0..nb).map(|b| (self.sizes[b] as f64 * kappa[b] * self.u[i * nb + b]).max(0.0).sqrt()).sum()
+    }
+
+    /// The predicted bias standard deviation of coefficient i, √(Σ_b κ_b u_ib).
+    fn bias(&self, kappa: &[f64], i: usize) -> f64 {
+        let nb = self.bands.len();
+        (0..nb).map(|b| kappa[b] * self.u[i * nb + b]).sum::<f64>().max(0.0).sqrt()
+    }
+}
+
+/// The prior power scale κ of the natural spectrum E[L_lm²] = κ (l + 1)^−γ ([`PRIOR_GAMMA`]) through
+/// the fitted coefficients of orders 1 … l_max (l = 0, the mean, is no part of the spectrum's
+/// slope): the mean over them of (L̂_lm² − σ²)(l + 1)^γ, σ the noise standard error (`sigma` ×
+/// `scale`); 0 without such orders.
+fn spectrum_kappa(cols: &[usize], coef: &[f64], sigma: &[f64], scale: f64) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (i, &k) in cols.iter().enumerate() {
+        let l = lm(k).0;
+        if l >= 1 {
+            sum += (coef[i].powi(2) - (sigma[i] * scale).powi(2)) * ((l + 1) as f64).powf(PRIOR_GAMMA);
+            n += 1;
+        }
+    }
+    if n > 0 { (sum / n as f64).max(0.0) } else { 0.0 }
+}
+
+/// Largest √((C⁻¹)_ii) of the leading m × m block of the Gram `g` (q × q), C its unit-diagonal
+/// form; `None` when singular.
+fn block_amplification(g: &[f64], q: usize, m: usize) -> Option<f64> {
+    let gm = block(g, q, m);
+    let d: Vec<f64> = (0..m).map(|i| gm[i * m + i].sqrt()).collect();
+    let c: Vec<f64> = (0..m * m).map(|ij| gm[ij] / (d[ij / m] * d[ij % m])).collect();
+    let cinv = crate::fit::invert(&c, m)?;
+    Some((0..m).map(|i| cinv[i * m + i].max(0.0).sqrt()).fold(0.0, f64::max))
+}
+
+/// The predicted truncation of the module docs from the Gram matrix of `cols_hi` (the first `p`
+/// fitted). `None` when no column lies above the fit or G_AA is singular.
+fn predicted_truncation(gram: &Gram, cols_hi: &[usize], p: usize, n_samples: usize) -> Option<PredictedTruncation> {
+    let (g, s, rhs, bb) = gram;
+    let q = cols_hi.len();
+    if q <= p {
+        return None;
+    }
+    let prior: Vec<f64> = cols_hi.iter().map(|&k| ((lm(k).0 + 1) as f64).powf(-PRIOR_GAMMA)).collect();
+    let mut bands: Vec<usize> = cols_hi[p..].iter().map(|&k| lm(k).0).collect();
+    bands.dedup();
+    let nb = bands.len();
+    let band_of = |j: usize| bands.iter().position(|&l| l == lm(cols_hi[j]).0).expect("a band per order");
+    let gpp_inv = crate::fit::invert(&block(g, q, p), p)?;
+    // M = G_AA⁻¹ G_AT (p × t, T = columns p … q) and u_ib.
+    let t = q - p;
+    let mut mm = vec![0.0; p * t];
+    for i in 0..p {
+        for a in 0..p {
+            let gi = gpp_inv[i * p + a];
+            for j in 0..t {
+                mm[i * t + j] += gi * g[a * q + p + j];
+            }
+        }
+    }
+    let mut u = vec![0.0; p * nb];
+    for j in 0..t {
+        let b = band_of(p + j);
+        for i in 0..p {
+            u[i * nb + b] += mm[i * t + j].powi(2) * prior[p + j];
+        }
+    }
+    // Σ over pixels of w σ̄² ... per channel: the channel's share of S (S holds the mean variance).
+    let total: f64 = bb.iter().map(|b| b[1]).sum::<f64>() / 3.0;
+    let share = [0, 1, 2].map(|c| if total > 0.0 { bb[c][1] / total } else { 0.0 });
+    // Weighted RSS removed by a fit on the first m columns, rhsᵀ G⁻¹ rhs, and its noise
+    // expectation tr(G⁻¹ S) (E[RSS] = tr(WΣ) − tr(G⁻¹S)).
+    let fitted = |ginv: &[f64], m: usize| -> ([f64; 3], f64) {
+        let r = [0, 1, 2].map(|c| {
+            (0..m).map(|a| rhs[c][a] * (0..m).map(|b| ginv[a * m + b] * rhs[c][b]).sum::<f64>()).sum::<f64>()
+        });
+        let n = (0..m).map(|a| (0..m).map(|b| ginv[a * m + b] * s[b * q + a]).sum::<f64>()).sum();
+        (r, n)
+    };
+    let (mut prev_inv, mut prev_m) = (gpp_inv, p);
+    let mut prev_fit = fitted(&prev_inv, p);
+    let mut steps = Vec::new();
+    for &l in &bands {
+        let m = cols_hi.iter().take_while(|&&k| lm(k).0 <= l).count();
+        if n_samples < 4 * m || !block_amplification(g, q, m).is_some_and(|a| a <= PRIOR_CALIBRATION_MAX_AMPLIFICATION)
+        {
+            break;
+        }
+        let Some(inv) = crate::fit::invert(&block(g, q, m), m) else { break };
+        // d_b = Σ_(j in b) Σ₀_jj (G_jj − G_jP G_PP⁻¹ G_Pj), P the previous fit's columns.
+        let d: f64 = (prev_m..m)
+            .map(|j| {
+                let row = &g[j * q..j * q + prev_m];
+                let proj: f64 = (0..prev_m)
+                    .map(|a| row[a] * (0..prev_m).map(|b| prev_inv[a * prev_m + b] * row[b]).sum::<f64>())
+                    .sum();
+                prior[j] * (g[j * q + j] - proj)
+            })
+            .sum();
+        if !(d > 0.0) {
+            break;
+        }
+        let fit = fitted(&inv, m);
+        let delta = [0, 1, 2].map(|c| fit.0[c] - prev_fit.0[c]);
+        let noise = [0, 1, 2].map(|c| (fit.1 - prev_fit.1) * share[c]);
+        steps.push((delta, noise, d));
+
+        (prev_inv, prev_m, prev_fit) = (inv, m, fit);
+    }
+    let sizes = bands.iter().map(|&l| cols_hi[p..].iter().filter(|&&k| lm(k).0 == l).count()).collect();
+    Some(PredictedTruncation { u, bands, steps, sizes })
+}
+
+/// Status of an order whose amplification passes but whose truncation bound
+/// ([`ViewsLighting::truncation_bound`], RMS over m) reaches [`UNDETERMINED_TRUNCATION`] of its RMS
+/// value in some channel: the views cannot tell it from the orders above l_max.
+pub const UNDETERMINED: &str = "undetermined";
+
+/// Fraction of an order's size at which its truncation bound makes it [`UNDETERMINED`]. Measured
+/// (tests/partial_view_truncation.rs): one view of a Lambert sphere under Grace at l_max 2 gives
+/// 32 / 42 / 62 % (R G B) at l = 0, two opposite views 1 % at l = 0 and ≤ 13 % at l = 2.
+pub const UNDETERMINED_TRUNCATION: f64 = 0.25;
+
 /// One order of [`invert_lighting_views`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ViewOrder {
@@ -262,7 +474,7 @@ pub struct ViewOrder {
     pub lambda_rho: f64,
     /// Largest amplification a_k over the order's m (filter × design); `None` if unobservable.
     pub amplification: Option<f64>,
-    /// `recovered`, `ill-conditioned` or `unobservable`.
+    /// `recovered`, `ill-conditioned`, `unobservable` or [`UNDETERMINED`].
     pub status: String,
 }
 
@@ -277,8 +489,13 @@ pub struct ViewsLighting {
     pub stderr: Vec<Option<[f64; 3]>>,
     /// Noise part (scaled by √(χ²/ν) when above 1).
     pub stderr_noise: Vec<Option<[f64; 3]>>,
-    /// Estimated truncation bias; `None` where no higher orders could be fitted.
+    /// Estimated truncation bias (a standard deviation): the larger of the sequence's and the
+    /// predicted one (module docs); `None` where no higher orders could be fitted.
     pub truncation: Vec<Option<[f64; 3]>>,
+    /// Worst case of the truncation bias over lightings with the calibrated band energies
+    /// (module docs); `None` where no higher orders could be fitted. An order whose RMS bound reaches
+    /// [`UNDETERMINED_TRUNCATION`] of its RMS value is [`UNDETERMINED`].
+    pub truncation_bound: Vec<Option<[f64; 3]>>,
     /// a_k per coefficient (the same for every channel).
     pub amplification: Vec<Option<f64>>,
     /// χ², ν, χ²/ν, p-value, error scale, covariance per channel (R, G, B).
@@ -351,11 +568,16 @@ pub fn invert_lighting_views(
     for (i, &k) in cols.iter().enumerate() {
         amplification[k] = Some(fmax / filter[lm(k).0].abs() * amp[i]);
     }
-    let seq = truncation_sequence(samples, albedo, filter, &cols_hi, p, lmax, l_hi);
+    let gram_hi = (cols_hi.len() > p).then(|| gram(samples, albedo, filter, &cols_hi, l_hi));
+    let seq = gram_hi.as_ref().and_then(|gr| {
+        truncation_sequence(samples, albedo, filter, &cols_hi, p, lmax, l_hi.min(sequence_lmax(lmax)), gr)
+    });
+    let predicted = gram_hi.as_ref().and_then(|gr| predicted_truncation(gr, &cols_hi, p, samples.len()));
     let mut coefficients = vec![None; n];
     let mut stderr = vec![None; n];
     let mut stderr_noise = vec![None; n];
     let mut truncation = vec![None; n];
+    let mut truncation_bound = vec![None; n];
     let mut channels = Vec::with_capacity(3);
     let mut warnings = Vec::new();
     for ch in 0..3 {
@@ -405,9 +627,23 @@ pub fn invert_lighting_views(
                  up to l = {top}, and so also holds whatever that fit leaves unexplained"
             ));
         }
+        // The prior's power per band: the larger of the residual's calibration and the natural
+        // spectrum through the fitted orders 1 … l_max (module docs).
+        let kappa = predicted.as_ref().map(|q| {
+            let spectrum = spectrum_kappa(&cols, &fit.coef, &fit.sigma, scale);
+            q.kappa(ch, scale * scale).into_iter().map(|k| k.max(spectrum)).collect::<Vec<f64>>()
+        });
         for (i, &k) in cols.iter().enumerate() {
             let noise = fit.sigma[i] * scale;
-            let t = seq.as_ref().map(|q| q.bias(ch, i, fit.sigma[i] * fit.sigma[i] * scale * scale));
+            let t_seq = seq.as_ref().map(|q| q.bias(ch, i, fit.sigma[i] * fit.sigma[i] * scale * scale));
+            let t_pred = kappa.as_ref().zip(predicted.as_ref()).map(|(kp, q)| q.bias(kp, i));
+            if let Some(b) = kappa.as_ref().zip(predicted.as_ref()).map(|(kp, q)| q.bound(kp, i)) {
+                truncation_bound[k].get_or_insert([0.0; 3])[ch] = b;
+            }
+            let t = match (t_seq, t_pred) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                (a, b) => a.or(b),
+            };
             coefficients[k].get_or_insert([0.0; 3])[ch] = fit.coef[i];
             stderr_noise[k].get_or_insert([0.0; 3])[ch] = noise;
             if let Some(t) = t {
@@ -426,24 +662,47 @@ pub fn invert_lighting_views(
             stderr_scale: scale,
             fitted_orders: (0..=lmax).filter(|&l| observable(l)).collect(),
             covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),
-            truncation_lmax: seq.as_ref().map(|q| q.l_top),
+            truncation_lmax: seq.as_ref().map(|q| q.l_top).max(predicted.as_ref().and_then(|q| q.l_cal())),
             truncation_chi2_per_dof: seq.as_ref().and_then(|q| q.chi2_per_dof[ch]),
         });
     }
+    // Per order the largest over channels of RMS_m(truncation bound) / RMS_m(|L̂_lm|).
+    let truncation_share = |l: usize| -> Option<f64> {
+        let ks = l * l..(l + 1) * (l + 1);
+        (0..3)
+            .filter_map(|ch| {
+                let bound: f64 = ks.clone().filter_map(|k| truncation_bound[k].map(|b: [f64; 3]| b[ch].powi(2))).sum();
+                let value: f64 = ks.clone().filter_map(|k| coefficients[k].map(|c: [f64; 3]| c[ch].powi(2))).sum();
+                (value > 0.0).then(|| (bound / value).sqrt())
+            })
+            .reduce(f64::max)
+    };
     let orders: Vec<ViewOrder> = (0..=lmax)
         .map(|l| {
             let amp = (0..2 * l + 1)
                 .filter_map(|i| amplification[l * l + i])
                 .fold(None, |a: Option<f64>, v| Some(a.map_or(v, |a| a.max(v))));
             let status = match amp {
-                None => Status::Unobservable,
-                Some(a) if a > max_amplification => Status::IllConditioned,
-                Some(_) => Status::Recovered,
+                None => Status::Unobservable.name(),
+                Some(a) if a > max_amplification => Status::IllConditioned.name(),
+                Some(_) if truncation_share(l).is_some_and(|r| r >= UNDETERMINED_TRUNCATION) => UNDETERMINED,
+                Some(_) => Status::Recovered.name(),
             };
-            ViewOrder { l, lambda_rho: filter[l], amplification: amp, status: status.name().to_string() }
+            ViewOrder { l, lambda_rho: filter[l], amplification: amp, status: status.to_string() }
         })
         .collect();
     for o in &orders {
+        if o.status == UNDETERMINED {
+            warnings.push(format!(
+                "order l = {} cannot be determined from these views: the orders above l_max {lmax} (fitted to \
+                 calibrate the predicted truncation up to l = {}) can move it by {:.0} % of its size (worst case of \
+                 the calibrated energies, `truncation_bound`; ≥ {:.0} %) — add views (e.g. the opposite one)",
+                o.l,
+                predicted.as_ref().and_then(|q| q.l_cal()).unwrap_or(l_hi),
+                100.0 * truncation_share(o.l).unwrap_or(0.0),
+                100.0 * UNDETERMINED_TRUNCATION
+            ));
+        }
         if o.status == Status::IllConditioned.name() {
             warnings.push(format!(
                 "order l = {} cannot be determined from these views: amplification {:.1} > {max_amplification} \
@@ -460,6 +719,7 @@ pub fn invert_lighting_views(
         stderr,
         stderr_noise,
         truncation,
+        truncation_bound,
         amplification,
         channels,
         warnings,
