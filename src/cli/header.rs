@@ -5,7 +5,8 @@
 //!    typed scene vocabulary ([`vocab::header::Header`]; a malformed value is an error naming the key);
 //! 2. a sidecar scene file in our vocabulary (`--scene S.toml`: the image is that scene's render, so its
 //!    `[render]` size must be the image's);
-//! 3. flags ([`ViewArgs`]: `--from/--to/--up/--extent` per image, `--center/--radius`; BRDF flags
+//! 3. flags ([`ViewArgs`]: `--from/--to/--up/--extent` or `--theta-o/--phi-o` per image,
+//!    `--center/--radius`; BRDF flags
 //!    [`BrdfFlags`]).
 //!
 //! Every value may come from several of them; where two give it they must agree (a flag fills in
@@ -38,17 +39,23 @@ impl std::fmt::Display for Camera {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Camera::Ortho(c) => {
-                write!(f, "orthographic from {} to {} up {} extent {}", v3(c.from), v3(c.to), v3(c.up), c.extent)
+                write!(f, "orthographic from {} to {} up {} extent {}", v3(c.from), v3(c.to), v3(c.up), num(c.extent))
             }
             Camera::NormalProbe { theta_o_deg, phi_o_deg } => {
-                write!(f, "normal-probe theta_o_deg {theta_o_deg} phi_o_deg {phi_o_deg}")
+                write!(f, "normal-probe theta_o_deg {} phi_o_deg {}", num(*theta_o_deg), num(*phi_o_deg))
             }
         }
     }
 }
 
+/// A number in a message with the precision cameras and spheres have (headers and matrices store
+/// f32): the shortest decimal that reads back as the same f32, so 1.05 and not 1.049999996870756.
+fn num(x: f64) -> String {
+    format!("{}", x as f32)
+}
+
 fn v3(v: [f64; 3]) -> String {
-    format!("{},{},{}", v[0], v[1], v[2])
+    format!("{},{},{}", num(v[0]), num(v[1]), num(v[2]))
 }
 
 impl Camera {
@@ -181,9 +188,20 @@ fn flags_over(f: &CameraFlags, base: &OrthoCamera) -> OrthoCamera {
     }
 }
 
+/// The normal-probe camera of `--theta-o/--phi-o` (degrees), through the one exitance check of
+/// every command ([`analysis::transfer::validate_exitance`]: 0 ≤ θ_o < 90°).
+fn probe_of_flags(theta_o_deg: f64, phi_o_deg: f64) -> Result<Camera, Error> {
+    if !phi_o_deg.is_finite() {
+        return Err(Error::new(format!("--phi-o must be a finite number of degrees, got {phi_o_deg}")));
+    }
+    analysis::transfer::validate_exitance(theta_o_deg.to_radians())
+        .map_err(|e| Error::new(format!("--theta-o: {}", e.message)))?;
+    Ok(Camera::NormalProbe { theta_o_deg, phi_o_deg })
+}
+
 impl std::fmt::Display for SphereShown {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "sphere center {} radius {}", v3(self.0.center), self.0.radius)
+        write!(f, "sphere center {} radius {}", v3(self.0.center), num(self.0.radius))
     }
 }
 
@@ -192,7 +210,7 @@ impl std::fmt::Display for SphereShown {
 struct SphereShown(Sphere);
 
 /// Reads the images of an analysis command and describes them ([`describe`]): each image's radiance
-/// layer is chosen by `view.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
+/// layer is chosen by `view.image.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
 /// and the layers ignored), and a camera recovered from the standard `worldToNDC` / `worldToCamera`
 /// attributes ([`camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
 /// image of ours has its columns mirrored here, once, for every command. An orthographic camera not
@@ -202,25 +220,28 @@ struct SphereShown(Sphere);
 /// after this, by [`super::pixels::prepare`]. With `--pixel-filter`, the
 /// pixels whose filter footprint reaches the silhouette are masked out ([`super::pixels::edge_margin`]).
 pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Description), Error> {
+    // Notes go to stderr only once everything is read and described: bad input gets its one line.
+    let mut notes = Vec::new();
     let mut images = Vec::with_capacity(paths.len());
     for p in paths {
-        let (img, note) = read_image(p)?.select_layer(view.layer.as_deref()).map_err(|e| e.in_file(p))?;
+        let (img, note) = read_image(p)?.select_layer(view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;
         if let Some(n) = note {
-            eprintln!("note: {}: {n}", p.display());
+            notes.push(format!("note: {}: {n}", p.display()));
         }
         images.push(img);
     }
     let mut d = describe(&images, paths, view, what)?;
+    notes.append(&mut d.notes);
     d.stderr_notes = images.iter().zip(paths).filter_map(|(img, p)| stderr_flag_note(img, p)).collect();
     for ((img, p), mirrored) in images.iter_mut().zip(paths).zip(&d.mirrored) {
         if *mirrored {
             for data in img.channels.values_mut() {
                 data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
             }
-            eprintln!(
+            notes.push(format!(
                 "note: {}: the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored",
                 p.display()
-            );
+            ));
         }
     }
 
@@ -230,12 +251,13 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
         if let Camera::Ortho(c) = cam
             && !img.attributes.contains_key("reflect:camera")
             && let Some(w) =
-                super::pixels::check_silhouette(img, view.layer.as_deref(), c, &d.sphere, view.pixel_filter)
+                super::pixels::check_silhouette(img, view.image.layer.as_deref(), c, &d.sphere, view.pixel_filter)
                     .map_err(|e| e.in_file(p))?
         {
             d.warnings.push(format!("{}: {w}", p.display()));
         }
     }
+    notes.iter().for_each(|n| eprintln!("{n}"));
     Ok((images, d))
 }
 
@@ -268,6 +290,9 @@ pub struct Description {
     /// One note per image with pixels flagged in a `stderr_flag.Y` layer (set by [`load`]; the
     /// commands add them to their warnings, text and JSON).
     pub stderr_notes: Vec<String>,
+    /// Where each image's camera came from when not said by its header (`note: FILE: …` lines),
+    /// printed on stderr by [`load`] once the description succeeded.
+    pub notes: Vec<String>,
 }
 
 /// The note for an image whose `stderr_flag.Y` layer flags pixels (`reflect render`'s diagnostic: one
@@ -287,10 +312,10 @@ pub fn stderr_flag_note(img: &Image, path: &Path) -> Option<String> {
 
 /// Whether the sidecar scene gives cameras, size, objects and lighting.
 fn scene_of(view: &ViewArgs) -> Result<Option<(PathBuf, SceneFile)>, Error> {
-    view.scene.as_ref().map(|p| read_scene(p).map(|s| (p.clone(), s))).transpose()
+    view.image.scene.as_ref().map(|p| read_scene(p).map(|s| (p.clone(), s))).transpose()
 }
 
-/// Describes `images` (read from `paths`) from their headers, `view.scene` and the flags of
+/// Describes `images` (read from `paths`) from their headers, `view.image.scene` and the flags of
 /// `view` (module docs). `what` is the command's verb for refusals ("analysed", "inverted").
 ///
 /// Errors (each one line naming the file where there is one): a malformed header value (naming the
@@ -323,6 +348,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
     let flags = view.per_image(images.len())?;
     let mut cameras = Vec::with_capacity(images.len());
     let mut mirrored = Vec::with_capacity(images.len());
+    let mut notes = Vec::new();
     for (((hd, p), f), img) in headers.iter().zip(paths).zip(&flags).zip(images) {
         let in_p = |e: Error| e.in_file(p);
         let from_header = hd
@@ -331,17 +357,17 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             .map(|c| Camera::of_section(c, what).map(|c| (c, "the header's reflect:camera".to_string())));
         let matrix = camera_of_matrices(img).map_err(in_p)?;
         if let Some((c, _)) = &matrix {
-            eprintln!(
+            notes.push(format!(
                 "note: {}: camera from the worldToNDC{} attributes: {}",
                 p.display(),
                 if img.matrices.contains_key("worldToCamera") { " and worldToCamera" } else { "" },
                 Camera::Ortho(*c)
-            );
+            ));
         } else if img.matrices.contains_key("worldToCamera") && hd.camera.is_none() {
-            eprintln!(
+            notes.push(format!(
                 "note: {}: worldToCamera without worldToNDC does not give the view's extent: not used (pass --from/--to/--up/--extent)",
                 p.display()
-            );
+            ));
         }
         mirrored.push(matrix.is_some_and(|(_, m)| m));
         let from_header = merge(
@@ -349,22 +375,57 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             matrix.map(|(c, _)| (Camera::Ortho(c), "the header's worldToNDC".to_string())),
             same_camera,
         )
-        .map_err(in_p)?
-        .map(Ok);
-        let from_scene = scene.as_ref().map(|(sp, s)| {
-            Camera::of_section(&s.camera, what).map(|c| (c, format!("the [camera] of {}", sp.display())))
-        });
-        let base = merge(from_header.transpose().map_err(in_p)?, from_scene.transpose().map_err(in_p)?, same_camera)
+        .map_err(in_p)?;
+        let from_scene = scene
+            .as_ref()
+            .map(|(sp, s)| {
+                Camera::of_section(&s.camera, what).map(|c| (c, format!("the [camera] of {}", sp.display())))
+            })
+            .transpose()
             .map_err(in_p)?;
-        let given = f.from.is_some() || f.to.is_some() || f.up.is_some() || f.extent.is_some();
-        let camera = match base {
-            None => f.camera().map(Camera::Ortho).ok_or_else(|| {
+        // A sidecar's normal-probe camera describes a set of views of one scene, each at its own
+        // exitance (a light field, a separation): the image's header or --theta-o/--phi-o give this
+        // image's angles, the scene's are the default.
+        let template = matches!(from_scene, Some((Camera::NormalProbe { .. }, _)));
+        let base = match (from_header, from_scene) {
+            (Some(h @ (Camera::NormalProbe { .. }, _)), Some(_)) if template => Some(h),
+            (h, s) => merge(h, s, same_camera).map_err(in_p)?,
+        };
+        let base_is_template = template && base.as_ref().is_some_and(|(_, src)| src.starts_with("the [camera]"));
+        if f.ortho_given() && f.probe().is_some() {
+            return Err(Error::file(
+                p,
+                "--from/--to/--up/--extent describe an orthographic camera and --theta-o/--phi-o a normal-probe camera: give one of them",
+            ));
+        }
+        let camera = match (base, f.probe()) {
+            (None, Some((t, ph))) => probe_of_flags(t, ph).map_err(in_p)?,
+            (None, None) => f.camera().map(Camera::Ortho).ok_or_else(|| {
                 Error::file(
                     p,
-                    "no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera), or --scene S.toml",
+                    "no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera), --theta-o (normal-probe camera), or --scene S.toml",
                 )
             })?,
-            Some((Camera::Ortho(b), src)) if given => {
+            (Some((Camera::NormalProbe { .. }, _)), Some((t, ph))) if base_is_template => {
+                probe_of_flags(t, ph).map_err(in_p)?
+            }
+            (Some((b @ Camera::NormalProbe { .. }, src)), Some((t, ph))) => {
+                let c = probe_of_flags(t, ph).map_err(in_p)?;
+                if !same_camera(&c, &b) {
+                    return Err(Error::file(
+                        p,
+                        format!("--theta-o/--phi-o give {c} but {src} gives {b}: they contradict each other"),
+                    ));
+                }
+                b
+            }
+            (Some((Camera::Ortho(_), src)), Some(_)) => {
+                return Err(Error::file(
+                    p,
+                    format!("--theta-o/--phi-o describe a normal-probe camera but {src} is an orthographic camera"),
+                ));
+            }
+            (Some((Camera::Ortho(b), src)), None) if f.ortho_given() => {
                 let c = flags_over(f, &b);
                 if !same_view(&c, &b) {
                     return Err(Error::file(
@@ -378,13 +439,13 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
                 }
                 Camera::Ortho(b)
             }
-            Some((Camera::NormalProbe { .. }, src)) if given => {
+            (Some((Camera::NormalProbe { .. }, src)), None) if f.ortho_given() => {
                 return Err(Error::file(
                     p,
                     format!("--from/--to/--up/--extent describe an orthographic camera but {src} is a normal-probe camera"),
                 ));
             }
-            Some((c, _)) => c,
+            (Some((c, _)), None) => c,
         };
         cameras.push(camera);
     }
@@ -475,6 +536,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
         mirrored,
         warnings: Vec::new(),
         stderr_notes: Vec::new(),
+        notes,
     })
 }
 
