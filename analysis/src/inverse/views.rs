@@ -416,9 +416,8 @@ fn predicted_truncation(gram: &Gram, cols_hi: &[usize], p: usize, n_samples: usi
     // Weighted RSS removed by a fit on the first m columns, rhsᵀ G⁻¹ rhs, and its noise
     // expectation tr(G⁻¹ S) (E[RSS] = tr(WΣ) − tr(G⁻¹S)).
     let fitted = |ginv: &[f64], m: usize| -> ([f64; 3], f64) {
-        let r = [0, 1, 2].map(|c| {
-            (0..m).map(|a| rhs[c][a] * (0..m).map(|b| ginv[a * m + b] * rhs[c][b]).sum::<f64>()).sum::<f64>()
-        });
+        let r = [0, 1, 2]
+            .map(|c| (0..m).map(|a| rhs[c][a] * (0..m).map(|b| ginv[a * m + b] * rhs[c][b]).sum::<f64>()).sum::<f64>());
         let n = (0..m).map(|a| (0..m).map(|b| ginv[a * m + b] * s[b * q + a]).sum::<f64>()).sum();
         (r, n)
     };
