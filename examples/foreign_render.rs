@@ -142,7 +142,7 @@ fn main() {
     }
     println!(
         "{}: {size}² Lambert 0.8 sphere under Grace, RGBA layer ViewLayer.Combined, pbrt-v4 camera matrices, \
-         Mitsuba's default gaussian pixel filter ({}² sub-pixels × {spp} spp, seed {seed})",
+         Mitsuba's default gaussian pixel filter (samples {SUB} × {SUB} per pixel, {spp} spp each: a {}² render; seed {seed})",
         out.display(),
         SUB * size
     );

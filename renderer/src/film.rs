@@ -279,42 +279,67 @@ impl Fold {
 /// Combines one pixel's samples, arriving in increasing index order from `start`, into the
 /// canonical blocks of their range (a binary counter: a new block is joined with its left sibling
 /// while there is one).
+///
+/// The stack lives inline (no allocation per pixel, no call to `memcpy` per sample: ~20 % of the
+/// film's instructions were these); [`PixelAccumulator::reset`] reuses one accumulator for the
+/// pixels of a tile. The joins are the same, in the same order, so the statistics are the same bits.
 #[derive(Clone, Debug)]
 pub struct PixelAccumulator {
     batch_log2: u32,
     next: u64,
-    stack: Vec<(Block, Stats)>,
+    /// Number of blocks on the stack: `blocks[..len]`, `stats[..len]`.
+    len: usize,
+    blocks: [Block; ACC_STACK],
+    stats: [Stats; ACC_STACK],
 }
+
+/// Capacity of a [`PixelAccumulator`]'s stack: the canonical decomposition of any `[start, next)`
+/// of u64 sample indices has at most 2 · 64 blocks (sizes increasing, then decreasing).
+const ACC_STACK: usize = 128;
 
 impl PixelAccumulator {
     /// An accumulator for samples `start, start + 1, …`, with batches of `2^batch_log2` samples.
     pub fn new(start: u64, batch_log2: u32) -> Self {
-        PixelAccumulator { batch_log2, next: start, stack: Vec::with_capacity(40) }
+        PixelAccumulator {
+            batch_log2,
+            next: start,
+            len: 0,
+            blocks: [Block { start: 0, log2: 0 }; ACC_STACK],
+            stats: [Stats::default(); ACC_STACK],
+        }
+    }
+
+    /// Empties the accumulator for another pixel's samples `start, start + 1, …` (the same as
+    /// `new(start, batch_log2)` without initialising the stack again).
+    #[inline]
+    pub fn reset(&mut self, start: u64) {
+        self.next = start;
+        self.len = 0;
     }
 
     /// Adds the next sample.
     #[inline]
     pub fn add(&mut self, radiance: Rgb, normal: Vec3, hit: bool) {
-        let s = Stats::sample(radiance, normal, hit, self.batch_log2);
-        self.push(Block { start: self.next, log2: 0 }, s);
+        let mut s = Stats::sample(radiance, normal, hit, self.batch_log2);
+        let mut block = Block { start: self.next, log2: 0 };
         self.next += 1;
-    }
-
-    fn push(&mut self, mut block: Block, mut s: Stats) {
-        while let Some((top, ts)) = self.stack.last() {
-            if !top.is_left_sibling_of(&block) {
+        while let Some(top) = self.len.checked_sub(1) {
+            let left = self.blocks[top];
+            if !left.is_left_sibling_of(&block) {
                 break;
             }
-            s = ts.join(&s, block.log2, self.batch_log2);
-            block = Block { start: top.start, log2: block.log2 + 1 };
-            self.stack.pop();
+            s = self.stats[top].join(&s, block.log2, self.batch_log2);
+            block = Block { start: left.start, log2: block.log2 + 1 };
+            self.len = top;
         }
-        self.stack.push((block, s));
+        self.blocks[self.len] = block;
+        self.stats[self.len] = s;
+        self.len += 1;
     }
 
     /// The canonical blocks of the samples added so far, left to right.
-    pub fn blocks(&self) -> impl Iterator<Item = &(Block, Stats)> {
-        self.stack.iter()
+    pub fn blocks(&self) -> impl Iterator<Item = (Block, &Stats)> {
+        self.blocks[..self.len].iter().copied().zip(&self.stats[..self.len])
     }
 }
 
@@ -584,7 +609,7 @@ mod tests {
         for &x in &xs[a..b] {
             acc.add(Rgb::new(x, 2.0 * x, 0.5), Vec3::Z, x > 2.0);
         }
-        acc.blocks().copied().collect()
+        acc.blocks().map(|(b, s)| (b, *s)).collect()
     }
 
     fn partial(xs: &[f32], a: usize, b: usize) -> Partial {

@@ -173,10 +173,11 @@ fn render_tile(
     let jitter = scene.camera.jitters();
     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize * 2);
     let mut rays = 0u64;
+    let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
     for row in y0..y1 {
         for col in x0..x1 {
             let pixel_id = row as u64 * s.width as u64 + col as u64;
-            let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
+            acc.reset(start);
             for i in start..end {
                 sampler.start(pixel_id, i as u32);
                 let u = sampler.next_2d();

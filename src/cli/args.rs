@@ -14,8 +14,9 @@ use std::path::PathBuf;
 /// not say them (another renderer's images, in the renderer's camera convention). The one place
 /// these flags are parsed and documented: every command that takes a view flattens this struct.
 ///
-/// `--from/--to/--up/--extent` are given once per image, in the order of the images, or not at all
-/// ([`flags::per_image`]); `--center` and `--radius` describe the one sphere; `--scene S.toml` says
+/// `--from/--to/--up/--extent` (an orthographic view, CONVENTIONS §5) or `--theta-o/--phi-o` (a
+/// normal-probe view, CONVENTIONS §6) are given once per image, in the order of the images, or not
+/// at all ([`flags::per_image`]); `--center` and `--radius` describe the one sphere; `--scene S.toml` says
 /// the images are renders of that scene (camera, sphere, BRDF, lighting; its `[render]` size must be
 /// the images'). A header's `reflect:camera` / `reflect:objects`, the scene and the flags are
 /// combined by [`super::header::describe`]: each fills in what the others leave open, and two that
@@ -42,6 +43,23 @@ pub struct ViewArgs {
     /// Sphere radius when the header has no reflect:objects.
     #[arg(long)]
     pub radius: Option<f64>,
+    /// The reconstruction filter of a renderer that splats each sample into the pixels its filter
+    /// reaches (Mitsuba 3): box, gaussian:STDDEV or gaussian:STDDEV:RADIUS (radius 4·STDDEV by default; Mitsuba's
+    /// default is gaussian:0.5), tent:RADIUS, in pixels. Its kernel gives the correlation of
+    /// neighbouring pixels' noise, hence the widening of the error bars, and the margin of pixels
+    /// near the silhouette left out; without it the correlation is measured from the residuals.
+    #[arg(long, value_parser = parse_pixel_filter)]
+    pub pixel_filter: Option<PixelFilter>,
+    /// The flags of a view that every analysis command takes, normal-probe images included.
+    #[command(flatten)]
+    pub image: ImageArgs,
+}
+
+/// The part of [`ViewArgs`] that also describes normal-probe images, the only part `invert separate`
+/// and `invert factor` take: the sidecar `--scene`, the radiance `--layer`, and the normal-probe
+/// camera of a headerless image (`--theta-o/--phi-o`, once per image, as the orthographic flags).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ImageArgs {
     /// Scene file (TOML, our vocabulary) the images are renders of: camera, sphere, BRDF and
     /// lighting for images whose header does not say them; its `[render]` size must be the images'.
     #[arg(long)]
@@ -50,13 +68,21 @@ pub struct ViewArgs {
     /// ViewLayer.Combined.R/G/B); needed only when the file has several radiance layers.
     #[arg(long)]
     pub layer: Option<String>,
-    /// The reconstruction filter of a renderer that splats each sample into the pixels its filter
-    /// reaches (Mitsuba 3): box, gaussian:STDDEV or gaussian:STDDEV:RADIUS (radius 4·STDDEV by default; Mitsuba's
-    /// default is gaussian:0.5), tent:RADIUS, in pixels. Its kernel gives the correlation of
-    /// neighbouring pixels' noise, hence the widening of the error bars, and the margin of pixels
-    /// near the silhouette left out; without it the correlation is measured from the residuals.
-    #[arg(long, value_parser = parse_pixel_filter)]
-    pub pixel_filter: Option<PixelFilter>,
+    /// Normal-probe camera (a lat-long map over the sphere's normals, README "Cameras") of an image
+    /// without reflect:camera: its exitance θ_o in degrees, 0 ≤ θ_o < 90, once per image (default 0
+    /// when only --phi-o is given); a --scene normal-probe camera takes these angles per image.
+    #[arg(long = "theta-o")]
+    pub theta_o: Vec<f64>,
+    /// Normal-probe azimuth φ_o in degrees, once per image (default 0).
+    #[arg(long = "phi-o", allow_hyphen_values = true)]
+    pub phi_o: Vec<f64>,
+}
+
+impl ImageArgs {
+    /// These flags as a whole [`ViewArgs`] (no orthographic flag), for [`super::header::load`].
+    pub fn view(&self) -> ViewArgs {
+        ViewArgs { image: self.clone(), ..Default::default() }
+    }
 }
 
 fn parse_pixel_filter(s: &str) -> Result<PixelFilter, String> {
@@ -126,9 +152,24 @@ pub struct CameraFlags {
     pub to: Option<[f64; 3]>,
     pub up: Option<[f64; 3]>,
     pub extent: Option<f64>,
+    /// `--theta-o` / `--phi-o`: a normal-probe camera (degrees).
+    pub theta_o: Option<f64>,
+    pub phi_o: Option<f64>,
 }
 
 impl CameraFlags {
+    /// Whether an orthographic flag (`--from/--to/--up/--extent`) is given.
+    pub fn ortho_given(&self) -> bool {
+        self.from.is_some() || self.to.is_some() || self.up.is_some() || self.extent.is_some()
+    }
+
+    /// The normal-probe angles (θ_o°, φ_o°) of `--theta-o/--phi-o` (each defaulting to 0 when the
+    /// other is given); `None` when neither is given.
+    pub fn probe(&self) -> Option<(f64, f64)> {
+        (self.theta_o.is_some() || self.phi_o.is_some())
+            .then(|| (self.theta_o.unwrap_or(0.0), self.phi_o.unwrap_or(0.0)))
+    }
+
     /// The orthographic camera these flags describe: `--from` and `--extent` are needed, `--to`
     /// defaults to the origin and `--up` to +z. `None` when either is missing.
     pub fn camera(&self) -> Option<OrthoCamera> {
@@ -147,7 +188,18 @@ impl ViewArgs {
     pub fn per_image(&self, n: usize) -> Result<Vec<CameraFlags>, Error> {
         let (from, to) = (flags::per_image(&self.from, "from", n)?, flags::per_image(&self.to, "to", n)?);
         let (up, extent) = (flags::per_image(&self.up, "up", n)?, flags::per_image(&self.extent, "extent", n)?);
-        Ok((0..n).map(|i| CameraFlags { from: from[i], to: to[i], up: up[i], extent: extent[i] }).collect())
+        let theta_o = flags::per_image(&self.image.theta_o, "theta-o", n)?;
+        let phi_o = flags::per_image(&self.image.phi_o, "phi-o", n)?;
+        Ok((0..n)
+            .map(|i| CameraFlags {
+                from: from[i],
+                to: to[i],
+                up: up[i],
+                extent: extent[i],
+                theta_o: theta_o[i],
+                phi_o: phi_o[i],
+            })
+            .collect())
     }
 }
 

@@ -15,9 +15,12 @@
 //!   product rule: every node once, θ'_o and φ'_o within [`NODE_TOL_DEG`] (headers carry f32
 //!   degrees, ~1e-5° at 90°). All images share one W × H grid and one scene (their
 //!   `reflect:lighting` / `reflect:objects` headers agree). `--normal` is a θ_o = 0 render: it adds
-//!   the normal-exitance filter.
-//! - `reflect invert factor --scene SCENE.toml --nodes N_MUxN_PHI --lmax L [--size 96x48]`: renders
-//!   the light field in memory: the scene's camera is replaced by a `normal-probe` at every node and
+//!   the normal-exitance filter. Images without a `reflect:camera` header (another renderer's) are
+//!   described as in every analysis command ([`super::header::load`]): `--theta-o/--phi-o` once per
+//!   image, and `--scene S.toml` the sidecar scene they are renders of (its normal-probe camera,
+//!   `jitter` false, and size); a headerless `--normal` image is taken at θ_o = 0.
+//! - `reflect invert factor --scene SCENE.toml --nodes N_MUxN_PHI --lmax L [--size 96x48]` (no
+//!   IMAGES): renders the light field in memory: the scene's camera is replaced by a `normal-probe` at every node and
 //!   once at θ_o = 0 (`objects[0]` must be a sphere; `jitter` off; `[render]` spp, seed, sampler and
 //!   max_depth are kept, width × height is `--size`). Prints the render count and wall time.
 //! - `reflect invert factor --print-nodes N_MUxN_PHI [--json]`: the nodes to render, one
@@ -36,7 +39,7 @@
 //! `--json` prints one JSON document (CONVENTIONS §7) instead of the text tables.
 
 use super::Error;
-use super::args::{Channel, Quadrature};
+use super::args::{Channel, ImageArgs, Quadrature};
 use super::header::Camera as ViewCamera;
 use super::sh::check_lmax;
 use analysis::image::{Image, read_image};
@@ -63,9 +66,6 @@ pub const MAX_SIDE: u32 = 4096;
 pub struct FactorArgs {
     /// normal-probe renders (OpenEXR), one per node of an n_μ × n_φ product rule (see --print-nodes).
     pub images: Vec<PathBuf>,
-    /// Render the light field of this scene (TOML) in memory instead of reading IMAGES.
-    #[arg(long)]
-    pub scene: Option<PathBuf>,
     /// Outgoing nodes n_μ × n_φ, e.g. 8x16 (required with --scene; with IMAGES, checked against the set).
     #[arg(long, value_parser = parse_nodes)]
     pub nodes: Option<(usize, usize)>,
@@ -93,6 +93,11 @@ pub struct FactorArgs {
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
+    /// Without IMAGES, --scene S.toml renders that scene's light field in memory (with --nodes and
+    /// --size). With IMAGES it is their sidecar as in the other commands: the scene they are renders
+    /// of; images without a reflect:camera header take their (θ_o, φ_o) from --theta-o/--phi-o.
+    #[command(flatten)]
+    pub view: ImageArgs,
 }
 
 fn parse_nodes(s: &str) -> Result<(usize, usize), String> {
@@ -115,7 +120,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 pub fn run(a: &FactorArgs) -> Result<ExitCode, Error> {
     if let Some((n_mu, n_phi)) = a.print_nodes {
-        if !a.images.is_empty() || a.scene.is_some() || a.normal.is_some() {
+        if !a.images.is_empty() || a.view.scene.is_some() || a.normal.is_some() {
             return Err(Error::new("--print-nodes takes no IMAGES, --scene or --normal"));
         }
         print_nodes(n_mu, n_phi, a.json)?;
@@ -225,8 +230,13 @@ pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
             a.max_amplification
         )));
     }
-    let m = match (&a.scene, a.images.is_empty()) {
-        (Some(_), false) => return Err(Error::new("give either IMAGES or --scene, not both")),
+    let probe_flags = !a.view.theta_o.is_empty() || !a.view.phi_o.is_empty() || a.view.layer.is_some();
+    let m = match (&a.view.scene, a.images.is_empty()) {
+        (Some(_), true) if probe_flags => {
+            return Err(Error::new(
+                "--theta-o, --phi-o and --layer describe IMAGES; without IMAGES --scene renders the light field",
+            ));
+        }
         (None, true) => {
             return Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI"));
         }
@@ -237,31 +247,34 @@ pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
             let nodes = a.nodes.ok_or_else(|| Error::new("--scene needs --nodes N_MUxN_PHI (e.g. 8x16)"))?;
             from_scene(scene, nodes, a.size, ch, rule, lmax)?
         }
-        (None, false) => from_images(&a.images, a.normal.as_deref(), a.nodes, ch, rule, lmax)?,
+        (_, false) => from_images(&a.images, a.normal.as_deref(), &a.view, a.nodes, ch, rule, lmax)?,
     };
     let f = m.lf.factorize(lmax, a.max_amplification)?;
     Ok(report(a, &m, &f, lmax, rule))
 }
 
-/// Camera of a header: (θ_o°, φ_o°), checked to be a pixel-centre normal-probe.
-fn probe_angles(img: &Image, p: &Path) -> Result<(f64, f64), Error> {
-    let cam = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?.camera.ok_or_else(|| {
-        Error::file(p, "no reflect:camera in the header (factor needs normal-probe renders of reflect)")
-    })?;
-    match cam {
-        vocab::CameraSection::NormalProbe { jitter: true, .. } => Err(Error::file(
+/// (θ_o°, φ_o°) of an image's described camera ([`super::header::load`]), checked to be a
+/// pixel-centre normal-probe: a `jitter = true` camera in its header or in the `--scene` sidecar is
+/// refused.
+fn probe_angles(img: &Image, cam: &ViewCamera, view: &ImageArgs, p: &Path) -> Result<(f64, f64), Error> {
+    let header = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?.camera;
+    let scene = match &view.scene {
+        Some(s) => Some(super::header::read_scene(s)?.camera),
+        None => None,
+    };
+    let jittered = |c: &Option<CameraSection>| matches!(c, Some(CameraSection::NormalProbe { jitter: true, .. }));
+    if jittered(&header) || (header.is_none() && jittered(&scene)) {
+        return Err(Error::file(
             p,
             "a jittered normal-probe render holds pixel averages, not the pixel-centre samples the quadrature needs (render with jitter = false)",
+        ));
+    }
+    match *cam {
+        ViewCamera::NormalProbe { theta_o_deg, phi_o_deg } => Ok((theta_o_deg, phi_o_deg)),
+        ViewCamera::Ortho(_) => Err(Error::file(
+            p,
+            "an orthographic camera cannot be factored (normal-probe renders only; describe a headerless one with --theta-o/--phi-o)",
         )),
-        vocab::CameraSection::NormalProbe { .. } => {
-            match ViewCamera::of_section(&cam, "factored").map_err(|e| e.in_file(p))? {
-                ViewCamera::NormalProbe { theta_o_deg, phi_o_deg } => Ok((theta_o_deg, phi_o_deg)),
-                ViewCamera::Ortho(_) => unreachable!(),
-            }
-        }
-        _ => {
-            Err(Error::file(p, format!("camera type '{}' cannot be factored (normal-probe renders only)", cam.kind())))
-        }
     }
 }
 
@@ -301,6 +314,7 @@ fn same_scene(first: &[Option<String>; 2], first_path: &Path, img: &Image, p: &P
 fn from_images(
     paths: &[PathBuf],
     normal: Option<&Path>,
+    view: &ImageArgs,
     given: Option<(usize, usize)>,
     ch: usize,
     rule: NormalRule,
@@ -311,9 +325,9 @@ fn from_images(
     let mut size = None;
     let mut max_se: Option<f64> = None;
     let mut first_scene = None;
-    for p in paths {
-        let img = read_image(p)?;
-        let (t, ph) = probe_angles(&img, p)?;
+    let (images, described) = super::header::load(paths, &view.view(), "factored")?;
+    for ((p, img), cam) in paths.iter().zip(images).zip(&described.cameras) {
+        let (t, ph) = probe_angles(&img, cam, view, p)?;
         if t.abs() <= NODE_TOL_DEG {
             return Err(Error::file(
                 p,
@@ -359,8 +373,13 @@ fn from_images(
     let normal_b = match normal {
         None => None,
         Some(p) => {
-            let img = read_image(p)?;
-            let (t, _) = probe_angles(&img, p)?;
+            // The normal view is at θ_o = 0 by definition: a headerless one needs no angle flags
+            // (those of IMAGES are one per node image), a header's camera is checked below.
+            let has_camera = read_image(p)?.attributes.contains_key("reflect:camera");
+            let nv = ImageArgs { theta_o: if has_camera { vec![] } else { vec![0.0] }, phi_o: vec![], ..view.clone() };
+            let (mut imgs, d) = super::header::load(std::slice::from_ref(&p.to_path_buf()), &nv.view(), "factored")?;
+            let img = imgs.remove(0);
+            let (t, _) = probe_angles(&img, &d.cameras[0], view, p)?;
             if let Some((s0, p0)) = &first_scene {
                 same_scene(s0, p0, &img, p)?;
             }
@@ -597,7 +616,7 @@ fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: No
     let (w, h) = (m.lf.width, m.lf.height);
     InvertFactorReport {
         command: "invert factor".into(),
-        mode: if a.scene.is_some() { "scene" } else { "images" }.into(),
+        mode: if a.view.scene.is_some() && a.images.is_empty() { "scene" } else { "images" }.into(),
         input: m.input.clone(),
         nodes: [m.nodes.0, m.nodes.1],
         grid: [w, h],
@@ -853,6 +872,61 @@ mod tests {
         assert!(factor_report(&a).unwrap().to_string().contains("albedo profile"));
     }
 
+    /// `path` without its `reflect:` attributes, as another renderer writes it.
+    fn strip(path: &Path) -> PathBuf {
+        let mut img = read_image(path).unwrap();
+        img.attributes.retain(|k, _| !k.starts_with("reflect:"));
+        let out = path.with_extension("foreign.exr");
+        write_exr(&out, &img).unwrap();
+        out
+    }
+
+    #[test]
+    fn headerless_node_images_described_by_flags_or_sidecar_factor_as_the_originals() {
+        let l: Vec<f64> = vec![1.0, 0.2, 0.35, -0.25, 0.1, -0.05, 0.08, 0.12, -0.07];
+        let (paths, normal) = lambert_set("headerless", &l, 2, 3);
+        let mut a = args(paths.clone(), 2);
+        a.normal = Some(normal.clone());
+        let want = factor_doc(&a).unwrap();
+        let angles: Vec<(f64, f64)> = hemisphere_nodes(2, 3).unwrap().iter().map(node_degrees).collect();
+        let mut b = args(paths.iter().map(|p| strip(p)).collect(), 2);
+        b.normal = Some(strip(&normal));
+        // Without a camera from any source: refused, saying what to pass.
+        let e = factor_doc(&b).unwrap_err().to_string();
+        assert!(e.contains("no reflect:camera") && e.contains("--theta-o"), "{e}");
+        // The headers wrote f32 degrees: pass the same values, as a user copying them would.
+        b.view.theta_o = angles.iter().map(|a| a.0 as f32 as f64).collect();
+        b.view.phi_o = angles.iter().map(|a| a.1 as f32 as f64).collect();
+        let by_flags = factor_doc(&b).unwrap();
+        // A sidecar scene (normal-probe camera, jitter off, the images' size): the same.
+        let scene = tmp("headerless/sidecar.toml");
+        std::fs::write(
+            &scene,
+            "[render]\nwidth = 32\nheight = 16\n[camera]\ntype = \"normal-probe\"\njitter = false\n\
+             [lighting]\ntype = \"uniform\"\nradiance = 1.0\n[[objects]]\nshape = \"sphere\"\n\
+             brdf = { type = \"lambert\", albedo = 0.7 }\n",
+        )
+        .unwrap();
+        b.view.scene = Some(scene.clone());
+        let by_scene = factor_doc(&b).unwrap();
+        assert_eq!(by_scene["mode"], "images");
+        for doc in [&by_flags, &by_scene] {
+            for key in ["nodes", "orders", "lighting", "albedo_profile", "filter", "source"] {
+                assert_eq!(doc[key], want[key], "{key}");
+            }
+        }
+        // A header's angle contradicted by a flag is an error naming both.
+        let mut c = args(paths.clone(), 2);
+        c.view.theta_o = vec![10.0; paths.len()];
+        let e = factor_doc(&c).unwrap_err().to_string();
+        assert!(e.contains("--theta-o/--phi-o give") && e.contains("reflect:camera"), "{e}");
+        // A jittered sidecar camera is refused as a jittered header is.
+        std::fs::write(&scene, std::fs::read_to_string(&scene).unwrap().replace("jitter = false", "jitter = true"))
+            .unwrap();
+        let e = factor_doc(&b).unwrap_err().to_string();
+        assert!(e.contains("jittered"), "{e}");
+    }
+
     #[test]
     fn incomplete_duplicate_and_foreign_node_sets_are_refused() {
         let l = vec![1.0, 0.2, 0.35, -0.25];
@@ -972,7 +1046,7 @@ radius = 1.0
         let scene = tmp("glossy.toml");
         std::fs::write(&scene, &glossy).unwrap();
         let mut a = args(vec![], 2);
-        a.scene = Some(scene.clone());
+        a.view.scene = Some(scene.clone());
         a.nodes = Some((2, 4));
         a.size = (24, 12);
         let doc = factor_doc(&a).unwrap();
@@ -1015,7 +1089,7 @@ radius = 1.0
         // rule integrates the clamped cosine's terminator kink; measured 5e-6° at 24 × 12.
         let lam = tmp("lambert.toml");
         std::fs::write(&lam, format!("{SCENE}brdf = {{ type = \"lambert\", albedo = 1.0 }}\n")).unwrap();
-        a.scene = Some(lam);
+        a.view.scene = Some(lam);
         let doc = factor_doc(&a).unwrap();
         assert!(angle_deg(direction(&doc), truth) < 1e-3);
         assert!((num(&doc["source"]["directionality"]) - 1.0).abs() < 1e-3);
@@ -1030,10 +1104,10 @@ radius = 1.0
             ) + "brdf = { type = \"lambert\", albedo = 1.0 }\n",
         )
         .unwrap();
-        a.scene = Some(mesh);
+        a.view.scene = Some(mesh);
         let e = factor_doc(&a).unwrap_err().to_string();
         assert!(e.contains("mesh.toml") && e.contains("sphere"), "{e}");
-        a.scene = Some(scene);
+        a.view.scene = Some(scene);
         a.nodes = None;
         assert!(factor_doc(&a).unwrap_err().to_string().contains("--nodes"));
         let _ = num_coefficients(2);

@@ -5,7 +5,8 @@
 //!    typed scene vocabulary ([`vocab::header::Header`]; a malformed value is an error naming the key);
 //! 2. a sidecar scene file in our vocabulary (`--scene S.toml`: the image is that scene's render, so its
 //!    `[render]` size must be the image's);
-//! 3. flags ([`ViewArgs`]: `--from/--to/--up/--extent` per image, `--center/--radius`; BRDF flags
+//! 3. flags ([`ViewArgs`]: `--from/--to/--up/--extent` or `--theta-o/--phi-o` per image,
+//!    `--center/--radius`; BRDF flags
 //!    [`BrdfFlags`]).
 //!
 //! Every value may come from several of them; where two give it they must agree (a flag fills in
@@ -181,6 +182,17 @@ fn flags_over(f: &CameraFlags, base: &OrthoCamera) -> OrthoCamera {
     }
 }
 
+/// The normal-probe camera of `--theta-o/--phi-o` (degrees), through the one exitance check of
+/// every command ([`analysis::transfer::validate_exitance`]: 0 ≤ θ_o < 90°).
+fn probe_of_flags(theta_o_deg: f64, phi_o_deg: f64) -> Result<Camera, Error> {
+    if !phi_o_deg.is_finite() {
+        return Err(Error::new(format!("--phi-o must be a finite number of degrees, got {phi_o_deg}")));
+    }
+    analysis::transfer::validate_exitance(theta_o_deg.to_radians())
+        .map_err(|e| Error::new(format!("--theta-o: {}", e.message)))?;
+    Ok(Camera::NormalProbe { theta_o_deg, phi_o_deg })
+}
+
 impl std::fmt::Display for SphereShown {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "sphere center {} radius {}", v3(self.0.center), self.0.radius)
@@ -192,7 +204,7 @@ impl std::fmt::Display for SphereShown {
 struct SphereShown(Sphere);
 
 /// Reads the images of an analysis command and describes them ([`describe`]): each image's radiance
-/// layer is chosen by `view.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
+/// layer is chosen by `view.image.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
 /// and the layers ignored), and a camera recovered from the standard `worldToNDC` / `worldToCamera`
 /// attributes ([`camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
 /// image of ours has its columns mirrored here, once, for every command. An orthographic camera not
@@ -204,7 +216,7 @@ struct SphereShown(Sphere);
 pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Description), Error> {
     let mut images = Vec::with_capacity(paths.len());
     for p in paths {
-        let (img, note) = read_image(p)?.select_layer(view.layer.as_deref()).map_err(|e| e.in_file(p))?;
+        let (img, note) = read_image(p)?.select_layer(view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;
         if let Some(n) = note {
             eprintln!("note: {}: {n}", p.display());
         }
@@ -230,7 +242,7 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
         if let Camera::Ortho(c) = cam
             && !img.attributes.contains_key("reflect:camera")
             && let Some(w) =
-                super::pixels::check_silhouette(img, view.layer.as_deref(), c, &d.sphere, view.pixel_filter)
+                super::pixels::check_silhouette(img, view.image.layer.as_deref(), c, &d.sphere, view.pixel_filter)
                     .map_err(|e| e.in_file(p))?
         {
             d.warnings.push(format!("{}: {w}", p.display()));
@@ -287,10 +299,10 @@ pub fn stderr_flag_note(img: &Image, path: &Path) -> Option<String> {
 
 /// Whether the sidecar scene gives cameras, size, objects and lighting.
 fn scene_of(view: &ViewArgs) -> Result<Option<(PathBuf, SceneFile)>, Error> {
-    view.scene.as_ref().map(|p| read_scene(p).map(|s| (p.clone(), s))).transpose()
+    view.image.scene.as_ref().map(|p| read_scene(p).map(|s| (p.clone(), s))).transpose()
 }
 
-/// Describes `images` (read from `paths`) from their headers, `view.scene` and the flags of
+/// Describes `images` (read from `paths`) from their headers, `view.image.scene` and the flags of
 /// `view` (module docs). `what` is the command's verb for refusals ("analysed", "inverted").
 ///
 /// Errors (each one line naming the file where there is one): a malformed header value (naming the
@@ -349,22 +361,57 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             matrix.map(|(c, _)| (Camera::Ortho(c), "the header's worldToNDC".to_string())),
             same_camera,
         )
-        .map_err(in_p)?
-        .map(Ok);
-        let from_scene = scene.as_ref().map(|(sp, s)| {
-            Camera::of_section(&s.camera, what).map(|c| (c, format!("the [camera] of {}", sp.display())))
-        });
-        let base = merge(from_header.transpose().map_err(in_p)?, from_scene.transpose().map_err(in_p)?, same_camera)
+        .map_err(in_p)?;
+        let from_scene = scene
+            .as_ref()
+            .map(|(sp, s)| {
+                Camera::of_section(&s.camera, what).map(|c| (c, format!("the [camera] of {}", sp.display())))
+            })
+            .transpose()
             .map_err(in_p)?;
-        let given = f.from.is_some() || f.to.is_some() || f.up.is_some() || f.extent.is_some();
-        let camera = match base {
-            None => f.camera().map(Camera::Ortho).ok_or_else(|| {
+        // A sidecar's normal-probe camera describes a set of views of one scene, each at its own
+        // exitance (a light field, a separation): the image's header or --theta-o/--phi-o give this
+        // image's angles, the scene's are the default.
+        let template = matches!(from_scene, Some((Camera::NormalProbe { .. }, _)));
+        let base = match (from_header, from_scene) {
+            (Some(h @ (Camera::NormalProbe { .. }, _)), Some(_)) if template => Some(h),
+            (h, s) => merge(h, s, same_camera).map_err(in_p)?,
+        };
+        let base_is_template = template && base.as_ref().is_some_and(|(_, src)| src.starts_with("the [camera]"));
+        if f.ortho_given() && f.probe().is_some() {
+            return Err(Error::file(
+                p,
+                "--from/--to/--up/--extent describe an orthographic camera and --theta-o/--phi-o a normal-probe camera: give one of them",
+            ));
+        }
+        let camera = match (base, f.probe()) {
+            (None, Some((t, ph))) => probe_of_flags(t, ph).map_err(in_p)?,
+            (None, None) => f.camera().map(Camera::Ortho).ok_or_else(|| {
                 Error::file(
                     p,
-                    "no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera), or --scene S.toml",
+                    "no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera), --theta-o (normal-probe camera), or --scene S.toml",
                 )
             })?,
-            Some((Camera::Ortho(b), src)) if given => {
+            (Some((Camera::NormalProbe { .. }, _)), Some((t, ph))) if base_is_template => {
+                probe_of_flags(t, ph).map_err(in_p)?
+            }
+            (Some((b @ Camera::NormalProbe { .. }, src)), Some((t, ph))) => {
+                let c = probe_of_flags(t, ph).map_err(in_p)?;
+                if !same_camera(&c, &b) {
+                    return Err(Error::file(
+                        p,
+                        format!("--theta-o/--phi-o give {c} but {src} gives {b}: they contradict each other"),
+                    ));
+                }
+                b
+            }
+            (Some((Camera::Ortho(_), src)), Some(_)) => {
+                return Err(Error::file(
+                    p,
+                    format!("--theta-o/--phi-o describe a normal-probe camera but {src} is an orthographic camera"),
+                ));
+            }
+            (Some((Camera::Ortho(b), src)), None) if f.ortho_given() => {
                 let c = flags_over(f, &b);
                 if !same_view(&c, &b) {
                     return Err(Error::file(
@@ -378,13 +425,13 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
                 }
                 Camera::Ortho(b)
             }
-            Some((Camera::NormalProbe { .. }, src)) if given => {
+            (Some((Camera::NormalProbe { .. }, src)), None) if f.ortho_given() => {
                 return Err(Error::file(
                     p,
                     format!("--from/--to/--up/--extent describe an orthographic camera but {src} is a normal-probe camera"),
                 ));
             }
-            Some((c, _)) => c,
+            (Some((c, _)), None) => c,
         };
         cameras.push(camera);
     }

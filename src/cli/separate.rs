@@ -3,7 +3,9 @@
 //! algorithm of reference \[17\]; library `analysis::inverse::separation`).
 //!
 //! The surface is ρ̂ = k_d · lambert (unit albedo) + k_s · mirror (unit k_r). The inputs are
-//! `normal-probe` renders of it (CONVENTIONS §6, with the `reflect:camera` header): the *diffuse
+//! `normal-probe` renders of it (CONVENTIONS §6; with the `reflect:camera` header, or another
+//! renderer's described by `--theta-o/--phi-o` per image or a `--scene` sidecar, as in every analysis
+//! command, [`super::header::load`]): the *diffuse
 //! view* first, at normal exitance θ_o = 0 (R = n), which gives the 9 low-order lighting
 //! coefficients L̂_lm = B_lm / (k_d Λ_l ρ̂_l + k_s), l ≤ 2; then one or more *specular views* at
 //! θ_o > 0 and φ_o ∈ {0°, 180°} (R ≠ n; the two azimuths together cover the sphere of R), from
@@ -14,7 +16,8 @@
 //! fixed k_d + k_s for the χ² minimum (how \[17\] fixes the split).
 //!
 //! Parameters: `--kd`, `--ks` (one number or r,g,b; default: the header's BRDF when it is a `mix`
-//! of one `lambert` and one `mirror` layer, k_d = weight × albedo, k_s = weight × k_r), `--lmax`
+//! of one `lambert` and one `mirror` layer, k_d = weight × albedo, k_s = weight × k_r; else the
+//! `--scene` sidecar's), `--lmax`
 //! (default 8, at most [`MAX_LMAX`] and 2(lmax + 1) ≤ H), `--channel` (default all three; JSON
 //! coefficients are then `[r, g, b]` triples, else numbers of the one channel), `--scan`,
 //! `--output` (the recovered lighting as a W × W/2 lat-long EXR, reconstructed from its SH, one
@@ -26,9 +29,9 @@
 //! so that a large χ² at the right split can be told apart from a wrong split.
 
 use super::Error;
-use super::args::Channel;
+use super::args::{Channel, ImageArgs};
 use super::header::Camera;
-use analysis::image::{Image, RgbImage, read_image, write_exr};
+use analysis::image::{Image, RgbImage, write_exr};
 use analysis::inverse::separation::{
     LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
 };
@@ -77,6 +80,10 @@ pub struct SeparateArgs {
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
+    /// How images without a reflect:camera header are described: --theta-o/--phi-o per image, or a
+    /// sidecar --scene whose normal-probe camera and mix BRDF they are renders of; --layer.
+    #[command(flatten)]
+    pub view: ImageArgs,
 }
 
 pub fn run(a: &SeparateArgs) -> Result<ExitCode, Error> {
@@ -98,26 +105,14 @@ struct View {
     stderr: Option<RgbImage>,
 }
 
-fn read_view(p: &Path) -> Result<(View, Image), Error> {
-    let img = read_image(p)?;
-    let cam = vocab::header::Header::read(&img.attributes)
-        .map_err(|e| e.in_file(p))?
-        .camera
-        .ok_or_else(|| Error::file(p, "no reflect:camera in the header: not a normal-probe render of reflect"))?;
-    let (theta_o_deg, phi_o_deg) = match cam {
-        vocab::CameraSection::NormalProbe { .. } => {
-            match Camera::of_section(&cam, "separated").map_err(|e| e.in_file(p))? {
-                Camera::NormalProbe { theta_o_deg, phi_o_deg } => (theta_o_deg, phi_o_deg),
-                Camera::Ortho(_) => unreachable!(),
-            }
-        }
-        _ => {
+/// One normal-probe view from an image and its described camera ([`super::header::load`]).
+fn read_view(p: &Path, img: &Image, cam: &Camera) -> Result<View, Error> {
+    let (theta_o_deg, phi_o_deg) = match *cam {
+        Camera::NormalProbe { theta_o_deg, phi_o_deg } => (theta_o_deg, phi_o_deg),
+        Camera::Ortho(_) => {
             return Err(Error::file(
                 p,
-                format!(
-                    "not a normal-probe render (camera type '{}'): separation needs normal-probe views",
-                    cam.kind()
-                ),
+                "not a normal-probe render (an orthographic camera): separation needs normal-probe views",
             ));
         }
     };
@@ -129,7 +124,17 @@ fn read_view(p: &Path) -> Result<(View, Image), Error> {
         ));
     }
     let stderr = img.stderr_layer().map_err(|e| e.in_file(p))?;
-    Ok((View { path: p.to_path_buf(), theta_o_deg, phi_o_deg, rgb, stderr }, img))
+    Ok(View { path: p.to_path_buf(), theta_o_deg, phi_o_deg, rgb, stderr })
+}
+
+/// Where the BRDF table came from, in the words of `split_source`: "the first image's header" or
+/// "the [[objects]] of S.toml" (`--scene`).
+fn table_source(brdf: &Option<(Value, &String)>) -> String {
+    match brdf {
+        Some((_, src)) if src.starts_with("the header") => "the first image's header".to_string(),
+        Some((_, src)) => src.to_string(),
+        None => "the header".to_string(),
+    }
 }
 
 /// (k_d, k_s) of a header BRDF that is a `mix` of exactly one lambert and one mirror layer.
@@ -173,7 +178,7 @@ fn weight_arg(arg: Option<[f64; 3]>, header: Option<[f64; 3]>, flag: &str) -> Re
         Some(v) => Ok((v, true)),
         None => header.map(|h| (h, false)).ok_or_else(|| {
             Error::new(format!(
-                "--{flag} is required: the first image's header BRDF is not a mix of one lambert and one mirror layer (pass --kd and --ks)"
+                "--{flag} is required: the first image's header (or --scene) BRDF is not a mix of one lambert and one mirror layer (pass --kd and --ks)"
             ))
         }),
     }
@@ -216,13 +221,12 @@ fn validate(a: &SeparateArgs) -> Result<Vec<usize>, Error> {
 /// input (named file and problem), or a separation the views cannot solve.
 pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> {
     let channels = validate(a)?;
+    let (images, described) = super::header::load(&a.images, &a.view.view(), "separated")?;
     let mut views = Vec::with_capacity(a.images.len());
-    let mut header_brdf = None;
-    for (i, p) in a.images.iter().enumerate() {
-        let (v, img) = read_view(p)?;
+    let header_brdf = described.brdf.as_ref().map(|(b, src)| (serde_json::to_value(b).unwrap_or_default(), src));
+    for (i, ((p, img), cam)) in a.images.iter().zip(&images).zip(&described.cameras).enumerate() {
+        let v = read_view(p, img, cam)?;
         if i == 0 {
-            let hd = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?;
-            header_brdf = hd.first_sphere().map(|(_, _, b)| serde_json::to_value(b).unwrap_or_default());
             if v.theta_o_deg != 0.0 {
                 return Err(Error::file(
                     p,
@@ -267,7 +271,7 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
     let carried = latlong_max_order_reflection(w, h);
     check_order(a.lmax, carried, &format!("a {w}×{h} specular view"), LATLONG_REFLECTION_RULE)
         .map_err(|e| e.in_file(&a.images[0]))?;
-    let hs = header_brdf.as_ref().and_then(header_split);
+    let hs = header_brdf.as_ref().and_then(|(b, _)| header_split(b));
     let (kd, kd_arg) = weight_arg(a.kd, hs.map(|s| s.0), "kd")?;
     let (ks, ks_arg) = weight_arg(a.ks, hs.map(|s| s.1), "ks")?;
     for &c in &channels {
@@ -280,9 +284,9 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
     }
     let split_source = match (kd_arg, ks_arg) {
         (true, true) => "command line".to_string(),
-        (false, false) => "the first image's header (mix of lambert and mirror)".to_string(),
-        (true, false) => "k_d from the command line, k_s from the header".to_string(),
-        (false, true) => "k_s from the command line, k_d from the header".to_string(),
+        (false, false) => format!("{} (mix of lambert and mirror)", table_source(&header_brdf)),
+        (true, false) => format!("k_d from the command line, k_s from {}", table_source(&header_brdf)),
+        (false, true) => format!("k_s from the command line, k_d from {}", table_source(&header_brdf)),
     };
     let missing_stderr: Vec<String> =
         views.iter().filter(|v| v.stderr.is_none()).map(|v| v.path.display().to_string()).collect();
@@ -725,6 +729,7 @@ impl std::fmt::Display for InvertSeparateReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use analysis::image::read_image;
     use analysis::sh::ShBasis;
     use renderer::sampling::chi2::TestRng;
     use serde_json::json;
@@ -846,6 +851,7 @@ mod tests {
             output: None,
             width: 64,
             json: true,
+            view: ImageArgs::default(),
         }
     }
 
@@ -922,6 +928,74 @@ mod tests {
         assert!(chi2 > 100.0, "wrong split: χ² {chi2}");
         assert_eq!(w["consistency"]["consistent"], false);
         assert!(w["consistency"]["meaning"].as_str().unwrap().starts_with("inconsistent"));
+    }
+
+    /// `path` rewritten as another renderer writes it: no `reflect:` attribute, RGB(+stderr) under
+    /// a Blender-style layer prefix, beside a depth AOV.
+    fn foreign_copy(path: &Path, name: &str) -> PathBuf {
+        let img = read_image(path).unwrap();
+        let mut out = Image { width: img.width, height: img.height, ..Default::default() };
+        for (n, data) in &img.channels {
+            let n = if n.starts_with("stderr") { n.clone() } else { format!("ViewLayer.Combined.{n}") };
+            out.channels.insert(n, data.clone());
+        }
+        out.channels.insert("ViewLayer.Depth.Z".into(), vec![1.0; img.width * img.height]);
+        let p = tmp(name);
+        write_exr(&p, &out).unwrap();
+        p
+    }
+
+    #[test]
+    fn headerless_views_described_by_flags_or_sidecar_separate_as_the_originals() {
+        let ours = views("ours");
+        let want = separate_doc(&args(ours.clone())).unwrap();
+        let foreign: Vec<PathBuf> =
+            ours.iter().enumerate().map(|(i, p)| foreign_copy(p, &format!("foreign-{i}.exr"))).collect();
+        // By flags: the angles per image, the split by --kd/--ks, the layer by --layer.
+        let mut a = args(foreign.clone());
+        a.view.theta_o = vec![0.0, 50.0, 50.0];
+        a.view.phi_o = vec![0.0, 0.0, 180.0];
+        a.view.layer = Some("ViewLayer.Combined".into());
+        a.kd = Some([0.5; 3]);
+        a.ks = Some([0.5; 3]);
+        let by_flags = separate_doc(&a).unwrap();
+        // By a sidecar: its mix BRDF gives the split, its normal-probe camera the angles' default.
+        let scene = tmp("sidecar.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "[render]\nwidth = {}\nheight = {}\n[camera]\ntype = \"normal-probe\"\n[lighting]\ntype = \"uniform\"\nradiance = 1.0\n\
+                 [[objects]]\nshape = \"sphere\"\nbrdf = {}\n",
+                SIZE.0,
+                SIZE.1,
+                r#"{ type = "mix", layers = [{ weight = 0.5, brdf = { type = "lambert", albedo = 1.0 } }, { weight = 0.5, brdf = { type = "mirror" } }] }"#
+            ),
+        )
+        .unwrap();
+        let mut b = args(foreign.clone());
+        b.view.theta_o = vec![0.0, 50.0, 50.0];
+        b.view.phi_o = vec![0.0, 0.0, 180.0];
+        b.view.layer = Some("ViewLayer.Combined".into());
+        b.view.scene = Some(scene.clone());
+        let by_scene = separate_doc(&b).unwrap();
+        assert!(by_scene["split_source"].as_str().unwrap().contains("sidecar.toml"), "{}", by_scene["split_source"]);
+        for doc in [&by_flags, &by_scene] {
+            for key in ["coefficients", "stderr", "diffuse", "consistency", "kd", "ks"] {
+                assert_eq!(doc[key], want[key], "{key}");
+            }
+        }
+        // Contradictions name both sides; orthographic-only flags are refused by name.
+        let mut c = args(ours.clone());
+        c.view.theta_o = vec![0.0, 40.0, 50.0];
+        let e = separate_doc(&c).unwrap_err().to_string();
+        assert!(
+            e.contains("--theta-o/--phi-o give") && e.contains("reflect:camera") && e.contains("contradict"),
+            "{e}"
+        );
+        let mut d = args(foreign.clone());
+        d.view.layer = Some("ViewLayer.Combined".into());
+        let e = separate_doc(&d).unwrap_err().to_string();
+        assert!(e.contains("no reflect:camera") && e.contains("--theta-o"), "{e}");
     }
 
     #[test]

@@ -11,7 +11,7 @@
 //! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
 
 use crate::math::{PI, Vec2, Vec3, fast};
-use crate::sampling::distribution::PiecewiseConstant2D;
+use crate::sampling::distribution::{PiecewiseConstant2D, index_below, len_f32};
 
 /// The grid's sampling table can carry a payload `P` per cell (see [`PiecewiseConstant2D`]): the
 /// environment map keeps its texels there, so the sampled cell's texel is in the cache line the
@@ -84,8 +84,8 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
-        let r = ((theta * (1.0 / PI) * self.height as f32) as usize).min(self.height - 1);
-        let c = ((phi * (0.5 / PI) * self.width as f32) as usize).min(self.width - 1);
+        let r = index_below(theta * (1.0 / PI) * len_f32(self.height), self.height);
+        let c = index_below(phi * (0.5 / PI) * len_f32(self.width), self.width);
         (r, c)
     }
 
@@ -113,9 +113,9 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// The direction of unit-square point `uv` (uniform in solid angle within its cell) and its row.
     #[inline(always)]
     fn warp(&self, uv: Vec2) -> (Vec3, usize) {
-        let fv = uv.y * self.height as f32;
-        let r = (fv as usize).min(self.height - 1);
-        let t = (fv - r as f32).clamp(0.0, 1.0);
+        let fv = uv.y * len_f32(self.height);
+        let r = index_below(fv, self.height);
+        let t = (fv - len_f32(r)).clamp(0.0, 1.0);
         let z = self.z_edge[r] + t * (self.z_edge[r + 1] - self.z_edge[r]);
         let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
         let (sp, cp) = fast::sincos_2pi(uv.x);
