@@ -344,7 +344,9 @@ fn readme_worked_example_from_the_example_script() {
         "--json",
     ]);
     assert!(err.contains("camera from the worldToNDC and worldToCamera attributes"), "{err}");
-    assert!(err.contains("columns mirrored") && err.contains("ViewLayer.Depth"), "{err}");
+    assert!(err.contains("columns mirrored") && err.contains("extent 1.05\n"), "{err}");
+    // The chosen layer's alpha is part of it: only the depth AOV is ignored.
+    assert!(err.contains("ignored (not radiance, or not chosen): ViewLayer.Depth\n"), "{err}");
     // README prints bars up to 1.2e-2 at l = 2 (truncation dominates at 256²): 7 % of 0.2.
     for (l, o) in doc["filter"].as_array().unwrap().iter().enumerate() {
         for ch in 0..3 {
@@ -358,4 +360,24 @@ fn readme_worked_example_from_the_example_script() {
     assert_eq!(noise["source"], "residuals", "{noise}");
     let f = noise["inflation"].as_f64().unwrap();
     assert!((2.7..3.6).contains(&f), "measured F {f} against the kernel's 3.134");
+
+    // The text report: warnings once, on stderr (`warning: …`), none on stdout; all channels shown.
+    let base = ["analyze", out.to_str().unwrap(), "--layer", "ViewLayer.Combined", "--lmax", "2"];
+    let (code, text, err) = reflect_out(&base);
+    assert_eq!(code, 0, "{err}");
+    assert!(!text.contains("warning"), "{text}");
+    for w in doc["warnings"].as_array().unwrap() {
+        assert_eq!(err.matches(w.as_str().unwrap()).count(), 1, "{err}");
+    }
+    // Bad input is one line on stderr, without the notes a good run prints: a camera flag that
+    // contradicts the worldToNDC camera, and a Gaussian filter cut inside its core.
+    for (extra, what) in [
+        (&["--from", "3,0,1", "--extent", "1.2"][..], "contradict"),
+        (&["--pixel-filter", "gaussian:0.5:0.1"][..], "--pixel-filter"),
+    ] {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let (code, text, err) = reflect_out(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(text.is_empty() && err.trim_end().lines().count() == 1 && err.contains(what), "{args:?}: {err}");
+    }
 }

@@ -138,7 +138,7 @@ pub struct AnalyzeReport {
     /// Orthographic views: the correlation of neighbouring pixels' noise (a reconstruction filter
     /// wider than a pixel) and the variance inflation applied to every error bar's noise part.
     pub pixel_noise: Option<PixelNoise>,
-    /// Notes and warnings, each one sentence (also printed on stderr).
+    /// Notes and warnings, each one sentence (printed on stderr, not in the text report).
     pub warnings: Vec<String>,
 }
 
@@ -215,7 +215,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         if views.len() == 1 && param == Param::Normal {
             warnings.push(
                 "one orthographic view sees one hemisphere of normals: the B_lm fit there is not a projection, energy of \
-                 B above l_max aliases into it (the filter below is fitted in pixel space and does not divide B_lm; add \
+                 B above l_max aliases into it (the filter A_l is fitted in pixel space and does not divide B_lm; add \
                  the opposite view or render a normal-probe for B_lm)"
                     .to_string(),
             );
@@ -327,7 +327,7 @@ impl std::fmt::Display for AnalyzeReport {
             writeln!(f, "# lighting: {}", l.source)?;
         }
         if let Some(b) = &self.brdf {
-            writeln!(f, "# brdf: {b}")?;
+            writeln!(f, "# brdf: {}", super::shown_json(b))?;
         }
         writeln!(f, "{:>4} {:>4} {:>26} {:>26} {:>26}", "l", "m", "B_lm R ± se", "G ± se", "B ± se")?;
         for (k, v) in self.coefficients.iter().enumerate() {
@@ -405,19 +405,15 @@ impl std::fmt::Display for AnalyzeReport {
                 writeln!(f, "# filter fit χ²/ν: R {}, G {}, B {}", chi(&fits[0]), chi(&fits[1]), chi(&fits[2]))?;
             }
         }
-        for w in &self.warnings {
-            writeln!(f, "# warning: {w}")?;
-        }
         Ok(())
     }
 }
 
-/// `reflect analyze`: the report as JSON (`--json`) or text on stdout; warnings also on stderr.
+/// `reflect analyze`: the report as JSON (`--json`) or text on stdout; warnings on stderr, one
+/// `warning: …` line each (and in the JSON's `warnings`).
 pub fn run(a: AnalyzeArgs) -> Result<ExitCode, Error> {
     let report = analyze(&a)?;
-    for w in &report.warnings {
-        eprintln!("warning: {w}");
-    }
+    super::print_warnings(&report.warnings);
     if a.json {
         println!("{}", serde_json::to_string(&report).map_err(|e| Error::new(format!("JSON output: {e}")))?);
     } else {

@@ -85,8 +85,18 @@ impl ImageArgs {
     }
 }
 
+/// `--pixel-filter`, refusing a Gaussian cut off within 2 stddev (`gaussian:0.5:0.1` keeps a sliver
+/// of the kernel, surely not the renderer's filter: Mitsuba cuts at 4·stddev, pbrt-v4 at 3).
 fn parse_pixel_filter(s: &str) -> Result<PixelFilter, String> {
-    s.parse()
+    let f: PixelFilter = s.parse()?;
+    if let PixelFilter::Gaussian { stddev, radius } = f
+        && radius < 2.0 * stddev
+    {
+        return Err(format!(
+            "a gaussian of stddev {stddev} px cut at radius {radius} px (< 2 × stddev) keeps only the kernel's core;              give RADIUS ≥ 2·STDDEV (Mitsuba's is 4·STDDEV, the default)"
+        ));
+    }
+    Ok(f)
 }
 
 /// The BRDF of the sphere in an image, by flags: a kind plus its parameters, each named as the key

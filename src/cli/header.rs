@@ -39,17 +39,23 @@ impl std::fmt::Display for Camera {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Camera::Ortho(c) => {
-                write!(f, "orthographic from {} to {} up {} extent {}", v3(c.from), v3(c.to), v3(c.up), c.extent)
+                write!(f, "orthographic from {} to {} up {} extent {}", v3(c.from), v3(c.to), v3(c.up), num(c.extent))
             }
             Camera::NormalProbe { theta_o_deg, phi_o_deg } => {
-                write!(f, "normal-probe theta_o_deg {theta_o_deg} phi_o_deg {phi_o_deg}")
+                write!(f, "normal-probe theta_o_deg {} phi_o_deg {}", num(*theta_o_deg), num(*phi_o_deg))
             }
         }
     }
 }
 
+/// A number in a message with the precision cameras and spheres have (headers and matrices store
+/// f32): the shortest decimal that reads back as the same f32, so 1.05 and not 1.049999996870756.
+fn num(x: f64) -> String {
+    format!("{}", x as f32)
+}
+
 fn v3(v: [f64; 3]) -> String {
-    format!("{},{},{}", v[0], v[1], v[2])
+    format!("{},{},{}", num(v[0]), num(v[1]), num(v[2]))
 }
 
 impl Camera {
@@ -195,7 +201,7 @@ fn probe_of_flags(theta_o_deg: f64, phi_o_deg: f64) -> Result<Camera, Error> {
 
 impl std::fmt::Display for SphereShown {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "sphere center {} radius {}", v3(self.0.center), self.0.radius)
+        write!(f, "sphere center {} radius {}", v3(self.0.center), num(self.0.radius))
     }
 }
 
@@ -214,25 +220,28 @@ struct SphereShown(Sphere);
 /// after this, by [`super::pixels::prepare`]. With `--pixel-filter`, the
 /// pixels whose filter footprint reaches the silhouette are masked out ([`super::pixels::edge_margin`]).
 pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Description), Error> {
+    // Notes go to stderr only once everything is read and described: bad input gets its one line.
+    let mut notes = Vec::new();
     let mut images = Vec::with_capacity(paths.len());
     for p in paths {
         let (img, note) = read_image(p)?.select_layer(view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;
         if let Some(n) = note {
-            eprintln!("note: {}: {n}", p.display());
+            notes.push(format!("note: {}: {n}", p.display()));
         }
         images.push(img);
     }
     let mut d = describe(&images, paths, view, what)?;
+    notes.append(&mut d.notes);
     d.stderr_notes = images.iter().zip(paths).filter_map(|(img, p)| stderr_flag_note(img, p)).collect();
     for ((img, p), mirrored) in images.iter_mut().zip(paths).zip(&d.mirrored) {
         if *mirrored {
             for data in img.channels.values_mut() {
                 data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
             }
-            eprintln!(
+            notes.push(format!(
                 "note: {}: the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored",
                 p.display()
-            );
+            ));
         }
     }
 
@@ -248,6 +257,7 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
             d.warnings.push(format!("{}: {w}", p.display()));
         }
     }
+    notes.iter().for_each(|n| eprintln!("{n}"));
     Ok((images, d))
 }
 
@@ -280,6 +290,9 @@ pub struct Description {
     /// One note per image with pixels flagged in a `stderr_flag.Y` layer (set by [`load`]; the
     /// commands add them to their warnings, text and JSON).
     pub stderr_notes: Vec<String>,
+    /// Where each image's camera came from when not said by its header (`note: FILE: …` lines),
+    /// printed on stderr by [`load`] once the description succeeded.
+    pub notes: Vec<String>,
 }
 
 /// The note for an image whose `stderr_flag.Y` layer flags pixels (`reflect render`'s diagnostic: one
@@ -335,6 +348,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
     let flags = view.per_image(images.len())?;
     let mut cameras = Vec::with_capacity(images.len());
     let mut mirrored = Vec::with_capacity(images.len());
+    let mut notes = Vec::new();
     for (((hd, p), f), img) in headers.iter().zip(paths).zip(&flags).zip(images) {
         let in_p = |e: Error| e.in_file(p);
         let from_header = hd
@@ -343,17 +357,17 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             .map(|c| Camera::of_section(c, what).map(|c| (c, "the header's reflect:camera".to_string())));
         let matrix = camera_of_matrices(img).map_err(in_p)?;
         if let Some((c, _)) = &matrix {
-            eprintln!(
+            notes.push(format!(
                 "note: {}: camera from the worldToNDC{} attributes: {}",
                 p.display(),
                 if img.matrices.contains_key("worldToCamera") { " and worldToCamera" } else { "" },
                 Camera::Ortho(*c)
-            );
+            ));
         } else if img.matrices.contains_key("worldToCamera") && hd.camera.is_none() {
-            eprintln!(
+            notes.push(format!(
                 "note: {}: worldToCamera without worldToNDC does not give the view's extent: not used (pass --from/--to/--up/--extent)",
                 p.display()
-            );
+            ));
         }
         mirrored.push(matrix.is_some_and(|(_, m)| m));
         let from_header = merge(
@@ -522,6 +536,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
         mirrored,
         warnings: Vec::new(),
         stderr_notes: Vec::new(),
+        notes,
     })
 }
 

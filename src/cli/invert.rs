@@ -123,8 +123,16 @@ pub fn run(c: InvertCommand) -> Result<ExitCode, Error> {
         Ok(ExitCode::SUCCESS)
     }
     match c {
-        InvertCommand::Lighting(a) => emit(&invert_lighting_report(&a)?, a.json),
-        InvertCommand::Brdf(a) => emit(&invert_brdf_report(&a)?, a.json),
+        InvertCommand::Lighting(a) => {
+            let r = invert_lighting_report(&a)?;
+            super::print_warnings(&r.warnings);
+            emit(&r, a.json)
+        }
+        InvertCommand::Brdf(a) => {
+            let r = invert_brdf_report(&a)?;
+            super::print_warnings(&r.warnings);
+            emit(&r, a.json)
+        }
         InvertCommand::Separate(a) => super::separate::run(&a),
         InvertCommand::Factor(a) => super::factor::run(&a),
     }
@@ -693,14 +701,21 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.filter(|x| x.is_finite()).map_or("—".to_string(), |x| format!("{x:.4e}"))
 }
 
+/// A standard error with the two digits it has.
+fn fmt_se(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite()).map_or("—".to_string(), |x| format!("{x:.1e}"))
+}
+
 impl std::fmt::Display for InvertLightingReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "# {} — {}", self.command, self.method)?;
         writeln!(f, "# l_max {}; the input carries l <= {}", self.lmax, self.lmax_carried)?;
         writeln!(
             f,
-            "# brdf {:?}, albedo {:?}, orders with amplification > {} are ill-conditioned",
-            self.brdf, self.albedo, self.max_amplification
+            "# brdf {:?}, albedo {}, orders with amplification > {} are ill-conditioned",
+            self.brdf,
+            self.albedo.map(|a| format!("{}", a as f32)).join(", "),
+            self.max_amplification
         )?;
         writeln!(f, "{:>4} {:>12} {:>14} {:>16}", "l", "Λ_l ρ̂_l", "amplification", "status")?;
         for o in &self.orders {
@@ -713,23 +728,31 @@ impl std::fmt::Display for InvertLightingReport {
                 o.status
             )?;
         }
-        writeln!(f, "\n{:>4} {:>4} {:>30} {:>14}", "l", "m", "L_lm (R) ± se", "regularised R")?;
+        writeln!(
+            f,
+            "\n{:>4} {:>4} {:>24} {:>24} {:>24}   {:>13} {:>13} {:>13}",
+            "l", "m", "L_lm R ± se", "G ± se", "B ± se", "regularised R", "G", "B"
+        )?;
         for (k, v) in self.coefficients.iter().enumerate() {
             let (l, m) = self.lm[k];
-            let se = self.stderr[k].map(|s| s[0]);
-            let reg = self.regularised.coefficients.get(k).map(|c| c[0]);
-            let cell = match v {
-                None => "unobservable".to_string(),
-                Some(v) => format!("{} ± {}", fmt_opt(Some(v[0])), fmt_opt(se)),
-            };
-            writeln!(f, "{l:>4} {m:>4} {cell:>30} {:>14}", fmt_opt(reg))?;
+            write!(f, "{l:>4} {m:>4}")?;
+            for ch in 0..3 {
+                let cell = match v {
+                    None => "unobservable".to_string(),
+                    Some(v) => format!("{} ± {}", fmt_opt(Some(v[ch])), fmt_se(self.stderr[k].map(|s| s[ch]))),
+                };
+                write!(f, " {cell:>24}")?;
+            }
+            write!(f, " ")?;
+            for ch in 0..3 {
+                write!(f, " {:>13}", fmt_opt(self.regularised.coefficients.get(k).map(|c| c[ch])))?;
+            }
+            writeln!(f)?;
         }
-        writeln!(f, "# Tikhonov: {}, λ = {:?}", self.regularised.rule, self.regularised.lambda)?;
+        let l = self.regularised.lambda;
+        writeln!(f, "# Tikhonov: {}, λ = R {:.2e}, G {:.2e}, B {:.2e}", self.regularised.rule, l[0], l[1], l[2])?;
         if let Some(n) = &self.pixel_noise {
             writeln!(f, "{}", n.line())?;
-        }
-        for w in &self.warnings {
-            writeln!(f, "# warning: {w}")?;
         }
         Ok(())
     }
@@ -740,14 +763,18 @@ impl std::fmt::Display for InvertBrdfReport {
         writeln!(f, "# {} — {}", self.command, self.method)?;
         writeln!(f, "# l_max {}; the input carries l <= {}", self.lmax, self.lmax_carried)?;
         writeln!(f, "# lighting: {}", self.lighting)?;
-        writeln!(f, "{:>4} {:>30}", "l", "Λ_l ρ̂_l (R) ± se")?;
+        writeln!(f, "{:>4} {:>24} {:>24} {:>24}", "l", "Λ_l ρ̂_l R ± se", "G ± se", "B ± se")?;
         for o in &self.filter {
-            let cell = if o.observable {
-                format!("{} ± {}", fmt_opt(o.estimate[0]), fmt_opt(o.stderr[0]))
-            } else {
-                "unobservable".into()
-            };
-            writeln!(f, "{:>4} {cell:>30}", o.l)?;
+            write!(f, "{:>4}", o.l)?;
+            for ch in 0..3 {
+                let cell = if o.observable {
+                    format!("{} ± {}", fmt_opt(o.estimate[ch]), fmt_se(o.stderr[ch]))
+                } else {
+                    "unobservable".into()
+                };
+                write!(f, " {cell:>24}")?;
+            }
+            writeln!(f)?;
         }
         let iv = |v: Option<f64>| v.map_or("unbounded".to_string(), |x| format!("{x:.4}"));
         writeln!(
@@ -762,9 +789,6 @@ impl std::fmt::Display for InvertBrdfReport {
         )?;
         if let Some(n) = &self.pixel_noise {
             writeln!(f, "{}", n.line())?;
-        }
-        for w in &self.warnings {
-            writeln!(f, "# warning: {w}")?;
         }
         Ok(())
     }

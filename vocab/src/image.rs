@@ -211,7 +211,13 @@ impl Image {
         }
         let mut ignored: Vec<String> = Vec::new();
         for name in self.channels.keys() {
-            if name.len() == 1 || name.starts_with("normal.") || name.starts_with("stderr.") || name == "mask.Y" {
+            // The chosen layer's own other channels (its alpha) are part of it, not an ignored layer.
+            if name.len() == 1
+                || name.starts_with(&dot)
+                || name.starts_with("normal.")
+                || name.starts_with("stderr.")
+                || name == "mask.Y"
+            {
                 continue;
             }
             let p = name.rsplit_once('.').map_or(name.as_str(), |(p, _)| p).to_string();
