@@ -12,7 +12,9 @@ instruction address and charges the instruction to the stage of the renderer tha
 just inside `li` or `render_tile`, or the non-inlined function around it), so e.g. a `reverse_bits`
 inlined into the sampler counts as the sampler and a `dot` inlined into `Frame::to_local` as the
 integrator. Calls into libc are charged to their caller's stage (memcpy and malloc to the film, sincosf to
-the BRDF sample). Needs `addr2line` (binutils) and a binary with line tables (the release profile has them).
+the BRDF sample). Out-of-line functions are charged by name (e.g. `Envmap::texel_index` to the light
+eval, though the light sample calls it too): split such a function by its call counts
+(`callgrind_annotate --tree=caller`). Needs `addr2line` (binutils) and a binary with line tables (the release profile has them).
 """
 
 import argparse

@@ -78,7 +78,7 @@ mod tests {
     use crate::film::Pixel;
 
     fn px(v: [f32; 3], se: [f32; 3], mask: f32) -> Pixel {
-        Pixel { rgb: v, stderr: se, normal: [0.0, 0.0, 1.0], mask, unreliable: false }
+        Pixel { rgb: v, stderr: se, stderr_own: se, normal: [0.0, 0.0, 1.0], mask, unreliable: false }
     }
 
     #[test]

@@ -69,8 +69,10 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
     stage_exr(path, film, attributes)?.commit()
 }
 
-/// Stages the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B, and
-/// stderr_flag.Y (1 where the pixel's error bar cannot be trusted, see [`crate::film::Pixel::unreliable`]).
+/// Stages the film as 32-bit float OpenEXR: R, G, B, normal.X/Y/Z, mask.Y, stderr.R/G/B (the bound,
+/// [`crate::film::Pixel::stderr`]), stderr_flag.Y (1 where the pixel's own error bar cannot be trusted,
+/// see [`crate::film::Pixel::unreliable`]) and stderr_own.R/G/B (the pixel's own error bar,
+/// [`crate::film::Pixel::stderr_own`]).
 pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<Staged> {
     use exr::prelude::*;
     let (w, h) = (film.width as usize, film.height as usize);
@@ -89,6 +91,9 @@ pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
         chan("stderr.G", &|p| p.stderr[1]),
         chan("stderr.B", &|p| p.stderr[2]),
         chan("stderr_flag.Y", &|p| if p.unreliable { 1.0 } else { 0.0 }),
+        chan("stderr_own.R", &|p| p.stderr_own[0]),
+        chan("stderr_own.G", &|p| p.stderr_own[1]),
+        chan("stderr_own.B", &|p| p.stderr_own[2]),
     ];
     let mut layer = Layer::new((w, h), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
     for (k, v) in attributes {

@@ -169,8 +169,8 @@ pub struct Check {
     /// Rendered pixels flagged `stderr_flag.Y` = 1 (their own error bar rests on one rare sample),
     /// over the check's renders ([`super::run_entry`]).
     pub stderr_flagged: usize,
-    /// Rendered pixels the renderer's neighbourhood-pooled bound would raise (the flagged ones and
-    /// their neighbours, `renderer::film::Film::pooled_count`; not applied to renders yet).
+    /// Rendered pixels whose `stderr` the renderer's bound raised above their own σ (near flagged
+    /// pixels, or every pixel at < 16 spp; `renderer::film::Film::pooled_count`).
     pub stderr_pooled: usize,
 }
 
@@ -332,8 +332,8 @@ pub struct CheckDoc {
     pub seconds: f64,
     /// Rendered pixels flagged `stderr_flag.Y` = 1 over the check's renders.
     pub stderr_flagged_pixels: usize,
-    /// Rendered pixels the neighbourhood-pooled bound would raise (flagged ones included); the check
-    /// uses the pixels' own σ and excludes none.
+    /// Rendered pixels whose `stderr` the renderer's bound raised above their own σ; the check's error
+    /// bars use the bound, its noise debiasing the own σ, and it excludes no pixel.
     pub stderr_pooled_pixels: usize,
 }
 

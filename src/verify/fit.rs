@@ -28,7 +28,11 @@ pub struct Channel {
     pub width: usize,
     pub height: usize,
     pub value: Vec<f64>,
+    /// The error bar of each pixel (the `stderr` layer: the renderer's bound).
     pub sigma: Vec<f64>,
+    /// The pixel's own standard error (the `stderr_own` layer; `sigma` when the image has none), for
+    /// debiasing a noise energy (`renderer::film`, "Two layers").
+    pub sigma_own: Vec<f64>,
     pub normal: Vec<[f64; 3]>,
     pub mask: Vec<f64>,
 }
@@ -40,13 +44,14 @@ impl Channel {
             height: f.height as usize,
             value: f.pixels.iter().map(|p| p.rgb[c] as f64).collect(),
             sigma: f.pixels.iter().map(|p| p.stderr[c] as f64).collect(),
+            sigma_own: f.pixels.iter().map(|p| p.stderr_own[c] as f64).collect(),
             normal: f.pixels.iter().map(|p| p.normal.map(|v| v as f64)).collect(),
             mask: f.pixels.iter().map(|p| p.mask as f64).collect(),
         }
     }
 
     /// Channel `c` (0 = R, 1 = G, 2 = B) of a render read back from its EXR, as `analyze` reads it:
-    /// σ from the `stderr` layer (0 without one), the `normal` layer ((0, 0, 0) without one) and
+    /// σ from the `stderr` layer (0 without one), own σ from `stderr_own` (σ without one), the `normal` layer ((0, 0, 0) without one) and
     /// `mask.Y` (1 without one). Missing colour channels read as 0.
     pub fn from_image(img: &analysis::image::Image, c: usize) -> Channel {
         let n = img.width * img.height;
@@ -60,6 +65,10 @@ impl Channel {
             height: img.height,
             value: layer(rgb, 0.0),
             sigma: layer(&format!("stderr.{rgb}"), 0.0),
+            sigma_own: match img.channel(&format!("stderr_own.{rgb}")) {
+                Some(v) => v.iter().map(|x| *x as f64).collect(),
+                None => layer(&format!("stderr.{rgb}"), 0.0),
+            },
             normal: (0..n).map(|i| [nx[i], ny[i], nz[i]]).collect(),
             mask: layer("mask.Y", 1.0),
         }

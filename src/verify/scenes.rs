@@ -204,8 +204,8 @@ impl Spec {
     }
 }
 
-/// Pixels flagged `stderr_flag.Y` = 1 ([`Film::unreliable_count`]) and pixels whose `stderr` is the
-/// renderer's neighbourhood-pooled bound ([`Film::pooled_count`], flagged ones included), summed over
+/// Pixels flagged `stderr_flag.Y` = 1 ([`Film::unreliable_count`]) and pixels whose `stderr` the
+/// renderer's bound raised above their own σ ([`Film::pooled_count`]), summed over
 /// every film [`render_spec`] returned in this process. [`super::run_entry`] reads them before and
 /// after a check (checks run one after another) to state them in the check's report.
 static STDERR_FLAGGED: AtomicUsize = AtomicUsize::new(0);

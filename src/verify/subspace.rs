@@ -132,7 +132,13 @@ pub struct ImageSet {
     pub normal: Vec<[f64; 3]>,
     /// images\[j\]\[p\]
     pub images: Vec<Vec<f64>>,
+    /// The error bars (the renders' `stderr`, the bound of `renderer::film::pool_heavy_tails`):
+    /// what the σ of every fraction, hence every tolerance, is computed from.
     pub sigma: Vec<Vec<f64>>,
+    /// The pixels' own standard errors (`stderr_own`), whose squares are unbiased for the noise
+    /// variance: what the noise energy Σ w σ² subtracted from the Gram matrix and the energies is
+    /// computed from (the bound's square is biased high, and subtracting it would bias the fractions).
+    pub sigma_own: Vec<Vec<f64>>,
 }
 
 /// PCA of a set: eigenvalues (descending) and eigenvectors (columns, image space) of the debiased Gram matrix.
@@ -150,7 +156,7 @@ pub fn pca(s: &ImageSet) -> Pca {
             g[(i, j)] = v;
             g[(j, i)] = v;
         }
-        let noise: f64 = (0..s.weight.len()).map(|p| s.weight[p] * s.sigma[i][p].powi(2)).sum();
+        let noise: f64 = (0..s.weight.len()).map(|p| s.weight[p] * s.sigma_own[i][p].powi(2)).sum();
         g[(i, i)] -= noise;
     }
     let e = SymmetricEigen::new(g);
@@ -174,8 +180,9 @@ fn fraction_sigma(s: &ImageSet, f: f64, total: f64, proj: &[Vec<f64>]) -> f64 {
     2.0 * var.sqrt() / total
 }
 
+/// Σ_jp w_p σ_own,pj²: the expected noise energy of the images (debiasing; [`ImageSet::sigma_own`]).
 fn noise_energy(s: &ImageSet) -> f64 {
-    s.sigma.iter().map(|sg| sg.iter().zip(&s.weight).map(|(v, w)| w * v * v).sum::<f64>()).sum()
+    s.sigma_own.iter().map(|sg| sg.iter().zip(&s.weight).map(|(v, w)| w * v * v).sum::<f64>()).sum()
 }
 
 /// e_k ± σ: the energy captured by the first k components.
@@ -273,7 +280,7 @@ pub fn outside_span(s: &ImageSet, yb: &[Vec<f64>]) -> (f64, f64) {
         tot += wdot(x, x, &s.weight);
         resid.push(r);
     }
-    for sg in &s.sigma {
+    for sg in &s.sigma_own {
         for p in 0..np {
             out -= s.weight[p] * sg[p] * sg[p] * (1.0 - leverage[p]);
         }
@@ -465,12 +472,12 @@ pub fn mesh_pixels(ch: &Channel) -> Pixels {
     px
 }
 
-/// The measured set from per-lighting renders (value, σ per image pixel), and the two predicted sets
+/// The measured set from per-lighting renders (value, σ, own σ per image pixel), and the two predicted sets
 /// (fine and coarse footprint) with transfer `a` (closed form for Lambert).
 pub fn build_sets(
     px: &Pixels,
     lights: &[Light],
-    renders: &[(Vec<f64>, Vec<f64>)],
+    renders: &[Render],
     field_coeffs: &[Vec<f64>],
     wrong: bool,
 ) -> (ImageSet, ImageSet, ImageSet) {
@@ -484,20 +491,25 @@ pub fn build_sets(
     let mut coarse = fine.clone();
     let mut y = vec![0.0; num_coefficients(lmax)];
     for (j, light) in lights.iter().enumerate() {
-        let (v, s): (Vec<f64>, Vec<f64>) = match light {
-            Light::Sum(t) => px
-                .index
-                .iter()
-                .map(|&p| {
-                    let v: f64 = t.iter().map(|(i, wt)| wt * renders[*i].0[p]).sum();
-                    let s2: f64 = t.iter().map(|(i, wt)| (wt * renders[*i].1[p]).powi(2)).sum();
-                    (v, s2.sqrt())
-                })
-                .unzip(),
-            _ => px.index.iter().map(|&p| (renders[j].0[p], renders[j].1[p])).unzip(),
-        };
+        let (mut v, mut s, mut so) = (vec![], vec![], vec![]);
+        for &p in &px.index {
+            let (x, s2, so2) = match light {
+                Light::Sum(t) => t.iter().fold((0.0, 0.0, 0.0), |(x, s2, so2), (i, wt)| {
+                    let r = &renders[*i];
+                    (x + wt * r.value[p], s2 + (wt * r.sigma[p]).powi(2), so2 + (wt * r.sigma_own[p]).powi(2))
+                }),
+                _ => {
+                    let r = &renders[j];
+                    (r.value[p], r.sigma[p].powi(2), r.sigma_own[p].powi(2))
+                }
+            };
+            v.push(x);
+            s.push(s2.sqrt());
+            so.push(so2.sqrt());
+        }
         measured.images.push(v);
         measured.sigma.push(s);
+        measured.sigma_own.push(so);
         let coeffs = std::slice::from_ref(&field_coeffs[j]);
         let mut predict = |fp: &[Vec<[f64; 3]>]| -> Vec<f64> {
             fp.iter()
@@ -508,14 +520,24 @@ pub fn build_sets(
         coarse.images.push(predict(&px.footprint_coarse));
     }
     fine.sigma = vec![vec![0.0; px.index.len()]; lights.len()];
+    fine.sigma_own = fine.sigma.clone();
     coarse.sigma = fine.sigma.clone();
+    coarse.sigma_own = fine.sigma.clone();
     (measured, fine, coarse)
 }
 
-/// (value, σ) images of each lighting, in the ensemble's order.
-type Renders = Vec<(Vec<f64>, Vec<f64>)>;
+/// One render's channel: value, error bar (`stderr`) and own σ (`stderr_own`) per image pixel.
+#[derive(Clone, Debug, Default)]
+pub struct Render {
+    pub value: Vec<f64>,
+    pub sigma: Vec<f64>,
+    pub sigma_own: Vec<f64>,
+}
 
-/// Renders every lighting of the ensemble for one camera: (value, σ) per lighting (sums: empty).
+/// The renders of each lighting, in the ensemble's order.
+type Renders = Vec<Render>;
+
+/// Renders every lighting of the ensemble for one camera (sums: empty).
 fn render_all(
     ctx: &Ctx,
     lights: &[Light],
@@ -528,14 +550,14 @@ fn render_all(
         let (lighting, n, channel) = match l {
             Light::Directional(s) => (Lighting::Directional { direction: *s, irradiance: 1.0 }, spp.0, 0),
             Light::Sum(_) => {
-                out.push((vec![], vec![]));
+                out.push(Render::default());
                 continue;
             }
             Light::Field(c) => (Lighting::Sh(c.clone()), spp.1, 0),
             Light::Grace(r) => (Lighting::GraceRotated { scale: 1.0, rotate_deg: *r }, spp.1, grace::CHANNEL),
         };
         let ch = Channel::from_film(&render_spec(ctx, &mk(lighting, n, seed))?, channel);
-        out.push((ch.value, ch.sigma));
+        out.push(Render { value: ch.value, sigma: ch.sigma, sigma_own: ch.sigma_own });
     }
     Ok(out)
 }
@@ -697,7 +719,8 @@ mod tests {
                 px.normal.iter().map(|n| pr.value(l, &dirs, std::slice::from_ref(&coeffs[j]), *n, &mut y)).collect()
             })
             .collect();
-        ImageSet { weight: px.weight, normal: px.normal, images, sigma: vec![vec![0.0; w * h]; lights.len()] }
+        let sigma = vec![vec![0.0; w * h]; lights.len()];
+        ImageSet { weight: px.weight, normal: px.normal, images, sigma_own: sigma.clone(), sigma }
     }
 
     #[test]
@@ -752,10 +775,11 @@ mod tests {
         let mut s = synthetic(&a, &lights, &coeffs, 64, 32);
         let mut rng = renderer::sampling::chi2::TestRng::new(11);
         let mut u = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        for (x, sg) in s.images.iter_mut().zip(s.sigma.iter_mut()) {
-            for (v, e) in x.iter_mut().zip(sg.iter_mut()) {
+        for ((x, sg), so) in s.images.iter_mut().zip(s.sigma.iter_mut()).zip(s.sigma_own.iter_mut()) {
+            for ((v, e), eo) in x.iter_mut().zip(sg.iter_mut()).zip(so.iter_mut()) {
                 let (u1, u2) = (u().max(1e-300), u());
                 *e = 0.01;
+                *eo = 0.01;
                 *v += 0.01 * (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos();
             }
         }

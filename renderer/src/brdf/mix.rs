@@ -100,6 +100,11 @@ impl Bxdf for Mix {
     fn is_delta(&self) -> bool {
         self.all_delta
     }
+
+    #[inline]
+    fn uses_lobe_choice(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]

@@ -62,6 +62,12 @@ pub trait Bxdf {
     fn is_delta(&self) -> bool {
         false
     }
+    /// True when `sample` reads its `u_lobe` (a choice among lobes: the mix). The path tracer
+    /// skips drawing that number for the others (its sampler dimension stays reserved, so every
+    /// other number of the path is the same).
+    fn uses_lobe_choice(&self) -> bool {
+        false
+    }
 }
 
 /// Enum dispatch over all models: the integrator's hot path sees one concrete type.
@@ -108,6 +114,10 @@ impl Bxdf for Brdf {
     #[inline]
     fn is_delta(&self) -> bool {
         dispatch!(self, b => b.is_delta())
+    }
+    #[inline]
+    fn uses_lobe_choice(&self) -> bool {
+        dispatch!(self, b => b.uses_lobe_choice())
     }
 }
 

@@ -117,7 +117,14 @@ impl<'a> PathTracer<'a> {
             let ignores = brdf.ignores_horizon();
 
             let u_light = sampler.next_2d();
-            let u_lobe = sampler.next_1d();
+            // Only a mix reads u_lobe; for the others its dimension is skipped, not drawn (the
+            // same numbers everywhere else, one Owen-scrambled draw less per vertex).
+            let u_lobe = if brdf.uses_lobe_choice() {
+                sampler.next_1d()
+            } else {
+                sampler.skip_1d();
+                0.0
+            };
             let u_brdf = sampler.next_2d();
             // The light's sampling tables for u_light start loading now, while the BRDF samples.
             light.prefetch_sample(u_light);
