@@ -294,8 +294,8 @@ pub struct InvertLightingReport {
     pub stderr_noise: Option<Vec<Option<[f64; 3]>>>,
     /// Orthographic views: the estimated truncation bias, a standard deviation (`analysis::inverse::views`).
     pub truncation: Option<Vec<Option<[f64; 3]>>>,
-    /// Orthographic views: worst case of the truncation bias over lightings with the calibrated band
-    /// energies (`analysis::inverse::views`); an order whose bound reaches 25 % of its size is
+    /// Orthographic views: the truncation bias with the first band above l_max aligned worst
+    /// (`analysis::inverse::views`); an order whose bound reaches 35 % of its size is
     /// `undetermined` ("cannot be determined from these views").
     pub truncation_bound: Option<Vec<Option<[f64; 3]>>>,
     /// Orthographic views: amplification per coefficient (filter × design).

@@ -45,8 +45,8 @@
 //!   (L̂_lm² − σ²)(l + 1)^γ. The residual sees only the part of a band outside the fitted span, so
 //!   where a lighting's band is aligned with the span (Grace's l = 4 on one view: its residual
 //!   calibrates κ_4 = 1.1, its true power is 2.7) the standard deviation understates the bias; so
-//!   the worst case over lightings with the calibrated band energies, Σ_b √(n_b κ_b u_ib)
-//!   (`truncation_bound`), classifies: an order whose RMS bound reaches
+//!   the bias with the first band above L aligned worst (Cauchy–Schwarz on it, the other bands as
+//!   the prior; `truncation_bound`) classifies: an order whose RMS bound reaches
 //!   [`UNDETERMINED_TRUNCATION`] of its RMS value is reported [`UNDETERMINED`] ("cannot be
 //!   determined from these views"), not `recovered`;
 //! - **consistency**: χ²/ν and its p-value per channel from the per-pixel standard errors. The
@@ -337,12 +337,16 @@ impl PredictedTruncation {
         k
     }
 
-    /// The worst case of the bias of coefficient i over lightings whose band energies are the
-    /// prior's, Σ_b √(n_b κ_b u_ib) (Cauchy–Schwarz per band: |Σ_(j in b) M_ij h_j| ≤
-    /// ‖M_ib‖ ‖h_b‖, E‖h_b‖² = n_b κ_b Σ₀_b).
+    /// The bias of coefficient i when the first band above L (the one that aliases most) is
+    /// aligned worst with the fitted orders, the others as the prior: √(n_1 κ_1 u_i1) +
+    /// √(Σ_(b>1) κ_b u_ib) (Cauchy–Schwarz on the first band: |Σ_(j in b) M_ij h_j| ≤ ‖M_ib‖ ‖h_b‖,
+    /// E‖h_b‖² = n_b κ_b Σ₀_b). The worst case of every band at once (Σ_b √(n_b κ_b u_ib)) called
+    /// every order of a one-view mirror at L = 8 undetermined (17–118 % of its size) whose bars
+    /// cover the truth (tests/mirror_truncation.rs).
     fn bound(&self, kappa: &[f64], i: usize) -> f64 {
         let nb = self.bands.len();
-        (0..nb).map(|b| (self.sizes[b] as f64 * kappa[b] * self.u[i * nb + b]).max(0.0).sqrt()).sum()
+        let rest: f64 = (1..nb).map(|b| kappa[b] * self.u[i * nb + b]).sum();
+        (self.sizes[0] as f64 * kappa[0] * self.u[i * nb]).max(0.0).sqrt() + rest.max(0.0).sqrt()
     }
 
     /// The predicted bias standard deviation of coefficient i, √(Σ_b κ_b u_ib).
@@ -461,9 +465,11 @@ fn predicted_truncation(gram: &Gram, cols_hi: &[usize], p: usize, n_samples: usi
 pub const UNDETERMINED: &str = "undetermined";
 
 /// Fraction of an order's size at which its truncation bound makes it [`UNDETERMINED`]. Measured
-/// (tests/partial_view_truncation.rs): one view of a Lambert sphere under Grace at l_max 2 gives
-/// 32 / 42 / 62 % (R G B) at l = 0, two opposite views 1 % at l = 0 and ≤ 13 % at l = 2.
-pub const UNDETERMINED_TRUNCATION: f64 = 0.25;
+/// (RMS over m, largest channel): one view of a Lambert sphere under Grace at l_max 2
+/// (tests/partial_view_truncation.rs) gives 29 / 38 / 55 % (R G B) at l = 0; two opposite views
+/// ≤ 13 % at every order; one view of a mirror (the Mitsuba 3 render of README, l_max 8) 3–6 % at
+/// l = 0 and at most 24 % (l = 7, R), whose bars cover the truth.
+pub const UNDETERMINED_TRUNCATION: f64 = 0.35;
 
 /// One order of [`invert_lighting_views`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -491,8 +497,8 @@ pub struct ViewsLighting {
     /// Estimated truncation bias (a standard deviation): the larger of the sequence's and the
     /// predicted one (module docs); `None` where no higher orders could be fitted.
     pub truncation: Vec<Option<[f64; 3]>>,
-    /// Worst case of the truncation bias over lightings with the calibrated band energies
-    /// (module docs); `None` where no higher orders could be fitted. An order whose RMS bound reaches
+    /// The truncation bias with the first band above l_max aligned worst with the fitted orders
+    /// (calibrated band energies, module docs); `None` where no higher orders could be fitted. An order whose RMS bound reaches
     /// [`UNDETERMINED_TRUNCATION`] of its RMS value is [`UNDETERMINED`].
     pub truncation_bound: Vec<Option<[f64; 3]>>,
     /// a_k per coefficient (the same for every channel).
