@@ -34,7 +34,7 @@
 //!   orders just above L lie largely inside the fitted orders' span (a Lambert sphere at L = 2: the
 //!   l = 4 band alone biases L̂_00(R) by −0.545 of Grace's 2.533, while the l ≤ 4 fit moves it by
 //!   0.14). So a prior on the orders L < l ≤ [`truncation_lmax`] (where the filter is not zero),
-//!   E[L_lm²] = κ_l (l + 1)^−γ, isotropic over m ([`PRIOR_GAMMA`]), gives the bias of L̂_L,
+//!   E(L_lm²) = κ_l (l + 1)^−γ, isotropic over m ([`PRIOR_GAMMA`]), gives the bias of L̂_L,
 //!   (AᵀWA)⁻¹AᵀW T h = M h, the covariance Σ_b κ_b M_b Σ₀ M_bᵀ per order band b (from the blocks of
 //!   one Gram matrix up to the top order); the truncation part is the larger of its standard
 //!   deviation and the sequence's estimate. κ_b is calibrated by the data: the weighted residual sum
@@ -293,15 +293,15 @@ fn truncation_sequence(
     Some(TruncationSequence { l_top, fits, base, chi2_per_dof, robust_chi2 })
 }
 
-/// Exponent γ of the prior per-coefficient power of natural lighting, E[L_lm²] ∝ (l + 1)^−γ, of the
-/// predicted truncation ([`PredictedTruncation`]). Least-squares slopes of log(Σ_m L_lm² / (2l + 1))
+/// Exponent γ of the prior per-coefficient power of natural lighting, E(L_lm²) ∝ (l + 1)^−γ, of the
+/// predicted truncation (module docs). Least-squares slopes of log(Σ_m L_lm² / (2l + 1))
 /// on log(l + 1) over l = 1 … 16 (`reflect sh project … --lmax 16 --json`): Grace (grace_latlong.exr)
 /// 1.45 / 1.30 / 1.49 (R G B), the sky map (sky_latlong.exr) 1.06. The smaller value is used: it
 /// puts more of the prior's energy at the high orders that are extrapolated, not measured.
 pub const PRIOR_GAMMA: f64 = 1.0;
 
 /// Largest design amplification (unit-diagonal Gram, [`crate::fit::design_amplification`]) of the
-/// fit whose residual calibrates the prior of [`PredictedTruncation`]: beyond it the Gram matrix's
+/// fit whose residual calibrates the prior of the predicted truncation (module docs): beyond it the Gram matrix's
 /// rounding (condition ≈ amplification²) would reach the residual differences measured.
 pub const PRIOR_CALIBRATION_MAX_AMPLIFICATION: f64 = 1.0e3;
 
@@ -318,7 +318,7 @@ struct PredictedTruncation {
     /// albedo-normalized), its noise expectation for σ = the samples' σ, and d_b, the truncation
     /// part of E[ΔRSS_b] per unit power.
     steps: Vec<([f64; 3], [f64; 3], f64)>,
-    /// Per band its number of coefficients n_b (the worst-case bound of [`Self::bound`]).
+    /// Per band its number of coefficients n_b (the worst-case bound of `bound`).
     sizes: Vec<usize>,
 }
 
@@ -356,7 +356,7 @@ impl PredictedTruncation {
     }
 }
 
-/// The prior power scale κ of the natural spectrum E[L_lm²] = κ (l + 1)^−γ ([`PRIOR_GAMMA`]) through
+/// The prior power scale κ of the natural spectrum E(L_lm²) = κ (l + 1)^−γ ([`PRIOR_GAMMA`]) through
 /// the fitted coefficients of orders 1 … l_max (l = 0, the mean, is no part of the spectrum's
 /// slope): the mean over them of (L̂_lm² − σ²)(l + 1)^γ, σ the noise standard error (`sigma` ×
 /// `scale`); 0 without such orders.
