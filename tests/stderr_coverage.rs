@@ -5,15 +5,15 @@
 //! the sun texel for ≈ 99.7 % of the light samples, so a pixel facing the sun is a binomial estimate
 //! whose rare outcome (a sample that misses the sun) happens less than once in 256 samples. Its own
 //! error bar is either dominated by that one event (when it was drawn: the pixel is flagged) or blind
-//! to it (when it was not). `Partial::finish` (what renders write) bounds the error bar of every pixel near a flag by
+//! to it (when it was not). `Partial::finish_pooled` bounds the error bar of every pixel near a flag by
 //! the pooled error of its neighbourhood (`renderer::film`, "Standard error and its reliability flag").
 //!
 //! The test renders the case at 256 spp with `SEEDS` seeds (independent sampler) and, per seed,
 //! pixel and channel G, forms z = (x − x̄₋ₛ) / √(σ² + σ̄₋ₛ²), where x̄₋ₛ is the mean of the other seeds
 //! (the leave-one-out reference, 63 × 256 spp) and σ̄₋ₛ its standard error. An honest error bar gives
 //! |z| < 3 for 99.73 % of the (seed, pixel) pairs. Each render's statistics are finished twice, with
-//! the pooled error bars (`Partial::finish`, what renders write) and with the pixels' own
-//! (`Partial::finish_own`, the `stderr_own` layer: the planted error, which must fail).
+//! the pooled error bars (`Partial::finish_pooled`) and with the pixels' own (`Partial::finish_own`, what
+//! renders write at ≥ 16 spp today, see `renderer::film`: the planted error, which must fail).
 //!
 //! Below 16 spp (`low_spp_error_bars_cover`, `analyze_at_4_spp_sees_no_model_inadequacy`) renders write
 //! the bound for every pixel (`Partial::finish`): the own σ of 4 or 8 samples is itself heavy-tailed.
@@ -35,8 +35,8 @@ fn case_scene(file: &str, seed: u64, edit: &dyn Fn(String) -> String) -> Option<
     Some(Scene::build(file, &dir).unwrap())
 }
 
-/// (bounded films, own films) of `SEEDS` renders: `stderr` the bound (`Partial::finish`, what
-/// renders write), and the pixels' own σ (`Partial::finish_own`, the
+/// (bounded films, own films) of `SEEDS` renders: `stderr` the bound (`Partial::finish_pooled`; what
+/// renders write at < 16 spp, `Partial::finish`), and the pixels' own σ (`Partial::finish_own`, the
 /// planted error).
 fn renders(mk: &dyn Fn(u64) -> Scene) -> (Vec<Film>, Vec<Film>) {
     (1..=SEEDS)
@@ -44,7 +44,10 @@ fn renders(mk: &dyn Fn(u64) -> Scene) -> (Vec<Film>, Vec<Film>) {
             let scene = mk(s);
             let spp = scene.settings.spp as u64;
             let p = render_range(&scene, &RenderOptions::default(), 0, spp).0.unwrap();
-            (p.finish(), p.finish_own())
+            if p.low_batch_count() {
+                assert_eq!(p.finish().pixels, p.finish_pooled().pixels, "renders write the bound at low spp");
+            }
+            (p.finish_pooled(), p.finish_own())
         })
         .unzip()
 }

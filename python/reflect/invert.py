@@ -40,10 +40,8 @@ def lighting(
 
     L_lm = B_lm / (albedo Λ_l ρ̂_l) per order (a normal-probe image), or fitted in pixel space over
     the visible normals (orthographic views), with standard errors, the noise amplification and
-    status of each order (``recovered`` / ``ill-conditioned`` / ``undetermined``: the truncation of
-    higher orders could move it by a large part of its size, so it cannot be determined from these
-    views / ``unobservable``: NaN rows in ``coefficients``), and the Tikhonov-regularised lighting
-    (``regularised``). ``brdf``, ``s``,
+    status of each order (``recovered`` / ``ill-conditioned`` / ``unobservable``: NaN rows in
+    ``coefficients``), and the Tikhonov-regularised lighting (``regularised``). ``brdf``, ``s``,
     ``sigma``, ``albedo``: the BRDF (default: the image header's). Other flags:
     ``max_amplification``, ``lambda_rule`` ("gcv" | "discrepancy"), ``output`` (a lat-long EXR
     of the regularised lighting) and ``width``.

@@ -30,7 +30,7 @@
 //! case cannot be seen in the pixel, but it can in its neighbours: the estimator's variance is a
 //! smooth function of the pixel's normal and view (the rare outcome has about the same probability
 //! and size in adjacent pixels), and a flag shows that the rare outcome occurs in this part of the
-//! image. So [`Partial::finish`] raises, in every channel, the error bar of each pixel within
+//! image. So [`Partial::finish_pooled`] raises, in every channel, the error bar of each pixel within
 //! [`POOL_TRIGGER_RADIUS`] pixels of a flagged one (the flagged one included) to the *pooled* error
 //! of its (2 [`POOL_RADIUS`] + 1)² window:
 //!
@@ -63,11 +63,14 @@
 //! energy Σ w σ² that must be *subtracted* (debiasing, `verify`'s `subspace`) uses it, because the
 //! bound's square is biased high by construction.
 //!
-//! **Near flags, in renders.** Until the truncation of one-view fits was predicted (analysis
-//! `inverse::views`), the bound near flags was kept out of renders: `verify --quick`'s `partial-view`
-//! check, whose one-view fit of the Grace probe misses L_2,−2 by 0.28 (5.5 σ of noise), passed only
-//! because the own σ's heavy tail inflated χ²/ν to 2.1 and so the noise bars by 1.45. With the
-//! predicted truncation in the bars it passes with the bound, which renders now write.
+//! **Near flags: not written yet.** [`Partial::finish`] (what renders write) applies the bound at
+//! low batch counts; the bound near flags is [`Partial::finish_pooled`] only. With it in renders,
+//! `verify --quick`'s `partial-view` check fails: its one-view fit of the Grace probe misses L_2,−2
+//! by 0.28 (5.5 σ of noise) and passed only because the own σ's heavy tail inflated χ²/ν to 2.1,
+//! which scaled the noise bars by 1.45; with the bound χ²/ν is 0.94 and the truncation estimate
+//! (differences of nested fits, blind to what one hemisphere aliases) carries none of the 0.28.
+//! The bound exposes an underestimated truncation, not a fault of the bound; it goes into renders
+//! when that estimate covers it.
 //!
 //! The pooling is a fixed sequential function of the finished own values, so the result is the same
 //! bits whatever the thread count or shard partition.
@@ -345,7 +348,7 @@ impl PixelAccumulator {
 pub struct Pixel {
     pub rgb: [f32; 3],
     /// The error bar of the pixel mean (the `stderr` layer): the bound of [`pool_heavy_tails`] after
-    /// [`Partial::finish`] near flagged pixels and everywhere at low spp; elsewhere (and where the
+    /// [`Partial::finish_pooled`], and after [`Partial::finish`] at low spp; elsewhere (and where the
     /// bound does not raise it) equal to [`Pixel::stderr_own`].
     pub stderr: [f32; 3],
     /// The standard error from the pixel's own samples alone (batch means, module docs; the
@@ -513,11 +516,23 @@ impl Partial {
     }
 
     /// The image of a complete render (what `reflect render` and `merge` write): per pixel, the
-    /// left-to-right fold of the canonical blocks of `[0, spp)` ([`Partial::finish_own`]), then the
-    /// bound of [`pool_heavy_tails`] on the error bars near flagged pixels, and on every pixel when
-    /// the render has fewer than [`UNRELIABLE_MIN_BATCHES`] batches (module docs). `stderr_own` keeps
-    /// the own value. Panics if the range is not complete (check [`Partial::is_complete`]).
+    /// left-to-right fold of the canonical blocks of `[0, spp)` ([`Partial::finish_own`]); when the
+    /// render has fewer than [`UNRELIABLE_MIN_BATCHES`] batches, every error bar bounded by
+    /// [`pool_heavy_tails`] (module docs). The bound near flagged pixels is [`Partial::finish_pooled`],
+    /// not written yet (module docs, "Near flags: not written yet"). `stderr_own` keeps the own
+    /// value. Panics if the range is not complete (check [`Partial::is_complete`]).
     pub fn finish(&self) -> Film {
+        let mut film = self.finish_own();
+        if self.low_batch_count() {
+            pool_heavy_tails(&mut film, true);
+        }
+        film
+    }
+
+    /// [`Partial::finish`] with the error bars near flagged pixels bounded too: the full bound of
+    /// [`pool_heavy_tails`]. Equal to `finish` below [`UNRELIABLE_MIN_BATCHES`] batches (no flags
+    /// there) and wherever no pixel is flagged. Panics like `finish`.
+    pub fn finish_pooled(&self) -> Film {
         let mut film = self.finish_own();
         pool_heavy_tails(&mut film, self.low_batch_count());
         film

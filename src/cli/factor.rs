@@ -127,13 +127,6 @@ pub fn run(a: &FactorArgs) -> Result<ExitCode, Error> {
         return Ok(ExitCode::SUCCESS);
     }
     let r = factor_report(a)?;
-    if let FactorInput::Scene { objects, .. } = &r.input
-        && *objects > 1
-    {
-        super::print_warnings(&[
-            "only objects[0] is factored; the other objects may shadow it or appear in its reflections".into(),
-        ]);
-    }
     if a.json {
         println!("{}", serde_json::to_string(&r).map_err(|e| Error::new(format!("JSON output: {e}")))?);
     } else {
@@ -671,6 +664,12 @@ impl std::fmt::Display for InvertFactorReport {
         )?;
         if let FactorInput::Scene { scene, spp, sampler, max_depth, objects, .. } = &self.input {
             writeln!(f, "# scene {scene}: {spp} spp, sampler {sampler}, max_depth {max_depth}, {objects} object(s)")?;
+            if *objects > 1 {
+                writeln!(
+                    f,
+                    "# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections"
+                )?;
+            }
         }
         if let Some(r) = &self.renders {
             writeln!(
