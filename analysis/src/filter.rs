@@ -322,9 +322,8 @@ pub fn fit_filter_pixels(
             }
             let r = pick(&c);
             let ok = seq.is_empty()
-                || crate::fit::design_amplification(&r, &weight, c.len()).is_some_and(|a| {
-                    a.iter().all(|&v| v <= crate::truncation::TRUNCATION_MAX_DESIGN_AMPLIFICATION)
-                });
+                || crate::fit::design_amplification(&r, &weight, c.len())
+                    .is_some_and(|a| a.iter().all(|&v| v <= crate::truncation::TRUNCATION_MAX_DESIGN_AMPLIFICATION));
             match lsq(&r, &value, &sigma, &weight).filter(|_| ok) {
                 Some(f) => seq.push((c, f)),
                 None => break,
