@@ -132,3 +132,45 @@ fn single_view_lambert_filter_is_right_with_and_without_header() {
         .count();
     assert_eq!(flagged, 3, "{}", doc["warnings"]);
 }
+
+#[test]
+fn one_sample_per_pixel_takes_sigma_from_the_residuals_and_says_so() {
+    // At 1 spp the stderr layer is 0 everywhere (one sample has no spread): the filter used to be
+    // printed ± 0 (6.5 σ off with no warning). Now σ comes from the residuals, said in one warning.
+    // Planted error: with the zero layer used as σ, every bar below is 0 and the first assertion fails.
+    let dir = temp_dir("analyze-one-spp");
+    let out = dir.join("one.exr");
+    let scene = root().join("scenes/lambert-grace.toml");
+    let (code, _, err) = reflect(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "64x64",
+        "--spp",
+        "1",
+        "--sampler",
+        "independent",
+        "-q",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let grace = grace();
+    let doc =
+        analyze(&["analyze", out.to_str().unwrap(), "--lighting", grace.to_str().unwrap(), "--lmax", "2", "--json"]);
+    assert_eq!(doc["stderr_source"], "residuals");
+    let warnings: Vec<&str> = doc["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap()).collect();
+    assert_eq!(warnings.iter().filter(|w| w.contains("stderr layer is 0 at every pixel")).count(), 1, "{warnings:?}");
+    for (l, o) in doc["filter"].as_array().unwrap().iter().enumerate() {
+        for ch in 0..3 {
+            let (est, se) = (o["estimate"][ch].as_f64().unwrap(), o["stderr"][ch].as_f64().unwrap());
+            assert!(se > 0.0, "l={l} ch{ch}: ± 0");
+            // 4 σ: a two-sided normal tail of 6e-5 per comparison, 9 comparisons.
+            let z = (est - 0.8 * LAMBERT[l]) / se;
+            assert!(z.abs() <= 4.0, "l={l} ch{ch}: {est} ± {se} ({z:.1} σ)");
+        }
+    }
+    for se in doc["stderr"].as_array().unwrap() {
+        assert!(se.as_array().unwrap().iter().all(|v| v.as_f64().unwrap() > 0.0), "B_lm ± 0: {se}");
+    }
+}

@@ -153,6 +153,19 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     if described.object_count > 1 {
         warnings.push(format!("the scene has {} objects; analysing the first sphere", described.object_count));
     }
+    // A stderr layer that is 0 everywhere (one sample per pixel) carries no error estimate: the
+    // projections take σ from the residuals instead (analysis::projection::stderr_estimate).
+    for (path, image) in a.images.iter().zip(&images) {
+        if image.stderr_layer().is_ok_and(|s| s.is_some())
+            && analysis::projection::stderr_estimate(image).is_ok_and(|s| s.is_none())
+        {
+            warnings.push(format!(
+                "{}: the stderr layer is 0 at every pixel (one sample per pixel, e.g. a 1-spp render, has no spread \
+                 to estimate an error from): σ is estimated from the residuals of the fits instead",
+                path.display()
+            ));
+        }
+    }
     let brdf_at = |theta_o: f64| -> Result<Option<Brdf>, Error> {
         Ok(described.transfer(&a.brdf, theta_o).map_err(|e| e.in_file(&a.images[0]))?.map(|r| Brdf {
             model: r.transfer.map(|t| t.model),

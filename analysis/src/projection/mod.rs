@@ -14,5 +14,6 @@ pub use function::{project_function, project_function_scalar};
 pub use normal_probe::{normal_probe_outgoing, probe_samples, project_normal_probe};
 pub use orthographic::{
     Fit, OrthoCamera, OrthoView, Param, Sample, Sphere, fit_orthographic, ortho_sample_pixels, ortho_samples,
+    stderr_estimate,
 };
 pub use resolution::{check_latlong, check_order, latlong_max_order};

@@ -33,7 +33,7 @@ pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Opti
         )));
     }
     super::resolution::check_latlong(lmax, rgb.width, rgb.height, "normal-probe image")?;
-    let var = img.stderr_layer()?.map(|s| RgbImage {
+    let var = super::orthographic::stderr_estimate(img)?.map(|s| RgbImage {
         width: s.width,
         height: s.height,
         pixels: s.pixels.iter().map(|p| [p[0] * p[0], p[1] * p[1], p[2] * p[2]]).collect(),
@@ -53,7 +53,7 @@ pub fn probe_samples(img: &Image) -> Result<(Vec<super::orthographic::Sample>, b
             rgb.width, rgb.height
         )));
     }
-    let se = img.stderr_layer()?;
+    let se = super::orthographic::stderr_estimate(img)?;
     let (w, h) = (rgb.width, rgb.height);
     let samples = (0..w * h)
         .map(|i| {

@@ -161,6 +161,14 @@ pub fn ortho_sample_pixels(views: &[OrthoView], sphere: &Sphere, param: Param) -
     Ok(at)
 }
 
+/// The `stderr` layer of `img` when it carries an error estimate: `None` without the layer and
+/// also when it is 0 at every pixel — one sample per pixel (a 1-spp render) has no spread to
+/// estimate σ from, and a σ of 0 would print ± 0 — so the fits take σ from their residuals, as for
+/// an image without the layer. Errors as [`Image::stderr_layer`].
+pub fn stderr_estimate(img: &Image) -> Result<Option<crate::image::RgbImage>> {
+    Ok(img.stderr_layer()?.filter(|s| s.pixels.iter().any(|p| p.iter().any(|&v| v > 0.0))))
+}
+
 /// Appends the covered pixels of `view` to `out` and their (row, column) to `at`.
 fn collect_samples(
     view: &OrthoView,
@@ -172,7 +180,7 @@ fn collect_samples(
     let img = view.image;
     let cam = &view.camera;
     let rgb = img.rgb().ok_or_else(|| Error::new("image has no R, G, B channels"))?;
-    let stderr = img.stderr_layer()?;
+    let stderr = stderr_estimate(img)?;
     let mask = img.channel("mask.Y");
     let normals = match (img.channel("normal.X"), img.channel("normal.Y"), img.channel("normal.Z")) {
         (Some(x), Some(y), Some(z)) => Some((x, y, z)),
