@@ -135,9 +135,10 @@ fn single_view_lambert_filter_is_right_with_and_without_header() {
 
 #[test]
 fn one_sample_per_pixel_takes_sigma_from_the_residuals_and_says_so() {
-    // At 1 spp the stderr layer is 0 everywhere (one sample has no spread): the filter used to be
-    // printed ± 0 (6.5 σ off with no warning). Now σ comes from the residuals, said in one warning.
-    // Planted error: with the zero layer used as σ, every bar below is 0 and the first assertion fails.
+    // At 1 spp the stderr layer is 0 everywhere (one sample has no spread): the filter's noise part
+    // used to be 0 with no warning. Now σ comes from the residuals, said in one warning. Planted
+    // error: with the zero layer used as σ (the previous binary), l = 0 R is 0.7442 ± 0.0058 here,
+    // 9.6 σ off, and the |z| ≤ 4 assertion fails; with the residual σ it is ± 0.027 (2.1 σ).
     let dir = temp_dir("analyze-one-spp");
     let out = dir.join("one.exr");
     let scene = root().join("scenes/lambert-grace.toml");
