@@ -384,7 +384,13 @@ fn readme_worked_example_from_the_example_script() {
 
 /// A 64 × 32 normal-probe image (constant radiance 1, no stderr layer) with the given header
 /// attributes (`None`: not written), as another renderer or ours would write it.
-fn probe_file(dir: &Path, name: &str, camera: Option<(f64, f64)>, brdf: Option<&str>, lighting: Option<&str>) -> String {
+fn probe_file(
+    dir: &Path,
+    name: &str,
+    camera: Option<(f64, f64)>,
+    brdf: Option<&str>,
+    lighting: Option<&str>,
+) -> String {
     let (w, h) = (64, 32);
     let mut img = Image { width: w, height: h, ..Default::default() };
     for n in ["R", "G", "B"] {
@@ -397,8 +403,10 @@ fn probe_file(dir: &Path, name: &str, camera: Option<(f64, f64)>, brdf: Option<&
         );
     }
     if let Some(b) = brdf {
-        img.attributes
-            .insert("reflect:objects".into(), format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{b}}}]"#));
+        img.attributes.insert(
+            "reflect:objects".into(),
+            format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{b}}}]"#),
+        );
     }
     if let Some(l) = lighting {
         img.attributes.insert("reflect:lighting".into(), l.to_string());
@@ -439,7 +447,10 @@ fn flags_against_headers_and_their_domains() {
         // 2. Header-described quantities against their flags.
         (sep(&["--kd", "0.7"]), vec!["v0.exr", "--kd 0.7,0.7,0.7", "k_d = 0.5,0.5,0.5", "contradict"]),
         (sep(&["--ks", "0.2,0.5,0.5"]), vec!["v0.exr", "--ks 0.2,0.5,0.5", "k_s = 0.5,0.5,0.5", "contradict"]),
-        (vec!["analyze", &ph, "--lmax", "2", "--albedo", "0.8"], vec!["phong.exr", "--albedo 0.8", "0.5", "contradict"]),
+        (
+            vec!["analyze", &ph, "--lmax", "2", "--albedo", "0.8"],
+            vec!["phong.exr", "--albedo 0.8", "0.5", "contradict"],
+        ),
         (vec!["analyze", &ph, "--lmax", "2", "--brdf", "phong", "--s", "8"], vec!["phong.exr", "--s 8", "contradict"]),
         (vec!["analyze", &ph, "--lmax", "2", "--theta-o", "30"], vec!["phong.exr", "--theta-o", "contradict"]),
         // 4. Each command's hint names the flags it accepts.
@@ -451,17 +462,21 @@ fn flags_against_headers_and_their_domains() {
         (vec!["analyze", &ph, "--lmax", "201"], vec!["--lmax", "0..=200"]),
         (vec!["invert", "lighting", &ph, "--lmax", "-3"], vec!["--lmax", "0..=200"]),
         (vec!["invert", "brdf", &ph, "--model", "phong", "--lmax", "-1"], vec!["--lmax", "0..=200"]),
-        (sep(&["--lmax", "-1"]), vec!["--lmax", "0..=200"]),
+        (vec!["invert", "separate", &v0, &v1, &v2, "--lmax", "-1"], vec!["--lmax", "0..=200"]),
         (vec!["invert", "factor", &v1, "--lmax", "-1"], vec!["--lmax", "0..=200"]),
         (vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "0"], vec!["--extent", "> 0"]),
         (vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "inf"], vec!["--extent", "> 0"]),
-        (vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "1", "--radius", "-1"], vec![
-            "--radius", "> 0",
-        ]),
+        (
+            vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "1", "--radius", "-1"],
+            vec!["--radius", "> 0"],
+        ),
         (vec!["analyze", &bare0, "--lmax", "2", "--theta-o", "90"], vec!["--theta-o", "0 ≤ θ_o < 90"]),
         (vec!["analyze", &bare0, "--lmax", "2", "--theta-o", "-5"], vec!["--theta-o", "0 ≤ θ_o < 90"]),
         (vec!["analyze", &bare0, "--lmax", "2", "--phi-o", "nan"], vec!["--phi-o", "finite"]),
-        (vec!["invert", "lighting", &ph, "--lmax", "2", "--max-amplification", "0"], vec!["--max-amplification", "≥ 1"]),
+        (
+            vec!["invert", "lighting", &ph, "--lmax", "2", "--max-amplification", "0"],
+            vec!["--max-amplification", "≥ 1"],
+        ),
         (vec!["invert", "brdf", &ph, "--model", "phong", "--lmax", "2", "--min", "-1"], vec!["--min", "> 0"]),
         (cat(&base, &["--output", o, "--width", "-4"]), vec!["--width", "4..=16384"]),
         (vec!["invert", "factor", &v1, "--lmax", "1", "--max-amplification", "-2"], vec!["--max-amplification", "≥ 1"]),
@@ -501,7 +516,7 @@ fn flags_against_headers_and_their_domains() {
 /// never on stdout; the JSON keeps it in its `warnings` array.
 #[test]
 fn factor_warns_on_stderr_once() {
-    let dir = temp_dir("foreign-factor-warning");
+    let dir = temp_dir("foreign-factor-stderr");
     let scene = dir.join("two.toml");
     std::fs::write(
         &scene,

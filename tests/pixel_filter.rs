@@ -91,9 +91,8 @@ fn splat(fine: &Image) -> Image {
 /// Grace's lighting (`scenes/lambert-grace.toml`'s angular map) as a `[lighting]` table of its
 /// L_lm up to l = [`TRUNCATION_LMAX_CAP`]: every order the analyses use (module docs).
 fn grace_sh() -> String {
-    let c = Lighting::from_envmap_file(&grace(), Some(vocab::Mapping::Angular))
-        .coefficients(TRUNCATION_LMAX_CAP)
-        .unwrap();
+    let c =
+        Lighting::from_envmap_file(&grace(), Some(vocab::Mapping::Angular)).coefficients(TRUNCATION_LMAX_CAP).unwrap();
     let rows: Vec<String> = c.iter().map(|v| format!("[{:?}, {:?}, {:?}]", v[0], v[1], v[2])).collect();
     format!("[lighting]\ntype = \"sh\"\ncoefficients = [{}]\n", rows.join(", "))
 }

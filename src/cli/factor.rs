@@ -622,7 +622,8 @@ fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: No
     if let FactorInput::Scene { objects, .. } = &m.input
         && *objects > 1
     {
-        warnings.push("only objects[0] is factored; the other objects may shadow it or appear in its reflections".into());
+        warnings
+            .push("only objects[0] is factored; the other objects may shadow it or appear in its reflections".into());
     }
     InvertFactorReport {
         command: "invert factor".into(),

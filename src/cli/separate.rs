@@ -25,7 +25,7 @@
 //! Standard errors come from the renders' `stderr.R/G/B` layers; without them (another renderer's
 //! images) the noise is estimated from the residuals, as `analyze` and `invert` do: the residual
 //! variance σ̂² = Σ_p r_p²/ν of the diffuse view's fit (SH up to `lmax` at n) for its pixels and of
-//! the specular views' fit (SH up to `lmax` at R plus the 9 harmonics l ≤ 2 at n, so whatever the
+//! the specular views' fit (SH up to `lmax` at R plus the harmonics 1 ≤ l ≤ 2 at n, so whatever the
 //! split) for theirs (stated in the output). Both fits are reported with their χ²/ν and p-value
 //! when the layers give σ (`fits`); their views cover the whole sphere of the fitted directions, so
 //! orders above `lmax` bias no coefficient (up to the grid's aliasing) and no truncation term is
@@ -359,9 +359,10 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
         let in_c = |e: analysis::Error| Error::new(format!("channel {}: {}", CHANNELS[c], e.message));
         let mut sep = Separation::new(&dif, &spec, a.lmax).map_err(in_c)?;
         // Each side's fit and its residuals: the diffuse view at n, the specular views at R with the
-        // 9 harmonics at n (the diffuse part, whatever the split). With the stderr layers their χ²/ν
+        // harmonics 1 ≤ l ≤ 2 at n (the diffuse part, whatever the split). With the stderr layers their χ²/ν
         // tests the fits; without, their residual variance is the noise (σ = 1 above, rescaled).
-        let fits = [fit_residuals(&dif, a.lmax, false).map_err(in_c)?, fit_residuals(&spec, a.lmax, true).map_err(in_c)?];
+        let fits =
+            [fit_residuals(&dif, a.lmax, false).map_err(in_c)?, fit_residuals(&spec, a.lmax, true).map_err(in_c)?];
         if !with_stderr {
             let var = |f: &ResidualFit, what: &str| {
                 f.residual_variance().ok_or_else(|| {
@@ -534,7 +535,7 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
             diffuse: fit_report(0, "the diffuse view's pixels fitted by the SH up to l_max at n"),
             specular: fit_report(
                 1,
-                "the specular views' pixels fitted by the SH up to l_max at R plus the 9 harmonics l ≤ 2 at n (the \
+                "the specular views' pixels fitted by the SH up to l_max at R plus the harmonics 1 ≤ l ≤ 2 at n (the \
                  diffuse part, any split)",
             ),
         },

@@ -112,7 +112,7 @@ pub struct ResidualFit {
     pub rss: f64,
     /// Samples with w_p > 0.
     pub samples: usize,
-    /// ν = samples − columns ((lmax + 1)², plus 9 with the normal terms; 0 if that is negative).
+    /// ν = samples − columns ((lmax + 1)², plus 8 with the normal terms; 0 if that is negative).
     pub dof: usize,
 }
 
@@ -137,8 +137,8 @@ impl ResidualFit {
 
 /// The least-squares fit of `samples` by the spherical harmonics up to `lmax` at their reflection
 /// vectors R (at the normals for a view at normal exitance), weighted by their solid angles as in
-/// [`Separation::new`], and its residuals ([`ResidualFit`]). With `normal_terms` the 9 harmonics
-/// l ≤ 2 at the normals n are fitted as well: on the specular views they take up the diffuse part
+/// [`Separation::new`], and its residuals ([`ResidualFit`]). With `normal_terms` the harmonics
+/// 1 ≤ l ≤ 2 at the normals n are fitted as well (l = 0 is the constant already fitted at R): on the specular views they take up the diffuse part
 /// k_d Σ Λ_l ρ̂_l L_lm Y_lm(n) whatever the split, so the residuals are noise (plus what lies beyond
 /// both models) for any k_d : k_s, and a wrong split cannot inflate the noise estimate. On a set of
 /// views covering the sphere of R (the diffuse view; the specular views at φ_o = 0° and 180°
@@ -148,13 +148,16 @@ impl ResidualFit {
 pub fn fit_residuals(samples: &Samples, lmax: usize, normal_terms: bool) -> Result<ResidualFit> {
     samples.validate("residual fit")?;
     let nr = num_coefficients(lmax);
-    let nfit = nr + if normal_terms { LOW } else { 0 };
+    // Y_00(n) is the constant Y_00(R): the normal terms are the 8 harmonics 1 ≤ l ≤ 2.
+    let nfit = nr + if normal_terms { LOW - 1 } else { 0 };
     let (basis, basis9) = (ShBasis::new(lmax), ShBasis::new(2));
     // The design row of sample p: Y_k(R_p), k < nr, then Y_j(n_p), j < 9, with the normal terms.
     let row = |p: usize, a: &mut [f64]| {
         basis.eval_into(samples.reflected[p], &mut a[..nr]);
         if normal_terms {
-            basis9.eval_into(samples.normal[p], &mut a[nr..]);
+            let mut y9 = [0.0; LOW];
+            basis9.eval_into(samples.normal[p], &mut y9);
+            a[nr..].copy_from_slice(&y9[1..]);
         }
     };
     let chunk = 512;
@@ -195,7 +198,10 @@ pub fn fit_residuals(samples: &Samples, lmax: usize, normal_terms: bool) -> Resu
         }
     }
     let chol = Cholesky::new(&g, nfit, 1e-12).map_err(|e| {
-        Error::new(format!("the directions do not determine the residual fit's lighting up to l = {lmax}: {}", e.message))
+        Error::new(format!(
+            "the directions do not determine the residual fit's lighting up to l = {lmax}: {}",
+            e.message
+        ))
     })?;
     let mut c = rhs.to_vec();
     chol.solve(&mut c);
@@ -626,15 +632,16 @@ mod tests {
         (dif, spec)
     }
 
-    /// The residual fits estimate the noise: band-limited lighting (no truncation) with Gaussian
-    /// noise σ = 0.02 gives σ̂² / σ² = 1 within 4 standard errors (√(2/ν)), with χ²/ν against the
-    /// true σ the same number. On the specular views the normal terms take up the diffuse part
-    /// whatever the split; the planted error (the fit without them, the diffuse part as a function
-    /// of R left unmodelled) is far above the noise.
+    /// The residual fits estimate the noise: lighting of orders ≤ 3 (no truncation at lmax 4, and
+    /// Lambert's Λ_3 ρ̂_3 = 0, so the diffuse part is exactly its 9 terms) with Gaussian noise
+    /// σ = 0.002 gives σ̂² / σ² = 1 within 4 standard errors (√(2/ν)), with χ²/ν against the true σ
+    /// the same number. On the specular views the normal terms take up the diffuse part whatever the
+    /// split; the planted error (the fit without them, the diffuse part as a function of R left
+    /// unmodelled) is far above the noise.
     #[test]
     fn residual_fits_estimate_the_noise() {
-        let light = light_with(4, &[1, 2, 3, 4]);
-        let (kd, ks, sigma) = (0.5, 0.5, 0.02);
+        let light = light_with(4, &[1, 2, 3]);
+        let (kd, ks, sigma) = (0.5, 0.5, 0.002);
         let (dif, spec) = views(&light, kd, ks, 50f64.to_radians(), sigma, 3);
         let d = fit_residuals(&dif, 4, false).unwrap();
         let sp = fit_residuals(&spec, 4, true).unwrap();
