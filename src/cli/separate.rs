@@ -1034,11 +1034,20 @@ mod tests {
             }
         }
         // A wrong split (0.6 : 0.4 instead of 0.5 : 0.5): χ²_9 > 100 has probability ≈ 1e-16 for a
-        // consistent split. One channel: the coefficients are then numbers.
+        // consistent split. One channel: the coefficients are then numbers. The split by flags
+        // contradicts the header's mix (an error naming both), so it is given for the same pixels
+        // without a header (another renderer's files: angles by flags).
         let mut wrong = args(a.images.clone());
         wrong.kd = Some([0.6; 3]);
         wrong.ks = Some([0.4; 3]);
         wrong.channel = Some(Channel::G);
+        let e = separate_doc(&wrong).unwrap_err().to_string();
+        assert!(e.contains("--kd 0.6,0.6,0.6") && e.contains("k_d = 0.5,0.5,0.5") && e.contains("contradict"), "{e}");
+        wrong.images =
+            a.images.iter().enumerate().map(|(i, p)| foreign_copy(p, &format!("known-foreign-{i}.exr"))).collect();
+        wrong.view.theta_o = vec![0.0, 50.0, 50.0];
+        wrong.view.phi_o = vec![0.0, 0.0, 180.0];
+        wrong.view.layer = Some("ViewLayer.Combined".into());
         let w = separate_doc(&wrong).unwrap();
         assert_eq!(w["split_source"], "command line");
         assert!(w["coefficients"][0].is_number() && w["channels"] == json!(["G"]));
