@@ -6,6 +6,10 @@
 //! - "aimed": same origins, each ray aimed at a uniform random point inside the unit ball (almost
 //!   all hit; origins inside the ball still hit the surface from inside).
 //!
+//! Instruction counts of the build settings (`BVH_COUNT`, see [`count`]): `BVH_COUNT=leaf=2 valgrind
+//! --tool=callgrind --toggle-collect='*trace_1t*' target/release/deps/bvh-… --bench` traces 2^16 rays of
+//! each set on the 1.31M-triangle icosphere once, on the calling thread, and exits before criterion.
+//!
 //! Run: `cargo bench --bench bvh` (about 2 minutes). Throughput is printed as elements/s = rays/s.
 //! Before each group one untimed-by-criterion pass per ray set prints the hit fraction, the
 //! wall-clock rate, and the rate normalised by the process CPU time (what 2 dedicated cores would
@@ -76,7 +80,59 @@ fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray]) -> usize {
     pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| geo.intersect(r).is_some()).count())
 }
 
+/// Closest hits of `rays` on this thread (not inlined: callgrind's `--toggle-collect='*trace_1t*'`
+/// counts exactly this).
+#[inline(never)]
+fn trace_1t_box(geo: &SceneGeometry, rays: &[Ray]) -> usize {
+    rays.iter().filter(|r| geo.intersect(r).is_some()).count()
+}
+
+/// As [`trace_1t_box`], for the aimed rays (a separate symbol, so callgrind counts each set).
+#[inline(never)]
+fn trace_1t_aimed(geo: &SceneGeometry, rays: &[Ray]) -> usize {
+    rays.iter().filter(|r| geo.intersect(r).is_some()).count()
+}
+
+/// The counting mode: `BVH_COUNT` is a comma-separated list of `leaf=N` (max primitives per leaf),
+/// `search=1|medium|2|6|14|24|32`, `reinsert=R`, `depth=N`, `presplit=0|1` overriding
+/// `BUILD_PARAMS`; builds the 1.31M-triangle icosphere with them and traces 2^16 rays of each set once.
+fn count(spec: &str) {
+    use renderer::geometry::bvh::{BUILD_PARAMS, PlocSearchDistance};
+    let mut p = BUILD_PARAMS;
+    for kv in spec.split(',').filter(|kv| !kv.is_empty()) {
+        let (k, v) = kv.split_once('=').expect("BVH_COUNT: key=value");
+        match k {
+            "leaf" => p.max_prims_per_leaf = v.parse().expect("leaf"),
+            "search" => {
+                p.ploc_search_distance = match v {
+                    "1" => PlocSearchDistance::Minimum,
+                    "2" => PlocSearchDistance::VeryLow,
+                    "6" => PlocSearchDistance::Low,
+                    "14" | "medium" => PlocSearchDistance::Medium,
+                    "24" => PlocSearchDistance::High,
+                    "32" => PlocSearchDistance::VeryHigh,
+                    _ => panic!("BVH_COUNT: search={v}"),
+                }
+            }
+            "reinsert" => p.reinsertion_batch_ratio = v.parse().expect("reinsert"),
+            "depth" => p.search_depth_threshold = v.parse().expect("depth"),
+            "presplit" => p.pre_split = v == "1",
+            _ => panic!("BVH_COUNT: unknown key {k}"),
+        }
+    }
+    let geo = SceneGeometry::with_build_params(vec![Shape::Mesh(icosphere(8))], p);
+    let n = 1 << 16;
+    let (b, a) = (rays("box", 1), rays("aimed", 2));
+    let hb = trace_1t_box(&geo, &b[..n]);
+    let ha = trace_1t_aimed(&geo, &a[..n]);
+    println!("BVH_COUNT {spec}: build {:.2} s; hits box {hb}, aimed {ha} of {n}", geo.build_time().as_secs_f64());
+}
+
 fn bench(c: &mut Criterion) {
+    if let Ok(spec) = std::env::var("BVH_COUNT") {
+        count(&spec);
+        std::process::exit(0);
+    }
     let pool = rayon::ThreadPoolBuilder::new().num_threads(THREADS).build().expect("thread pool");
     let ray_sets = [("box", rays("box", 1)), ("aimed", rays("aimed", 2))];
 

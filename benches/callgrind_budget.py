@@ -126,9 +126,13 @@ def stage_of_callee(name, f):
     if "geometry/" in f:
         return "intersection (analytic sphere)"
     if "brdf/" in f:
+        # `sample_at` etc. are `sample` given the vertex's precomputed terms of ω_o (`outgoing`).
+        name = name.removesuffix("_at")
         for k in ("sample", "eval", "pdf"):
             if name.endswith(k):
                 return "BRDF " + k
+        if name.endswith("outgoing"):
+            return "BRDF terms of ω_o (outgoing)"
         return "BRDF other"
     if "light/" in f or f.endswith("distribution.rs"):
         if name in ("sample", "prefetch_sample"):
@@ -167,10 +171,10 @@ def stage(frames):
     if "geometry::" in outer:
         return "intersection (analytic sphere)"
     if "microfacet::Microfacet::lambda" in outer:
-        return "BRDF Smith Λ (out of line; from sample and eval)"
+        return "BRDF Smith Λ (out of line)"
     if "brdf::" in outer:
         for k in ("sample", "eval", "pdf"):
-            if outer.endswith("::" + k):
+            if outer.endswith("::" + k) or outer.endswith("::" + k + "_at"):
                 return "BRDF " + k
         return "BRDF other"
     if "render::" in outer or "rayon" in outer:

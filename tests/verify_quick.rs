@@ -2,7 +2,8 @@
 //! fails when compared with a deliberately wrong prediction (the hidden `--wrong-prediction`
 //! switch: Lambert × 1.05, Phong exponent × 1.2, TS σ × 1.2, mirror gain 0.95, E × 1.05, a 5°
 //! tilted axial light, albedo × 1.05, a wrong blur, the ignore curve for clamp, …), the report
-//! folder is complete, and bad input exits 2.
+//! folder is complete, and bad input exits 2. Both runs are one process (`--then-wrong-prediction`:
+//! the second pass reuses the first one's renders), so the test costs one run's renders.
 
 mod common;
 
@@ -43,7 +44,11 @@ const NAMES: [&str; 24] = [
 fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
     let dir = common::temp_dir("verify-quick");
     let d = dir.to_str().unwrap();
-    let (code, stdout, stderr) = verify(&["--quick", "--json", "--out", d]);
+    // One process runs the checks twice: as shipped, then against deliberately wrong predictions on
+    // the same renders (kept in memory by `--then-wrong-prediction`), instead of a second full run.
+    let wrong_json = dir.join("wrong.json");
+    let (code, stdout, stderr) =
+        verify(&["--quick", "--json", "--out", d, "--then-wrong-prediction", wrong_json.to_str().unwrap()]);
     let doc: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("bad JSON ({e}):\n{stdout}\n{stderr}"));
     let checks = doc["checks"].as_array().expect("checks array");
     let names: Vec<&str> = checks.iter().map(|c| c["name"].as_str().unwrap()).collect();
@@ -104,9 +109,10 @@ fn quick_run_passes_writes_the_report_and_every_check_can_fail() {
     assert!(svg.starts_with("<svg") && svg.contains("measured"));
 
     // Every check must fail against a deliberately wrong prediction, on the same renders.
-    let (code, stdout, stderr) = verify(&["--quick", "--json", "--wrong-prediction", "--out", d]);
-    assert_eq!(code, 1, "{stderr}");
-    let doc: Value = serde_json::from_str(&stdout).unwrap();
+    let text =
+        std::fs::read_to_string(&wrong_json).unwrap_or_else(|e| panic!("{}: {e}\n{stderr}", wrong_json.display()));
+    let doc: Value = serde_json::from_str(&text).unwrap();
+    assert!(stderr.contains("wrong prediction: lambert FAIL"), "{stderr}");
     // "Failed" must mean: it ran, and a deciding comparison with a finite measurement fell outside its
     // tolerance. An error (a crashed render, a refused input) would also read `passed = false` and
     // prove nothing about the check's power.

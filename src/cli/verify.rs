@@ -48,6 +48,11 @@ pub struct VerifyArgs {
     /// Testing aid: compare every check with a deliberately wrong prediction (each must then fail).
     #[arg(long, hide = true)]
     pub wrong_prediction: bool,
+    /// Testing aid: after the run, run the checks again against deliberately wrong predictions on
+    /// the same renders (kept in memory, not rendered again) and write that run's JSON document to
+    /// FILE; the exit status and the report are the first run's.
+    #[arg(long, hide = true, value_name = "FILE")]
+    pub then_wrong_prediction: Option<PathBuf>,
 }
 
 pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
@@ -84,6 +89,9 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
         data,
         cancel: None,
     };
+    if a.then_wrong_prediction.is_some() {
+        verify::scenes::keep_renders();
+    }
     let t = std::time::Instant::now();
     // On a terminal (and without --verbose) a progress bar naming the running check; otherwise one
     // line per finished check on stderr (and, with --verbose, a line when each starts).
@@ -137,6 +145,29 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
         print!("{doc}");
     }
     report::write_folder(&a.out, &checks, a.quick, seconds).map_err(|m| Error::file(&a.out, m))?;
+    if let Some(file) = &a.then_wrong_prediction {
+        let wrong_ctx = Ctx { wrong: true, ..ctx.clone() };
+        let t2 = std::time::Instant::now();
+        let wrong = super::render::with_threads(a.threads, || {
+            selected
+                .iter()
+                .map(|e| {
+                    let c = verify::run_entry(&wrong_ctx, e);
+                    eprintln!(
+                        "[{:6.1} s] wrong prediction: {} {} ({:.1} s)",
+                        t2.elapsed().as_secs_f64(),
+                        e.name,
+                        if c.passed() { "PASS" } else { "FAIL" },
+                        c.seconds
+                    );
+                    c
+                })
+                .collect::<Vec<_>>()
+        })?;
+        let doc = report::json(&wrong, a.quick, t2.elapsed().as_secs_f64());
+        std::fs::write(file, serde_json::to_string_pretty(&doc).unwrap_or_default())
+            .map_err(|e| Error::file(file, e.to_string()))?;
+    }
     eprintln!("report: {} (wall time {seconds:.1} s)", a.out.join("report.html").display());
     Ok(if checks.iter().all(|c| c.passed()) { ExitCode::SUCCESS } else { ExitCode::from(1) })
 }

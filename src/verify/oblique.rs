@@ -69,29 +69,51 @@ pub struct Resolution {
     pub n_phi: usize,
 }
 
-/// ∫ f(ω_i) ρ̂(ω_i; n, ω_o) dω_i for the clamped Torrance–Sparrow lobe (unit k_s).
-pub fn integrate_lobe(
+/// The nodes of [`integrate_lobe`] for one σ and resolution, which do not depend on the pixel:
+/// per θ_h node (sin θ_h, cos θ_h, ½ θ_max w_i sin θ_h e^{−θ_h²/σ²}) and per φ_h node (sin φ_h,
+/// cos φ_h). Computed once per image instead of once per pixel (the Gauss–Legendre nodes and the
+/// φ sines were most of the prediction's time); the sums are the same numbers in the same order.
+pub struct LobeNodes {
     sigma: f64,
-    n: [f64; 3],
-    wo: [f64; 3],
-    res: Resolution,
-    mut f: impl FnMut([f64; 3]) -> f64,
-) -> f64 {
+    n_phi: usize,
+    theta: Vec<(f64, f64, f64)>,
+    phi: Vec<(f64, f64)>,
+}
+
+impl LobeNodes {
+    pub fn new(sigma: f64, res: Resolution) -> LobeNodes {
+        let tmax = (5.0 * sigma).min(0.5 * PI);
+        let (x, w) = gauss_legendre(res.n_theta);
+        let theta = (0..res.n_theta)
+            .map(|i| {
+                let th = 0.5 * tmax * (x[i] + 1.0);
+                let (st, ct) = th.sin_cos();
+                (st, ct, 0.5 * tmax * w[i] * st * (-(th * th) / (sigma * sigma)).exp())
+            })
+            .collect();
+        let phi = (0..res.n_phi).map(|j| (2.0 * PI * (j as f64 + 0.5) / res.n_phi as f64).sin_cos()).collect();
+        LobeNodes { sigma, n_phi: res.n_phi, theta, phi }
+    }
+}
+
+/// ∫ f(ω_i) ρ̂(ω_i; n, ω_o) dω_i for the clamped Torrance–Sparrow lobe (unit k_s).
+pub fn integrate_lobe(sigma: f64, n: [f64; 3], wo: [f64; 3], res: Resolution, f: impl FnMut([f64; 3]) -> f64) -> f64 {
+    integrate_lobe_with(&LobeNodes::new(sigma, res), n, wo, f)
+}
+
+/// [`integrate_lobe`] with its nodes computed beforehand.
+pub fn integrate_lobe_with(nodes: &LobeNodes, n: [f64; 3], wo: [f64; 3], mut f: impl FnMut([f64; 3]) -> f64) -> f64 {
     // A frame (t1, t2, n).
     let a = if n[2].abs() < 0.9 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] };
     let t1 = normalize([a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0]]);
     let t2 = [n[1] * t1[2] - n[2] * t1[1], n[2] * t1[0] - n[0] * t1[2], n[0] * t1[1] - n[1] * t1[0]];
     let cos_o = dot(n, wo);
-    let tmax = (5.0 * sigma).min(0.5 * PI);
-    let (x, w) = gauss_legendre(res.n_theta);
+    let sigma = nodes.sigma;
     let norm = 1.0 / (4.0 * PI * sigma * sigma * cos_o);
     let mut sum = 0.0;
-    for i in 0..res.n_theta {
-        let th = 0.5 * tmax * (x[i] + 1.0);
-        let (st, ct) = th.sin_cos();
-        let wt = 0.5 * tmax * w[i] * st * (-(th * th) / (sigma * sigma)).exp() * norm * (2.0 * PI / res.n_phi as f64);
-        for j in 0..res.n_phi {
-            let (sp, cp) = (2.0 * PI * (j as f64 + 0.5) / res.n_phi as f64).sin_cos();
+    for &(st, ct, w_theta) in &nodes.theta {
+        let wt = w_theta * norm * (2.0 * PI / nodes.n_phi as f64);
+        for &(sp, cp) in &nodes.phi {
             let h = [0, 1, 2].map(|k| st * cp * t1[k] + st * sp * t2[k] + ct * n[k]);
             let oh = dot(wo, h);
             if oh <= 0.0 {
@@ -122,11 +144,12 @@ pub fn probe_geometry(r: usize, c: usize, w: usize, h: usize, theta_o: f64) -> (
 
 /// The predicted normal-probe image at θ_o under a lighting table.
 pub fn predict_probe(sigma: f64, theta_o: f64, w: usize, h: usize, table: &LightTable, res: Resolution) -> Vec<f64> {
+    let nodes = LobeNodes::new(sigma, res);
     (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (n, wo, _) = probe_geometry(i / w, i % w, w, h, theta_o);
-            integrate_lobe(sigma, n, wo, res, |wi| table.lookup(wi))
+            integrate_lobe_with(&nodes, n, wo, |wi| table.lookup(wi))
         })
         .collect()
 }
@@ -137,14 +160,18 @@ pub fn q0_term(sigma: f64, theta_o: f64, lmax: usize) -> Vec<f64> {
     let wo = [theta_o.sin(), 0.0, theta_o.cos()];
     let r = [-wo[0], 0.0, wo[2]];
     let res = Resolution { n_theta: 96, n_phi: 1024 };
-    let mut p = vec![0.0; lmax + 1];
+    let nodes = LobeNodes::new(sigma, res);
     (0..=lmax)
-        .map(|l| {
-            integrate_lobe(sigma, n, wo, res, |wi| {
-                legendre_all(dot(r, wi).clamp(-1.0, 1.0), &mut p);
-                p[l]
-            })
-        })
+        .into_par_iter()
+        .map_init(
+            || vec![0.0; lmax + 1],
+            |p, l| {
+                integrate_lobe_with(&nodes, n, wo, |wi| {
+                    legendre_all(dot(r, wi).clamp(-1.0, 1.0), p);
+                    p[l]
+                })
+            },
+        )
         .collect()
 }
 

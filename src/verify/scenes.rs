@@ -9,7 +9,9 @@ use super::Ctx;
 use renderer::film::Film;
 use renderer::render::{RenderOptions, render};
 use renderer::scene::Scene;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use vocab::scene::{
     BrdfSection, CameraSection, Color, LightingSection, MixLayer, ObjectSection, RenderSection, SceneFile,
@@ -222,10 +224,38 @@ pub fn count_stderr_flags(film: &Film) {
     STDERR_POOLED.fetch_add(film.pooled_count(), Ordering::Relaxed);
 }
 
+/// Films kept by [`render_spec`] while [`keep_renders`] is on, keyed by the spec's full description
+/// (size, spp, seed, camera, lighting, shape, BRDF): rendering is deterministic in those, so a kept
+/// film is bit for bit what rendering the spec again would give.
+static KEPT: Mutex<Option<HashMap<String, Film>>> = Mutex::new(None);
+
+/// From now on [`render_spec`] keeps every film it renders and serves a spec it has rendered before
+/// from memory: `reflect verify --then-wrong-prediction` runs every check a second time, against
+/// deliberately wrong predictions, on the very renders of the first run (one process instead of two
+/// full runs). Off by default (memory grows with every render).
+pub fn keep_renders() {
+    let mut kept = KEPT.lock().unwrap_or_else(|e| e.into_inner());
+    kept.get_or_insert_with(HashMap::new);
+}
+
 /// Renders a spec on the current rayon pool. Errors (a scene the renderer refuses) are returned,
 /// and a panic inside the renderer (an unfinished piece) is caught and reported as an error so
 /// one broken check does not take the others down.
 pub fn render_spec(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
+    let key = format!("{spec:?}");
+    let kept = KEPT.lock().unwrap_or_else(|e| e.into_inner()).as_ref().and_then(|m| m.get(&key).cloned());
+    if let Some(film) = kept {
+        count_stderr_flags(&film);
+        return Ok(film);
+    }
+    let film = render_spec_uncached(ctx, spec)?;
+    if let Some(m) = KEPT.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
+        m.insert(key, film.clone());
+    }
+    Ok(film)
+}
+
+fn render_spec_uncached(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
     let scene = Scene::build(spec.scene(ctx), Path::new(".")).map_err(|e| format!("scene rejected: {e}"))?;
     let t = std::time::Instant::now();
     let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

@@ -21,7 +21,7 @@
 //!
 //! Both refuse draws with ω_o·h ≤ 0 or ω_i below the horizon; `pdf` integrates to the kept fraction.
 use super::fresnel;
-use super::{BrdfSample, Bxdf};
+use super::{BrdfSample, Bxdf, Outgoing};
 use crate::math::{INV_PI, Rgb, Vec2, Vec3};
 
 /// The normal distribution D (`distribution`), defined in `vocab`.
@@ -155,16 +155,39 @@ impl Microfacet {
 impl Bxdf for Microfacet {
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_at(&self.outgoing(wo), wi)
+    }
+
+    #[inline]
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        self.sample_at(&self.outgoing(wo), u_lobe, u)
+    }
+
+    #[inline]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.pdf_at(&self.outgoing(wo), wi)
+    }
+
+    /// Λ(ω_o), which G needs in every sample and eval (and GGX's pdf): once per vertex.
+    #[inline]
+    fn outgoing(&self, wo: Vec3) -> Outgoing {
+        Outgoing { wo, lambda_o: if wo.z > 0.0 { self.lambda(wo) } else { 0.0 } }
+    }
+
+    #[inline]
+    fn eval_at(&self, o: &Outgoing, wi: Vec3) -> Rgb {
+        let wo = o.wo;
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
         let h = (wo + wi).normalize();
-        let g = 1.0 / (1.0 + self.lambda(wo) + self.lambda(wi));
+        let g = 1.0 / (1.0 + o.lambda_o + self.lambda(wi));
         self.fresnel.eval(wi.dot(h)) * (self.d(h) * g / (4.0 * wo.z))
     }
 
     #[inline]
-    fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+    fn sample_at(&self, o: &Outgoing, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        let wo = o.wo;
         if wo.z <= 0.0 {
             return None;
         }
@@ -189,7 +212,7 @@ impl Bxdf for Microfacet {
         // Recompute h from (ω_o, ω_i) as eval/pdf do, so weight == eval/pdf to the rounding.
         let h = (wo + wi).normalize();
         let d = self.d(h);
-        let lo = self.lambda(wo);
+        let lo = o.lambda_o;
         let pdf = self.pdf_h(wo, h, d, lo);
         if !pdf.is_finite() || pdf <= 0.0 {
             return None;
@@ -204,13 +227,13 @@ impl Bxdf for Microfacet {
     }
 
     #[inline]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf_at(&self, o: &Outgoing, wi: Vec3) -> f32 {
+        let wo = o.wo;
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        let lo = if self.distribution == MicrofacetDistribution::Ggx { self.lambda(wo) } else { 0.0 };
-        self.pdf_h(wo, h, self.d(h), lo)
+        self.pdf_h(wo, h, self.d(h), o.lambda_o)
     }
 }
 

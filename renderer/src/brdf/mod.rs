@@ -45,6 +45,26 @@ pub struct BrdfSample {
     pub delta: bool,
 }
 
+/// What the sample, eval and pdf of one vertex share: ω_o and the BRDF's terms of ω_o alone,
+/// computed once per vertex by [`Bxdf::outgoing`] (a memo: the `*_at` methods return the bits of
+/// `sample`, `eval` and `pdf`).
+#[derive(Clone, Copy, Debug)]
+pub struct Outgoing {
+    /// ω_o, local frame.
+    pub wo: Vec3,
+    /// Smith's Λ(ω_o) of a microfacet BRDF (Beckmann's costs an f64 erfc and exp; the vertex's
+    /// sample and its next-event eval both need it); 0 for the others, which do not read it.
+    pub lambda_o: f32,
+}
+
+impl Outgoing {
+    /// ω_o with no precomputed terms.
+    #[inline]
+    pub fn plain(wo: Vec3) -> Self {
+        Outgoing { wo, lambda_o: 0.0 }
+    }
+}
+
 /// The interface every BRDF implements (local frame, normal = +z).
 pub trait Bxdf {
     /// Transfer function ρ̂ = BRDF·cosθ'_i (zero for Dirac components).
@@ -67,6 +87,26 @@ pub trait Bxdf {
     /// other number of the path is the same).
     fn uses_lobe_choice(&self) -> bool {
         false
+    }
+    /// The terms of ω_o that `sample_at`, `eval_at` and `pdf_at` share at one vertex.
+    #[inline]
+    fn outgoing(&self, wo: Vec3) -> Outgoing {
+        Outgoing::plain(wo)
+    }
+    /// `sample(o.wo, u_lobe, u)`, bit for bit, with `o = self.outgoing(wo)`.
+    #[inline]
+    fn sample_at(&self, o: &Outgoing, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        self.sample(o.wo, u_lobe, u)
+    }
+    /// `eval(o.wo, wi)`, bit for bit, with `o = self.outgoing(wo)`.
+    #[inline]
+    fn eval_at(&self, o: &Outgoing, wi: Vec3) -> Rgb {
+        self.eval(o.wo, wi)
+    }
+    /// `pdf(o.wo, wi)`, bit for bit, with `o = self.outgoing(wo)`.
+    #[inline]
+    fn pdf_at(&self, o: &Outgoing, wi: Vec3) -> f32 {
+        self.pdf(o.wo, wi)
     }
 }
 
@@ -118,6 +158,22 @@ impl Bxdf for Brdf {
     #[inline]
     fn uses_lobe_choice(&self) -> bool {
         dispatch!(self, b => b.uses_lobe_choice())
+    }
+    #[inline]
+    fn outgoing(&self, wo: Vec3) -> Outgoing {
+        dispatch!(self, b => b.outgoing(wo))
+    }
+    #[inline]
+    fn sample_at(&self, o: &Outgoing, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        dispatch!(self, b => b.sample_at(o, u_lobe, u))
+    }
+    #[inline]
+    fn eval_at(&self, o: &Outgoing, wi: Vec3) -> Rgb {
+        dispatch!(self, b => b.eval_at(o, wi))
+    }
+    #[inline]
+    fn pdf_at(&self, o: &Outgoing, wi: Vec3) -> f32 {
+        dispatch!(self, b => b.pdf_at(o, wi))
     }
 }
 

@@ -28,12 +28,13 @@ use crate::math::Vec3;
 use glam::{UVec2, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
-use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
+/// obvhs's build settings, for [`SceneGeometry::with_build_params`] (`benches/bvh.rs` tunes them).
+pub use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
 use std::time::{Duration, Instant};
 
 /// The build preset: PLOC with a medium search radius, a small reinsertion pass, up to 3
 /// primitives per leaf (the CwBvh maximum).
-const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
+pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     pre_split: false,
     ploc_search_distance: PlocSearchDistance::Medium,
     search_depth_threshold: 3,
@@ -103,6 +104,12 @@ pub struct SceneGeometry {
 impl SceneGeometry {
     /// Builds the BVH over all objects; `shapes[i]` is object i.
     pub fn new(shapes: Vec<Shape>) -> Self {
+        Self::with_build_params(shapes, BUILD_PARAMS)
+    }
+
+    /// [`SceneGeometry::new`] with other obvhs build settings than [`BUILD_PARAMS`] (for tuning
+    /// them: `benches/bvh.rs`). The hits are the same whatever the settings (closest hit).
+    pub fn with_build_params(shapes: Vec<Shape>, params: BvhBuildParams) -> Self {
         let start = Instant::now();
         if let [Shape::Sphere(s)] = shapes.as_slice() {
             let single_sphere = Some(*s);
@@ -152,7 +159,7 @@ impl SceneGeometry {
             (None, prims, refs)
         } else {
             let mut core_time = Duration::ZERO;
-            let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BUILD_PARAMS, &mut core_time);
+            let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, params, &mut core_time);
             // Reorder into leaf order so a slot id indexes the records directly.
             let p2 = bvh.primitive_indices.iter().map(|&k| prims[k as usize]).collect();
             let r2 = bvh.primitive_indices.iter().map(|&k| refs[k as usize]).collect();

@@ -281,7 +281,22 @@ impl DistantLight for Envmap {
     #[inline]
     fn sample(&self, u: Vec2) -> Option<LightSample> {
         let d = match &self.sampler {
-            EnvSampler::LatLong(grid) => grid.sample_direction(u)?,
+            EnvSampler::LatLong(grid) => {
+                let (d, cell) = grid.sample_direction_cell(u)?;
+                let wi = (self.rotation * d).normalize();
+                // Where the direction is provably in the pixel it was drawn from as `eval_pdf(wi)`
+                // would find it (`sample_direction_cell`), that pixel's texel is the one the lookup
+                // below would read (same bits, without its two arctangents; the texel is in the
+                // line the search just read).
+                if let Some(index) = cell {
+                    let t = self.texel(index);
+                    if !(t.pdf > 0.0 && t.pdf.is_finite()) {
+                        return None;
+                    }
+                    return Some(LightSample { wi, value: Rgb::from(t.radiance) / t.pdf, pdf: t.pdf, delta: false });
+                }
+                d
+            }
             EnvSampler::Angular(dist) => {
                 if dist.integral() <= 0.0 {
                     return None;
@@ -299,7 +314,7 @@ impl DistantLight for Envmap {
             }
         };
         let wi = (self.rotation * d).normalize();
-        // Recomputed from wi (one joint lookup) so that (pdf, value) agree exactly with pdf(wi)
+        // Recomputed from wi (one joint lookup), near a pixel edge and for the angular map, so that (pdf, value) agree exactly with pdf(wi)
         // and eval(wi), also where rounding puts wi across a pixel edge from the sampled point.
         let (value, pdf) = self.eval_pdf(wi);
         if !(pdf > 0.0 && pdf.is_finite()) {

@@ -13,6 +13,18 @@
 use crate::math::{PI, Vec2, Vec3, fast};
 use crate::sampling::distribution::{PiecewiseConstant2D, index_below, len_f32};
 
+/// Margins of [`LatLongGrid::sample_direction_cell`], each a few times the error it covers. In z:
+/// the row edges' f32 rounding (6e-8) plus sinθ × the error of `cell`'s θ, which is below 2e-6 rad
+/// (its atan2, 4e-7; the rounding of θ·H/π, 3π·2⁻²⁴ ≈ 6e-7; a rotation and its inverse in f32 and a
+/// normalize, < 1e-6 on the components).
+const Z_MARGIN: f32 = 8e-6;
+/// In φ, radians times sinθ: the components' error (rotation, normalize, the warp's `sincos_2pi`,
+/// < 1.2e-6) moves φ by that over sinθ; `cell`'s atan2 (4e-7) and its + 2π (2.4e-7) are inside it
+/// too, as sinθ ≤ 1.
+const PHI_MARGIN: f32 = 4e-6;
+/// In φ, the rounding of `cell`'s φ·W/2π and of u·W here, relative to W (a few ulps of W).
+const PHI_ROUNDING: f32 = 16.0 / 16_777_216.0;
+
 /// The grid's sampling table can carry a payload `P` per cell (see [`PiecewiseConstant2D`]): the
 /// environment map keeps its texels there, so the sampled cell's texel is in the cache line the
 /// search just read.
@@ -96,30 +108,63 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
             return None;
         }
         let (uv, (iu, iv)) = self.dist.sample_point_cell(u);
-        let (d, r) = self.warp(uv);
+        let (d, r, _) = self.warp(uv);
         Some((d, self.dist.pdf_index(iu, iv) * self.inv_jacobian[r]))
     }
 
     /// The direction of `sample(u)` without its density (which is not read: a caller that looks the
     /// density up from the direction saves a cache miss), or None if nothing can be sampled.
+    ///
+    /// With it, the cell index (row · W + column) when the direction is provably in the cell it was
+    /// drawn from *as [`LatLongGrid::cell`] sees it*, also after a rotation ρ applied to it and undone
+    /// (`cell(ρᵀ·normalize(ρ·d))`, f32 matrices): it lies at least [`Z_MARGIN`] in z from the
+    /// row's edges and at least `PHI_MARGIN / sinθ` rad plus `PHI_ROUNDING` cell widths in φ from
+    /// the column's edges. None near an edge, where rounding (of the warp, the rotation and
+    /// `cell`'s arctangents) may move it across; a caller then looks the direction up. A caller
+    /// given the index can read the cell's data without the lookup (two arctangents) and gets the
+    /// bits `cell` would give.
     #[inline]
-    pub fn sample_direction(&self, u: Vec2) -> Option<Vec3> {
+    pub fn sample_direction_cell(&self, u: Vec2) -> Option<(Vec3, Option<usize>)> {
+        self.sample_direction_cell_with(u, Z_MARGIN, PHI_MARGIN, PHI_ROUNDING)
+    }
+
+    /// [`LatLongGrid::sample_direction_cell`] with its margins as arguments (the tests show that
+    /// zero margins give wrong cells).
+    #[inline(always)]
+    fn sample_direction_cell_with(
+        &self,
+        u: Vec2,
+        z_margin: f32,
+        phi_margin: f32,
+        phi_rounding: f32,
+    ) -> Option<(Vec3, Option<usize>)> {
         if !self.can_sample() {
             return None;
         }
-        Some(self.warp(self.dist.sample_point_cell(u).0).0)
+        let (uv, (iu, _)) = self.dist.sample_point_cell(u);
+        let (d, r, sin_theta) = self.warp(uv);
+        // Row: z against the row's stored edges (which are within 6e-8 of cos(πr/H)).
+        let row_inside = self.z_edge[r] - d.z > z_margin && d.z - self.z_edge[r + 1] > z_margin;
+        // Column: the distance of u·W from the column's edges, in cells (f32 rounding of the
+        // product is below one ulp of W, inside `phi_rounding`); an angular error ε of the
+        // direction's components moves φ by ε / sinθ.
+        let w = len_f32(self.width);
+        let tu = uv.x * w - len_f32(iu);
+        let col_inside = (tu.min(1.0 - tu) - phi_rounding * w) * sin_theta > phi_margin * w * (0.5 / PI);
+        Some((d, (row_inside && col_inside).then_some(r * self.width + iu)))
     }
 
-    /// The direction of unit-square point `uv` (uniform in solid angle within its cell) and its row.
+    /// The direction of unit-square point `uv` (uniform in solid angle within its cell), its row
+    /// and its sinθ.
     #[inline(always)]
-    fn warp(&self, uv: Vec2) -> (Vec3, usize) {
+    fn warp(&self, uv: Vec2) -> (Vec3, usize, f32) {
         let fv = uv.y * len_f32(self.height);
         let r = index_below(fv, self.height);
         let t = (fv - len_f32(r)).clamp(0.0, 1.0);
         let z = self.z_edge[r] + t * (self.z_edge[r + 1] - self.z_edge[r]);
         let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
         let (sp, cp) = fast::sincos_2pi(uv.x);
-        (Vec3::new(sin_theta * cp, sin_theta * sp, z), r)
+        (Vec3::new(sin_theta * cp, sin_theta * sp, z), r, sin_theta)
     }
 
     /// A hint that `sample(u)` follows soon (starts loading its table entries; no effect on results).
@@ -139,5 +184,54 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     #[inline]
     pub fn pdf_cell(&self, r: usize, c: usize) -> f32 {
         self.dist.pdf_index(c, r) * self.inv_jacobian[r]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::rotation_xyz_deg;
+    use crate::sampling::chi2::TestRng;
+
+    /// A 2048 × 1024 grid with cells of very different weights, and the rotations the tests apply.
+    fn grid() -> LatLongGrid {
+        let (w, h) = (2048, 1024);
+        let g: Vec<f32> = (0..w * h).map(|i| 1.0 + ((i * 7919) % 97) as f32).collect();
+        LatLongGrid::new(&g, w, h)
+    }
+
+    /// (draws whose cell was given, of them the ones whose direction `cell` puts elsewhere), over
+    /// `n` draws under rotation `rot_deg` (undone in f32 as `Envmap` does).
+    fn count(grid: &LatLongGrid, n: usize, rot_deg: [f32; 3], margins: (f32, f32, f32)) -> (usize, usize) {
+        let rot = rotation_xyz_deg(rot_deg);
+        let inv = rot.transpose();
+        let mut rng = TestRng::new(7);
+        let (mut given, mut wrong) = (0, 0);
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let (d, cell) = grid.sample_direction_cell_with(u, margins.0, margins.1, margins.2).unwrap();
+            if let Some(i) = cell {
+                given += 1;
+                let (r, c) = grid.cell(inv * (rot * d).normalize());
+                wrong += usize::from(r * grid.width + c != i);
+            }
+        }
+        (given, wrong)
+    }
+
+    /// The cell given with a sample is the cell `cell` finds for its direction, with and without a
+    /// rotation (the bits of a lookup), for all but a small fraction of the draws (those near an
+    /// edge); with zero margins, rounding puts some directions in a neighbouring cell, so the test
+    /// can see a wrong margin.
+    #[test]
+    fn given_cell_is_the_looked_up_cell() {
+        let g = grid();
+        for rot in [[0.0, 0.0, 0.0], [31.0, -47.0, 113.0]] {
+            let (given, wrong) = count(&g, 400_000, rot, (Z_MARGIN, PHI_MARGIN, PHI_ROUNDING));
+            assert_eq!(wrong, 0, "rotation {rot:?}: {wrong} of {given} given cells are not the looked-up cell");
+            assert!(given > 390_000, "rotation {rot:?}: only {given} of 400000 draws had their cell given");
+            let (given0, wrong0) = count(&g, 400_000, rot, (0.0, 0.0, 0.0));
+            assert!(wrong0 > 0, "rotation {rot:?}: zero margins gave no wrong cell in {given0} draws");
+        }
     }
 }
