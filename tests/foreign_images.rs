@@ -512,8 +512,8 @@ fn flags_against_headers_and_their_domains() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// 5. `invert factor`'s warning is said once on stderr as `warning: …`, as every other command's,
-/// never on stdout; the JSON keeps it in its `warnings` array.
+/// Fault 5: `invert factor`'s warning is said once on stderr as `warning: …`, as every other
+/// command's, never on stdout; the JSON keeps it in its `warnings` array.
 #[test]
 fn factor_warns_on_stderr_once() {
     let dir = temp_dir("foreign-factor-stderr");

@@ -52,25 +52,6 @@ pub fn per_image<T: Copy>(values: &[T], flag: &str, n: usize) -> Result<Vec<Opti
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parsers_and_per_image_counts() {
-        assert_eq!(parse_vec3("3,-1,0.5"), Ok([3.0, -1.0, 0.5]));
-        assert!(parse_vec3("1,2").unwrap_err().contains("three numbers"));
-        assert!(parse_vec3("1,nan,2").unwrap_err().contains("nan"));
-        assert_eq!(parse_rgb("0.5"), Ok([0.5; 3]));
-        assert_eq!(parse_rgb("0.1,0.2,0.3"), Ok([0.1, 0.2, 0.3]));
-        assert!(parse_rgb("0.1,0.2").unwrap_err().contains("r,g,b"));
-        assert_eq!(per_image::<f64>(&[], "extent", 2).unwrap(), vec![None, None]);
-        assert_eq!(per_image(&[1.0, 2.0], "extent", 2).unwrap(), vec![Some(1.0), Some(2.0)]);
-        let e = per_image(&[1.0], "extent", 2).unwrap_err().to_string();
-        assert!(e.contains("--extent is given 1 time for 2 images"), "{e}");
-    }
-}
-
 /// Parses `--lmax`: an integer order in 0 ..= [`super::sh::MAX_LMAX`] (a command may allow fewer and
 /// says so). Negative values reach this parser (`allow_hyphen_values`), so `--lmax -1` is named
 /// with its range rather than taken for a flag.
@@ -122,5 +103,24 @@ pub fn parse_amplification(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(x) if x.is_finite() && x >= 1.0 => Ok(x),
         _ => Err("must be a finite number ≥ 1".to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parsers_and_per_image_counts() {
+        assert_eq!(parse_vec3("3,-1,0.5"), Ok([3.0, -1.0, 0.5]));
+        assert!(parse_vec3("1,2").unwrap_err().contains("three numbers"));
+        assert!(parse_vec3("1,nan,2").unwrap_err().contains("nan"));
+        assert_eq!(parse_rgb("0.5"), Ok([0.5; 3]));
+        assert_eq!(parse_rgb("0.1,0.2,0.3"), Ok([0.1, 0.2, 0.3]));
+        assert!(parse_rgb("0.1,0.2").unwrap_err().contains("r,g,b"));
+        assert_eq!(per_image::<f64>(&[], "extent", 2).unwrap(), vec![None, None]);
+        assert_eq!(per_image(&[1.0, 2.0], "extent", 2).unwrap(), vec![Some(1.0), Some(2.0)]);
+        let e = per_image(&[1.0], "extent", 2).unwrap_err().to_string();
+        assert!(e.contains("--extent is given 1 time for 2 images"), "{e}");
     }
 }
