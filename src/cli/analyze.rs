@@ -355,7 +355,12 @@ impl std::fmt::Display for AnalyzeReport {
             for o in orders {
                 let cell = |ch: usize| match (o.estimate[ch], o.stderr[ch]) {
                     (Some(e), Some(s)) => {
-                        let flag = if o.status[ch] == OrderStatus::IllConditioned { " !" } else { "" };
+                        // Ill-conditioned or undetermined (truncation): the warnings say which.
+                        let flag = if matches!(o.status[ch], OrderStatus::IllConditioned | OrderStatus::Undetermined) {
+                            " !"
+                        } else {
+                            ""
+                        };
                         format!("{e:.5e} ± {s:.1e}{flag}")
                     }
                     (Some(e), None) => format!("{e:.5e}"),
