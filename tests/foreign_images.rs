@@ -91,7 +91,9 @@ fn assert_filter_right(doc: &Value, what: &str) {
             let est = o["estimate"][ch].as_f64().unwrap();
             let se = o["stderr"][ch].as_f64().unwrap();
             let expect = 0.8 * LAMBERT[l];
-            assert!(se < 0.05 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
+            // The bar holds the predicted truncation of the orders above l = 2 (analysis::truncation):
+            // one view's l = 2 gets about 0.02 of its 0.2, so 15 %, not the noise-only 5 %.
+            assert!(se < 0.15 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
             assert!(
                 (est - expect).abs() <= 4.0 * se,
                 "{what} l={l} ch{ch}: {est} ± {se} against {expect} ({:.1} σ)",
@@ -347,12 +349,13 @@ fn readme_worked_example_from_the_example_script() {
     assert!(err.contains("columns mirrored") && err.contains("extent 1.05\n"), "{err}");
     // The chosen layer's alpha is part of it: only the depth AOV is ignored.
     assert!(err.contains("ignored (not radiance, or not chosen): ViewLayer.Depth\n"), "{err}");
-    // README prints bars up to 1.2e-2 at l = 2 (truncation dominates at 256²): 7 % of 0.2.
+    // Truncation dominates the bars at 256² (the predicted truncation of analysis::truncation: up to
+    // 0.026 of l = 2's 0.2, 13 %).
     for (l, o) in doc["filter"].as_array().unwrap().iter().enumerate() {
         for ch in 0..3 {
             let (est, se) = (o["estimate"][ch].as_f64().unwrap(), o["stderr"][ch].as_f64().unwrap());
             let expect = 0.8 * LAMBERT[l];
-            assert!(se < 0.1 * expect, "l={l} ch{ch}: σ {se} is too large to test anything");
+            assert!(se < 0.15 * expect, "l={l} ch{ch}: σ {se} is too large to test anything");
             assert!((est - expect).abs() <= 4.0 * se, "l={l} ch{ch}: {est} ± {se} against {expect}");
         }
     }
