@@ -66,7 +66,9 @@ fn assert_filter_right(doc: &Value, what: &str) {
             let est = o["estimate"][ch].as_f64().unwrap();
             let se = o["stderr"][ch].as_f64().unwrap();
             let expect = 0.8 * LAMBERT[l];
-            assert!(se < 0.05 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
+            // The bar holds the predicted truncation of the orders above l = 2 (analysis::truncation):
+            // one view's l = 2 gets 0.021 of its 0.2 (R), so 15 %, not the noise-only 5 %.
+            assert!(se < 0.15 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
             assert!(
                 (est - expect).abs() <= 4.0 * se,
                 "{what} l={l} ch{ch}: {est} ± {se} against {expect} ({:.1} σ)",

@@ -127,6 +127,10 @@ pub enum OrderStatus {
     IllConditioned,
     /// The lighting has no energy in this order over the visible directions: not fitted.
     Unobservable,
+    /// Well conditioned, but its truncation bound (`truncation_bound`) reaches
+    /// [`crate::truncation::UNDETERMINED_TRUNCATION`] of |Â_l|: the directions cannot tell it from
+    /// the orders above l_max ([`crate::truncation::UNDETERMINED`], the same rule as `invert lighting`).
+    Undetermined,
 }
 
 /// One order of a pixel-space filter fit, per RGB channel.
@@ -138,9 +142,14 @@ pub struct PixelOrder {
     /// Noise part of the standard error: propagated per-pixel σ, scaled by √(χ²/ν) when χ²/ν > 1
     /// (or estimated from the residuals without a `stderr` layer).
     pub stderr_noise: [Option<f64>; 3],
-    /// Estimated truncation bias |Â_l(L) − Â_l(L + 2)| with the noise of that difference removed
-    /// (Var = σ²(L + 2) − σ²(L)); `None` where the lighting has no orders above L to test with.
+    /// Estimated truncation bias (a standard deviation, [`crate::truncation`]): the larger of the
+    /// nested sequence's |Â_l(L) − Â_l(H)| (noise of the difference removed) and the predicted
+    /// truncation of the calibrated orders above L; `None` where the lighting has no orders above L.
     pub truncation: [Option<f64>; 3],
+    /// The truncation bias with the first order above l_max aligned worst
+    /// ([`crate::truncation::PredictedTruncation::bound`]); `None` where nothing above L could be
+    /// fitted. |bound| ≥ [`crate::truncation::UNDETERMINED_TRUNCATION`] |Â_l| makes the order `undetermined`.
+    pub truncation_bound: [Option<f64>; 3],
     /// Total: √(noise² + truncation²).
     pub stderr: [Option<f64>; 3],
     /// Noise amplification of the design √((C⁻¹)_ll) (1 for orthogonal orders).
@@ -206,7 +215,8 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 /// `have_sigma`: the variances are per-pixel standard errors (else they are 1, and σ² is
 /// estimated from the residuals). Error bars include model inadequacy (scaled by √(χ²/ν) when it
 /// is above 1, said in `warnings`) and, when `light` has orders above `lmax`, the truncation bias
-/// estimated from a fit to l ≤ lmax + 2 (stated apart). An order whose lighting energy over the
+/// estimated as [`crate::truncation`] defines it for every fit (stated apart; `light` up to
+/// [`crate::truncation::truncation_lmax`] lets it calibrate the orders up to there). An order whose lighting energy over the
 /// visible directions is below 1e-10 of the largest is unobservable (not fitted).
 ///
 /// `noise_inflation`: the variance inflation F ≥ 1 of noise correlated between neighbouring pixels
@@ -236,7 +246,8 @@ pub fn fit_filter_pixels(
             lmax + 1
         )));
     }
-    let l_hi = light_lmax.min(crate::inverse::views::sequence_lmax(lmax));
+    let l_hi = light_lmax.min(crate::truncation::truncation_lmax(lmax));
+    let l_seq = l_hi.min(crate::truncation::sequence_lmax(lmax));
     let dirs: Vec<[f64; 3]> = samples.iter().map(|s| s.dir).collect();
     let weight: Vec<f64> = samples.iter().map(|s| s.w).collect();
     let mut orders: Vec<PixelOrder> = (0..=lmax)
@@ -245,6 +256,7 @@ pub fn fit_filter_pixels(
             estimate: [None; 3],
             stderr_noise: [None; 3],
             truncation: [None; 3],
+            truncation_bound: [None; 3],
             stderr: [None; 3],
             amplification: [None; 3],
             status: [OrderStatus::Unobservable; 3],
@@ -296,9 +308,9 @@ pub fn fit_filter_pixels(
         // Truncation: the same fit with orders up to H = lmax + 2, lmax + 4, … ≤ l_hi while the
         // directions separate them (the module docs of `crate::inverse::views`).
         let mut seq: Vec<(Vec<usize>, crate::fit::Fit)> = Vec::new();
-        let mut hs: Vec<usize> = (lmax + 2..=l_hi).step_by(2).collect();
-        if l_hi > lmax && hs.last() != Some(&l_hi) {
-            hs.push(l_hi);
+        let mut hs: Vec<usize> = (lmax + 2..=l_seq).step_by(2).collect();
+        if l_seq > lmax && hs.last() != Some(&l_seq) {
+            hs.push(l_seq);
         }
         for h in hs {
             let c: Vec<usize> = (0..=h).filter(|&l| observable(l)).collect();
@@ -310,9 +322,8 @@ pub fn fit_filter_pixels(
             }
             let r = pick(&c);
             let ok = seq.is_empty()
-                || crate::fit::design_amplification(&r, &weight, c.len()).is_some_and(|a| {
-                    a.iter().all(|&v| v <= crate::inverse::views::TRUNCATION_MAX_DESIGN_AMPLIFICATION)
-                });
+                || crate::fit::design_amplification(&r, &weight, c.len())
+                    .is_some_and(|a| a.iter().all(|&v| v <= crate::truncation::TRUNCATION_MAX_DESIGN_AMPLIFICATION));
             match lsq(&r, &value, &sigma, &weight).filter(|_| ok) {
                 Some(f) => seq.push((c, f)),
                 None => break,
@@ -325,6 +336,31 @@ pub fn fit_filter_pixels(
         };
         let scale = crate::fit::noise_scale(have_sigma, x_top, robust_top) * noise_inflation.max(1.0).sqrt();
         let p_value = if have_sigma { fit.p_value() } else { None };
+        // The predicted truncation (crate::truncation) from the normal equations of every
+        // observable order up to l_hi; each order above l_max is a band of one coefficient A_l.
+        let cols_hi: Vec<usize> = (0..=l_hi).filter(|&l| observable(l)).collect();
+        let predicted = (cols_hi.len() > p).then(|| {
+            let q = cols_hi.len();
+            let (mut g, mut s, mut rhs) = (vec![0.0; q * q], vec![0.0; q * q], vec![0.0; q]);
+            for (i, r) in full.iter().enumerate() {
+                let (w, v) = (weight[i], sigma[i] * sigma[i]);
+                if w == 0.0 {
+                    continue;
+                }
+                for (a, &la) in cols_hi.iter().enumerate() {
+                    rhs[a] += w * r[la] * value[i];
+                    for (b, &lb) in cols_hi.iter().enumerate() {
+                        g[a * q + b] += w * r[la] * r[lb];
+                        s[a * q + b] += w * w * v * r[la] * r[lb];
+                    }
+                }
+            }
+            let rhs = [rhs];
+            let ne = crate::truncation::NormalEquations { g: &g, s: &s, rhs: &rhs, share: &[1.0], order: &cols_hi };
+            crate::truncation::predicted_truncation(&ne, p, samples.len())
+        });
+        let predicted = predicted.flatten();
+        let kappa = predicted.as_ref().map(|q| q.kappa(0, scale * scale));
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
         let relative_misfit =
             crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
@@ -373,8 +409,17 @@ pub fn fit_filter_pixels(
                     })
                     .fold(0.0, f64::max)
             });
+            let pair = kappa.as_ref().zip(predicted.as_ref());
+            let trunc = crate::truncation::combine(trunc, pair.map(|(k, q)| q.bias(k, i)));
+            let bound = pair.map(|(k, q)| q.bound(k, i));
             o.truncation[ch] = trunc;
+            o.truncation_bound[ch] = bound;
             o.stderr[ch] = Some((noise * noise + trunc.unwrap_or(0.0).powi(2)).sqrt());
+            if o.status[ch] == OrderStatus::Determined
+                && bound.is_some_and(|b| b >= crate::truncation::UNDETERMINED_TRUNCATION * fit.coef[i].abs())
+            {
+                o.status[ch] = OrderStatus::Undetermined;
+            }
         }
         for l in 0..=lmax {
             match orders[l].status[ch] {
@@ -385,6 +430,14 @@ pub fn fit_filter_pixels(
                     "channel {name}: order l = {l} is ill-conditioned on these directions (noise amplification {:.1} > {MAX_AMPLIFICATION}): \
                      add views or lower --lmax",
                     orders[l].amplification[ch].unwrap_or(f64::INFINITY)
+                )),
+                OrderStatus::Undetermined => warnings.push(format!(
+                    "channel {name}: order l = {l} cannot be determined from these views: the orders above l_max \
+                     {lmax} can move it by {:.0} % of its size (`truncation_bound`, ≥ {:.0} %) — add views (e.g. the \
+                     opposite one)",
+                    100.0 * orders[l].truncation_bound[ch].unwrap_or(0.0)
+                        / orders[l].estimate[ch].map_or(f64::INFINITY, f64::abs),
+                    100.0 * crate::truncation::UNDETERMINED_TRUNCATION
                 )),
                 OrderStatus::Determined => {}
             }
@@ -400,7 +453,10 @@ pub fn fit_filter_pixels(
             stderr_scale: scale,
             fitted_orders: cols.clone(),
             covariance: (0..p).map(|i| (0..p).map(|j| fit.cov[i * p + j] * s2).collect()).collect(),
-            truncation_lmax: seq.last().and_then(|s| s.0.last().copied()),
+            truncation_lmax: seq
+                .last()
+                .and_then(|s| s.0.last().copied())
+                .max(predicted.as_ref().and_then(|q| q.l_cal())),
             truncation_chi2_per_dof: seq.last().and_then(|s| s.1.chi2_per_dof()),
         });
     }

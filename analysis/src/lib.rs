@@ -31,6 +31,7 @@ pub mod quadrature;
 pub mod sh;
 pub mod special;
 pub mod transfer;
+pub mod truncation;
 
 /// The shared error type and image I/O live in `vocab` (re-exported under their old paths).
 pub use vocab::{error, image};

@@ -60,7 +60,7 @@ pub struct AnalyzeArgs {
     #[arg(long, value_enum)]
     pub mapping: Option<Mapping>,
     /// Highest SH order.
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_lmax, allow_hyphen_values = true)]
     pub lmax: usize,
     /// The direction the radiance is a function of (default: from the BRDF).
     #[arg(long, value_enum)]
@@ -223,9 +223,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         let samples = ortho_samples(&views, &sphere, param).map_err(in_first)?;
         if let Some(noise) = &pixel_noise_report {
             fit.stderr.iter_mut().flatten().for_each(|s| *s *= noise.stderr_scale);
-            if noise.source != "none" {
-                warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", noise.note));
-            }
+            warnings.extend(noise.warning());
         }
         (
             fit.coefficients,
@@ -357,7 +355,12 @@ impl std::fmt::Display for AnalyzeReport {
             for o in orders {
                 let cell = |ch: usize| match (o.estimate[ch], o.stderr[ch]) {
                     (Some(e), Some(s)) => {
-                        let flag = if o.status[ch] == OrderStatus::IllConditioned { " !" } else { "" };
+                        // Ill-conditioned or undetermined (truncation): the warnings say which.
+                        let flag = if matches!(o.status[ch], OrderStatus::IllConditioned | OrderStatus::Undetermined) {
+                            " !"
+                        } else {
+                            ""
+                        };
                         format!("{e:.5e} ± {s:.1e}{flag}")
                     }
                     (Some(e), None) => format!("{e:.5e}"),

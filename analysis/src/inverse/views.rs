@@ -63,29 +63,11 @@ use crate::filter::ChannelFit;
 use crate::fit::{design_amplification, lsq, noise_scale};
 use crate::projection::Sample;
 use crate::sh::{ShBasis, lm, num_coefficients};
-
-/// Cap on the highest order of the truncation sequence ([`truncation_lmax`]): the Gram matrix of
-/// (l + 1)² columns costs (l + 1)⁴ / 2 per pixel (289 columns at l = 16).
-pub const TRUNCATION_LMAX_CAP: usize = 16;
-
-/// Largest design amplification (unit-diagonal Gram, filter left out; the value of
-/// [`crate::filter::MAX_AMPLIFICATION`]) at which a higher-order fit of the truncation sequence
-/// beyond the first (H = L + 2, always used when solvable) is still used: beyond it the views
-/// cannot separate the extra orders and the fit's differences are noise, not bias.
-pub const TRUNCATION_MAX_DESIGN_AMPLIFICATION: f64 = 30.0;
-
-/// Highest order of the truncation estimates of a fit to l ≤ `lmax` (the predicted truncation's
-/// prior and its calibration; the sequence stops at [`sequence_lmax`]): [`TRUNCATION_LMAX_CAP`], at
-/// least `lmax` + 2 (see the module docs). Callers pass the filter (or lighting) up to this order.
-pub fn truncation_lmax(lmax: usize) -> usize {
-    TRUNCATION_LMAX_CAP.max(lmax + 2)
-}
-
-/// Highest order of the truncation sequence of a fit to l ≤ `lmax` (2 `lmax`, at most
-/// [`TRUNCATION_LMAX_CAP`], at least `lmax` + 2).
-pub fn sequence_lmax(lmax: usize) -> usize {
-    (2 * lmax).min(TRUNCATION_LMAX_CAP).max(lmax + 2)
-}
+use crate::truncation::{NormalEquations, block, predicted_truncation, spectrum_kappa};
+pub use crate::truncation::{
+    PRIOR_CALIBRATION_MAX_AMPLIFICATION, PRIOR_GAMMA, TRUNCATION_LMAX_CAP, TRUNCATION_MAX_DESIGN_AMPLIFICATION,
+    UNDETERMINED, UNDETERMINED_TRUNCATION, sequence_lmax, truncation_lmax,
+};
 
 /// The nested higher-order fits of the truncation estimate: L̂ for l ≤ H, H = l_max + 2, l_max + 4,
 /// … up to `l_top`, from one Gram matrix.
@@ -191,11 +173,6 @@ fn gram(samples: &[Sample], albedo: [f64; 3], filter: &[f64], cols_hi: &[usize],
     (g, s, rhs, bb)
 }
 
-/// The leading m × m block of a q × q row-major matrix.
-fn block(a: &[f64], q: usize, m: usize) -> Vec<f64> {
-    (0..m).flat_map(|i| a[i * q..i * q + m].iter().copied()).collect()
-}
-
 /// (G⁻¹ S G⁻¹)_ii for i < p, G⁻¹ given (m × m).
 fn sandwich_diag(ginv: &[f64], s: &[f64], m: usize, p: usize) -> Vec<f64> {
     (0..p)
@@ -292,184 +269,6 @@ fn truncation_sequence(
     });
     Some(TruncationSequence { l_top, fits, base, chi2_per_dof, robust_chi2 })
 }
-
-/// Exponent γ of the prior per-coefficient power of natural lighting, E(L_lm²) ∝ (l + 1)^−γ, of the
-/// predicted truncation (module docs). Least-squares slopes of log(Σ_m L_lm² / (2l + 1))
-/// on log(l + 1) over l = 1 … 16 (`reflect sh project … --lmax 16 --json`): Grace (grace_latlong.exr)
-/// 1.45 / 1.30 / 1.49 (R G B), the sky map (sky_latlong.exr) 1.06. The smaller value is used: it
-/// puts more of the prior's energy at the high orders that are extrapolated, not measured.
-pub const PRIOR_GAMMA: f64 = 1.0;
-
-/// Largest design amplification (unit-diagonal Gram, [`crate::fit::design_amplification`]) of the
-/// fit whose residual calibrates the prior of the predicted truncation (module docs): beyond it the Gram matrix's
-/// rounding (condition ≈ amplification²) would reach the residual differences measured.
-pub const PRIOR_CALIBRATION_MAX_AMPLIFICATION: f64 = 1.0e3;
-
-/// The predicted truncation of a fit to l ≤ L (module docs, "predicted truncation"): per fitted
-/// coefficient i and order band b above L the bias variance per unit prior power,
-/// u_ib = Σ_(j in b) M_ij² Σ₀_jj, M = G_AA⁻¹ G_AT, and per band the calibration of its power from the
-/// weighted residual sum of squares that adding the band to the fit removes.
-struct PredictedTruncation {
-    /// u_ib, i < p (row-major p × bands).
-    u: Vec<f64>,
-    /// The orders of the bands above L (observable ones only).
-    bands: Vec<usize>,
-    /// Per calibrated band (the first `steps.len()` bands): per channel ΔRSS_b (weighted,
-    /// albedo-normalized), its noise expectation for σ = the samples' σ, and d_b, the truncation
-    /// part of E[ΔRSS_b] per unit power.
-    steps: Vec<([f64; 3], [f64; 3], f64)>,
-    /// Per band its number of coefficients n_b (the worst-case bound of `bound`).
-    sizes: Vec<usize>,
-}
-
-impl PredictedTruncation {
-    /// Highest order calibrated from the residuals (`None`: none could be).
-    fn l_cal(&self) -> Option<usize> {
-        self.steps.len().checked_sub(1).map(|b| self.bands[b])
-    }
-
-    /// The prior power scale κ_b of each band for channel `ch` (noise variance scale `s2`):
-    /// (ΔRSS_b − s² · noise_b)₊ / d_b for the calibrated bands, the last calibrated value beyond.
-    fn kappa(&self, ch: usize, s2: f64) -> Vec<f64> {
-        let mut k: Vec<f64> = self.steps.iter().map(|(r, n, d)| (r[ch] - s2 * n[ch]).max(0.0) / d).collect();
-        let last = k.last().copied().unwrap_or(0.0);
-        k.resize(self.bands.len(), last);
-        k
-    }
-
-    /// The bias of coefficient i when the first band above L (the one that aliases most) is
-    /// aligned worst with the fitted orders, the others as the prior: √(n_1 κ_1 u_i1) +
-    /// √(Σ_(b>1) κ_b u_ib) (Cauchy–Schwarz on the first band: |Σ_(j in b) M_ij h_j| ≤ ‖M_ib‖ ‖h_b‖,
-    /// E‖h_b‖² = n_b κ_b Σ₀_b). The worst case of every band at once (Σ_b √(n_b κ_b u_ib)) called
-    /// every order of a one-view mirror at L = 8 undetermined (17–118 % of its size) whose bars
-    /// cover the truth (tests/mirror_truncation.rs).
-    fn bound(&self, kappa: &[f64], i: usize) -> f64 {
-        let nb = self.bands.len();
-        let rest: f64 = (1..nb).map(|b| kappa[b] * self.u[i * nb + b]).sum();
-        (self.sizes[0] as f64 * kappa[0] * self.u[i * nb]).max(0.0).sqrt() + rest.max(0.0).sqrt()
-    }
-
-    /// The predicted bias standard deviation of coefficient i, √(Σ_b κ_b u_ib).
-    fn bias(&self, kappa: &[f64], i: usize) -> f64 {
-        let nb = self.bands.len();
-        (0..nb).map(|b| kappa[b] * self.u[i * nb + b]).sum::<f64>().max(0.0).sqrt()
-    }
-}
-
-/// The prior power scale κ of the natural spectrum E(L_lm²) = κ (l + 1)^−γ ([`PRIOR_GAMMA`]) through
-/// the fitted coefficients of orders 1 … l_max (l = 0, the mean, is no part of the spectrum's
-/// slope): the mean over them of (L̂_lm² − σ²)(l + 1)^γ, σ the noise standard error (`sigma` ×
-/// `scale`); 0 without such orders.
-fn spectrum_kappa(cols: &[usize], coef: &[f64], sigma: &[f64], scale: f64) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (i, &k) in cols.iter().enumerate() {
-        let l = lm(k).0;
-        if l >= 1 {
-            sum += (coef[i].powi(2) - (sigma[i] * scale).powi(2)) * ((l + 1) as f64).powf(PRIOR_GAMMA);
-            n += 1;
-        }
-    }
-    if n > 0 { (sum / n as f64).max(0.0) } else { 0.0 }
-}
-
-/// Largest √((C⁻¹)_ii) of the leading m × m block of the Gram `g` (q × q), C its unit-diagonal
-/// form; `None` when singular.
-fn block_amplification(g: &[f64], q: usize, m: usize) -> Option<f64> {
-    let gm = block(g, q, m);
-    let d: Vec<f64> = (0..m).map(|i| gm[i * m + i].sqrt()).collect();
-    let c: Vec<f64> = (0..m * m).map(|ij| gm[ij] / (d[ij / m] * d[ij % m])).collect();
-    let cinv = crate::fit::invert(&c, m)?;
-    Some((0..m).map(|i| cinv[i * m + i].max(0.0).sqrt()).fold(0.0, f64::max))
-}
-
-/// The predicted truncation of the module docs from the Gram matrix of `cols_hi` (the first `p`
-/// fitted). `None` when no column lies above the fit or G_AA is singular.
-fn predicted_truncation(gram: &Gram, cols_hi: &[usize], p: usize, n_samples: usize) -> Option<PredictedTruncation> {
-    let (g, s, rhs, bb) = gram;
-    let q = cols_hi.len();
-    if q <= p {
-        return None;
-    }
-    let prior: Vec<f64> = cols_hi.iter().map(|&k| ((lm(k).0 + 1) as f64).powf(-PRIOR_GAMMA)).collect();
-    let mut bands: Vec<usize> = cols_hi[p..].iter().map(|&k| lm(k).0).collect();
-    bands.dedup();
-    let nb = bands.len();
-    let band_of = |j: usize| bands.iter().position(|&l| l == lm(cols_hi[j]).0).expect("a band per order");
-    let gpp_inv = crate::fit::invert(&block(g, q, p), p)?;
-    // M = G_AA⁻¹ G_AT (p × t, T = columns p … q) and u_ib.
-    let t = q - p;
-    let mut mm = vec![0.0; p * t];
-    for i in 0..p {
-        for a in 0..p {
-            let gi = gpp_inv[i * p + a];
-            for j in 0..t {
-                mm[i * t + j] += gi * g[a * q + p + j];
-            }
-        }
-    }
-    let mut u = vec![0.0; p * nb];
-    for j in 0..t {
-        let b = band_of(p + j);
-        for i in 0..p {
-            u[i * nb + b] += mm[i * t + j].powi(2) * prior[p + j];
-        }
-    }
-    // Σ over pixels of w σ̄² ... per channel: the channel's share of S (S holds the mean variance).
-    let total: f64 = bb.iter().map(|b| b[1]).sum::<f64>() / 3.0;
-    let share = [0, 1, 2].map(|c| if total > 0.0 { bb[c][1] / total } else { 0.0 });
-    // Weighted RSS removed by a fit on the first m columns, rhsᵀ G⁻¹ rhs, and its noise
-    // expectation tr(G⁻¹ S) (E[RSS] = tr(WΣ) − tr(G⁻¹S)).
-    let fitted = |ginv: &[f64], m: usize| -> ([f64; 3], f64) {
-        let r = [0, 1, 2]
-            .map(|c| (0..m).map(|a| rhs[c][a] * (0..m).map(|b| ginv[a * m + b] * rhs[c][b]).sum::<f64>()).sum::<f64>());
-        let n = (0..m).map(|a| (0..m).map(|b| ginv[a * m + b] * s[b * q + a]).sum::<f64>()).sum();
-        (r, n)
-    };
-    let (mut prev_inv, mut prev_m) = (gpp_inv, p);
-    let mut prev_fit = fitted(&prev_inv, p);
-    let mut steps = Vec::new();
-    for &l in &bands {
-        let m = cols_hi.iter().take_while(|&&k| lm(k).0 <= l).count();
-        if n_samples < 4 * m || !block_amplification(g, q, m).is_some_and(|a| a <= PRIOR_CALIBRATION_MAX_AMPLIFICATION)
-        {
-            break;
-        }
-        let Some(inv) = crate::fit::invert(&block(g, q, m), m) else { break };
-        // d_b = Σ_(j in b) Σ₀_jj (G_jj − G_jP G_PP⁻¹ G_Pj), P the previous fit's columns.
-        let d: f64 = (prev_m..m)
-            .map(|j| {
-                let row = &g[j * q..j * q + prev_m];
-                let proj: f64 = (0..prev_m)
-                    .map(|a| row[a] * (0..prev_m).map(|b| prev_inv[a * prev_m + b] * row[b]).sum::<f64>())
-                    .sum();
-                prior[j] * (g[j * q + j] - proj)
-            })
-            .sum();
-        if !(d > 0.0) {
-            break;
-        }
-        let fit = fitted(&inv, m);
-        let delta = [0, 1, 2].map(|c| fit.0[c] - prev_fit.0[c]);
-        let noise = [0, 1, 2].map(|c| (fit.1 - prev_fit.1) * share[c]);
-        steps.push((delta, noise, d));
-
-        (prev_inv, prev_m, prev_fit) = (inv, m, fit);
-    }
-    let sizes = bands.iter().map(|&l| cols_hi[p..].iter().filter(|&&k| lm(k).0 == l).count()).collect();
-    Some(PredictedTruncation { u, bands, steps, sizes })
-}
-
-/// Status of an order whose amplification passes but whose truncation bound
-/// ([`ViewsLighting::truncation_bound`], RMS over m) reaches [`UNDETERMINED_TRUNCATION`] of its RMS
-/// value in some channel: the views cannot tell it from the orders above l_max.
-pub const UNDETERMINED: &str = "undetermined";
-
-/// Fraction of an order's size at which its truncation bound makes it [`UNDETERMINED`]. Measured
-/// (RMS over m, largest channel): one view of a Lambert sphere under Grace at l_max 2
-/// (tests/partial_view_truncation.rs) gives 29 / 38 / 55 % (R G B) at l = 0; two opposite views
-/// ≤ 13 % at every order; one view of a mirror (the Mitsuba 3 render of README, l_max 8) 3–6 % at
-/// l = 0 and at most 24 % (l = 7, R), whose bars cover the truth.
-pub const UNDETERMINED_TRUNCATION: f64 = 0.35;
 
 /// One order of [`invert_lighting_views`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -577,7 +376,14 @@ pub fn invert_lighting_views(
     let seq = gram_hi.as_ref().and_then(|gr| {
         truncation_sequence(samples, albedo, filter, &cols_hi, p, lmax, l_hi.min(sequence_lmax(lmax)), gr)
     });
-    let predicted = gram_hi.as_ref().and_then(|gr| predicted_truncation(gr, &cols_hi, p, samples.len()));
+    let order_hi: Vec<usize> = cols_hi.iter().map(|&k| lm(k).0).collect();
+    let predicted = gram_hi.as_ref().and_then(|(g, s, rhs, bb)| {
+        // S holds the channels' mean variance: each channel's noise is its share of it.
+        let total: f64 = bb.iter().map(|b| b[1]).sum::<f64>() / 3.0;
+        let share = [0, 1, 2].map(|c| if total > 0.0 { bb[c][1] / total } else { 0.0 });
+        let ne = NormalEquations { g, s, rhs, share: &share, order: &order_hi };
+        predicted_truncation(&ne, p, samples.len())
+    });
     let mut coefficients = vec![None; n];
     let mut stderr = vec![None; n];
     let mut stderr_noise = vec![None; n];
@@ -635,7 +441,7 @@ pub fn invert_lighting_views(
         // The prior's power per band: the larger of the residual's calibration and the natural
         // spectrum through the fitted orders 1 … l_max (module docs).
         let kappa = predicted.as_ref().map(|q| {
-            let spectrum = spectrum_kappa(&cols, &fit.coef, &fit.sigma, scale);
+            let spectrum = spectrum_kappa(&order_hi[..p], &fit.coef, &fit.sigma, scale);
             q.kappa(ch, scale * scale).into_iter().map(|k| k.max(spectrum)).collect::<Vec<f64>>()
         });
         for (i, &k) in cols.iter().enumerate() {
@@ -645,10 +451,7 @@ pub fn invert_lighting_views(
             if let Some(b) = kappa.as_ref().zip(predicted.as_ref()).map(|(kp, q)| q.bound(kp, i)) {
                 truncation_bound[k].get_or_insert([0.0; 3])[ch] = b;
             }
-            let t = match (t_seq, t_pred) {
-                (Some(a), Some(b)) => Some(a.max(b)),
-                (a, b) => a.or(b),
-            };
+            let t = crate::truncation::combine(t_seq, t_pred);
             coefficients[k].get_or_insert([0.0; 3])[ch] = fit.coef[i];
             stderr_noise[k].get_or_insert([0.0; 3])[ch] = noise;
             if let Some(t) = t {
