@@ -91,7 +91,9 @@ fn assert_filter_right(doc: &Value, what: &str) {
             let est = o["estimate"][ch].as_f64().unwrap();
             let se = o["stderr"][ch].as_f64().unwrap();
             let expect = 0.8 * LAMBERT[l];
-            assert!(se < 0.05 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
+            // The bar holds the predicted truncation of the orders above l = 2 (analysis::truncation):
+            // one view's l = 2 gets about 0.02 of its 0.2, so 15 %, not the noise-only 5 %.
+            assert!(se < 0.15 * expect, "{what} l={l} ch{ch}: σ {se} is too large to test anything");
             assert!(
                 (est - expect).abs() <= 4.0 * se,
                 "{what} l={l} ch{ch}: {est} ± {se} against {expect} ({:.1} σ)",
@@ -347,12 +349,13 @@ fn readme_worked_example_from_the_example_script() {
     assert!(err.contains("columns mirrored") && err.contains("extent 1.05\n"), "{err}");
     // The chosen layer's alpha is part of it: only the depth AOV is ignored.
     assert!(err.contains("ignored (not radiance, or not chosen): ViewLayer.Depth\n"), "{err}");
-    // README prints bars up to 1.2e-2 at l = 2 (truncation dominates at 256²): 7 % of 0.2.
+    // Truncation dominates the bars at 256² (the predicted truncation of analysis::truncation: up to
+    // 0.026 of l = 2's 0.2, 13 %).
     for (l, o) in doc["filter"].as_array().unwrap().iter().enumerate() {
         for ch in 0..3 {
             let (est, se) = (o["estimate"][ch].as_f64().unwrap(), o["stderr"][ch].as_f64().unwrap());
             let expect = 0.8 * LAMBERT[l];
-            assert!(se < 0.1 * expect, "l={l} ch{ch}: σ {se} is too large to test anything");
+            assert!(se < 0.15 * expect, "l={l} ch{ch}: σ {se} is too large to test anything");
             assert!((est - expect).abs() <= 4.0 * se, "l={l} ch{ch}: {est} ± {se} against {expect}");
         }
     }
@@ -380,4 +383,161 @@ fn readme_worked_example_from_the_example_script() {
         assert_eq!(code, 2, "{args:?}: {err}");
         assert!(text.is_empty() && err.trim_end().lines().count() == 1 && err.contains(what), "{args:?}: {err}");
     }
+}
+
+/// A 64 × 32 normal-probe image (constant radiance 1, no stderr layer) with the given header
+/// attributes (`None`: not written), as another renderer or ours would write it.
+fn probe_file(
+    dir: &Path,
+    name: &str,
+    camera: Option<(f64, f64)>,
+    brdf: Option<&str>,
+    lighting: Option<&str>,
+) -> String {
+    let (w, h) = (64, 32);
+    let mut img = Image { width: w, height: h, ..Default::default() };
+    for n in ["R", "G", "B"] {
+        img.channels.insert(n.to_string(), vec![1.0; w * h]);
+    }
+    if let Some((t, p)) = camera {
+        img.attributes.insert(
+            "reflect:camera".into(),
+            format!(r#"{{"type":"normal-probe","theta_o_deg":{t},"phi_o_deg":{p},"jitter":false}}"#),
+        );
+    }
+    if let Some(b) = brdf {
+        img.attributes.insert(
+            "reflect:objects".into(),
+            format!(r#"[{{"shape":"sphere","center":[0,0,0],"radius":1,"brdf":{b}}}]"#),
+        );
+    }
+    if let Some(l) = lighting {
+        img.attributes.insert("reflect:lighting".into(), l.to_string());
+    }
+    let p = dir.join(name);
+    write_exr(&p, &img).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+/// The new-user trial's faults (issue 14), each as a kind through the binary: a flag that
+/// contradicts a header-described quantity is an error naming both (`--kd/--ks` against a header's
+/// mix, as `--albedo`/`--s` against its BRDF and the camera flags against its camera); the "no
+/// reflect:camera" hint names the flags of the command it comes from; a numeric flag outside its
+/// domain is one line naming the flag and the range; `--lighting` unlike the header's is said in
+/// the lighting source (README's rule: the lighting is what the image is compared with). No render:
+/// tiny synthetic images, so this costs well under a second.
+#[test]
+fn flags_against_headers_and_their_domains() {
+    let dir = temp_dir("foreign-flags");
+    let mix = r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1.0}},{"weight":0.5,"brdf":{"type":"mirror"}}]}"#;
+    let phong = r#"{"type":"phong","ks":0.5,"s":16,"horizon":"ignore"}"#;
+    let uniform = r#"{"type":"uniform","radiance":1.0}"#;
+    let v0 = probe_file(&dir, "v0.exr", Some((0.0, 0.0)), Some(mix), Some(uniform));
+    let v1 = probe_file(&dir, "v1.exr", Some((50.0, 0.0)), Some(mix), Some(uniform));
+    let v2 = probe_file(&dir, "v2.exr", Some((50.0, 180.0)), Some(mix), Some(uniform));
+    let ph = probe_file(&dir, "phong.exr", Some((0.0, 0.0)), Some(phong), Some(uniform));
+    let bare0 = probe_file(&dir, "bare0.exr", None, None, None);
+    let bare1 = probe_file(&dir, "bare1.exr", None, None, None);
+    fn cat<'a>(a: &[&'a str], b: &[&'a str]) -> Vec<&'a str> {
+        [a, b].concat()
+    }
+    let base: Vec<&str> = vec!["invert", "separate", &v0, &v1, &v2, "--lmax", "2", "--channel", "r"];
+    let sep = |extra: &[&'static str]| cat(&base, extra);
+    let out = dir.join("never.exr");
+    let o = out.to_str().unwrap();
+    // (args, what the one line must contain)
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        // 2. Header-described quantities against their flags.
+        (sep(&["--kd", "0.7"]), vec!["v0.exr", "--kd 0.7,0.7,0.7", "k_d = 0.5,0.5,0.5", "contradict"]),
+        (sep(&["--ks", "0.2,0.5,0.5"]), vec!["v0.exr", "--ks 0.2,0.5,0.5", "k_s = 0.5,0.5,0.5", "contradict"]),
+        (
+            vec!["analyze", &ph, "--lmax", "2", "--albedo", "0.8"],
+            vec!["phong.exr", "--albedo 0.8", "0.5", "contradict"],
+        ),
+        (vec!["analyze", &ph, "--lmax", "2", "--brdf", "phong", "--s", "8"], vec!["phong.exr", "--s 8", "contradict"]),
+        (vec!["analyze", &ph, "--lmax", "2", "--theta-o", "30"], vec!["phong.exr", "--theta-o", "contradict"]),
+        // 4. Each command's hint names the flags it accepts.
+        (vec!["invert", "separate", &bare0, &bare1, "--kd", "0.5", "--ks", "0.5"], vec!["bare0.exr", "--theta-o"]),
+        (vec!["invert", "factor", &bare0, &bare1, "--lmax", "1"], vec!["bare0.exr", "--theta-o"]),
+        (vec!["analyze", &bare0, "--lmax", "2"], vec!["bare0.exr", "--from", "--theta-o"]),
+        // 7. Numeric flags outside their domain: the flag and its range.
+        (vec!["analyze", &ph, "--lmax", "-1"], vec!["--lmax", "0..=200"]),
+        (vec!["analyze", &ph, "--lmax", "201"], vec!["--lmax", "0..=200"]),
+        (vec!["invert", "lighting", &ph, "--lmax", "-3"], vec!["--lmax", "0..=200"]),
+        (vec!["invert", "brdf", &ph, "--model", "phong", "--lmax", "-1"], vec!["--lmax", "0..=200"]),
+        (vec!["invert", "separate", &v0, &v1, &v2, "--lmax", "-1"], vec!["--lmax", "0..=200"]),
+        (vec!["invert", "factor", &v1, "--lmax", "-1"], vec!["--lmax", "0..=200"]),
+        (vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "0"], vec!["--extent", "> 0"]),
+        (vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "inf"], vec!["--extent", "> 0"]),
+        (
+            vec!["analyze", &bare0, "--lmax", "2", "--from", "3,0,1", "--extent", "1", "--radius", "-1"],
+            vec!["--radius", "> 0"],
+        ),
+        (vec!["analyze", &bare0, "--lmax", "2", "--theta-o", "90"], vec!["--theta-o", "0 ≤ θ_o < 90"]),
+        (vec!["analyze", &bare0, "--lmax", "2", "--theta-o", "-5"], vec!["--theta-o", "0 ≤ θ_o < 90"]),
+        (vec!["analyze", &bare0, "--lmax", "2", "--phi-o", "nan"], vec!["--phi-o", "finite"]),
+        (
+            vec!["invert", "lighting", &ph, "--lmax", "2", "--max-amplification", "0"],
+            vec!["--max-amplification", "≥ 1"],
+        ),
+        (vec!["invert", "brdf", &ph, "--model", "phong", "--lmax", "2", "--min", "-1"], vec!["--min", "> 0"]),
+        (cat(&base, &["--output", o, "--width", "-4"]), vec!["--width", "4..=16384"]),
+        (vec!["invert", "factor", &v1, "--lmax", "1", "--max-amplification", "-2"], vec!["--max-amplification", "≥ 1"]),
+    ];
+    for (args, names) in &cases {
+        let (code, stdout, err) = reflect_out(args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        for n in names {
+            assert!(err.contains(n), "{args:?} should name {n}: {err}");
+        }
+        assert!(stdout.is_empty() && !out.exists(), "{args:?}: {stdout}");
+    }
+    // 4. A separate/factor hint names no orthographic flag.
+    let (_, err) = reflect(&["invert", "separate", &bare0, &bare1, "--kd", "0.5", "--ks", "0.5"]);
+    assert!(!err.contains("--from") && !err.contains("--extent"), "{err}");
+    // 2. Flags that agree with the header are accepted.
+    let doc = reflect_json(&sep(&["--kd", "0.5", "--ks", "0.5", "--json"]));
+    assert_eq!(doc["split_source"], "command line");
+    // 3. --lighting unlike the header's: compared with, and named with the one it replaces.
+    let other = dir.join("other.toml");
+    std::fs::write(&other, "[lighting]\ntype = \"uniform\"\nradiance = 2.0\n").unwrap();
+    let doc = reflect_json(&["analyze", &ph, "--lmax", "2", "--lighting", other.to_str().unwrap(), "--json"]);
+    let src = doc["lighting"]["source"].as_str().unwrap();
+    assert!(src.contains("other.toml") && src.contains("in place of the reflect:lighting header"), "{src}");
+    assert!(src.contains("radiance 2,2,2") && src.contains("radiance 1,1,1"), "{src}");
+    // The same lighting in another file is no replacement.
+    let same = dir.join("same.toml");
+    std::fs::write(&same, "[lighting]\ntype = \"sh\"\ncoefficients = [[3.5449077018, 3.5449077018, 3.5449077018]]\n")
+        .unwrap();
+    let doc = reflect_json(&["analyze", &ph, "--lmax", "2", "--lighting", same.to_str().unwrap(), "--json"]);
+    assert!(!doc["lighting"]["source"].as_str().unwrap().contains("in place of"), "{}", doc["lighting"]["source"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Fault 5: `invert factor`'s warning is said once on stderr as `warning: …`, as every other
+/// command's, never on stdout; the JSON keeps it in its `warnings` array.
+#[test]
+fn factor_warns_on_stderr_once() {
+    let dir = temp_dir("foreign-factor-stderr");
+    let scene = dir.join("two.toml");
+    std::fs::write(
+        &scene,
+        "[render]\nwidth = 16\nheight = 8\nspp = 1\n[camera]\ntype = \"normal-probe\"\n[lighting]\ntype = \"uniform\"\n\
+         radiance = 1.0\n[[objects]]\nshape = \"sphere\"\nbrdf = { type = \"lambert\", albedo = 0.5 }\n\
+         [[objects]]\nshape = \"sphere\"\ncenter = [5.0, 0.0, 0.0]\nradius = 0.5\nbrdf = { type = \"lambert\", albedo = 0.5 }\n",
+    )
+    .unwrap();
+    let s = scene.to_str().unwrap();
+    let args = ["invert", "factor", "--scene", s, "--nodes", "1x4", "--size", "16x8", "--lmax", "1"];
+    let (code, text, err) = reflect_out(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(!text.contains("warning"), "{text}");
+    assert_eq!(err.matches("warning: only objects[0] is factored").count(), 1, "{err}");
+    let (code, json, err) = reflect_out(&[&args[..], &["--json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let doc: Value = serde_json::from_str(&json).unwrap();
+    assert!(doc["warnings"][0].as_str().unwrap().contains("only objects[0]"), "{}", doc["warnings"]);
+    assert_eq!(err.matches("warning:").count(), 1, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

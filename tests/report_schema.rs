@@ -205,6 +205,7 @@ fn report_schemas_are_pinned() {
             ("coefficients", "array"),
             ("stderr", "array"),
             ("consistency", "object"),
+            ("fits", "object"),
             ("scan", "array"),
             ("output", "null"),
         ],
@@ -252,6 +253,7 @@ fn report_schemas_are_pinned() {
             ("source_note", "string"),
             ("albedo_profile", "array"),
             ("filter", "object"),
+            ("warnings", "array"),
         ],
         "invert factor",
     );

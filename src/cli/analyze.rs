@@ -60,7 +60,7 @@ pub struct AnalyzeArgs {
     #[arg(long, value_enum)]
     pub mapping: Option<Mapping>,
     /// Highest SH order.
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_lmax, allow_hyphen_values = true)]
     pub lmax: usize,
     /// The direction the radiance is a function of (default: from the BRDF).
     #[arg(long, value_enum)]
@@ -236,9 +236,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         let samples = ortho_samples(&views, &sphere, param).map_err(in_first)?;
         if let Some(noise) = &pixel_noise_report {
             fit.stderr.iter_mut().flatten().for_each(|s| *s *= noise.stderr_scale);
-            if noise.source != "none" {
-                warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", noise.note));
-            }
+            warnings.extend(noise.warning());
         }
         (
             fit.coefficients,

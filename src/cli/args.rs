@@ -34,14 +34,14 @@ pub struct ViewArgs {
     /// Camera up x,y,z, once per image (default 0,0,1).
     #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
     pub up: Vec<[f64; 3]>,
-    /// Orthographic half-width of the view, once per image.
-    #[arg(long)]
+    /// Orthographic half-width of the view (> 0), once per image.
+    #[arg(long, value_parser = flags::parse_positive, allow_hyphen_values = true)]
     pub extent: Vec<f64>,
     /// Sphere centre x,y,z when the header has no reflect:objects.
     #[arg(long, value_parser = flags::parse_vec3, allow_hyphen_values = true)]
     pub center: Option<[f64; 3]>,
-    /// Sphere radius when the header has no reflect:objects.
-    #[arg(long)]
+    /// Sphere radius (> 0) when the header has no reflect:objects.
+    #[arg(long, value_parser = flags::parse_positive, allow_hyphen_values = true)]
     pub radius: Option<f64>,
     /// The reconstruction filter of a renderer that splats each sample into the pixels its filter
     /// reaches (Mitsuba 3): box, gaussian:STDDEV or gaussian:STDDEV:RADIUS (radius 4·STDDEV by default; Mitsuba's
@@ -53,6 +53,10 @@ pub struct ViewArgs {
     /// The flags of a view that every analysis command takes, normal-probe images included.
     #[command(flatten)]
     pub image: ImageArgs,
+    /// The command takes only [`ImageArgs`] (`invert separate`, `invert factor`: normal-probe views),
+    /// not the orthographic flags: its messages name only the flags it accepts.
+    #[arg(skip)]
+    pub probe_only: bool,
 }
 
 /// The part of [`ViewArgs`] that also describes normal-probe images, the only part `invert separate`
@@ -71,17 +75,17 @@ pub struct ImageArgs {
     /// Normal-probe camera (a lat-long map over the sphere's normals, README "Cameras") of an image
     /// without reflect:camera: its exitance θ_o in degrees, 0 ≤ θ_o < 90, once per image (default 0
     /// when only --phi-o is given); a --scene normal-probe camera takes these angles per image.
-    #[arg(long = "theta-o")]
+    #[arg(long = "theta-o", value_parser = flags::parse_theta_o, allow_hyphen_values = true)]
     pub theta_o: Vec<f64>,
     /// Normal-probe azimuth φ_o in degrees, once per image (default 0).
-    #[arg(long = "phi-o", allow_hyphen_values = true)]
+    #[arg(long = "phi-o", value_parser = flags::parse_degrees, allow_hyphen_values = true)]
     pub phi_o: Vec<f64>,
 }
 
 impl ImageArgs {
     /// These flags as a whole [`ViewArgs`] (no orthographic flag), for [`super::header::load`].
     pub fn view(&self) -> ViewArgs {
-        ViewArgs { image: self.clone(), ..Default::default() }
+        ViewArgs { image: self.clone(), probe_only: true, ..Default::default() }
     }
 }
 

@@ -73,7 +73,7 @@ pub struct FactorArgs {
     #[arg(long, value_parser = parse_nodes)]
     pub print_nodes: Option<(usize, usize)>,
     /// Highest SH order.
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_lmax, allow_hyphen_values = true)]
     pub lmax: Option<usize>,
     /// A normal-probe render at θ_o = 0: adds the normal-exitance BRDF filter (eq. 16).
     #[arg(long)]
@@ -88,7 +88,7 @@ pub struct FactorArgs {
     #[arg(long, value_enum, default_value_t = Quadrature::Fejer)]
     pub quadrature: Quadrature,
     /// Noise amplification 1/g_l above which an order is ill-conditioned.
-    #[arg(long, default_value_t = DEFAULT_MAX_AMPLIFICATION)]
+    #[arg(long, default_value_t = DEFAULT_MAX_AMPLIFICATION, value_parser = super::flags::parse_amplification, allow_hyphen_values = true)]
     pub max_amplification: f64,
     /// Print one JSON document to stdout.
     #[arg(long)]
@@ -127,6 +127,8 @@ pub fn run(a: &FactorArgs) -> Result<ExitCode, Error> {
         return Ok(ExitCode::SUCCESS);
     }
     let r = factor_report(a)?;
+    // Warnings once, on stderr, as every analysis command says them (`--json` keeps its array).
+    super::print_warnings(&r.warnings);
     if a.json {
         println!("{}", serde_json::to_string(&r).map_err(|e| Error::new(format!("JSON output: {e}")))?);
     } else {
@@ -579,6 +581,8 @@ pub struct InvertFactorReport {
     pub source_note: String,
     pub albedo_profile: Vec<AlbedoRing>,
     pub filter: Option<NormalFilter>,
+    /// Warnings, each one sentence (printed once on stderr as `warning: …`, not in the text report).
+    pub warnings: Vec<String>,
 }
 
 fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: NormalRule) -> InvertFactorReport {
@@ -614,6 +618,13 @@ fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: No
         }),
     });
     let (w, h) = (m.lf.width, m.lf.height);
+    let mut warnings = Vec::new();
+    if let FactorInput::Scene { objects, .. } = &m.input
+        && *objects > 1
+    {
+        warnings
+            .push("only objects[0] is factored; the other objects may shadow it or appear in its reflections".into());
+    }
     InvertFactorReport {
         command: "invert factor".into(),
         mode: if a.view.scene.is_some() && a.images.is_empty() { "scene" } else { "images" }.into(),
@@ -641,6 +652,7 @@ fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: No
             .into(),
         albedo_profile,
         filter,
+        warnings,
     }
 }
 
@@ -664,12 +676,6 @@ impl std::fmt::Display for InvertFactorReport {
         )?;
         if let FactorInput::Scene { scene, spp, sampler, max_depth, objects, .. } = &self.input {
             writeln!(f, "# scene {scene}: {spp} spp, sampler {sampler}, max_depth {max_depth}, {objects} object(s)")?;
-            if *objects > 1 {
-                writeln!(
-                    f,
-                    "# warning: only objects[0] is factored; the other objects may shadow it or appear in its reflections"
-                )?;
-            }
         }
         if let Some(r) = &self.renders {
             writeln!(

@@ -52,6 +52,60 @@ pub fn per_image<T: Copy>(values: &[T], flag: &str, n: usize) -> Result<Vec<Opti
     }
 }
 
+/// Parses `--lmax`: an integer order in 0 ..= [`super::sh::MAX_LMAX`] (a command may allow fewer and
+/// says so). Negative values reach this parser (`allow_hyphen_values`), so `--lmax -1` is named
+/// with its range rather than taken for a flag.
+pub fn parse_lmax(s: &str) -> Result<usize, String> {
+    let max = super::sh::MAX_LMAX;
+    match s.trim().parse::<i64>() {
+        Ok(l) if (0..=max as i64).contains(&l) => Ok(l as usize),
+        _ => Err(format!("must be an integer order in 0..={max}")),
+    }
+}
+
+/// Parses a length or scale that must be a finite number > 0 (`--extent`, `--radius`,
+/// `--max-amplification`, the bounds of a search range).
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err("must be a finite number > 0".to_string()),
+    }
+}
+
+/// Parses `--theta-o`: an exitance angle in degrees, 0 ≤ θ_o < 90 (CONVENTIONS §6, as
+/// [`analysis::transfer::validate_exitance`]).
+pub fn parse_theta_o(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if (0.0..90.0).contains(&x) => Ok(x),
+        _ => Err("must be an angle in degrees with 0 ≤ θ_o < 90".to_string()),
+    }
+}
+
+/// Parses `--phi-o`: a finite azimuth in degrees.
+pub fn parse_degrees(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err("must be a finite number of degrees".to_string()),
+    }
+}
+
+/// Parses the `--width` of a written lat-long map: an even integer in 4 ..= 16384.
+pub fn parse_width(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<i64>() {
+        Ok(w) if (4..=16384).contains(&w) && w % 2 == 0 => Ok(w as usize),
+        _ => Err("must be an even integer in 4..=16384".to_string()),
+    }
+}
+
+/// Parses `--max-amplification`: the noise amplification 1/gain above which an order is
+/// ill-conditioned, a finite number ≥ 1 (an order is never better conditioned than unamplified).
+pub fn parse_amplification(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 1.0 => Ok(x),
+        _ => Err("must be a finite number ≥ 1".to_string()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -54,7 +54,7 @@ fn num(x: f64) -> String {
     format!("{}", x as f32)
 }
 
-fn v3(v: [f64; 3]) -> String {
+pub(crate) fn v3(v: [f64; 3]) -> String {
     format!("{},{},{}", num(v[0]), num(v[1]), num(v[2]))
 }
 
@@ -99,7 +99,9 @@ impl Camera {
 /// Relative agreement of two lengths or coordinates written as f32 somewhere (headers, scenes).
 const AGREE: f64 = 1e-5;
 
-fn close(a: f64, b: f64, scale: f64) -> bool {
+/// Whether two values a header (f32), a scene and a flag give are the same, to the f32 precision
+/// headers store (relative to `scale`, the values' size, or 1).
+pub(crate) fn close(a: f64, b: f64, scale: f64) -> bool {
     (a - b).abs() <= AGREE * scale.max(a.abs()).max(b.abs()).max(1.0)
 }
 
@@ -365,8 +367,9 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             ));
         } else if img.matrices.contains_key("worldToCamera") && hd.camera.is_none() {
             notes.push(format!(
-                "note: {}: worldToCamera without worldToNDC does not give the view's extent: not used (pass --from/--to/--up/--extent)",
-                p.display()
+                "note: {}: worldToCamera without worldToNDC does not give the view's extent: not used ({})",
+                p.display(),
+                if view.probe_only { "pass --theta-o/--phi-o or --scene" } else { "pass --from/--to/--up/--extent" }
             ));
         }
         mirrored.push(matrix.is_some_and(|(_, m)| m));
@@ -401,10 +404,13 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
         let camera = match (base, f.probe()) {
             (None, Some((t, ph))) => probe_of_flags(t, ph).map_err(in_p)?,
             (None, None) => f.camera().map(Camera::Ortho).ok_or_else(|| {
-                Error::file(
-                    p,
-                    "no reflect:camera in the header: pass --from x,y,z and --extent (orthographic camera), --theta-o (normal-probe camera), or --scene S.toml",
-                )
+                // The hint names only the flags this command accepts.
+                let flags = if view.probe_only {
+                    "pass --theta-o (and --phi-o) of its normal-probe camera once per image, or --scene S.toml"
+                } else {
+                    "pass --from x,y,z and --extent (orthographic camera), --theta-o (normal-probe camera), or --scene S.toml"
+                };
+                Error::file(p, format!("no reflect:camera in the header: {flags}"))
             })?,
             (Some((Camera::NormalProbe { .. }, _)), Some((t, ph))) if base_is_template => {
                 probe_of_flags(t, ph).map_err(in_p)?
@@ -665,10 +671,30 @@ pub fn lighting_of(
     described: &Description,
 ) -> Result<Option<(Lighting, String)>, Error> {
     if let Some(p) = lighting {
-        if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
-            return Ok(Some((Lighting::from_scene_file(p)?, p.display().to_string())));
+        let flagged = if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
+            Lighting::from_scene_file(p)?
+        } else {
+            Lighting::from_envmap_file(p, mapping)
+        };
+        // Unlike the camera, sphere and BRDF (the image's description, where a contradiction is an
+        // error), the lighting is what the image is compared with: `--lighting` replaces the
+        // sidecar's or header's by rule (README "Images from other renderers"), to test whether a
+        // lighting describes the image. It never does so silently: a different lighting is named
+        // with the one it replaces in the report's lighting source.
+        // A described lighting the analysis cannot read (axial, a missing map) is replaced as well.
+        if let Some((s, file, source)) = &described.lighting {
+            let d = Lighting::from_section(s, file.parent()).ok();
+            if !d.as_ref().is_some_and(|d| same_lighting(&flagged, d).unwrap_or(false)) {
+                let shown = format!(
+                    "{} ({}), in place of the {source} ({})",
+                    p.display(),
+                    lighting_text(&flagged),
+                    d.as_ref().map_or_else(|| "not analysable".to_string(), lighting_text)
+                );
+                return Ok(Some((flagged, shown)));
+            }
         }
-        return Ok(Some((Lighting::from_envmap_file(p, mapping), p.display().to_string())));
+        return Ok(Some((flagged, p.display().to_string())));
     }
     if mapping.is_some() {
         return Err(Error::new("--mapping applies only to an environment map given with --lighting"));
@@ -763,4 +789,49 @@ fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] * s, a[1] * s, a[2] * s]
+}
+
+/// The order up to which [`same_lighting`] compares two lightings' L_lm.
+const LIGHTING_AGREE_LMAX: usize = 4;
+
+/// Whether two lightings are the same: equal tables (an environment map by its canonical path), or
+/// equal L_lm up to l = [`LIGHTING_AGREE_LMAX`] to 1e-4 of the largest (the same map in another
+/// file or with its mapping left to inference; a different or rotated map differs far more).
+fn same_lighting(a: &Lighting, b: &Lighting) -> Result<bool, analysis::Error> {
+    let canonical = |l: &Lighting| match l {
+        Lighting::Envmap { file, mapping, scale, rotate_deg } => Lighting::Envmap {
+            file: std::fs::canonicalize(file).unwrap_or_else(|_| file.clone()),
+            mapping: *mapping,
+            scale: *scale,
+            rotate_deg: *rotate_deg,
+        },
+        other => other.clone(),
+    };
+    if canonical(a) == canonical(b) {
+        return Ok(true);
+    }
+    let (ca, cb) = (a.coefficients(LIGHTING_AGREE_LMAX)?, b.coefficients(LIGHTING_AGREE_LMAX)?);
+    let big = ca.iter().chain(&cb).flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    Ok(ca.iter().zip(&cb).all(|(x, y)| (0..3).all(|i| (x[i] - y[i]).abs() <= 1e-4 * big)))
+}
+
+/// A lighting in a message: its type and what identifies it.
+fn lighting_text(l: &Lighting) -> String {
+    match l {
+        Lighting::Uniform { radiance } => format!("uniform lighting of radiance {}", v3(*radiance)),
+        Lighting::Directional { direction, irradiance } => {
+            format!("directional lighting from {} of irradiance {}", v3(*direction), v3(*irradiance))
+        }
+        Lighting::Sh { coefficients } => format!("SH lighting with {} coefficients", coefficients.len()),
+        Lighting::Envmap { file, scale, rotate_deg, .. } => {
+            let mut t = format!("the environment map {}", file.display());
+            if *scale != 1.0 {
+                t.push_str(&format!(" scaled by {}", num(*scale)));
+            }
+            if *rotate_deg != [0.0; 3] {
+                t.push_str(&format!(" rotated by {}°", v3(*rotate_deg)));
+            }
+            t
+        }
+    }
 }

@@ -63,10 +63,10 @@ pub struct LightingArgs {
     #[command(flatten)]
     pub view: ViewArgs,
     /// Highest SH order.
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_lmax, allow_hyphen_values = true)]
     pub lmax: usize,
     /// Noise amplification above which an order is ill-conditioned.
-    #[arg(long, default_value_t = DEFAULT_MAX_AMPLIFICATION)]
+    #[arg(long, default_value_t = DEFAULT_MAX_AMPLIFICATION, value_parser = super::flags::parse_amplification, allow_hyphen_values = true)]
     pub max_amplification: f64,
     /// The rule choosing the Tikhonov λ.
     #[arg(long, value_enum, default_value_t = LambdaRule::Gcv)]
@@ -75,7 +75,7 @@ pub struct LightingArgs {
     #[arg(long)]
     pub output: Option<PathBuf>,
     /// Width of the --output map (height = width / 2).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = super::flags::parse_width, allow_hyphen_values = true)]
     pub width: usize,
     /// Print one JSON document to stdout.
     #[arg(long)]
@@ -100,13 +100,13 @@ pub struct BrdfArgs {
     #[command(flatten)]
     pub view: ViewArgs,
     /// Highest SH order.
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_lmax, allow_hyphen_values = true)]
     pub lmax: usize,
     /// Lower end of the parameter search range (default: s 0.5, σ 0.005).
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_positive, allow_hyphen_values = true)]
     pub min: Option<f64>,
     /// Upper end of the parameter search range (default: s 1e4, σ 1).
-    #[arg(long)]
+    #[arg(long, value_parser = super::flags::parse_positive, allow_hyphen_values = true)]
     pub max: Option<f64>,
     /// Print one JSON document to stdout.
     #[arg(long)]
@@ -347,9 +347,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
     }
     let mut warnings = p.described.stderr_notes.clone();
     warnings.extend(p.described.warnings.iter().cloned());
-    if let Some(n) = p.noise.as_ref().filter(|n| n.source != "none") {
-        warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", n.note));
-    }
+    warnings.extend(p.noise.as_ref().and_then(|n| n.warning()));
     let mut orders: Vec<LightingOrder> = inv
         .orders
         .iter()
@@ -514,9 +512,7 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
             .map_err(in_first)?;
         let mut r = brdf_report_from_pixel_fit(a, p.lmax_carried, p.method, source, model, range, pf)?;
         r.warnings.splice(0..0, p.described.stderr_notes.iter().chain(&p.described.warnings).cloned());
-        if let Some(n) = p.noise.as_ref().filter(|n| n.source != "none") {
-            r.warnings.push(format!("pixel noise correlated between neighbouring pixels: {}", n.note));
-        }
+        r.warnings.extend(p.noise.as_ref().and_then(|n| n.warning()));
         r.pixel_noise = p.noise;
         return Ok(r);
     }

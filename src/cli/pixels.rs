@@ -57,10 +57,22 @@ pub struct PixelNoise {
     pub edge_margin_px: f64,
     /// In words, one sentence.
     pub note: String,
+    /// The warning this handling calls for ([`PixelNoise::warning`]).
+    #[serde(skip)]
+    warning: Option<String>,
 }
 
 impl PixelNoise {
     /// One text line for the reports.
+    /// The one `warning:` the noise handling calls for, or `None`: a correlation measured from the
+    /// residuals (the image's own filter, not said), or residuals whose lag-1 correlation is not the
+    /// `--pixel-filter` kernel's. A `--pixel-filter` that the residuals agree with is the user's
+    /// information, not a warning: it is stated in the report's `# pixel noise` line
+    /// ([`PixelNoise::line`]) and `pixel_noise` JSON only.
+    pub fn warning(&self) -> Option<String> {
+        self.warning.clone()
+    }
+
     pub fn line(&self) -> String {
         let lag = |l: &LagCorrelation| {
             let m = l.measured.map_or("-".into(), |v| format!("{v:.3}"));
@@ -186,12 +198,14 @@ fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>) -> Pixel
             filter: filter.map(|f| f.correlation(dx, dy)),
         })
         .collect();
+    let mut warn = false;
     let (source, inflation, note) = match (filter, m) {
         (Some(f), _) => {
             let mut note = format!("from --pixel-filter {f}: its kernel's autocorrelation gives ρ and F");
             if let Some(m) = m.filter(|m| !m.signal_dominated)
                 && (m.lag1() - f.correlation(1, 0)).abs() > 0.1 + 4.0 * m.rho_stderr
             {
+                warn = true;
                 note.push_str(&format!(
                     " — but the residuals' lag-1 correlation {:.3} is not the filter's {:.3}: check --pixel-filter (pbrt-v4 samples its filter: its pixels' noise is independent, pass box)",
                     m.lag1(),
@@ -201,7 +215,10 @@ fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>) -> Pixel
             ("pixel-filter", f.inflation(), note)
         }
         (None, Some(m)) if m.detected() => (
-            "residuals",
+            {
+                warn = true;
+                "residuals"
+            },
             m.inflation,
             format!(
                 "measured from the residuals (lag-1 correlation {:.3} ± {:.3}): a reconstruction filter wider than a pixel; \
@@ -235,6 +252,7 @@ fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>) -> Pixel
         inflation,
         stderr_scale: inflation.sqrt(),
         edge_margin_px: filter.map_or(0.5, |f| f.radius().max(0.5)),
+        warning: warn.then(|| format!("pixel noise correlated between neighbouring pixels: {note}")),
         note,
     }
 }

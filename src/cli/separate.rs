@@ -22,9 +22,14 @@
 //! coefficients are then `[r, g, b]` triples, else numbers of the one channel), `--scan`,
 //! `--output` (the recovered lighting as a W × W/2 lat-long EXR, reconstructed from its SH, one
 //! channel replicated to R, G, B) and `--width`, `--json`.
-//! Standard errors come from the renders' `stderr.R/G/B` layers; without them every pixel gets
-//! σ = 1 (stated in the output): σ and χ² are then relative, and only the scan's minimum means
-//! something. The output also predicts the 9-term residual's share of d from the recovered
+//! Standard errors come from the renders' `stderr.R/G/B` layers; without them (another renderer's
+//! images) the noise is estimated from the residuals, as `analyze` and `invert` do: the residual
+//! variance σ̂² = Σ_p r_p²/ν of the diffuse view's fit (SH up to `lmax` at n) for its pixels and of
+//! the specular views' fit (SH up to `lmax` at R plus the harmonics 1 ≤ l ≤ 2 at n, so whatever the
+//! split) for theirs (stated in the output). Both fits are reported with their χ²/ν and p-value
+//! when the layers give σ (`fits`); their views cover the whole sphere of the fitted directions, so
+//! orders above `lmax` bias no coefficient (up to the grid's aliasing) and no truncation term is
+//! added: their power is in the residuals. The output also predicts the 9-term residual's share of d from the recovered
 //! lighting's orders 3…lmax (fitted at R as in the algorithm) and gives the χ² with it removed,
 //! so that a large χ² at the right split can be told apart from a wrong split.
 
@@ -33,7 +38,7 @@ use super::args::{Channel, ImageArgs};
 use super::header::Camera;
 use analysis::image::{Image, RgbImage, write_exr};
 use analysis::inverse::separation::{
-    LOW, Samples, Separated, Separation, best_split, nine_term_residual, probe_samples,
+    LOW, ResidualFit, Samples, Separated, Separation, best_split, fit_residuals, nine_term_residual, probe_samples,
 };
 use analysis::projection::resolution::{
     LATLONG_REFLECTION_RULE, check_latlong, check_order, latlong_max_order_reflection,
@@ -63,7 +68,7 @@ pub struct SeparateArgs {
     #[arg(long, value_parser = super::flags::parse_rgb)]
     pub ks: Option<[f64; 3]>,
     /// Highest SH order of the recovered lighting.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = super::flags::parse_lmax, allow_hyphen_values = true)]
     pub lmax: usize,
     /// Analyse only this channel (default: all three).
     #[arg(long, value_enum)]
@@ -75,7 +80,7 @@ pub struct SeparateArgs {
     #[arg(long)]
     pub output: Option<PathBuf>,
     /// Width of the --output map (height = width / 2).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = super::flags::parse_width, allow_hyphen_values = true)]
     pub width: usize,
     /// Print one JSON document to stdout.
     #[arg(long)]
@@ -172,6 +177,23 @@ fn json_rgb(v: Option<&Value>) -> Option<[f64; 3]> {
     }
 }
 
+/// A flag `--kd` / `--ks` and a header's or scene's mix (`source` says which) that give different
+/// weights contradict each other: an error naming both, as for every described quantity
+/// ([`super::header::describe`]).
+fn check_weight(arg: Option<[f64; 3]>, header: Option<[f64; 3]>, flag: &str, source: &str) -> Result<(), Error> {
+    if let (Some(v), Some(h)) = (arg, header)
+        && !(0..3).all(|i| super::header::close(v[i], h[i], 1.0))
+    {
+        let sym = if flag == "kd" { "k_d" } else { "k_s" };
+        return Err(Error::new(format!(
+            "--{flag} {} but {source} gives {sym} = {} (its mix of lambert and mirror): they contradict each other",
+            super::header::v3(v),
+            super::header::v3(h)
+        )));
+    }
+    Ok(())
+}
+
 /// A per-channel weight from `--kd` / `--ks` (one number or r,g,b), else the header's.
 fn weight_arg(arg: Option<[f64; 3]>, header: Option<[f64; 3]>, flag: &str) -> Result<([f64; 3], bool), Error> {
     match arg {
@@ -195,6 +217,8 @@ struct ChannelResult {
     /// lighting's orders 3…lmax, and the χ² of d minus it.
     residual_d: Vec<f64>,
     chi2_residual_removed: Option<f64>,
+    /// The diffuse view's and the specular views' residual fits ([`fit_residuals`]).
+    fits: [ResidualFit; 2],
 }
 
 fn validate(a: &SeparateArgs) -> Result<Vec<usize>, Error> {
@@ -282,6 +306,10 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
             )));
         }
     }
+    // A value out of its domain is said first; then a flag against the header's or scene's mix.
+    let first = |e: Error| e.in_file(&a.images[0]);
+    check_weight(a.kd, hs.map(|s| s.0), "kd", &table_source(&header_brdf)).map_err(first)?;
+    check_weight(a.ks, hs.map(|s| s.1), "ks", &table_source(&header_brdf)).map_err(first)?;
     let split_source = match (kd_arg, ks_arg) {
         (true, true) => "command line".to_string(),
         (false, false) => format!("{} (mix of lambert and mirror)", table_source(&header_brdf)),
@@ -303,7 +331,10 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
         "the renders' stderr layers".to_string()
     } else {
         format!(
-            "none: no stderr layer in {} — every pixel gets σ = 1, so σ and χ² are relative and only the scan's minimum means something",
+            "the residual variance σ̂² = Σ_p r_p²/ν of each side's fit (no stderr layer in {}): one σ̂ for the diffuse \
+             view's pixels, one for the specular views' (the 'fits' below), as analyze and invert estimate a foreign \
+             image's noise; lighting above l_max counts as noise there, so the bars and the consistency χ² are upper \
+             and lower estimates respectively",
             missing_stderr.join(", ")
         )
     };
@@ -325,8 +356,24 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
         for v in &views[1..] {
             spec.append(samples(v));
         }
-        let sep = Separation::new(&dif, &spec, a.lmax)
-            .map_err(|e| Error::new(format!("channel {}: {}", CHANNELS[c], e.message)))?;
+        let in_c = |e: analysis::Error| Error::new(format!("channel {}: {}", CHANNELS[c], e.message));
+        let mut sep = Separation::new(&dif, &spec, a.lmax).map_err(in_c)?;
+        // Each side's fit and its residuals: the diffuse view at n, the specular views at R with the
+        // harmonics 1 ≤ l ≤ 2 at n (the diffuse part, whatever the split). With the stderr layers their χ²/ν
+        // tests the fits; without, their residual variance is the noise (σ = 1 above, rescaled).
+        let fits =
+            [fit_residuals(&dif, a.lmax, false).map_err(in_c)?, fit_residuals(&spec, a.lmax, true).map_err(in_c)?];
+        if !with_stderr {
+            let var = |f: &ResidualFit, what: &str| {
+                f.residual_variance().ok_or_else(|| {
+                    Error::new(format!(
+                        "channel {}: the {what} have no more pixels than fitted coefficients: no residual to estimate the noise from",
+                        CHANNELS[c]
+                    ))
+                })
+            };
+            sep.scale_noise(var(&fits[0], "diffuse view")?, var(&fits[1], "specular views")?);
+        }
         let solved = sep.solve(kd[c], ks[c])?;
         let scan = a.scan.then(|| {
             let total = kd[c] + ks[c];
@@ -359,7 +406,7 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
         let residual_d: Vec<f64> = r_fit[..LOW].iter().map(|r| -r).collect();
         let removed: Vec<f64> = (0..LOW).map(|j| solved.consistency[j] - residual_d[j]).collect();
         let chi2_residual_removed = solved.chi2_of(&removed);
-        results.push(ChannelResult { sep: solved, scan, residual_d, chi2_residual_removed });
+        results.push(ChannelResult { sep: solved, scan, residual_d, chi2_residual_removed, fits });
     }
 
     // Everything is computed: write the map last, so a failure leaves no partial output.
@@ -397,7 +444,16 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
         PerChannel::of(results.iter().map(f).collect())
     };
     let pick = |v: [f64; 3]| PerChannel::of(channels.iter().map(|&c| v[c]).collect());
-    let p_of = |c: Option<f64>| c.filter(|_| with_stderr).map(|c| chi2_survival(c, LOW as f64));
+    let p_of = |c: Option<f64>| c.map(|c| chi2_survival(c, LOW as f64));
+    let fit_report = |side: usize, description: &str| SideFit {
+        description: description.into(),
+        chi2: one(&|r| Some(r.fits[side].chi2)),
+        dof: one(&|r| Some(r.fits[side].dof as f64)),
+        chi2_per_dof: one(&|r| r.fits[side].chi2_per_dof().filter(|_| with_stderr)),
+        p_value: one(&|r| r.fits[side].p_value().filter(|_| with_stderr)),
+        residual_variance: one(&|r| r.fits[side].residual_variance()),
+        pixels: one(&|r| Some(r.fits[side].samples as f64)),
+    };
     let scan = a.scan.then(|| {
         channels
             .iter()
@@ -468,6 +524,21 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
                 p_value_removed: one(&|r| p_of(r.chi2_residual_removed)),
             },
         },
+        fits: Fits {
+            truncation: format!(
+                "none added: each side's views cover the whole sphere of the fitted directions (n; R at φ_o = 0° and \
+                 180°) with solid-angle weights, so the orders above l_max = {} are orthogonal to the fitted ones up to \
+                 the grid's aliasing ({}): they bias no coefficient, and their power is in the residuals (the χ² with \
+                 stderr layers, the noise estimate without)",
+                a.lmax, LATLONG_REFLECTION_RULE
+            ),
+            diffuse: fit_report(0, "the diffuse view's pixels fitted by the SH up to l_max at n"),
+            specular: fit_report(
+                1,
+                "the specular views' pixels fitted by the SH up to l_max at R plus the harmonics 1 ≤ l ≤ 2 at n (the \
+                 diffuse part, any split)",
+            ),
+        },
         scan,
         output: a.output.as_ref().map(|p| p.display().to_string()),
     })
@@ -478,15 +549,12 @@ fn meaning(chi2: Option<f64>, with_stderr: bool, lmax: usize) -> String {
     let Some(c) = chi2 else {
         return "χ² undefined (the consistency covariance is singular: noise-free data?)".into();
     };
-    if !with_stderr {
-        return format!(
-            "χ² = {c:.3} is in units of an unknown per-pixel noise variance (no stderr layers) and cannot be judged; only the scan's minimum is meaningful"
-        );
-    }
     let p = chi2_survival(c, LOW as f64);
+    // Without stderr layers σ̂ holds the lighting above l_max as well: a small χ² is weaker evidence.
+    let noise = if with_stderr { "" } else { " (σ from the residual variance, an upper estimate of the noise)" };
     if p >= P_CONSISTENT {
         format!(
-            "consistent: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise at this split (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.2})"
+            "consistent: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise{noise} at this split (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.2})"
         )
     } else {
         format!(
@@ -558,7 +626,7 @@ pub struct NineTermShare {
     pub description: String,
     pub d: Vec<PerChannel<f64>>,
     pub chi2_removed: PerChannel<Option<f64>>,
-    /// P(χ²_9 ≥ χ²) of `chi2_removed`; `None` without stderr layers (relative χ²).
+    /// P(χ²_9 ≥ χ²) of `chi2_removed`; `None` without χ².
     pub p_value_removed: PerChannel<Option<f64>>,
 }
 
@@ -571,7 +639,7 @@ pub struct Consistency {
     /// `None` when d's covariance is singular (noise-free data).
     pub chi2: PerChannel<Option<f64>>,
     pub dof: usize,
-    /// P(χ²_9 ≥ χ²); `None` without stderr layers (χ² is then relative) or without χ².
+    /// P(χ²_9 ≥ χ²) (σ from the stderr layers, else the residual variance); `None` without χ².
     pub p_value: PerChannel<Option<f64>>,
     /// p ≥ `threshold_p`; `None` where there is no p-value.
     pub consistent: PerChannel<Option<bool>>,
@@ -579,6 +647,32 @@ pub struct Consistency {
     /// A plain statement of what the χ² says, per channel.
     pub meaning: PerChannel<String>,
     pub nine_term_residual: NineTermShare,
+}
+
+/// One side's least-squares fit of its pixels ([`fit_residuals`]), per channel.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SideFit {
+    pub description: String,
+    /// χ² = Σ_p (r_p/σ_p)² against the stderr layers (against σ = 1 without them).
+    pub chi2: PerChannel<Option<f64>>,
+    /// ν = pixels − fitted coefficients.
+    pub dof: PerChannel<Option<f64>>,
+    /// χ²/ν with stderr layers; `None` without (σ̂² is then the noise estimate, χ²/ν = 1 by construction).
+    pub chi2_per_dof: PerChannel<Option<f64>>,
+    /// P(χ²_ν ≥ χ²) with stderr layers; `None` without.
+    pub p_value: PerChannel<Option<f64>>,
+    /// σ̂² = Σ_p r_p²/ν (radiance²): the noise estimate without stderr layers.
+    pub residual_variance: PerChannel<Option<f64>>,
+    pub pixels: PerChannel<Option<f64>>,
+}
+
+/// The two sides' fits and what is said of their truncation.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Fits {
+    /// Why no truncation term is added to the bars.
+    pub truncation: String,
+    pub diffuse: SideFit,
+    pub specular: SideFit,
 }
 
 /// `--scan`: consistency χ² against the diffuse fraction k_d/(k_d+k_s) at fixed k_d + k_s.
@@ -619,6 +713,8 @@ pub struct InvertSeparateReport {
     pub coefficients: Vec<PerChannel<f64>>,
     pub stderr: Vec<PerChannel<f64>>,
     pub consistency: Consistency,
+    /// Each side's fit quality (χ²/ν and p with stderr layers) and noise estimate.
+    pub fits: Fits,
     pub scan: Option<Vec<SplitScan>>,
     /// The lat-long map written by `--output`.
     pub output: Option<String>,
@@ -663,6 +759,28 @@ impl std::fmt::Display for InvertSeparateReport {
             "# {}×{} pixels; k_d = {}, k_s = {} ({}); σ from {}",
             self.width, self.height, self.kd, self.ks, self.split_source, self.sigma_source
         )?;
+        for (name, fit) in [("diffuse view", &self.fits.diffuse), ("specular views", &self.fits.specular)] {
+            let cells = |v: &PerChannel<Option<f64>>, fmt: &dyn Fn(f64) -> String| {
+                v.cells().iter().map(|x| x.map_or("—".to_string(), fmt)).collect::<Vec<_>>().join(" ")
+            };
+            if self.weighted_by_stderr {
+                writeln!(
+                    f,
+                    "# {name} fit: χ²/ν = {} (ν = {}), P(χ²_ν ≥ χ²) = {}",
+                    cells(&fit.chi2_per_dof, &|x| format!("{x:.3}")),
+                    cells(&fit.dof, &|x| format!("{x}")),
+                    cells(&fit.p_value, &|x| format!("{x:.2e}"))
+                )?;
+            } else {
+                writeln!(
+                    f,
+                    "# {name} fit: residual variance σ̂² = {} (ν = {}; the noise estimate, not a χ² test)",
+                    cells(&fit.residual_variance, &|x| format!("{x:.3e}")),
+                    cells(&fit.dof, &|x| format!("{x}"))
+                )?;
+            }
+        }
+        writeln!(f, "# truncation: {}", self.fits.truncation)?;
         let ch = &self.channels;
         table(
             f,
@@ -916,11 +1034,20 @@ mod tests {
             }
         }
         // A wrong split (0.6 : 0.4 instead of 0.5 : 0.5): χ²_9 > 100 has probability ≈ 1e-16 for a
-        // consistent split. One channel: the coefficients are then numbers.
+        // consistent split. One channel: the coefficients are then numbers. The split by flags
+        // contradicts the header's mix (an error naming both), so it is given for the same pixels
+        // without a header (another renderer's files: angles by flags).
         let mut wrong = args(a.images.clone());
         wrong.kd = Some([0.6; 3]);
         wrong.ks = Some([0.4; 3]);
         wrong.channel = Some(Channel::G);
+        let e = separate_doc(&wrong).unwrap_err().to_string();
+        assert!(e.contains("--kd 0.6,0.6,0.6") && e.contains("k_d = 0.5,0.5,0.5") && e.contains("contradict"), "{e}");
+        wrong.images =
+            a.images.iter().enumerate().map(|(i, p)| foreign_copy(p, &format!("known-foreign-{i}.exr"))).collect();
+        wrong.view.theta_o = vec![0.0, 50.0, 50.0];
+        wrong.view.phi_o = vec![0.0, 0.0, 180.0];
+        wrong.view.layer = Some("ViewLayer.Combined".into());
         let w = separate_doc(&wrong).unwrap();
         assert_eq!(w["split_source"], "command line");
         assert!(w["coefficients"][0].is_number() && w["channels"] == json!(["G"]));
@@ -998,23 +1125,55 @@ mod tests {
         assert!(e.contains("no reflect:camera") && e.contains("--theta-o"), "{e}");
     }
 
+    /// Without stderr layers the noise is the residual variance of each side's fit (issue 14): on
+    /// band-limited views (no truncation at lmax 5) with noise σ = 0.05, the bars are those the
+    /// stderr layers give within 7 % (σ̂/σ has standard error 1/√(2ν) ≤ 1.6 % here, ν ≥ 2012:
+    /// 4.4 se), said in the output. With the layers each fit's χ²/ν is within 4·√(2/ν) of 1. The
+    /// planted error is the old σ = 1 per pixel: bars 20× too wide.
     #[test]
-    fn without_stderr_layers_sigma_is_relative_and_said_so() {
+    fn without_stderr_layers_sigma_is_the_residual_variance_and_said_so() {
         let lt = light();
-        let mut images = vec![];
-        for (i, (t, p)) in [(0.0, 0.0), (40.0, 0.0), (40.0, 180.0)].into_iter().enumerate() {
-            let path = tmp(&format!("nostderr-{i}.exr"));
-            render(&path, &lt, 0.5, 0.5, t, p, (64, 32), 0.0, 1, i != 1, MIX);
-            images.push(path);
+        let mut docs = vec![];
+        for stderr in [true, false] {
+            let mut images = vec![];
+            for (i, (t, p)) in [(0.0, 0.0), (40.0, 0.0), (40.0, 180.0)].into_iter().enumerate() {
+                let path = tmp(&format!("nostderr-{stderr}-{i}.exr"));
+                render(&path, &lt, 0.5, 0.5, t, p, (64, 32), SIGMA, 1 + i as u64, stderr, MIX);
+                images.push(path);
+            }
+            let mut a = args(images.clone());
+            a.channel = Some(Channel::R);
+            let doc = separate_doc(&a).unwrap();
+            assert_eq!(doc["weighted_by_stderr"], stderr);
+            if !stderr {
+                let src = doc["sigma_source"].as_str().unwrap();
+                assert!(src.contains("residual variance") && src.contains(&images[1].display().to_string()), "{src}");
+                assert!(doc["fits"]["specular"]["chi2_per_dof"].is_null());
+                assert!(doc["consistency"]["p_value"].is_number(), "{}", doc["consistency"]);
+            }
+            for side in ["diffuse", "specular"] {
+                let fit = &doc["fits"][side];
+                let nu = f(&fit["dof"]);
+                let var = f(&fit["residual_variance"]);
+                assert!((var.sqrt() / SIGMA - 1.0).abs() < 4.0 / (2.0 * nu).sqrt(), "{side}: σ̂ {}", var.sqrt());
+                if stderr {
+                    let x = f(&fit["chi2_per_dof"]);
+                    assert!((x - 1.0).abs() < 4.0 * (2.0 / nu).sqrt(), "{side}: χ²/ν {x} (ν {nu})");
+                    assert!(f(&fit["p_value"]) > 1e-4);
+                }
+            }
+            docs.push(doc);
         }
-        let mut a = args(images.clone());
-        a.lmax = 3;
-        a.channel = Some(Channel::R);
-        let doc = separate_doc(&a).unwrap();
-        assert_eq!(doc["weighted_by_stderr"], false);
-        assert!(doc["sigma_source"].as_str().unwrap().contains(&images[1].display().to_string()));
-        assert!(doc["consistency"]["p_value"].is_null() && doc["consistency"]["consistent"].is_null());
-        assert!(doc["consistency"]["meaning"].as_str().unwrap().contains("cannot be judged"));
+        for key in ["stderr", "/diffuse/stderr", "/consistency/stderr"] {
+            let ptr = if key.starts_with('/') { key.to_string() } else { format!("/{key}") };
+            let (with, without) = (docs[0].pointer(&ptr).unwrap(), docs[1].pointer(&ptr).unwrap());
+            for (x, y) in with.as_array().unwrap().iter().zip(without.as_array().unwrap()) {
+                let r = f(y) / f(x);
+                assert!((r - 1.0).abs() < 0.07, "{key}: residual-σ bar / stderr-layer bar = {r}");
+            }
+        }
+        // The same pixels, so the same estimates.
+        assert_eq!(docs[0]["coefficients"], docs[1]["coefficients"]);
     }
 
     #[test]

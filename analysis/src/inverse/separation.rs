@@ -100,6 +100,128 @@ impl Samples {
     }
 }
 
+/// How well the lighting's spherical harmonics up to `lmax` at each sample's reflection vector R
+/// describe a set of samples ([`fit_residuals`]): the weighted least-squares fit of the separation
+/// (weights w_p, solid angles about R), its residuals r_p = B_p − Σ_k c_k Y_k(R_p) over the samples
+/// with w_p > 0, their χ² against the samples' σ_p and their sum of squares.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResidualFit {
+    /// χ² = Σ_p (r_p / σ_p)² over the samples with w_p > 0 and σ_p > 0.
+    pub chi2: f64,
+    /// Σ_p r_p² over the samples with w_p > 0.
+    pub rss: f64,
+    /// Samples with w_p > 0.
+    pub samples: usize,
+    /// ν = samples − columns ((lmax + 1)², plus 8 with the normal terms; 0 if that is negative).
+    pub dof: usize,
+}
+
+impl ResidualFit {
+    /// σ̂² = Σ_p r_p² / ν: the residual variance, the noise estimate of samples without standard
+    /// errors (homoscedastic; it holds the lighting's power above `lmax` as well, so it is an upper
+    /// estimate of the noise). `None` without degrees of freedom.
+    pub fn residual_variance(&self) -> Option<f64> {
+        (self.dof > 0).then(|| self.rss / self.dof as f64)
+    }
+
+    /// χ²/ν; `None` without degrees of freedom.
+    pub fn chi2_per_dof(&self) -> Option<f64> {
+        (self.dof > 0).then(|| self.chi2 / self.dof as f64)
+    }
+
+    /// P(χ²_ν ≥ χ²); `None` without degrees of freedom.
+    pub fn p_value(&self) -> Option<f64> {
+        (self.dof > 0).then(|| crate::special::chi2_survival(self.chi2, self.dof as f64))
+    }
+}
+
+/// The least-squares fit of `samples` by the spherical harmonics up to `lmax` at their reflection
+/// vectors R (at the normals for a view at normal exitance), weighted by their solid angles as in
+/// [`Separation::new`], and its residuals ([`ResidualFit`]). With `normal_terms` the harmonics
+/// 1 ≤ l ≤ 2 at the normals n are fitted as well (l = 0 is the constant already fitted at R): on the specular views they take up the diffuse part
+/// k_d Σ Λ_l ρ̂_l L_lm Y_lm(n) whatever the split, so the residuals are noise (plus what lies beyond
+/// both models) for any k_d : k_s, and a wrong split cannot inflate the noise estimate. On a set of
+/// views covering the sphere of R (the diffuse view; the specular views at φ_o = 0° and 180°
+/// together) the orders above `lmax` are orthogonal to the fitted ones up to the grid's aliasing:
+/// they add to the residuals, not a bias to the coefficients. Errors: a set whose directions do not
+/// determine the columns.
+pub fn fit_residuals(samples: &Samples, lmax: usize, normal_terms: bool) -> Result<ResidualFit> {
+    samples.validate("residual fit")?;
+    let nr = num_coefficients(lmax);
+    // Y_00(n) is the constant Y_00(R): the normal terms are the 8 harmonics 1 ≤ l ≤ 2.
+    let nfit = nr + if normal_terms { LOW - 1 } else { 0 };
+    let (basis, basis9) = (ShBasis::new(lmax), ShBasis::new(2));
+    // The design row of sample p: Y_k(R_p), k < nr, then Y_j(n_p), j < 9, with the normal terms.
+    let row = |p: usize, a: &mut [f64]| {
+        basis.eval_into(samples.reflected[p], &mut a[..nr]);
+        if normal_terms {
+            let mut y9 = [0.0; LOW];
+            basis9.eval_into(samples.normal[p], &mut y9);
+            a[nr..].copy_from_slice(&y9[1..]);
+        }
+    };
+    let chunk = 512;
+    let starts: Vec<usize> = (0..samples.len()).step_by(chunk).collect();
+    // G = Σ w a aᵀ (lower triangle) and Σ w a B, rayon partial sums in a fixed order.
+    let partial: Vec<Vec<f64>> = starts
+        .par_iter()
+        .map(|&start| {
+            let mut acc = vec![0.0; nfit * nfit + nfit];
+            let mut a = vec![0.0; nfit];
+            for p in start..(start + chunk).min(samples.len()) {
+                let w = samples.weight[p];
+                if w == 0.0 {
+                    continue;
+                }
+                row(p, &mut a);
+                let (g, rhs) = acc.split_at_mut(nfit * nfit);
+                for i in 0..nfit {
+                    let wa = w * a[i];
+                    for j in 0..=i {
+                        g[i * nfit + j] += wa * a[j];
+                    }
+                    rhs[i] += wa * samples.value[p];
+                }
+            }
+            acc
+        })
+        .collect();
+    let mut acc = vec![0.0; nfit * nfit + nfit];
+    for part in &partial {
+        acc.iter_mut().zip(part).for_each(|(a, b)| *a += b);
+    }
+    let (g, rhs) = acc.split_at(nfit * nfit);
+    let mut g = g.to_vec();
+    for i in 0..nfit {
+        for j in 0..i {
+            g[j * nfit + i] = g[i * nfit + j];
+        }
+    }
+    let chol = Cholesky::new(&g, nfit, 1e-12).map_err(|e| {
+        Error::new(format!(
+            "the directions do not determine the residual fit's lighting up to l = {lmax}: {}",
+            e.message
+        ))
+    })?;
+    let mut c = rhs.to_vec();
+    chol.solve(&mut c);
+    let (mut chi2, mut rss, mut n) = (0.0, 0.0, 0usize);
+    let mut a = vec![0.0; nfit];
+    for p in 0..samples.len() {
+        if samples.weight[p] == 0.0 {
+            continue;
+        }
+        row(p, &mut a);
+        let r = samples.value[p] - a.iter().zip(&c).map(|(x, y)| x * y).sum::<f64>();
+        n += 1;
+        rss += r * r;
+        if samples.sigma[p] > 0.0 {
+            chi2 += (r / samples.sigma[p]).powi(2);
+        }
+    }
+    Ok(ResidualFit { chi2, rss, samples: n, dof: n.saturating_sub(nfit) })
+}
+
 /// ∫_0^x |sin t| dt for x ∈ [−π, 2π]: the R-space solid angle per unit azimuth of a band of polar
 /// angle x (crossing a pole folds the band onto the opposite azimuth, |sin| takes care of it).
 pub fn abs_sin_integral(x: f64) -> f64 {
@@ -385,6 +507,15 @@ impl Separation {
         Ok(out)
     }
 
+    /// Scales the noise of the diffuse view by `diffuse_var` and of the specular views by
+    /// `specular_var` (variances): for samples built with σ = 1 whose noise is then estimated from
+    /// the residuals ([`ResidualFit::residual_variance`]), every covariance of [`Separation::solve`]
+    /// is that of samples with σ̂. The fit itself does not depend on σ (solid-angle weights).
+    pub fn scale_noise(&mut self, diffuse_var: f64, specular_var: f64) {
+        self.b_low_cov.iter_mut().for_each(|c| *c *= diffuse_var);
+        self.mb_cov.iter_mut().for_each(|c| *c *= specular_var);
+    }
+
     /// The consistency χ² as a function of the diffuse fraction x = k_d / (k_d + k_s) at fixed
     /// k_d + k_s = `total`: [(x, χ²)] (fractions giving k_s ≤ 0 or a singular covariance are skipped).
     /// In \[17\] the condition is what fixes the split: χ² is minimal near the true fraction.
@@ -499,6 +630,41 @@ mod tests {
             }
         }
         (dif, spec)
+    }
+
+    /// The residual fits estimate the noise: lighting of orders ≤ 3 (no truncation at lmax 4, and
+    /// Lambert's Λ_3 ρ̂_3 = 0, so the diffuse part is exactly its 9 terms) with Gaussian noise
+    /// σ = 0.002 gives σ̂² / σ² = 1 within 4 standard errors (√(2/ν)), with χ²/ν against the true σ
+    /// the same number. On the specular views the normal terms take up the diffuse part whatever the
+    /// split; the planted error (the fit without them, the diffuse part as a function of R left
+    /// unmodelled) is far above the noise.
+    #[test]
+    fn residual_fits_estimate_the_noise() {
+        let light = light_with(4, &[1, 2, 3]);
+        let (kd, ks, sigma) = (0.5, 0.5, 0.002);
+        let (dif, spec) = views(&light, kd, ks, 50f64.to_radians(), sigma, 3);
+        let d = fit_residuals(&dif, 4, false).unwrap();
+        let sp = fit_residuals(&spec, 4, true).unwrap();
+        for (what, f) in [("diffuse", d), ("specular", sp)] {
+            let ratio = f.residual_variance().unwrap() / (sigma * sigma);
+            let se = (2.0 / f.dof as f64).sqrt();
+            eprintln!("{what}: σ̂²/σ² = {ratio:.3} (se {se:.3}, ν {})", f.dof);
+            assert!((ratio - 1.0).abs() < 4.0 * se, "{what}: σ̂²/σ² = {ratio} (se {se})");
+            assert!((f.chi2_per_dof().unwrap() - ratio).abs() < 1e-9, "{what}");
+            assert!(f.p_value().unwrap() > 1e-4, "{what}: p {:?}", f.p_value());
+        }
+        let blind = fit_residuals(&spec, 4, false).unwrap();
+        eprintln!("specular without the normal terms: χ²/ν {:?}", blind.chi2_per_dof());
+        assert!(blind.chi2_per_dof().unwrap() > 2.0, "χ²/ν {:?}", blind.chi2_per_dof());
+        // Scaling the noise scales every covariance: σ = 1 samples with σ̂ give the true-σ bars.
+        let sep = Separation::new(&dif, &spec, 4).unwrap();
+        let unit = |s: &Samples| Samples { sigma: vec![1.0; s.len()], ..s.clone() };
+        let mut scaled = Separation::new(&unit(&dif), &unit(&spec), 4).unwrap();
+        scaled.scale_noise(sigma * sigma, sigma * sigma);
+        let (a, b) = (sep.solve(kd, ks).unwrap(), scaled.solve(kd, ks).unwrap());
+        for (x, y) in a.specular_se.iter().zip(&b.specular_se).chain(a.diffuse_se.iter().zip(&b.diffuse_se)) {
+            assert!((x - y).abs() <= 1e-9 * x.abs().max(1e-12), "{x} vs {y}");
+        }
     }
 
     fn light_with(lmax: usize, orders: &[usize]) -> Vec<f64> {

@@ -117,7 +117,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     ///
     /// With it, the cell index (row · W + column) when the direction is provably in the cell it was
     /// drawn from *as [`LatLongGrid::cell`] sees it*, also after a rotation ρ applied to it and undone
-    /// (`cell(ρᵀ·normalize(ρ·d))`, f32 matrices): it lies at least [`Z_MARGIN`] in z from the
+    /// (`cell(ρᵀ·normalize(ρ·d))`, f32 matrices): it lies at least `Z_MARGIN` in z from the
     /// row's edges and at least `PHI_MARGIN / sinθ` rad plus `PHI_ROUNDING` cell widths in φ from
     /// the column's edges. None near an edge, where rounding (of the warp, the rotation and
     /// `cell`'s arctangents) may move it across; a caller then looks the direction up. A caller
