@@ -18,7 +18,6 @@ mod common;
 use analysis::image::{read_image, write_exr};
 use common::*;
 use serde_json::Value;
-use std::path::{Path, PathBuf};
 
 fn run_json(args: &[&str]) -> Value {
     let (code, out, err) = reflect_out(args);
@@ -27,19 +26,6 @@ fn run_json(args: &[&str]) -> Value {
 }
 
 /// Renders `scenes/{brdf}-grace.toml` from `from` into `dir/name.exr`.
-fn render_view(dir: &Path, brdf: &str, name: &str, from: &str) -> PathBuf {
-    let text = std::fs::read_to_string(root().join(format!("scenes/{brdf}-grace.toml")))
-        .unwrap()
-        .replace("from = [3.0, 0.0, 1.0]", &format!("from = {from}"))
-        .replace("\"../../shared/data/", &format!("\"{}/", root().join("../shared/data").display()));
-    let scene = dir.join(format!("{name}.toml"));
-    std::fs::write(&scene, text).unwrap();
-    let out = dir.join(format!("{name}.exr"));
-    let (code, _, err) = reflect_out(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
-    assert_eq!(code, 0, "{err}");
-    out
-}
-
 /// Robust χ²/ν and relative misfit of the filter fit per channel (`analyze`'s `filter_fit`,
 /// `invert brdf`'s `filter_fit.channels`).
 fn robust(channels: &Value) -> Vec<f64> {
@@ -60,8 +46,8 @@ fn mismatch_warnings(doc: &Value) -> usize {
 #[test]
 fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_camera() {
     let dir = temp_dir("partial-view-renders");
-    let front = render_view(&dir, "phong", "front", "[3.0, 0.0, 1.0]");
-    let back = render_view(&dir, "phong", "back", "[-3.0, 0.0, -1.0]");
+    let front = render_view(&dir, "phong", "front", "[3.0, 0.0, 1.0]", None);
+    let back = render_view(&dir, "phong", "back", "[-3.0, 0.0, -1.0]", None);
     let grace_scene = dir.join("front.toml");
     let (f, b, g) = (front.to_str().unwrap(), back.to_str().unwrap(), grace_scene.to_str().unwrap());
     let rotated = dir.join("rotated.toml");

@@ -21,28 +21,6 @@ mod common;
 use analysis::lighting::Lighting;
 use common::*;
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-
-fn render(dir: &Path, name: &str, from: &str, seed: u64) -> PathBuf {
-    let text = std::fs::read_to_string(root().join("scenes/lambert-grace.toml"))
-        .unwrap()
-        .replace("from = [3.0, 0.0, 1.0]", &format!("from = {from}"))
-        .replace("\"../../shared/data/", &format!("\"{}/", root().join("../shared/data").display()));
-    let scene = dir.join(format!("{name}.toml"));
-    std::fs::write(&scene, text).unwrap();
-    let out = dir.join(format!("{name}.exr"));
-    let (code, _, err) = reflect_out(&[
-        "render",
-        scene.to_str().unwrap(),
-        "--seed",
-        &seed.to_string(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
-    assert_eq!(code, 0, "{err}");
-    out
-}
 
 /// Checks the rule of the module docs; returns the statuses and the largest |z| of a recovered
 /// coefficient.
@@ -81,8 +59,8 @@ fn check(doc: &Value, truth: &[[f64; 3]], case: &str) -> (Vec<String>, f64) {
 #[test]
 fn one_lambert_view_reports_l0_undetermined_and_two_views_recover_it() {
     let dir = temp_dir("partial-view-truncation");
-    let front = render(&dir, "front", "[3.0, 0.0, 1.0]", 0);
-    let back = render(&dir, "back", "[-3.0, 0.0, -1.0]", 100);
+    let front = render_view(&dir, "lambert", "front", "[3.0, 0.0, 1.0]", Some(0));
+    let back = render_view(&dir, "lambert", "back", "[-3.0, 0.0, -1.0]", Some(100));
     let (f, b) = (front.to_str().unwrap(), back.to_str().unwrap());
     let truth = Lighting::from_scene_file(&root().join("scenes/lambert-grace.toml")).unwrap().coefficients(3).unwrap();
     for lmax in ["2", "3"] {

@@ -158,3 +158,25 @@ pub fn open_shell_obj(r_in: f64, r_out: f64, theta_open: f64, n_theta: usize, n_
     }
     out
 }
+
+/// Renders `scenes/{brdf}-grace.toml` as shipped but seen from `from` (a TOML array, e.g.
+/// `"[-3.0, 0.0, -1.0]"`) with the binary to `dir/NAME.exr`, with `--seed` when given (the
+/// scene's default otherwise); the Grace path is made absolute so the scene may live in `dir`.
+/// The partial-view tests' one render helper.
+pub fn render_view(dir: &Path, brdf: &str, name: &str, from: &str, seed: Option<u64>) -> PathBuf {
+    let text = std::fs::read_to_string(root().join(format!("scenes/{brdf}-grace.toml")))
+        .unwrap()
+        .replace("from = [3.0, 0.0, 1.0]", &format!("from = {from}"))
+        .replace("\"../../shared/data/", &format!("\"{}/", root().join("../shared/data").display()));
+    let scene = dir.join(format!("{name}.toml"));
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join(format!("{name}.exr"));
+    let seed = seed.map(|s| s.to_string());
+    let mut args = vec!["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"];
+    if let Some(s) = &seed {
+        args.extend(["--seed", s.as_str()]);
+    }
+    let (code, _, err) = reflect_out(&args);
+    assert_eq!(code, 0, "{err}");
+    out
+}
