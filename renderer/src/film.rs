@@ -63,14 +63,11 @@
 //! energy Σ w σ² that must be *subtracted* (debiasing, `verify`'s `subspace`) uses it, because the
 //! bound's square is biased high by construction.
 //!
-//! **Near flags: not written yet.** [`Partial::finish`] (what renders write) applies the bound at
-//! low batch counts; the bound near flags is [`Partial::finish_pooled`] only. With it in renders,
-//! `verify --quick`'s `partial-view` check fails: its one-view fit of the Grace probe misses L_2,−2
-//! by 0.28 (5.5 σ of noise) and passed only because the own σ's heavy tail inflated χ²/ν to 2.1,
-//! which scaled the noise bars by 1.45; with the bound χ²/ν is 0.94 and the truncation estimate
-//! (differences of nested fits, blind to what one hemisphere aliases) carries none of the 0.28.
-//! The bound exposes an underestimated truncation, not a fault of the bound; it goes into renders
-//! when that estimate covers it.
+//! **Near flags: not written by renders.** [`Partial::finish`] (what `reflect render` writes)
+//! applies the bound at low batch counts only; the bound near flags is [`Partial::finish_pooled`],
+//! and `reflect verify` applies [`pool_heavy_tails`] to every render it judges. In renders it makes
+//! the two-view filter fits of tests/partial_view_coverage.rs cover 47 % at 1σ but 96 % at 2σ (a
+//! fixed bias in some coefficients that the own σ's χ²/ν inflation hid; README "Error bars").
 //!
 //! The pooling is a fixed sequential function of the finished own values, so the result is the same
 //! bits whatever the thread count or shard partition.
@@ -519,7 +516,7 @@ impl Partial {
     /// left-to-right fold of the canonical blocks of `[0, spp)` ([`Partial::finish_own`]); when the
     /// render has fewer than [`UNRELIABLE_MIN_BATCHES`] batches, every error bar bounded by
     /// [`pool_heavy_tails`] (module docs). The bound near flagged pixels is [`Partial::finish_pooled`],
-    /// not written yet (module docs, "Near flags: not written yet"). `stderr_own` keeps the own
+    /// not written by renders (module docs, "Near flags: not written by renders"). `stderr_own` keeps the own
     /// value. Panics if the range is not complete (check [`Partial::is_complete`]).
     pub fn finish(&self) -> Film {
         let mut film = self.finish_own();

@@ -262,7 +262,15 @@ fn render_spec_uncached(ctx: &Ctx, spec: &Spec) -> Result<Film, String> {
         render(&scene, &RenderOptions { progress: false, cancel: ctx.cancel.clone() })
     }));
     match out {
-        Ok((film, stats)) => {
+        Ok((mut film, stats)) => {
+            // Issue 9: `verify` must not use an error bar its own diagnostic marks as unreliable. At
+            // ≥ 16 spp renders write the flagged pixels' own σ (with `stderr_flag.Y`); every check
+            // here judges with the renderer's bound near them instead (`pool_heavy_tails`). Flags
+            // exist only with ≥ 16 batches, where `finish` applied no bound, so `everywhere` is false
+            // and the low-spp bound of other renders is untouched.
+            if film.unreliable_count() > 0 {
+                renderer::film::pool_heavy_tails(&mut film, false);
+            }
             if ctx.verbose {
                 eprintln!(
                     "    render {}×{} {} spp: {:.2} s",

@@ -162,11 +162,23 @@ pub fn ortho_sample_pixels(views: &[OrthoView], sphere: &Sphere, param: Param) -
 }
 
 /// The `stderr` layer of `img` when it carries an error estimate: `None` without the layer and
-/// also when it is 0 at every pixel — one sample per pixel (a 1-spp render) has no spread to
-/// estimate σ from, and a σ of 0 would print ± 0 — so the fits take σ from their residuals, as for
-/// an image without the layer. Errors as [`Image::stderr_layer`].
+/// also when it is 0 at every pixel of an image that does not say it was rendered with at least 2
+/// samples per pixel (`reflect:render`'s `spp`) — one sample per pixel (a 1-spp render) has no
+/// spread to estimate σ from, and a σ of 0 would print ± 0 — so the fits take σ from their
+/// residuals, as for an image without the layer. A layer that is 0 everywhere in a render of
+/// ≥ 2 spp is an exact zero (a deterministic estimator, e.g. a pixel-centre normal probe under a
+/// directional source: every sample agreed) and is kept. Errors as [`Image::stderr_layer`].
 pub fn stderr_estimate(img: &Image) -> Result<Option<crate::image::RgbImage>> {
-    Ok(img.stderr_layer()?.filter(|s| s.pixels.iter().any(|p| p.iter().any(|&v| v > 0.0))))
+    let Some(layer) = img.stderr_layer()? else { return Ok(None) };
+    if layer.pixels.iter().any(|p| p.iter().any(|&v| v > 0.0)) {
+        return Ok(Some(layer));
+    }
+    // A malformed render header is reported by the header's own reader; here it only means "unknown".
+    let spp = vocab::header::read_key::<vocab::scene::RenderSection>(&img.attributes, vocab::header::RENDER)
+        .ok()
+        .flatten()
+        .map(|r| r.spp);
+    Ok(spp.is_some_and(|n| n >= 2).then_some(layer))
 }
 
 /// Appends the covered pixels of `view` to `out` and their (row, column) to `at`.
