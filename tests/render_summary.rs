@@ -101,3 +101,14 @@ brdf = { type = "lambert", albedo = 0.5 }
     assert!(err.contains("no rays traced"), "{err}");
     assert!(!err.contains("0 rays") && !err.contains("0.00 M rays/s"), "{err}");
 }
+
+/// Issue 9, "flag where it cannot": at 1 spp one sample per pixel has no spread, the stderr layer is
+/// 0, and the summary must say there is no error estimate instead of printing a 0 % error (it
+/// printed "median 0.000 %, 95th percentile 0.000 %").
+#[test]
+fn one_spp_has_no_error_estimate_and_says_so() {
+    let dir = temp_dir("render-summary-1spp");
+    let (_, err) = render(&dir, &GLOSSY.replace("spp = 16", "spp = 1"), "glossy1");
+    assert!(!err.lines().any(|l| l.starts_with("noise over")), "a 0 % error printed at 1 spp: {err}");
+    assert!(err.contains("noise: no error estimate at 1 spp"), "{err}");
+}

@@ -286,7 +286,9 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         render_seconds: stats.wall.as_secs_f64(),
         save_seconds: t_save.as_secs_f64(),
         total_seconds: t_start.elapsed().as_secs_f64(),
-        noise: renderer::noise::summarize(&film),
+        // One sample per pixel has no spread: its stderr is 0, which is no error estimate, not a
+        // zero error (issue 9: flag where the error cannot be estimated, never print 0 %).
+        noise: if scene.settings.spp >= 2 { renderer::noise::summarize(&film) } else { None },
         unreliable_pixels: film.unreliable_count(),
         progressive: progressive_report,
     };
@@ -332,7 +334,8 @@ pub struct RenderReport {
     pub save_seconds: f64,
     /// The whole command, seconds.
     pub total_seconds: f64,
-    /// Relative standard error of the object's pixels (null when no object pixel is > 0).
+    /// Relative standard error of the object's pixels (null when no object pixel is > 0, and at
+    /// 1 spp, where one sample per pixel has no spread to estimate an error from).
     pub noise: Option<renderer::noise::NoiseSummary>,
     /// Pixels whose error bar is unreliable (`stderr_flag.Y` = 1: one rare sample dominates).
     pub unreliable_pixels: usize,
@@ -394,6 +397,11 @@ impl std::fmt::Display for RenderReport {
         )?;
         match &self.noise {
             Some(n) => writeln!(f, "{n}")?,
+            None if self.spp < 2 => writeln!(
+                f,
+                "noise: no error estimate at 1 spp (one sample per pixel has no spread, so the stderr layer is 0; \
+                 render at 2 spp or more for error bars)"
+            )?,
             None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)")?,
         }
         if self.unreliable_pixels > 0 {
