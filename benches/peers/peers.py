@@ -18,6 +18,10 @@ sphere (radius < 0.98 in the image plane) are compared by their RGB means:
 rms = sqrt(mean over blocks and channels of (ours − theirs)²) / mean(theirs). Mitsuba's seed-to-seed
 value at the same spp is printed beside it (the noise floor).
 
+Memory: the peak resident set size of the `reflect render` process (largest over the runs), and that of a
+fresh Python process that loads the same scene in Mitsuba and renders it once (interpreter, numpy and the
+LLVM JIT included, as in any use of Mitsuba from Python).
+
 Without the `mitsuba` package it prints how to install it and exits with status 0.
 """
 
@@ -61,15 +65,34 @@ def scene_file(name):
 
 
 def run_reflect(binary, scene, spp, seed, threads, out):
-    """Renders one bench scene; returns the render wall time (s) that reflect prints."""
+    """Renders one bench scene; returns the render wall time (s) that reflect prints and the process's
+    peak resident set size (MB, from the kernel's rusage of the child: map, BVH, film and all)."""
     cmd = [binary, "render", scene_file(scene), "--spp", str(spp),
            "--seed", str(seed), "--threads", str(threads), "--out", out]
-    p = subprocess.run(cmd, capture_output=True, text=True)
+    with tempfile.TemporaryFile("w+") as err:
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err, text=True)
+        _, status, usage = os.wait4(p.pid, 0)
+        p.returncode = os.waitstatus_to_exitcode(status)
+        err.seek(0)
+        stderr = err.read()
     if p.returncode != 0:
-        sys.exit(f"reflect failed: {' '.join(cmd)}\n{p.stderr}")
-    m = re.search(r"render loop ([0-9.]+) s on", p.stderr)
+        sys.exit(f"reflect failed: {' '.join(cmd)}\n{stderr}")
+    m = re.search(r"render loop ([0-9.]+) s on", stderr)
     if not m:
-        sys.exit(f"cannot find the render time in reflect's output:\n{p.stderr}")
+        sys.exit(f"cannot find the render time in reflect's output:\n{stderr}")
+    return float(m.group(1)), usage.ru_maxrss / 1024
+
+
+def mitsuba_peak_mb(name, spp, threads, tmp):
+    """Peak RSS (MB) of a fresh Python process that loads the scene in Mitsuba and renders it once
+    (`--peak-of`): the interpreter, numpy and Dr.Jit's LLVM JIT are in it, as they are in any use of
+    Mitsuba from Python. The mesh's PLY is written by the caller first, so generating it is not."""
+    cmd = [sys.executable, os.path.abspath(__file__), "--peak-of", name, "--spp", str(spp),
+           "--threads", str(threads), "--tmp", tmp]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    m = re.search(r"peak_mb ([0-9.]+)", p.stdout)
+    if p.returncode != 0 or not m:
+        sys.exit(f"Mitsuba's memory run failed: {' '.join(cmd)}\n{p.stderr}")
     return float(m.group(1))
 
 
@@ -180,6 +203,8 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--scenes", default=",".join(SCENES))
     ap.add_argument("--reflect", default=os.path.join(ROOT, "target", "release", "reflect"))
+    ap.add_argument("--peak-of", help=argparse.SUPPRESS)  # internal: one Mitsuba render, prints its peak RSS
+    ap.add_argument("--tmp", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if not os.path.exists(LLVM) and "DRJIT_LIBLLVM_PATH" not in os.environ:
         print(f"note: {LLVM} not found; set DRJIT_LIBLLVM_PATH to libLLVM (>= 11)", file=sys.stderr)
@@ -195,14 +220,20 @@ def main():
     if not os.path.exists(args.reflect):
         sys.exit(f"{args.reflect} not found: run `cargo build --release` first (or pass --reflect)")
     dr.set_thread_count(args.threads)
+    if args.peak_of:
+        np.array(mi.render(mitsuba_scene(mi, np, args.peak_of, args.spp, args.tmp), spp=args.spp, seed=0))
+        import resource
+        print(f"peak_mb {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.1f}")
+        return 0
     print(f"reflect: {args.reflect}; Mitsuba {mi.__version__} llvm_ad_rgb; {args.threads} threads, "
           f"512², {args.spp} spp, median of {args.runs}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.scenes.split(","):
             out = os.path.join(tmp, f"{name}.exr")
-            ours = statistics.median(run_reflect(args.reflect, name, args.spp, s, args.threads, out)
-                                     for s in range(args.runs))
+            runs = [run_reflect(args.reflect, name, args.spp, s, args.threads, out) for s in range(args.runs)]
+            ours = statistics.median(t for t, _ in runs)
+            ours_mb = max(mb for _, mb in runs)
             ours_img = read_rgb(mi, np, out)
             scene = mitsuba_scene(mi, np, name, args.spp, tmp)
             np.array(mi.render(scene, spp=4, seed=99))  # warm-up: JIT compilation
@@ -215,13 +246,17 @@ def main():
             samples = SIZE * SIZE * args.spp
             rms = block_rms(ours_img, imgs[0], np)
             floor = block_rms(imgs[1], imgs[0], np) if len(imgs) > 1 else float("nan")
-            rows.append((name, ours, samples / ours / 1e6, theirs, samples / theirs / 1e6, ours / theirs, rms, floor))
+            theirs_mb = mitsuba_peak_mb(name, args.spp, args.threads, tmp)
+            rows.append((name, ours, samples / ours / 1e6, theirs, samples / theirs / 1e6, ours / theirs, rms, floor,
+                         ours_mb, theirs_mb))
             print(f"  {name}: done", file=sys.stderr)
     print()
-    print("| scene | reflect s | M samples/s | Mitsuba s | M samples/s | ours ÷ theirs (time) | block RMS vs Mitsuba | Mitsuba seed-to-seed |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| scene | reflect s | M samples/s | Mitsuba s | M samples/s | ours ÷ theirs (time) | block RMS vs Mitsuba "
+          "| Mitsuba seed-to-seed | reflect peak MB | Mitsuba peak MB |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r[0]} | {r[1]:.2f} | {r[2]:.2f} | {r[3]:.2f} | {r[4]:.2f} | {r[5]:.2f} | {100 * r[6]:.2f} % | {100 * r[7]:.2f} % |")
+        print(f"| {r[0]} | {r[1]:.2f} | {r[2]:.2f} | {r[3]:.2f} | {r[4]:.2f} | {r[5]:.2f} | {100 * r[6]:.2f} % "
+              f"| {100 * r[7]:.2f} % | {r[8]:.0f} | {r[9]:.0f} |")
     return 0
 
 

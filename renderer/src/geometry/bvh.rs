@@ -28,6 +28,7 @@ use crate::math::Vec3;
 use glam::{UVec2, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::node::CwBvhNode;
 /// obvhs's build settings, for [`SceneGeometry::with_build_params`] (`benches/bvh.rs` tunes them).
 pub use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
 use std::time::{Duration, Instant};
@@ -201,6 +202,10 @@ impl SceneGeometry {
     }
 
     /// Closest hit with t in (0, ray.t_max).
+    ///
+    /// The same hit, bit for bit, as obvhs's `traverse!` loop with `CwBvhNode::intersect_ray` (the
+    /// implementation before [`Walk`]; kept as a test oracle): same node test arithmetic, same child
+    /// and primitive order, so ties between primitives at equal t resolve the same way.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         if let Some(s) = &self.single_sphere {
@@ -210,30 +215,176 @@ impl SceneGeometry {
         if !Self::is_valid(ray) {
             return None;
         }
-        let mut traverse_ray = Self::bvh_ray(ray);
-        let mut state = bvh.new_traversal(traverse_ray.direction);
-        let mut node;
-        let mut best: Option<(u32, f32, f32, f32)> = None;
-        obvhs::traverse!(
-            bvh,
-            node,
-            state,
-            {
-                let hitmask = node.intersect_ray(&traverse_ray, state.oct_inv4);
-                self.prefetch(bvh, node, hitmask, state.oct_inv4);
-                hitmask
+        let mut lane = Lane::new(ray);
+        while !self.step_closest(bvh, &mut lane) {}
+        let (slot, t, b1, b2) = lane.best?;
+        Some(self.make_hit(ray, slot as usize, t, (b1, b2)))
+    }
+
+    /// Closest hits of many rays: `hits[i]` is exactly [`SceneGeometry::intersect`]`(&rays[i])`,
+    /// bit for bit.
+    ///
+    /// [`BATCH_LANES`] rays are traversed at once, interleaved one node visit at a time: each visit
+    /// prefetches the nodes and primitives it will need next, and the other lanes' visits run while
+    /// those loads are in flight, so node fetches of different rays overlap instead of each ray
+    /// waiting on its own chain of misses. Any order of rays works; coherent rays (a tile's camera
+    /// rays) share more of the tree's cache lines.
+    ///
+    /// # Panics
+    /// If `rays` and `hits` differ in length.
+    pub fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "intersect_batch: {} rays but {} hit slots", rays.len(), hits.len());
+        let Some(bvh) = self.bvh.as_ref().filter(|_| self.single_sphere.is_none()) else {
+            for (h, r) in hits.iter_mut().zip(rays) {
+                *h = self.intersect(r);
+            }
+            return;
+        };
+        Self::run_batch(
+            rays,
+            |lane| self.step_closest(bvh, lane),
+            |i, lane| {
+                hits[i] = lane
+                    .and_then(|l| l.best)
+                    .map(|(slot, t, b1, b2)| self.make_hit(&rays[i], slot as usize, t, (b1, b2)));
             },
-            {
-                let slot = state.primitive_id;
-                let p = &self.prims[slot as usize];
-                if let Some((t, b1, b2)) = p.intersect(traverse_ray.origin, traverse_ray.direction, traverse_ray.tmax) {
-                    traverse_ray.tmax = t;
-                    best = Some((slot, t, b1, b2));
+        );
+    }
+
+    /// Any hit of many rays: `occluded[i]` is exactly [`SceneGeometry::occluded`]`(&rays[i])`.
+    /// Interleaved like [`SceneGeometry::intersect_batch`] (shadow rays towards one light direction
+    /// are the coherent case).
+    ///
+    /// # Panics
+    /// If `rays` and `occluded` differ in length.
+    pub fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "occluded_batch: {} rays but {} slots", rays.len(), occluded.len());
+        let Some(bvh) = self.bvh.as_ref().filter(|_| self.single_sphere.is_none()) else {
+            for (o, r) in occluded.iter_mut().zip(rays) {
+                *o = self.occluded(r);
+            }
+            return;
+        };
+        Self::run_batch(
+            rays,
+            |lane| self.step_any(bvh, lane),
+            |i, lane| occluded[i] = lane.is_some_and(|l| l.best.is_some()),
+        );
+    }
+
+    /// The interleaving loop of the batch functions: keeps up to [`BATCH_LANES`] rays in flight,
+    /// advancing each by one `step` (which returns true when the ray is finished) in turn. `finish`
+    /// receives each ray's index with its finished lane, or `None` for a ray that hits nothing
+    /// because it is not finite.
+    #[inline(always)]
+    fn run_batch(rays: &[Ray], mut step: impl FnMut(&mut Lane) -> bool, mut finish: impl FnMut(usize, Option<&Lane>)) {
+        // Hands a lane the next valid ray; false when none is left.
+        fn refill(
+            rays: &[Ray],
+            next: &mut usize,
+            lane: &mut Lane,
+            slot: &mut usize,
+            finish: &mut impl FnMut(usize, Option<&Lane>),
+        ) -> bool {
+            while *next < rays.len() {
+                let i = *next;
+                *next += 1;
+                if SceneGeometry::is_valid(&rays[i]) {
+                    *lane = Lane::new(&rays[i]);
+                    *slot = i;
+                    return true;
+                }
+                finish(i, None);
+            }
+            *slot = usize::MAX;
+            false
+        }
+        let mut lanes = [Lane::EMPTY; BATCH_LANES];
+        let mut index = [usize::MAX; BATCH_LANES];
+        let mut next = 0;
+        let mut active = 0;
+        for (lane, slot) in lanes.iter_mut().zip(index.iter_mut()) {
+            active += refill(rays, &mut next, lane, slot, &mut finish) as usize;
+        }
+        while active > 0 {
+            for (lane, slot) in lanes.iter_mut().zip(index.iter_mut()) {
+                if *slot != usize::MAX && step(lane) {
+                    finish(*slot, Some(lane));
+                    if !refill(rays, &mut next, lane, slot, &mut finish) {
+                        active -= 1;
+                    }
                 }
             }
-        );
-        let (slot, t, b1, b2) = best?;
-        Some(self.make_hit(ray, slot as usize, t, (b1, b2)))
+        }
+    }
+
+    /// One iteration of the CwBvh traversal loop (Ylitie et al. 2017, as obvhs's `traverse!`) for
+    /// closest hit: the primitives of the current leaf group, then at most one node. Returns true
+    /// when the traversal is finished.
+    #[inline(always)]
+    fn step_closest(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+        while lane.walk.prims.y != 0 {
+            let k = 31 - lane.walk.prims.y.leading_zeros();
+            lane.walk.prims.y &= !(1u32 << k);
+            let slot = lane.walk.prims.x + k;
+            let p = &self.prims[slot as usize];
+            let r = &mut lane.ray.ray;
+            if let Some((t, b1, b2)) = p.intersect(r.origin, r.direction, r.tmax) {
+                r.tmax = t;
+                lane.best = Some((slot, t, b1, b2));
+            }
+        }
+        self.step_node(bvh, lane)
+    }
+
+    /// As [`SceneGeometry::step_closest`] for any hit: finished at the first primitive hit.
+    #[inline(always)]
+    fn step_any(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+        while lane.walk.prims.y != 0 {
+            let k = 31 - lane.walk.prims.y.leading_zeros();
+            lane.walk.prims.y &= !(1u32 << k);
+            let slot = lane.walk.prims.x + k;
+            let r = &lane.ray.ray;
+            if let Some((t, ..)) = self.prims[slot as usize].intersect(r.origin, r.direction, r.tmax) {
+                lane.best = Some((slot, t, 0.0, 0.0));
+                return true;
+            }
+        }
+        self.step_node(bvh, lane)
+    }
+
+    /// The node half of one traversal iteration (obvhs's `traverse!` after its primitive loop):
+    /// visits the next hit child of the current node group, if any, and pops the stack when the
+    /// group and the leaf group are both exhausted. Returns true when the stack is empty.
+    #[inline(always)]
+    fn step_node(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+        let w = &mut lane.walk;
+        w.prims = UVec2::ZERO;
+        if w.current.y & 0xff00_0000 != 0 {
+            let hits_imask = w.current.y;
+            let child_offset = 31 - hits_imask.leading_zeros();
+            let child_base = w.current.x;
+            w.current.y &= !(1u32 << child_offset);
+            if w.current.y & 0xff00_0000 != 0 {
+                w.push(w.current);
+            }
+            let slot = (child_offset - 24) ^ (lane.ray.oct_inv4 & 0xff);
+            let relative = (hits_imask & !(0xffff_ffffu32 << slot)).count_ones();
+            let node = &bvh.nodes[(child_base + relative) as usize];
+            let hitmask = lane.ray.node_hitmask(node);
+            self.prefetch(bvh, node, hitmask, lane.ray.oct_inv4);
+            w.current = UVec2::new(node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
+            w.prims = UVec2::new(node.primitive_base_idx, hitmask & 0x00ff_ffff);
+        } else {
+            w.current = UVec2::ZERO;
+        }
+        if w.prims.y == 0 && w.current.y & 0xff00_0000 == 0 {
+            if w.sp == 0 {
+                return true;
+            }
+            w.current = w.pop();
+        }
+        false
     }
 
     /// Software prefetch of everything a node's hit mask will visit next: the hit child nodes
@@ -291,9 +442,55 @@ impl SceneGeometry {
         }
     }
 
-    /// Any hit with t in (0, ray.t_max); stops at the first primitive hit.
+    /// Any hit with t in (0, ray.t_max); stops at the first primitive hit (children in the same
+    /// octant order as closest hit, no sorting by distance).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if let Some(s) = &self.single_sphere {
+            return s.intersect_t(ray.origin, ray.dir, ray.t_max).is_some();
+        }
+        let Some(bvh) = self.bvh.as_ref() else { return false };
+        if !Self::is_valid(ray) {
+            return false;
+        }
+        let mut lane = Lane::new(ray);
+        loop {
+            if self.step_any(bvh, &mut lane) {
+                return lane.best.is_some();
+            }
+        }
+    }
+
+    /// The closest hit through obvhs's own `traverse!` loop and node test (the implementation
+    /// before [`Walk`]): the oracle of the tests.
+    #[cfg(test)]
+    fn intersect_obvhs(&self, ray: &Ray) -> Option<Hit> {
+        if let Some(s) = &self.single_sphere {
+            return s.intersect(ray, 0);
+        }
+        let bvh = self.bvh.as_ref()?;
+        if !Self::is_valid(ray) {
+            return None;
+        }
+        let mut traverse_ray = Self::bvh_ray(ray);
+        let mut state = bvh.new_traversal(traverse_ray.direction);
+        let mut node;
+        let mut best: Option<(u32, f32, f32, f32)> = None;
+        obvhs::traverse!(bvh, node, state, node.intersect_ray(&traverse_ray, state.oct_inv4), {
+            let slot = state.primitive_id;
+            let p = &self.prims[slot as usize];
+            if let Some((t, b1, b2)) = p.intersect(traverse_ray.origin, traverse_ray.direction, traverse_ray.tmax) {
+                traverse_ray.tmax = t;
+                best = Some((slot, t, b1, b2));
+            }
+        });
+        let (slot, t, b1, b2) = best?;
+        Some(self.make_hit(ray, slot as usize, t, (b1, b2)))
+    }
+
+    /// Any hit through obvhs's `ray_traverse_miss` (the implementation before [`Walk`]); for tests.
+    #[cfg(test)]
+    fn occluded_obvhs(&self, ray: &Ray) -> bool {
         if let Some(s) = &self.single_sphere {
             return s.intersect_t(ray.origin, ray.dir, ray.t_max).is_some();
         }
@@ -338,6 +535,182 @@ impl SceneGeometry {
             }
         }
         best
+    }
+}
+
+/// Rays in flight in [`SceneGeometry::intersect_batch`] and [`SceneGeometry::occluded_batch`].
+pub const BATCH_LANES: usize = 8;
+
+/// Depth of the traversal stack: obvhs's `TRAVERSAL_STACK_SIZE` (its `CwBvh::validate` asserts the
+/// tree is shallower). Like obvhs's `StackStack`, a push onto a full stack overwrites the top.
+const STACK: usize = 32;
+
+/// The traversal state of one ray: obvhs's `Traversal` (node group, leaf group, stack of node
+/// groups; x = base index, y = hit bits) without the fields the loop does not need.
+#[derive(Clone, Copy)]
+struct Walk {
+    current: UVec2,
+    prims: UVec2,
+    sp: usize,
+    stack: [UVec2; STACK],
+}
+
+impl Walk {
+    #[inline(always)]
+    fn push(&mut self, g: UVec2) {
+        self.stack[self.sp & (STACK - 1)] = g;
+        self.sp = (self.sp + 1).min(STACK - 1);
+    }
+    #[inline(always)]
+    fn pop(&mut self) -> UVec2 {
+        self.sp = self.sp.saturating_sub(1);
+        self.stack[self.sp & (STACK - 1)]
+    }
+}
+
+/// A ray prepared for the node test: obvhs's ray (origin, direction with −0 mapped to +0, the
+/// safe inverse direction, t_max shrinking as hits are found), its octant code, and per axis a
+/// mask that is all ones where the direction is negative (the near planes are then the max planes).
+#[derive(Clone, Copy)]
+struct NodeRay {
+    ray: obvhs::ray::Ray,
+    oct_inv4: u32,
+    swap: [u64; 3],
+}
+
+impl NodeRay {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let ray = SceneGeometry::bvh_ray(ray);
+        let d = ray.direction;
+        // obvhs's ray_get_octant_inv4.
+        let oct_inv4 = (if d.x < 0.0 { 0 } else { 0x0404_0404 })
+            | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
+            | (if d.z < 0.0 { 0 } else { 0x0101_0101 });
+        let m = |c: f32| if c < 0.0 { u64::MAX } else { 0 };
+        NodeRay { ray, oct_inv4, swap: [m(d.x), m(d.y), m(d.z)] }
+    }
+
+    /// The hit mask of a node's children (obvhs's encoding: bits 24–31 internal children by
+    /// traversal priority, bits 0–23 leaf primitives), with exactly the arithmetic of obvhs's
+    /// `CwBvhNode::intersect_ray_simd` (t = q·(extent/d) + (p − o)/d in single precision, no fused
+    /// multiply-add; entry clamped to 1e-4, exit to t_max) so the same nodes are visited. What
+    /// differs is the work around it: the eight quantised planes of an axis are read as one
+    /// 8-byte word and widened together (obvhs converts byte by byte), near/far planes are chosen
+    /// with a mask instead of a branch, and only the hit children are encoded.
+    #[inline(always)]
+    fn node_hitmask(&self, node: &CwBvhNode) -> u32 {
+        let r = &self.ray;
+        let dir_inv = node.compute_extent() * r.inv_direction;
+        let orig = (Vec3A::from(node.p) - r.origin) * r.inv_direction;
+        let near_far = |lo: [u8; 8], hi: [u8; 8], swap: u64| {
+            let (lo, hi) = (u64::from_le_bytes(lo), u64::from_le_bytes(hi));
+            let x = (lo ^ hi) & swap;
+            (lo ^ x, hi ^ x)
+        };
+        let (nx, fx) = near_far(node.child_min_x, node.child_max_x, self.swap[0]);
+        let (ny, fy) = near_far(node.child_min_y, node.child_max_y, self.swap[1]);
+        let (nz, fz) = near_far(node.child_min_z, node.child_max_z, self.swap[2]);
+        let mut hit = slab8([nx, ny, nz], [fx, fy, fz], dir_inv, orig, r.tmax);
+        let (child_bits8, bit_index8) = node.get_child_and_index_bits(self.oct_inv4);
+        let mut mask = 0;
+        while hit != 0 {
+            let s = hit.trailing_zeros() * 8;
+            hit &= hit - 1;
+            mask |= ((child_bits8 >> s) as u32 & 0xff) << ((bit_index8 >> s) as u32 & 0xff);
+        }
+        mask
+    }
+}
+
+/// The entry distance obvhs clamps a child's slab interval to (its `node::EPSILON`).
+const NODE_T_MIN: f32 = 1e-4;
+
+/// Bit i set when child i's slab interval [max(near·s + o, 1e-4), min(far·s + o, t_max)] is not
+/// empty; `near`/`far` hold each axis's eight quantised planes, one byte per child.
+#[inline(always)]
+fn slab8(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    // SAFETY: AVX2 is enabled for this build (cfg above); the intrinsics only read their arguments.
+    unsafe {
+        use std::arch::x86_64::*;
+        let q = |v: u64| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_cvtsi64_si128(v as i64)));
+        let t = |v: u64, s: f32, o: f32| _mm256_add_ps(_mm256_mul_ps(q(v), _mm256_set1_ps(s)), _mm256_set1_ps(o));
+        let tmin = _mm256_max_ps(t(near[0], s.x, o.x), _mm256_max_ps(t(near[1], s.y, o.y), t(near[2], s.z, o.z)));
+        let tmax = _mm256_min_ps(t(far[0], s.x, o.x), _mm256_min_ps(t(far[1], s.y, o.y), t(far[2], s.z, o.z)));
+        let tmin = _mm256_max_ps(tmin, _mm256_set1_ps(NODE_T_MIN));
+        let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(t_max));
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32
+    }
+    #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+    // SAFETY: SSE2 is part of x86_64; the intrinsics only read their arguments.
+    unsafe {
+        use std::arch::x86_64::*;
+        // Bytes 0–7 of v as two vectors of four f32 (children 0–3 and 4–7).
+        let q = |v: u64| {
+            let z = _mm_setzero_si128();
+            let w = _mm_unpacklo_epi8(_mm_cvtsi64_si128(v as i64), z);
+            (_mm_cvtepi32_ps(_mm_unpacklo_epi16(w, z)), _mm_cvtepi32_ps(_mm_unpackhi_epi16(w, z)))
+        };
+        let (n, f) = (near.map(q), far.map(q));
+        let (sx, sy, sz) = (_mm_set1_ps(s.x), _mm_set1_ps(s.y), _mm_set1_ps(s.z));
+        let (ox, oy, oz) = (_mm_set1_ps(o.x), _mm_set1_ps(o.y), _mm_set1_ps(o.z));
+        let (eps, tm) = (_mm_set1_ps(NODE_T_MIN), _mm_set1_ps(t_max));
+        let half = |nx: __m128, ny: __m128, nz: __m128, fx: __m128, fy: __m128, fz: __m128| {
+            let t = |q: __m128, s: __m128, o: __m128| _mm_add_ps(_mm_mul_ps(q, s), o);
+            let tmin = _mm_max_ps(t(nx, sx, ox), _mm_max_ps(t(ny, sy, oy), t(nz, sz, oz)));
+            let tmax = _mm_min_ps(t(fx, sx, ox), _mm_min_ps(t(fy, sy, oy), t(fz, sz, oz)));
+            _mm_movemask_ps(_mm_cmple_ps(_mm_max_ps(tmin, eps), _mm_min_ps(tmax, tm))) as u32
+        };
+        half(n[0].0, n[1].0, n[2].0, f[0].0, f[1].0, f[2].0) | half(n[0].1, n[1].1, n[2].1, f[0].1, f[1].1, f[2].1) << 4
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut hit = 0;
+        for i in 0..8 {
+            let b = |v: u64| ((v >> (8 * i)) & 0xff) as f32;
+            let t = |v: [u64; 3]| Vec3A::new(b(v[0]), b(v[1]), b(v[2])) * s + o;
+            let (tn, tf) = (t(near), t(far));
+            if tn.max_element().max(NODE_T_MIN) <= tf.min_element().min(t_max) {
+                hit |= 1 << i;
+            }
+        }
+        hit
+    }
+}
+
+/// One ray in flight: its node-test form, traversal state and best hit so far (slot, t, b1, b2).
+#[derive(Clone, Copy)]
+struct Lane {
+    ray: NodeRay,
+    walk: Walk,
+    best: Option<(u32, f32, f32, f32)>,
+}
+
+impl Lane {
+    const EMPTY: Lane = Lane {
+        ray: NodeRay {
+            ray: obvhs::ray::Ray {
+                origin: Vec3A::ZERO,
+                direction: Vec3A::ZERO,
+                inv_direction: Vec3A::ZERO,
+                tmin: 0.0,
+                tmax: 0.0,
+            },
+            oct_inv4: 0,
+            swap: [0; 3],
+        },
+        walk: Walk { current: UVec2::ZERO, prims: UVec2::ZERO, sp: 0, stack: [UVec2::ZERO; STACK] },
+        best: None,
+    };
+
+    /// A lane at the root of a non-empty tree (obvhs's initial group: bit 31 selects node 0).
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let mut lane = Lane::EMPTY;
+        lane.ray = NodeRay::new(ray);
+        lane.walk.current = UVec2::new(0, 0x8000_0000);
+        lane
     }
 }
 
@@ -465,6 +838,117 @@ mod tests {
         let bad = Ray::new(Vec3::new(0.0, 0.0, f32::NAN), Vec3::Z);
         assert!(g.intersect(&bad).is_none() && !g.occluded(&bad));
         assert!(g.intersect(&r).is_some());
+    }
+
+    /// Bitwise equality of two hit results (every field, as bits).
+    fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+        let bits = |h: &Hit| {
+            let v = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+            (h.t.to_bits(), v(h.p), v(h.n), v(h.ng), h.object)
+        };
+        match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => bits(a) == bits(b),
+            _ => false,
+        }
+    }
+
+    /// The ray sets of the batch tests: PEERS.md's "box" and "aimed" rays (origins in [−2, 2]³;
+    /// directions uniform, or towards a point of the unit ball), grazing rays along triangle edges
+    /// and tangent to the unit sphere, rays from on-surface origins (hit points, vertices) in every
+    /// direction, axis-aligned rays (±0 components), short rays and non-finite rays.
+    fn ray_sets(g: &SceneGeometry, rng: &mut TestRng) -> Vec<Ray> {
+        let mut rays = Vec::new();
+        for i in 0..6000 {
+            let o = in_box(rng, 2.0);
+            let d = if i % 2 == 0 {
+                uniform_dir(rng)
+            } else {
+                let p = loop {
+                    let p = in_box(rng, 1.0);
+                    if p.length_squared() <= 1.0 {
+                        break p;
+                    }
+                };
+                (p - o).normalize()
+            };
+            rays.push(Ray::new(o, d));
+        }
+        let tris: Vec<TriangleRecord> =
+            g.prims.iter().filter(|p| p.a.w == KIND_TRIANGLE).map(Prim::as_triangle).collect();
+        for i in 0..2000 {
+            let tri = tris[(rng.next_f32() * tris.len() as f32) as usize % tris.len()];
+            let (v0, e1) = (Vec3::from(tri.v0), Vec3::from(tri.e1));
+            match i % 4 {
+                // Along an edge, from outside it and from its vertex.
+                0 => rays.push(Ray::new(v0 - e1 * (0.5 + rng.next_f32()), e1.normalize())),
+                1 => rays.push(Ray::new(v0, (e1 + Vec3::from(tri.e2) * 1e-7).normalize())),
+                // From the vertex (on the surface) in a random direction.
+                2 => rays.push(Ray::new(v0, uniform_dir(rng))),
+                // Tangent to the unit sphere at a random point.
+                _ => {
+                    let n = uniform_dir(rng);
+                    let t = n.any_orthonormal_vector();
+                    rays.push(Ray::new(n - 2.0 * t, t));
+                }
+            }
+        }
+        // From the hit points of the rays so far (on-surface origins), both hemispheres.
+        let hits: Vec<Hit> = rays.iter().take(3000).filter_map(|r| g.intersect(r)).collect();
+        for h in hits {
+            rays.push(Ray::new(h.p, uniform_dir(rng)));
+        }
+        for (i, d) in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z].into_iter().enumerate() {
+            rays.push(Ray::new(Vec3::new(0.1, -0.2, 0.3) - 3.0 * d, d));
+            let mut short = Ray::new(in_box(rng, 2.0), uniform_dir(rng));
+            short.t_max = 0.5 * i as f32;
+            rays.push(short);
+        }
+        rays.push(Ray::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Z));
+        rays.push(Ray::new(Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0)));
+        rays
+    }
+
+    /// The batch functions give every ray exactly (bit for bit) its single-ray result, and the
+    /// single-ray traversal gives exactly obvhs's own loop's result, on a mesh-only scene (a
+    /// 20,480-triangle unit icosphere, PEERS.md's mesh at n = 5) and the mixed scene.
+    #[test]
+    fn batch_and_walk_equal_single_ray_and_obvhs_bit_for_bit() {
+        let mut rng = TestRng::new(7);
+        for g in [SceneGeometry::new(vec![Shape::Mesh(icosphere(5))]), scene()] {
+            let rays = ray_sets(&g, &mut rng);
+            let single: Vec<Option<Hit>> = rays.iter().map(|r| g.intersect(r)).collect();
+            let n_hit = single.iter().filter(|h| h.is_some()).count();
+            assert!(n_hit > rays.len() / 3 && n_hit < rays.len() - 1000, "{n_hit} of {}", rays.len());
+            for (i, (r, h)) in rays.iter().zip(&single).enumerate() {
+                assert!(same(h, &g.intersect_obvhs(r)), "ray {i}: {r:?}: {h:?} vs obvhs {:?}", g.intersect_obvhs(r));
+                assert_eq!(g.occluded(r), g.occluded_obvhs(r), "ray {i}: {r:?}");
+                assert_eq!(g.occluded(r), h.is_some(), "ray {i}: {r:?}");
+            }
+            // Whole set, an odd-sized part (lanes refilled unevenly), one ray, none.
+            for range in [0..rays.len(), 5..5 + 2 * BATCH_LANES + 3, 17..18, 0..0] {
+                let part = &rays[range.clone()];
+                let mut hits = vec![None; part.len()];
+                g.intersect_batch(part, &mut hits);
+                let mut occ = vec![true; part.len()];
+                g.occluded_batch(part, &mut occ);
+                for (k, i) in range.enumerate() {
+                    assert!(same(&hits[k], &single[i]), "ray {i}: batch {:?} vs single {:?}", hits[k], single[i]);
+                    assert_eq!(occ[k], g.occluded(&rays[i]), "ray {i}");
+                }
+            }
+        }
+        // The single-sphere and empty scenes go through the per-ray functions.
+        for g in [SceneGeometry::new(vec![Shape::Sphere(Sphere::new(Vec3::ZERO, 1.0))]), SceneGeometry::new(vec![])] {
+            let rays = ray_sets(&scene(), &mut rng);
+            let mut hits = vec![None; rays.len()];
+            g.intersect_batch(&rays, &mut hits);
+            let mut occ = vec![false; rays.len()];
+            g.occluded_batch(&rays, &mut occ);
+            for (i, r) in rays.iter().enumerate() {
+                assert!(same(&hits[i], &g.intersect(r)) && occ[i] == g.occluded(r), "ray {i}");
+            }
+        }
     }
 
     #[test]
