@@ -164,7 +164,7 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
 ///
 /// Dispatched at run time: on an x86-64 CPU with the x86-64-v3 features (AVX2, FMA, BMI1/2, LZCNT,
 /// MOVBE; Intel Haswell 2013 and AMD Excavator 2015 onward), the tile loop, with the path tracer and
-/// everything inlined into it, runs as compiled for them ([`render_tile_x86_64_v3`]: VEX encodings,
+/// everything inlined into it, runs as compiled for them (`render_tile_x86_64_v3`: VEX encodings,
 /// BMI; ~9 % fewer instructions a sample, README "Performance"); on any other CPU, or another
 /// architecture, as compiled for the build's target. The two compute the same bits: Rust never
 /// contracts a multiply and an add into an FMA on its own, the code calls `mul_add` nowhere, and
@@ -179,7 +179,7 @@ fn render_tile(scene: &Scene, tracer: &PathTracer, rect: [u32; 4], start: u64, e
     render_tile_body(scene, tracer, rect, start, end)
 }
 
-/// Whether this CPU has the features of [`render_tile_x86_64_v3`] (std caches the CPUID answer).
+/// Whether this CPU has the features of `render_tile_x86_64_v3` (std caches the CPUID answer).
 #[cfg(target_arch = "x86_64")]
 #[inline]
 fn has_x86_64_v3() -> bool {
@@ -192,8 +192,8 @@ fn has_x86_64_v3() -> bool {
         && std::arch::is_x86_feature_detected!("f16c")
 }
 
-/// [`render_tile_body`] compiled for x86-64-v3 (see [`render_tile`]); call only where
-/// [`has_x86_64_v3`] holds.
+/// `render_tile_body` compiled for x86-64-v3 (see `render_tile`); call only where
+/// `has_x86_64_v3` holds.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,movbe,f16c,popcnt")]
 fn render_tile_x86_64_v3(
@@ -206,7 +206,7 @@ fn render_tile_x86_64_v3(
     render_tile_body(scene, tracer, rect, start, end)
 }
 
-/// The tile loop itself, inlined into each instruction-set version of [`render_tile`].
+/// The tile loop itself, inlined into each instruction-set version of `render_tile`.
 #[inline(always)]
 fn render_tile_body(
     scene: &Scene,
