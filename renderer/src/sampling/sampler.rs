@@ -267,9 +267,132 @@ impl Sampler {
     }
 }
 
+/// Lanes of a batch: the samples the batched integrator (not built yet; branch `speed`) traces in
+/// lockstep, one per SIMD lane of AVX2's 256-bit registers.
+pub const LANES: usize = 8;
+
+impl Sampler {
+    /// The next 2D draw of `LANES` samples of the current pixel at once, in structure-of-arrays
+    /// form `[x; LANES], [y; LANES]`: lane k is the draw [`Sampler::next_2d`] gives after
+    /// `start(pixel, index[k])` at the current dimension (the same bits; a test compares them).
+    /// `index_reversed[k]` is `index[k].reverse_bits()`. The lanes share the pixel's scrambling
+    /// keys, so what remains per lane is integer arithmetic (Laine–Karras hashes, four table reads,
+    /// a bit reversal) written as lane loops that the x86-64-v3 copy of the tile loop can run in
+    /// AVX2 registers. Advances the dimension by 2, like `next_2d`.
+    #[inline(always)]
+    pub fn next_2d_lanes(&mut self, index_reversed: &[u32; LANES]) -> ([f32; LANES], [f32; LANES]) {
+        let d = self.dim;
+        self.dim += 2;
+        let (key, k2) = self.key_2d(d);
+        let mut xs = [0.0; LANES];
+        let mut ys = [0.0; LANES];
+        match self.kind {
+            SamplerKind::Independent => {
+                for k in 0..LANES {
+                    let h = hash2(key, index_reversed[k].reverse_bits() as u64);
+                    xs[k] = to_unit_f32(h as u32);
+                    ys[k] = to_unit_f32((h >> 32) as u32);
+                }
+            }
+            SamplerKind::Sobol => {
+                let mut both = [0u64; LANES];
+                for k in 0..LANES {
+                    both[k] = index_and_sobol1(lk_permutation(index_reversed[k], key as u32));
+                }
+                for k in 0..LANES {
+                    let (i, s1) = ((both[k] >> 32) as u32, both[k] as u32);
+                    let x = lk_permutation(i, (key >> 32) as u32) as u64;
+                    let y = lk_permutation(s1, k2 as u32) as u64;
+                    let r = (x << 32 | y).reverse_bits();
+                    xs[k] = to_unit_f32(r as u32);
+                    ys[k] = to_unit_f32((r >> 32) as u32);
+                }
+            }
+        }
+        (xs, ys)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Not a check: a workload for counting instructions (run under callgrind, README "Performance",
+    /// round seven): 2^16 batches of `LANES` 2D Sobol draws through `next_2d_lanes` in a function
+    /// compiled for x86-64-v3, and the same draws one by one through `next_2d`.
+    #[test]
+    #[ignore]
+    fn lanes_instruction_count_workload() {
+        #[inline(never)]
+        fn scalar(s: &mut Sampler) -> f32 {
+            let mut acc = 0.0;
+            for b in 0..(1u32 << 16) {
+                for k in 0..LANES as u32 {
+                    s.start(1, b * LANES as u32 + k);
+                    s.dim = 2;
+                    acc += s.next_2d().x;
+                }
+            }
+            acc
+        }
+        #[inline(never)]
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,movbe,f16c,popcnt")]
+        fn lanes_v3(s: &mut Sampler) -> f32 {
+            lanes_body(s)
+        }
+        #[inline(never)]
+        fn lanes_base(s: &mut Sampler) -> f32 {
+            lanes_body(s)
+        }
+        #[inline(always)]
+        fn lanes_body(s: &mut Sampler) -> f32 {
+            let mut acc = 0.0;
+            s.start(1, 0);
+            for b in 0..(1u32 << 16) {
+                let r: [u32; LANES] = std::array::from_fn(|k| (b * LANES as u32 + k as u32).reverse_bits());
+                s.dim = 2;
+                let (xs, _) = s.next_2d_lanes(&r);
+                acc += xs.iter().sum::<f32>();
+            }
+            acc
+        }
+        let mut s = Sampler::new(SamplerKind::Sobol, 3);
+        let a = scalar(&mut s);
+        let b = lanes_base(&mut s);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("bmi2") {
+            // SAFETY: the features were detected.
+            let c = unsafe { lanes_v3(&mut s) };
+            assert_eq!(b, c);
+        }
+        assert!(a.is_finite() && b.is_finite());
+    }
+
+    /// `next_2d_lanes` gives every lane the bits of `next_2d` at that lane's sample index, for both
+    /// samplers, at several dimensions and pixels, with indices in and out of order.
+    #[test]
+    fn lanes_equal_the_scalar_draws() {
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let (mut batch, mut one) = (Sampler::new(kind, 3), Sampler::new(kind, 3));
+            for pixel in [0u64, 77, 1 << 33] {
+                for first in [0u32, 8, 1000, u32::MAX - 7] {
+                    let index: [u32; LANES] = std::array::from_fn(|k| first.wrapping_add((k as u32 * 5) % 8));
+                    batch.start(pixel, 0);
+                    for d in [0u32, 2, 5, 30] {
+                        batch.dim = d;
+                        let (xs, ys) = batch.next_2d_lanes(&index.map(u32::reverse_bits));
+                        for k in 0..LANES {
+                            one.start(pixel, index[k]);
+                            one.dim = d;
+                            let v = one.next_2d();
+                            assert_eq!((xs[k].to_bits(), ys[k].to_bits()), (v.x.to_bits(), v.y.to_bits()));
+                        }
+                    }
+                }
+            }
+        }
+    }
 
     /// The per-pixel key memo changes no number: pixels interleaved (the memo must follow the
     /// pixel), paths of different lengths and 1D/2D mixes past the memo's `KEYS` dimensions, each
