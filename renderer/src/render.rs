@@ -5,7 +5,7 @@
 use crate::film::{Film, Partial, PixelAccumulator, Stats, batch_log2, canonical_blocks};
 use crate::integrator::PathTracer;
 use crate::math::Vec2;
-use crate::sampling::Sampler;
+use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::io::IsTerminal;
@@ -225,8 +225,20 @@ fn render_tile_body(
         for col in x0..x1 {
             let pixel_id = row as u64 * s.width as u64 + col as u64;
             acc.reset(start);
+            // Batches of LANES samples draw their first vertex's 2D numbers together, in SIMD
+            // lanes in the x86-64-v3 copy (`Sampler::draw_ahead`: the same bits); the rest of a
+            // pixel's samples, below a batch, draw theirs one by one.
+            let mut ahead = None;
             for i in start..end {
+                let lane = ((i - start) % LANES as u64) as usize;
+                if lane == 0 {
+                    ahead = (end - i >= LANES as u64)
+                        .then(|| sampler.draw_ahead(pixel_id, &std::array::from_fn(|k| (i + k as u64) as u32)));
+                }
                 sampler.start(pixel_id, i as u32);
+                if let Some(ahead) = &ahead {
+                    sampler.use_ahead(ahead, lane);
+                }
                 let u = sampler.next_2d();
                 let u = if jitter { u } else { Vec2::splat(0.5) };
                 let primary = scene.camera.generate(row, col, u);

@@ -5,4 +5,4 @@ pub mod distribution;
 pub mod sampler;
 pub mod warp;
 
-pub use sampler::{Sampler, SamplerKind};
+pub use sampler::{LANES, Sampler, SamplerKind};

@@ -39,7 +39,22 @@ pub struct Sampler {
     keys_1d: [u64; KEYS],
     /// (key, mix64(key)) of a 2D draw.
     keys_2d: [(u64, u64); KEYS],
+    /// Bit d set: `pre_2d[d]` holds this sample's 2D draw at dimension d, drawn ahead with the other
+    /// samples of its batch ([`Sampler::draw_ahead`], [`Sampler::use_ahead`]); cleared by `start`.
+    have_pre: u32,
+    pre_2d: [Vec2; PRE_DIMS],
 }
+
+/// The 2D draws of a sample's first vertex, drawn ahead for a batch of [`LANES`] samples: the
+/// camera's (dimension 0) and the first vertex's light (2) and BRDF (5) draws (dimension 4 is the
+/// lobe choice, 1D). `[dimension][coordinate][lane]`.
+pub type Ahead = [[[f32; LANES]; 2]; 3];
+
+/// The dimensions of [`Ahead`].
+const AHEAD_DIMS: [u32; 3] = [0, 2, 5];
+
+/// Dimensions below which [`Sampler`] can hold draws made ahead.
+const PRE_DIMS: usize = 6;
 
 /// A strong 64-bit mixer (the SplitMix64 / Stafford "mix13" finalizer).
 #[inline(always)]
@@ -164,6 +179,8 @@ impl Sampler {
             have_2d: 0,
             keys_1d: [0; KEYS],
             keys_2d: [(0, 0); KEYS],
+            have_pre: 0,
+            pre_2d: [Vec2::ZERO; PRE_DIMS],
         }
     }
 
@@ -184,6 +201,7 @@ impl Sampler {
         self.index = index;
         self.index_reversed = index.reverse_bits();
         self.dim = 0;
+        self.have_pre = 0;
     }
 
     /// The key of a 1D draw at dimension `d` of the current pixel (memoized below `KEYS`).
@@ -244,6 +262,9 @@ impl Sampler {
     pub fn next_2d(&mut self) -> Vec2 {
         let d = self.dim;
         self.dim += 2;
+        if self.have_pre & (1 << (d & 31)) != 0 {
+            return self.pre_2d[d as usize];
+        }
         let (key, k2) = self.key_2d(d);
         match self.kind {
             SamplerKind::Independent => {
@@ -311,6 +332,37 @@ impl Sampler {
         }
         (xs, ys)
     }
+
+    /// The draws of [`Ahead`] for the samples `index` of pixel `pixel`, all lanes at once
+    /// ([`Sampler::next_2d_lanes`]). Leaves the sampler at sample `index[0]`; hand each lane's draws
+    /// to its sample with [`Sampler::use_ahead`] after its `start`.
+    #[inline(always)]
+    pub fn draw_ahead(&mut self, pixel: u64, index: &[u32; LANES]) -> Ahead {
+        // Loops, not closures: a closure is a function of its own, compiled for the baseline even
+        // when it is called from the x86-64-v3 copy of the tile loop, and LLVM left these out of line.
+        self.start(pixel, index[0]);
+        let mut reversed = [0u32; LANES];
+        for k in 0..LANES {
+            reversed[k] = index[k].reverse_bits();
+        }
+        let mut ahead = [[[0.0; LANES]; 2]; 3];
+        for (j, &d) in AHEAD_DIMS.iter().enumerate() {
+            self.dim = d;
+            let (x, y) = self.next_2d_lanes(&reversed);
+            ahead[j] = [x, y];
+        }
+        ahead
+    }
+
+    /// Gives the current sample (just `start`ed at `index[lane]` of the pixel of `ahead`) its draws
+    /// made ahead: `next_2d` at those dimensions returns them (the same bits it would compute).
+    #[inline(always)]
+    pub fn use_ahead(&mut self, ahead: &Ahead, lane: usize) {
+        for (j, &d) in AHEAD_DIMS.iter().enumerate() {
+            self.pre_2d[d as usize] = Vec2::new(ahead[j][0][lane], ahead[j][1][lane]);
+            self.have_pre |= 1 << d;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -367,6 +419,51 @@ mod tests {
             assert_eq!(b, c);
         }
         assert!(a.is_finite() && b.is_finite());
+    }
+
+    /// Draws made ahead for a batch are the draws each sample makes alone: a path of several
+    /// vertices (1D and 2D draws mixed, the lobe choice skipped or drawn) gives the same numbers
+    /// with and without `use_ahead`.
+    #[test]
+    fn draws_ahead_are_the_sample_draws() {
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let (mut a, mut b) = (Sampler::new(kind, 4), Sampler::new(kind, 4));
+            for pixel in [3u64, 1 << 35] {
+                for first in [0u32, 64, u32::MAX - 7] {
+                    let index: [u32; LANES] = std::array::from_fn(|k| first.wrapping_add(k as u32));
+                    let ahead = a.draw_ahead(pixel, &index);
+                    for (k, &i) in index.iter().enumerate() {
+                        // The path tracer's layout (camera 2D, then per vertex 2D, lobe 1D or
+                        // skipped, 2D, and a roulette 1D), and a layout that meets the dimensions
+                        // drawn ahead with 1D draws and at odd offsets.
+                        for ops in ["22s2122s21", "21222s2112"] {
+                            a.start(pixel, i);
+                            a.use_ahead(&ahead, k);
+                            b.start(pixel, i);
+                            let (mut got, mut want) = (Vec::new(), Vec::new());
+                            for op in ops.chars() {
+                                match op {
+                                    '1' => {
+                                        got.push(a.next_1d().to_bits());
+                                        want.push(b.next_1d().to_bits());
+                                    }
+                                    's' => {
+                                        a.skip_1d();
+                                        b.skip_1d();
+                                    }
+                                    _ => {
+                                        let (u, v) = (a.next_2d(), b.next_2d());
+                                        got.extend([u.x.to_bits(), u.y.to_bits()]);
+                                        want.extend([v.x.to_bits(), v.y.to_bits()]);
+                                    }
+                                }
+                            }
+                            assert_eq!(got, want, "{kind:?} pixel {pixel} index {i} ops {ops}");
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// `next_2d_lanes` gives every lane the bits of `next_2d` at that lane's sample index, for both
