@@ -314,8 +314,8 @@ impl PixelAccumulator {
         self.len = 0;
     }
 
-    /// Adds the next sample.
-    #[inline]
+    /// Adds the next sample. (Always inlined: see `render::render_tile`'s instruction-set versions.)
+    #[inline(always)]
     pub fn add(&mut self, radiance: Rgb, normal: Vec3, hit: bool) {
         let mut s = Stats::sample(radiance, normal, hit, self.batch_log2);
         let mut block = Block { start: self.next, log2: 0 };

@@ -72,7 +72,9 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Estimates the radiance of one primary sample. The sampler must already be positioned at
-    /// the pixel sample (dimension 2 onward: the camera used dimensions 0–1).
+    /// the pixel sample (dimension 2 onward: the camera used dimensions 0–1). Always inlined, so
+    /// that each instruction-set version of the render's tile loop has its own copy (`render_tile`).
+    #[inline(always)]
     pub fn li(&self, primary: PrimarySample, sampler: &mut Sampler) -> SampleResult {
         let scene = self.scene;
         let light = &scene.light;

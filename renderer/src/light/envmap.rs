@@ -155,7 +155,7 @@ impl Envmap {
 
     /// (row-major texel index, θ) of world direction `wi`: the one pixel lookup that `eval`, `pdf`,
     /// `eval_pdf` and `locate` share (θ is used by the angular map's Jacobian only).
-    #[inline]
+    #[inline(always)]
     fn texel_index(&self, wi: Vec3) -> (usize, f32) {
         let d = self.inv_rotation * wi;
         match &self.sampler {
@@ -278,7 +278,7 @@ impl DistantLight for Envmap {
         self.eval_pdf_located(Located { wi, index, theta })
     }
 
-    #[inline]
+    #[inline(always)]
     fn sample(&self, u: Vec2) -> Option<LightSample> {
         let d = match &self.sampler {
             EnvSampler::LatLong(grid) => {

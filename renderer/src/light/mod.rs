@@ -102,7 +102,7 @@ impl DistantLight for Light {
     fn eval(&self, wi: Vec3) -> Rgb {
         dispatch!(self, l => l.eval(wi))
     }
-    #[inline]
+    #[inline(always)]
     fn sample(&self, u: Vec2) -> Option<LightSample> {
         dispatch!(self, l => l.sample(u))
     }
