@@ -31,6 +31,7 @@ use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
 /// obvhs's build settings, for [`SceneGeometry::with_build_params`] (`benches/bvh.rs` tunes them).
 pub use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
+use std::mem::MaybeUninit;
 use std::time::{Duration, Instant};
 
 /// The build preset: PLOC with a medium search radius, a small reinsertion pass, up to 3
@@ -215,10 +216,42 @@ impl SceneGeometry {
         if !Self::is_valid(ray) {
             return None;
         }
-        let mut lane = Lane::new(ray);
-        while !self.step_closest(bvh, &mut lane) {}
-        let (slot, t, b1, b2) = lane.best?;
+        let best = if avx2() {
+            // SAFETY: avx2() checked the CPU.
+            unsafe { self.walk_avx2::<false>(bvh, ray) }
+        } else {
+            self.walk::<false, false>(bvh, ray)
+        };
+        let (slot, t, b1, b2) = best?;
         Some(self.make_hit(ray, slot as usize, t, (b1, b2)))
+    }
+
+    /// One ray's whole walk: the closest hit (`ANY` false) or the first hit found (`ANY` true),
+    /// as (slot, t, b1, b2); `AVX` selects the AVX2 node test ([`slab8`]).
+    #[inline(always)]
+    fn walk<const ANY: bool, const AVX: bool>(&self, bvh: &CwBvh, ray: &Ray) -> Option<(u32, f32, f32, f32)> {
+        let mut lane = Lane::EMPTY;
+        lane.reset(ray);
+        while !self.step::<ANY, AVX>(bvh, &mut lane) {}
+        lane.best
+    }
+
+    /// [`SceneGeometry::walk`] compiled with AVX2 (runtime dispatch: call only where [`avx2`] holds).
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
+    fn walk_avx2<const ANY: bool>(&self, bvh: &CwBvh, ray: &Ray) -> Option<(u32, f32, f32, f32)> {
+        self.walk::<ANY, true>(bvh, ray)
+    }
+
+    /// [`SceneGeometry::run_batch`] compiled with AVX2 (call only where [`avx2`] holds).
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
+    fn run_batch_avx2<const ANY: bool>(&self, bvh: &CwBvh, rays: &[Ray], finish: impl FnMut(usize, Option<&Lane>)) {
+        self.run_batch::<ANY, true>(bvh, rays, finish)
+    }
+
+    /// One step of a lane: [`SceneGeometry::step_closest`] or [`SceneGeometry::step_any`].
+    #[inline(always)]
+    fn step<const ANY: bool, const AVX: bool>(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+        if ANY { self.step_any::<AVX>(bvh, lane) } else { self.step_closest::<AVX>(bvh, lane) }
     }
 
     /// Closest hits of many rays: `hits[i]` is exactly [`SceneGeometry::intersect`]`(&rays[i])`,
@@ -240,15 +273,16 @@ impl SceneGeometry {
             }
             return;
         };
-        Self::run_batch(
-            rays,
-            |lane| self.step_closest(bvh, lane),
-            |i, lane| {
-                hits[i] = lane
-                    .and_then(|l| l.best)
-                    .map(|(slot, t, b1, b2)| self.make_hit(&rays[i], slot as usize, t, (b1, b2)));
-            },
-        );
+        let finish = |i: usize, lane: Option<&Lane>| {
+            hits[i] =
+                lane.and_then(|l| l.best).map(|(slot, t, b1, b2)| self.make_hit(&rays[i], slot as usize, t, (b1, b2)));
+        };
+        if avx2() {
+            // SAFETY: avx2() checked the CPU.
+            unsafe { self.run_batch_avx2::<false>(bvh, rays, finish) }
+        } else {
+            self.run_batch::<false, false>(bvh, rays, finish)
+        }
     }
 
     /// Any hit of many rays: `occluded[i]` is exactly [`SceneGeometry::occluded`]`(&rays[i])`.
@@ -265,19 +299,25 @@ impl SceneGeometry {
             }
             return;
         };
-        Self::run_batch(
-            rays,
-            |lane| self.step_any(bvh, lane),
-            |i, lane| occluded[i] = lane.is_some_and(|l| l.best.is_some()),
-        );
+        let finish = |i: usize, lane: Option<&Lane>| occluded[i] = lane.is_some_and(|l| l.best.is_some());
+        if avx2() {
+            // SAFETY: avx2() checked the CPU.
+            unsafe { self.run_batch_avx2::<true>(bvh, rays, finish) }
+        } else {
+            self.run_batch::<true, false>(bvh, rays, finish)
+        }
     }
 
     /// The interleaving loop of the batch functions: keeps up to [`BATCH_LANES`] rays in flight,
-    /// advancing each by one `step` (which returns true when the ray is finished) in turn. `finish`
-    /// receives each ray's index with its finished lane, or `None` for a ray that hits nothing
-    /// because it is not finite.
+    /// advancing each by one [`SceneGeometry::step`] in turn. `finish` receives each ray's index with
+    /// its finished lane, or `None` for a ray that hits nothing because it is not finite.
     #[inline(always)]
-    fn run_batch(rays: &[Ray], mut step: impl FnMut(&mut Lane) -> bool, mut finish: impl FnMut(usize, Option<&Lane>)) {
+    fn run_batch<const ANY: bool, const AVX: bool>(
+        &self,
+        bvh: &CwBvh,
+        rays: &[Ray],
+        mut finish: impl FnMut(usize, Option<&Lane>),
+    ) {
         // Hands a lane the next valid ray; false when none is left.
         fn refill(
             rays: &[Ray],
@@ -290,7 +330,7 @@ impl SceneGeometry {
                 let i = *next;
                 *next += 1;
                 if SceneGeometry::is_valid(&rays[i]) {
-                    *lane = Lane::new(&rays[i]);
+                    lane.reset(&rays[i]);
                     *slot = i;
                     return true;
                 }
@@ -308,7 +348,7 @@ impl SceneGeometry {
         }
         while active > 0 {
             for (lane, slot) in lanes.iter_mut().zip(index.iter_mut()) {
-                if *slot != usize::MAX && step(lane) {
+                if *slot != usize::MAX && self.step::<ANY, AVX>(bvh, lane) {
                     finish(*slot, Some(lane));
                     if !refill(rays, &mut next, lane, slot, &mut finish) {
                         active -= 1;
@@ -322,7 +362,7 @@ impl SceneGeometry {
     /// closest hit: the primitives of the current leaf group, then at most one node. Returns true
     /// when the traversal is finished.
     #[inline(always)]
-    fn step_closest(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+    fn step_closest<const AVX: bool>(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
         while lane.walk.prims.y != 0 {
             let k = 31 - lane.walk.prims.y.leading_zeros();
             lane.walk.prims.y &= !(1u32 << k);
@@ -334,12 +374,12 @@ impl SceneGeometry {
                 lane.best = Some((slot, t, b1, b2));
             }
         }
-        self.step_node(bvh, lane)
+        self.step_node::<AVX>(bvh, lane)
     }
 
     /// As [`SceneGeometry::step_closest`] for any hit: finished at the first primitive hit.
     #[inline(always)]
-    fn step_any(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+    fn step_any<const AVX: bool>(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
         while lane.walk.prims.y != 0 {
             let k = 31 - lane.walk.prims.y.leading_zeros();
             lane.walk.prims.y &= !(1u32 << k);
@@ -350,14 +390,14 @@ impl SceneGeometry {
                 return true;
             }
         }
-        self.step_node(bvh, lane)
+        self.step_node::<AVX>(bvh, lane)
     }
 
     /// The node half of one traversal iteration (obvhs's `traverse!` after its primitive loop):
     /// visits the next hit child of the current node group, if any, and pops the stack when the
     /// group and the leaf group are both exhausted. Returns true when the stack is empty.
     #[inline(always)]
-    fn step_node(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
+    fn step_node<const AVX: bool>(&self, bvh: &CwBvh, lane: &mut Lane) -> bool {
         let w = &mut lane.walk;
         w.prims = UVec2::ZERO;
         if w.current.y & 0xff00_0000 != 0 {
@@ -371,7 +411,7 @@ impl SceneGeometry {
             let slot = (child_offset - 24) ^ (lane.ray.oct_inv4 & 0xff);
             let relative = (hits_imask & !(0xffff_ffffu32 << slot)).count_ones();
             let node = &bvh.nodes[(child_base + relative) as usize];
-            let hitmask = lane.ray.node_hitmask(node);
+            let hitmask = lane.ray.node_hitmask::<AVX>(node);
             self.prefetch(bvh, node, hitmask, lane.ray.oct_inv4);
             w.current = UVec2::new(node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
             w.prims = UVec2::new(node.primitive_base_idx, hitmask & 0x00ff_ffff);
@@ -453,12 +493,13 @@ impl SceneGeometry {
         if !Self::is_valid(ray) {
             return false;
         }
-        let mut lane = Lane::new(ray);
-        loop {
-            if self.step_any(bvh, &mut lane) {
-                return lane.best.is_some();
-            }
-        }
+        let best = if avx2() {
+            // SAFETY: avx2() checked the CPU.
+            unsafe { self.walk_avx2::<true>(bvh, ray) }
+        } else {
+            self.walk::<true, false>(bvh, ray)
+        };
+        best.is_some()
     }
 
     /// The closest hit through obvhs's own `traverse!` loop and node test (the implementation
@@ -552,30 +593,36 @@ struct Walk {
     current: UVec2,
     prims: UVec2,
     sp: usize,
-    stack: [UVec2; STACK],
+    /// Entries below `sp` are written (a lane starts empty, so its stack needs no clearing).
+    stack: [MaybeUninit<UVec2>; STACK],
 }
 
 impl Walk {
     #[inline(always)]
     fn push(&mut self, g: UVec2) {
-        self.stack[self.sp & (STACK - 1)] = g;
+        self.stack[self.sp & (STACK - 1)] = MaybeUninit::new(g);
         self.sp = (self.sp + 1).min(STACK - 1);
     }
+    /// Called only when `sp > 0`.
     #[inline(always)]
     fn pop(&mut self) -> UVec2 {
+        debug_assert!(self.sp > 0);
         self.sp = self.sp.saturating_sub(1);
-        self.stack[self.sp & (STACK - 1)]
+        // SAFETY: the step loop pops only when sp > 0, and every entry below sp was pushed (a push
+        // onto a full stack rewrites the top entry, which was written).
+        unsafe { self.stack[self.sp & (STACK - 1)].assume_init() }
     }
 }
 
 /// A ray prepared for the node test: obvhs's ray (origin, direction with −0 mapped to +0, the
-/// safe inverse direction, t_max shrinking as hits are found), its octant code, and per axis a
-/// mask that is all ones where the direction is negative (the near planes are then the max planes).
+/// safe inverse direction, t_max shrinking as hits are found), its octant code, and the byte
+/// offsets in a `CwBvhNode` of the near planes (x, y, z) then the far planes: the min planes on an
+/// axis the ray runs up, the max planes on an axis it runs down.
 #[derive(Clone, Copy)]
 struct NodeRay {
     ray: obvhs::ray::Ray,
     oct_inv4: u32,
-    swap: [u64; 3],
+    planes: [usize; 6],
 }
 
 impl NodeRay {
@@ -587,8 +634,12 @@ impl NodeRay {
         let oct_inv4 = (if d.x < 0.0 { 0 } else { 0x0404_0404 })
             | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
             | (if d.z < 0.0 { 0 } else { 0x0101_0101 });
-        let m = |c: f32| if c < 0.0 { u64::MAX } else { 0 };
-        NodeRay { ray, oct_inv4, swap: [m(d.x), m(d.y), m(d.z)] }
+        use std::mem::offset_of;
+        let axis = |c: f32, lo: usize, hi: usize| if c < 0.0 { (hi, lo) } else { (lo, hi) };
+        let x = axis(d.x, offset_of!(CwBvhNode, child_min_x), offset_of!(CwBvhNode, child_max_x));
+        let y = axis(d.y, offset_of!(CwBvhNode, child_min_y), offset_of!(CwBvhNode, child_max_y));
+        let z = axis(d.z, offset_of!(CwBvhNode, child_min_z), offset_of!(CwBvhNode, child_max_z));
+        NodeRay { ray, oct_inv4, planes: [x.0, y.0, z.0, x.1, y.1, z.1] }
     }
 
     /// The hit mask of a node's children (obvhs's encoding: bits 24–31 internal children by
@@ -596,30 +647,66 @@ impl NodeRay {
     /// `CwBvhNode::intersect_ray_simd` (t = q·(extent/d) + (p − o)/d in single precision, no fused
     /// multiply-add; entry clamped to 1e-4, exit to t_max) so the same nodes are visited. What
     /// differs is the work around it: the eight quantised planes of an axis are read as one
-    /// 8-byte word and widened together (obvhs converts byte by byte), near/far planes are chosen
-    /// with a mask instead of a branch, and only the hit children are encoded.
+    /// 8-byte word (near or far by a per-ray offset, no branch) and widened together (obvhs
+    /// converts byte by byte), internal children are encoded by one table lookup and only hit
+    /// leaf children one by one.
     #[inline(always)]
-    fn node_hitmask(&self, node: &CwBvhNode) -> u32 {
+    fn node_hitmask<const AVX: bool>(&self, node: &CwBvhNode) -> u32 {
         let r = &self.ray;
         let dir_inv = node.compute_extent() * r.inv_direction;
         let orig = (Vec3A::from(node.p) - r.origin) * r.inv_direction;
-        let near_far = |lo: [u8; 8], hi: [u8; 8], swap: u64| {
-            let (lo, hi) = (u64::from_le_bytes(lo), u64::from_le_bytes(hi));
-            let x = (lo ^ hi) & swap;
-            (lo ^ x, hi ^ x)
-        };
-        let (nx, fx) = near_far(node.child_min_x, node.child_max_x, self.swap[0]);
-        let (ny, fy) = near_far(node.child_min_y, node.child_max_y, self.swap[1]);
-        let (nz, fz) = near_far(node.child_min_z, node.child_max_z, self.swap[2]);
-        let mut hit = slab8([nx, ny, nz], [fx, fy, fz], dir_inv, orig, r.tmax);
-        let (child_bits8, bit_index8) = node.get_child_and_index_bits(self.oct_inv4);
-        let mut mask = 0;
-        while hit != 0 {
-            let s = hit.trailing_zeros() * 8;
-            hit &= hit - 1;
-            mask |= ((child_bits8 >> s) as u32 & 0xff) << ((bit_index8 >> s) as u32 & 0xff);
+        let base = (node as *const CwBvhNode).cast::<u8>();
+        // SAFETY: every offset in `planes` is that of one of the node's six 8-byte plane arrays
+        // (`NodeRay::new`), so the read stays inside the node; it needs no alignment.
+        let plane = |k: usize| u64::from_le(unsafe { base.add(self.planes[k]).cast::<u64>().read_unaligned() });
+        let hit = slab8::<AVX>([plane(0), plane(1), plane(2)], [plane(3), plane(4), plane(5)], dir_inv, orig, r.tmax);
+        // Internal child i hit: bit 24 + (i ^ octant) (its meta is 24 + i; Ylitie et al. 2017).
+        let octant = (self.oct_inv4 & 7) as usize;
+        let mut mask = (XOR_PERMUTE[octant][(hit & node.imask as u32) as usize] as u32) << 24;
+        // Leaf child i hit: its primitive count in unary (meta bits 5–7) at its offset (bits 0–4).
+        let mut leaves = hit & !(node.imask as u32);
+        while leaves != 0 {
+            let meta = node.child_meta[leaves.trailing_zeros() as usize & 7] as u32;
+            leaves &= leaves - 1;
+            mask |= (meta >> 5) << (meta & 0x1f);
         }
         mask
+    }
+}
+
+/// `XOR_PERMUTE[o][m]` moves bit i of m to bit i ^ o: the traversal-priority order of a node's
+/// internal children for a ray of octant code o.
+static XOR_PERMUTE: [[u8; 256]; 8] = {
+    let mut t = [[0u8; 256]; 8];
+    let mut o = 0;
+    while o < 8 {
+        let mut m = 0;
+        while m < 256 {
+            let mut i = 0;
+            while i < 8 {
+                if m & (1 << i) != 0 {
+                    t[o][m] |= 1 << (i ^ o);
+                }
+                i += 1;
+            }
+            m += 1;
+        }
+        o += 1;
+    }
+    t
+};
+
+/// True when the AVX2 node test can run: compiled in (`-C target-cpu` with AVX2) or detected at
+/// run time (std caches the CPUID result; one load and test).
+#[inline(always)]
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -627,23 +714,55 @@ impl NodeRay {
 const NODE_T_MIN: f32 = 1e-4;
 
 /// Bit i set when child i's slab interval [max(near·s + o, 1e-4), min(far·s + o, t_max)] is not
-/// empty; `near`/`far` hold each axis's eight quantised planes, one byte per child.
+/// empty; `near`/`far` hold each axis's eight quantised planes, one byte per child. `AVX`: eight
+/// children per instruction with AVX2 (the caller has checked [`avx2`]), else four with SSE2; both
+/// round identically (separate multiply and add), so they give the same bits.
 #[inline(always)]
-fn slab8(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    // SAFETY: AVX2 is enabled for this build (cfg above); the intrinsics only read their arguments.
-    unsafe {
-        use std::arch::x86_64::*;
-        let q = |v: u64| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_cvtsi64_si128(v as i64)));
-        let t = |v: u64, s: f32, o: f32| _mm256_add_ps(_mm256_mul_ps(q(v), _mm256_set1_ps(s)), _mm256_set1_ps(o));
-        let tmin = _mm256_max_ps(t(near[0], s.x, o.x), _mm256_max_ps(t(near[1], s.y, o.y), t(near[2], s.z, o.z)));
-        let tmax = _mm256_min_ps(t(far[0], s.x, o.x), _mm256_min_ps(t(far[1], s.y, o.y), t(far[2], s.z, o.z)));
-        let tmin = _mm256_max_ps(tmin, _mm256_set1_ps(NODE_T_MIN));
-        let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(t_max));
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32
+fn slab8<const AVX: bool>(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if AVX {
+            // SAFETY: AVX is true only on the paths taken when `avx2()` holds.
+            unsafe { slab8_avx2(near, far, s, o, t_max) }
+        } else {
+            slab8_sse2(near, far, s, o, t_max)
+        }
     }
-    #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
-    // SAFETY: SSE2 is part of x86_64; the intrinsics only read their arguments.
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut hit = 0;
+        for i in 0..8 {
+            let b = |v: u64| ((v >> (8 * i)) & 0xff) as f32;
+            let t = |v: [u64; 3]| Vec3A::new(b(v[0]), b(v[1]), b(v[2])) * s + o;
+            let (tn, tf) = (t(near), t(far));
+            if tn.max_element().max(NODE_T_MIN) <= tf.min_element().min(t_max) {
+                hit |= 1 << i;
+            }
+        }
+        hit
+    }
+}
+
+/// [`slab8`] with AVX2: each axis's eight planes widened by one `vpmovzxbd`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn slab8_avx2(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
+    use std::arch::x86_64::*;
+    let q = |v: u64| _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_cvtsi64_si128(v as i64)));
+    let t = |v: u64, s: f32, o: f32| _mm256_add_ps(_mm256_mul_ps(q(v), _mm256_set1_ps(s)), _mm256_set1_ps(o));
+    let tmin = _mm256_max_ps(t(near[0], s.x, o.x), _mm256_max_ps(t(near[1], s.y, o.y), t(near[2], s.z, o.z)));
+    let tmax = _mm256_min_ps(t(far[0], s.x, o.x), _mm256_min_ps(t(far[1], s.y, o.y), t(far[2], s.z, o.z)));
+    let tmin = _mm256_max_ps(tmin, _mm256_set1_ps(NODE_T_MIN));
+    let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(t_max));
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32
+}
+
+/// [`slab8`] with SSE2 (part of x86_64): children 0–3 and 4–7 in two halves.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn slab8_sse2(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
+    // SAFETY: SSE2 is part of x86_64; the intrinsics only compute on their arguments.
     unsafe {
         use std::arch::x86_64::*;
         // Bytes 0–7 of v as two vectors of four f32 (children 0–3 and 4–7).
@@ -663,19 +782,6 @@ fn slab8(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
             _mm_movemask_ps(_mm_cmple_ps(_mm_max_ps(tmin, eps), _mm_min_ps(tmax, tm))) as u32
         };
         half(n[0].0, n[1].0, n[2].0, f[0].0, f[1].0, f[2].0) | half(n[0].1, n[1].1, n[2].1, f[0].1, f[1].1, f[2].1) << 4
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let mut hit = 0;
-        for i in 0..8 {
-            let b = |v: u64| ((v >> (8 * i)) & 0xff) as f32;
-            let t = |v: [u64; 3]| Vec3A::new(b(v[0]), b(v[1]), b(v[2])) * s + o;
-            let (tn, tf) = (t(near), t(far));
-            if tn.max_element().max(NODE_T_MIN) <= tf.min_element().min(t_max) {
-                hit |= 1 << i;
-            }
-        }
-        hit
     }
 }
 
@@ -698,19 +804,21 @@ impl Lane {
                 tmax: 0.0,
             },
             oct_inv4: 0,
-            swap: [0; 3],
+            planes: [0; 6],
         },
-        walk: Walk { current: UVec2::ZERO, prims: UVec2::ZERO, sp: 0, stack: [UVec2::ZERO; STACK] },
+        walk: Walk { current: UVec2::ZERO, prims: UVec2::ZERO, sp: 0, stack: [MaybeUninit::uninit(); STACK] },
         best: None,
     };
 
-    /// A lane at the root of a non-empty tree (obvhs's initial group: bit 31 selects node 0).
+    /// Starts the lane on `ray` at the root of a non-empty tree (obvhs's initial group: bit 31
+    /// selects node 0); the stack's old entries are left as they are (unread).
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        let mut lane = Lane::EMPTY;
-        lane.ray = NodeRay::new(ray);
-        lane.walk.current = UVec2::new(0, 0x8000_0000);
-        lane
+    fn reset(&mut self, ray: &Ray) {
+        self.ray = NodeRay::new(ray);
+        self.walk.current = UVec2::new(0, 0x8000_0000);
+        self.walk.prims = UVec2::ZERO;
+        self.walk.sp = 0;
+        self.best = None;
     }
 }
 
@@ -924,6 +1032,20 @@ mod tests {
                 assert!(same(h, &g.intersect_obvhs(r)), "ray {i}: {r:?}: {h:?} vs obvhs {:?}", g.intersect_obvhs(r));
                 assert_eq!(g.occluded(r), g.occluded_obvhs(r), "ray {i}: {r:?}");
                 assert_eq!(g.occluded(r), h.is_some(), "ray {i}: {r:?}");
+            }
+            // The SSE2 and AVX2 node tests visit the same nodes: same hits, bit for bit.
+            let bvh = g.bvh.as_ref().expect("a BVH scene");
+            let bits =
+                |h: Option<(u32, f32, f32, f32)>| h.map(|(s, t, b1, b2)| (s, t.to_bits(), b1.to_bits(), b2.to_bits()));
+            for r in rays.iter().filter(|r| SceneGeometry::is_valid(r)) {
+                let (sse, sse_any) = (g.walk::<false, false>(bvh, r), g.walk::<true, false>(bvh, r));
+                assert_eq!(sse_any.is_some(), sse.is_some(), "{r:?}");
+                if avx2() {
+                    // SAFETY: avx2() checked the CPU.
+                    let (avx, avx_any) = unsafe { (g.walk_avx2::<false>(bvh, r), g.walk_avx2::<true>(bvh, r)) };
+                    assert_eq!(bits(sse), bits(avx), "{r:?}");
+                    assert_eq!(bits(sse_any), bits(avx_any), "{r:?}");
+                }
             }
             // Whole set, an odd-sized part (lanes refilled unevenly), one ray, none.
             for range in [0..rays.len(), 5..5 + 2 * BATCH_LANES + 3, 17..18, 0..0] {
