@@ -262,7 +262,9 @@ impl Sampler {
     pub fn next_2d(&mut self) -> Vec2 {
         let d = self.dim;
         self.dim += 2;
-        if self.have_pre & (1 << (d & 31)) != 0 {
+        // Only the first PRE_DIMS dimensions can be drawn ahead; a deeper dimension (a long path) must not
+        // alias a low bit of `have_pre` (d = 66 read bit 2 and indexed past `pre_2d`).
+        if (d as usize) < PRE_DIMS && self.have_pre & (1 << d) != 0 {
             return self.pre_2d[d as usize];
         }
         let (key, k2) = self.key_2d(d);
