@@ -6,7 +6,7 @@
 //! conventions (R, G, B only, no header: camera and sphere from flags, σ from the residuals); a
 //! lighting rotated by 90° must be flagged.
 //!
-//! Tolerance: 4 × the printed total standard error (noise, scaled by √(χ²/ν) when above 1, ⊕ the
+//! Tolerance: 4 × the printed total standard error (the propagated per-pixel noise ⊕ the
 //! estimated truncation bias); 9 comparisons per case, so a spurious failure has probability
 //! ≈ 6e-4 if the error bars are honest. Renders: fixed seed, 128², 32 spp, independent sampler.
 

@@ -6,8 +6,8 @@
 //! The Lambert filter 0.8·(1, 2/3, 1/4) and the lighting from a mirror sphere (Grace's L_lm) must be
 //! recovered within the error bars the command prints.
 //!
-//! Tolerance: 4 × the printed total standard error (noise from the residuals, scaled by √(χ²/ν)
-//! when above 1, ⊕ the estimated truncation bias): 9 comparisons per Lambert case, so a spurious
+//! Tolerance: 4 × the printed total standard error (noise from the residuals — no per-pixel σ, so
+//! the residual σ √(χ²/ν) — ⊕ the estimated truncation bias): 9 comparisons per Lambert case, so a spurious
 //! failure has probability ≈ 6e-4 per case if the error bars are honest. Renders: fixed seed,
 //! 128², 32 spp, independent sampler.
 

@@ -3,8 +3,10 @@
 //! 32 spp, independent sampler, seeds 1…20 (front, from (3, 0, 1)) and 101…120 (back, from
 //! (−3, 0, −1)); `--lmax 2`; the truth is 0.8 Λ_l ρ̂_l.
 //!
-//! Measured (20 seeds × 3 orders × 3 channels = 180 comparisons per case): one view |z| < 1 for
-//! 66.7 %, < 2 for 97.8 % (nominal 68.3 %, 95.4 %); two opposite views 62.2 %, 99.4 %.
+//! Measured (20 seeds × 3 orders × 3 channels = 180 comparisons per case; 2026-12-01, noise part the
+//! per-pixel σ with the bound near flagged pixels applied at load, unscaled, truncation sequence to
+//! l = 16): one view |z| < 1 for 85.0 %, < 2 for 99.4 % (nominal 68.3 %, 95.4 %); two opposite views
+//! 60.6 %, 96.7 %. With the sequence stopped at 2 l_max = 4 two views gave 47.2 % at 1σ and failed.
 //!
 //! Tolerance: the channels share their paths (fully correlated), so the effective number of
 //! independent comparisons is taken as n = 20 seeds × 3 orders = 60; the binomial standard error

@@ -3,12 +3,15 @@
 //! filter fit in both (`analysis::filter::fit_filter_pixels`) — and the consistency statistics that
 //! must flag a lighting rotated by 90° and a camera with the wrong `extent`.
 //!
-//! Renders: `scenes/phong-grace.toml` as shipped (256², 64 spp, seed 0) from (3, 0, 1) and from the
-//! opposite side (−3, 0, −1); fixed seeds, so the numbers below are deterministic.
+//! Renders: `scenes/phong-grace.toml` (256², 64 spp, seed 0) with `horizon = "ignore"` (eq. 43 exact)
+//! from (3, 0, 1) and from the opposite side (−3, 0, −1), and the same as shipped (`horizon =
+//! "clamp"`), which the Phong model does not describe near the silhouette; fixed seeds, so the
+//! numbers below are deterministic.
 //!
-//! Measured (l_max 12, R G B): the right lighting gives robust χ²/ν 1.3 / 2.6 / 7.1 (the plain χ²/ν is
-//! ≈ 400: a few pixels reflecting Grace's bright texels have Monte Carlo σ far below their error,
-//! and the model is truncated at l_max + 2 while Phong s = 32 still has Λ_l ρ̂_l ≈ 0.1 at l = 14);
+//! Measured (l_max 12, R G B, horizon "ignore"): the right lighting gives robust χ²/ν 0.81 / 1.13 /
+//! 2.79 (the plain χ²/ν is 70 / 132 / 190 at l ≤ 12, the orders 13–16 explaining most of it: 1.65 /
+//! 3.82 / 4.09 with them; Phong s = 32 still has Λ_l ρ̂_l ≈ 0.1 at l = 14); with the shipped clamp
+//! the fit up to l = 16 keeps χ²/ν 107 / 86 / 44;
 //! a lighting rotated by 90° about z gives 60 / 165 / 715. The robust χ²/ν alone does not separate
 //! a wrong model from a truncated one across BRDFs (a rotated lighting on a Lambert sphere gives
 //! 3.7 in R), so the mismatch rule (`analysis::filter::mismatch`) also asks for a relative misfit
@@ -43,11 +46,34 @@ fn mismatch_warnings(doc: &Value) -> usize {
     w.iter().filter(|w| w.as_str().unwrap().contains("does not describe the image")).count()
 }
 
+/// Renders `scenes/phong-grace.toml` seen from `from` with the BRDF's horizon set to `horizon`.
+fn render_phong(dir: &std::path::Path, name: &str, from: &str, horizon: &str) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(root().join("scenes/phong-grace.toml")).unwrap();
+    assert!(text.contains("horizon = \"clamp\"") && text.contains("from = [3.0, 0.0, 1.0]"));
+    let text = text
+        .replace("from = [3.0, 0.0, 1.0]", &format!("from = {from}"))
+        .replace("horizon = \"clamp\"", &format!("horizon = \"{horizon}\""))
+        .replace("\"../../shared/data/", &format!("\"{}/", root().join("../shared/data").display()));
+    let scene = dir.join(format!("{name}.toml"));
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join(format!("{name}.exr"));
+    let (code, _, err) = reflect_out(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
+    assert_eq!(code, 0, "{err}");
+    out
+}
+
+/// `invert brdf`'s warnings that its model does not describe the measured filter (one per channel).
+fn model_warnings(doc: &Value) -> usize {
+    let w = doc["warnings"].as_array().unwrap();
+    w.iter().filter(|w| w.as_str().unwrap().contains("model does not describe the measured filter")).count()
+}
+
 #[test]
 fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_camera() {
     let dir = temp_dir("partial-view-renders");
-    let front = render_view(&dir, "phong", "front", "[3.0, 0.0, 1.0]", None);
-    let back = render_view(&dir, "phong", "back", "[-3.0, 0.0, -1.0]", None);
+    // `horizon = "ignore"`: Phong's closed form (eq. 43) is then the exact filter.
+    let front = render_phong(&dir, "front", "[3.0, 0.0, 1.0]", "ignore");
+    let back = render_phong(&dir, "back", "[-3.0, 0.0, -1.0]", "ignore");
     let grace_scene = dir.join("front.toml");
     let (f, b, g) = (front.to_str().unwrap(), back.to_str().unwrap(), grace_scene.to_str().unwrap());
     let rotated = dir.join("rotated.toml");
@@ -64,8 +90,8 @@ fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_came
     // Two opposite views, the right lighting: invert brdf fits s by GLS on the pixel-space filter
     // (the `fit` says so, and carries the filter fit's χ² per channel), and the true s = 32 is within
     // 3 half-widths of the Δχ² = 1 (1σ) interval: a 1σ interval misses 32 % of the time with honest
-    // bars. Measured s = 32.8, [31.71, 33.85] (the noise scaled by √(χ²/ν) of the l ≤ 16 fit,
-    // 90 / 63 / 44, not of the l ≤ 12 fit, 224 / 301 / 362, which the orders 13–16 explain most of); it was [31.5, 35.8] with the l ≤ 12 scale and the renderer's σ before heavy-tail pooling.
+    // bars. Measured s = 31.78, [31.67, 31.89] (noise part the per-pixel σ, bounded near flagged
+    // pixels at load, unscaled; filter fit χ²/ν at l ≤ 16 below 4.1 in every channel).
     let both = run_json(&["invert", "brdf", f, b, "--lighting", g, "--model", "phong", "--lmax", "12", "--json"]);
     assert!(both["fit"].as_str().unwrap().starts_with("filter fitted in pixel space"), "{}", both["fit"]);
     let ff = &both["filter_fit"];
@@ -76,6 +102,17 @@ fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_came
     let (s, half) = (both["estimate"].as_f64().unwrap(), (hi - lo) / 2.0);
     assert!((s - 32.0).abs() <= 3.0 * half, "s = {s}, interval [{lo}, {hi}]: 32 is more than 3σ away");
     assert_eq!(mismatch_warnings(&both), 0, "{}", both["warnings"]);
+    assert_eq!(model_warnings(&both), 0, "{}", both["warnings"]);
+    // The scene as shipped, `horizon = "clamp"`: the image is no longer Phong's radially symmetric
+    // filter near the silhouette, which the honest bars see — measured s = 33.61, [33.49, 33.74], and
+    // the GLS says, in every channel, that the model does not describe the measured filter (χ² 1652 /
+    // 786 / 623 for ν = 11). The same seeds with the old √(χ²/ν)-scaled bars gave [31.71, 33.85] and
+    // no warning.
+    let cf = render_phong(&dir, "front-clamp", "[3.0, 0.0, 1.0]", "clamp");
+    let cb = render_phong(&dir, "back-clamp", "[-3.0, 0.0, -1.0]", "clamp");
+    let (cf, cb) = (cf.to_str().unwrap().to_string(), cb.to_str().unwrap().to_string());
+    let clamp = run_json(&["invert", "brdf", &cf, &cb, "--lighting", g, "--model", "phong", "--lmax", "12", "--json"]);
+    assert_eq!(model_warnings(&clamp), 3, "{}", clamp["warnings"]);
     // analyze prints the same fit: the same filter estimates and error bars.
     let an = run_json(&["analyze", f, b, "--lighting", g, "--lmax", "12", "--json"]);
     for (o, p) in an["filter"].as_array().unwrap().iter().zip(ff["orders"].as_array().unwrap()) {

@@ -11,7 +11,7 @@
 //! Measured (this render): one view, l = 0 R 1.969 ± 0.187 (truth 2.530, 3.0 bars), status
 //! `undetermined` (its truncation bound, the bias with the band l = 4 aligned worst at its
 //! calibrated energy, is 29 / 38 / 55 % of L̂_00 in R G B; the threshold is 35 %); l = 1, 2 `ill-conditioned` (amplification 16.3,
-//! 15.6 > 10). Two views: L_00 R 2.5432 ± 0.0087 (truth 2.5298, 1.5 bars), all orders `recovered`, largest |z| 1.6.
+//! 15.6 > 10). Two views: L_00 R 2.5432 ± 0.0134 (truth 2.5298, 1.0 bars), all orders `recovered`, largest |z| 1.05.
 //!
 //! Planted error: the previous estimator (the truncation sequence capped at 2 l_max, no predicted
 //! truncation, no `undetermined` status) gave l = 0 `recovered` with L_00 R 1.969 ± 0.142 — 3.9

@@ -31,4 +31,8 @@ fn a_render_is_analysed_from_its_header_alone_from_any_directory() {
     let l00 = doc["lighting"]["coefficients"][0][0].as_f64().unwrap();
     assert!((l00 - 2.53).abs() < 0.01, "L_00 R = {l00}");
     assert!(doc["lambda_rho_analytic"].is_array(), "the header's BRDF gives the analytic column");
+    // Our render's header says one sample counts in one pixel: F = 1, not measured from residuals
+    // that carry the fit's truncation remainder.
+    assert_eq!(doc["pixel_noise"]["source"], "reflect-render", "{}", doc["pixel_noise"]);
+    assert_eq!(doc["pixel_noise"]["inflation"], 1.0);
 }

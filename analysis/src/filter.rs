@@ -139,8 +139,8 @@ pub struct PixelOrder {
     pub l: usize,
     /// Â_l (albedo · Λ_l ρ̂_l); `None` where unobservable.
     pub estimate: [Option<f64>; 3],
-    /// Noise part of the standard error: propagated per-pixel σ, scaled by √(χ²/ν) when χ²/ν > 1
-    /// (or estimated from the residuals without a `stderr` layer).
+    /// Noise part of the standard error: the per-pixel σ propagated (never scaled by χ²/ν, see
+    /// [`crate::fit::noise_scale`]), or estimated from the residuals without a `stderr` layer.
     pub stderr_noise: [Option<f64>; 3],
     /// Estimated truncation bias (a standard deviation, [`crate::truncation`]): the larger of the
     /// nested sequence's |Â_l(L) − Â_l(H)| (noise of the difference removed) and the predicted
@@ -175,8 +175,9 @@ pub struct ChannelFit {
     /// not grow as the noise shrinks: a model error of a fixed fraction of the image gives the same
     /// value at any sample count.
     pub relative_misfit: f64,
-    /// Factor applied to the propagated standard errors: √(χ²/ν) when above 1 (else 1), times √F for
-    /// pixel noise correlated by a reconstruction filter ([`crate::noise`]).
+    /// Factor applied to the propagated standard errors: [`crate::fit::noise_scale`] (1 with a
+    /// `stderr` layer, the residual σ √(χ²/ν) without), times √F for pixel noise correlated by a
+    /// reconstruction filter ([`crate::noise`]).
     pub stderr_scale: f64,
     /// Orders fitted (in order), the index set of `covariance`.
     pub fitted_orders: Vec<usize>,
@@ -213,8 +214,8 @@ const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 /// normals), where dividing fitted B_lm by L_lm is not.
 ///
 /// `have_sigma`: the variances are per-pixel standard errors (else they are 1, and σ² is
-/// estimated from the residuals). Error bars include model inadequacy (scaled by √(χ²/ν) when it
-/// is above 1, said in `warnings`) and, when `light` has orders above `lmax`, the truncation bias
+/// estimated from the residuals). Error bars are the propagated noise ([`crate::fit::noise_scale`];
+/// a χ²/ν well above 1 is said in `warnings`, not folded into the noise) and, when `light` has orders above `lmax`, the truncation bias
 /// estimated as [`crate::truncation`] defines it for every fit (stated apart; `light` up to
 /// [`crate::truncation::truncation_lmax`] lets it calibrate the orders up to there). An order whose lighting energy over the
 /// visible directions is below 1e-10 of the largest is unobservable (not fitted).
@@ -275,7 +276,8 @@ pub fn fit_filter_pixels(
         let observable = |l: usize| energy[l] > 1e-10 * emax && emax > 0.0;
         let cols: Vec<usize> = (0..=lmax).filter(|&l| observable(l)).collect();
         if cols.is_empty() {
-            warnings.push(format!("channel {name}: the lighting has no energy over the visible directions"));
+            warnings
+                .push(format!("filter fit, channel {name}: the lighting has no energy over the visible directions"));
             channels.push(ChannelFit {
                 chi2: 0.0,
                 dof: 0,
@@ -334,7 +336,7 @@ pub fn fit_filter_pixels(
             Some((c, f)) if have_sigma => crate::fit::robust_chi2(&pick(c), &value, &sigma, &weight, &f.coef),
             _ => None,
         };
-        let scale = crate::fit::noise_scale(have_sigma, x_top, robust_top) * noise_inflation.max(1.0).sqrt();
+        let scale = crate::fit::noise_scale(have_sigma, x_top) * noise_inflation.max(1.0).sqrt();
         let p_value = if have_sigma { fit.p_value() } else { None };
         // The predicted truncation (crate::truncation) from the normal equations of every
         // observable order up to l_hi; each order above l_max is a band of one coefficient A_l.
@@ -367,22 +369,24 @@ pub fn fit_filter_pixels(
         if have_sigma && let Some(x) = chi2_per_dof {
             if let Some(r) = robust.filter(|&r| mismatch(r, relative_misfit)) {
                 warnings.push(format!(
-                    "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm Y_lm does \
-                     not describe the image (misfit {:.0} % of the signal) — a mismatched or rotated lighting, a wrong \
-                     camera, extent or sphere, or a BRDF that is not radially symmetric about the fitted direction; \
-                     noise standard errors × {scale:.3}",
+                    "filter fit, channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm \
+                     Y_lm does not describe the image (misfit {:.0} % of the signal) — a mismatched or rotated \
+                     lighting, a wrong camera, extent or sphere, or a BRDF that is not radially symmetric about the \
+                     fitted direction",
                     100.0 * relative_misfit
                 ));
             }
+            let top = seq.last().and_then(|s| s.0.last().copied()).unwrap_or(lmax);
             match (x_top, robust_top) {
                 (Some(xt), Some(rt)) if rt > crate::fit::NOISE_CHI2_MAX => warnings.push(format!(
-                    "channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) with the orders up to the truncation \
-                     fit's: the residual is signal the model does not carry, not noise — noise standard errors \
-                     unscaled"
+                    "filter fit, channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) even with the orders up to \
+                     l = {top}: the residual is signal the model does not carry, not noise; the truncation part of \
+                     the error bars carries the orders up to l = {top}"
                 )),
-                (Some(xt), _) if xt > 1.0 => warnings.push(format!(
-                    "channel {name}: χ²/ν = {xt:.3} > 1 (χ²/ν = {x:.3} at l ≤ {lmax}; the first at the highest order \
-                     fitted): noise standard errors scaled by √(χ²/ν) = {scale:.3}"
+                (Some(xt), _) if xt > MISMATCH_CHI2 => warnings.push(format!(
+                    "filter fit, channel {name}: χ²/ν = {xt:.3} with the orders up to l = {top}: more scatter than the \
+                     per-pixel σ (pixels whose σ missed a rare heavy sample, or signal above l = {top}); the noise \
+                     part of the error bars is the propagated σ, not scaled by it"
                 )),
                 _ => {}
             }
@@ -427,12 +431,12 @@ pub fn fit_filter_pixels(
                     "channel {name}: order l = {l} is unobservable (no lighting energy over the visible directions)"
                 )),
                 OrderStatus::IllConditioned => warnings.push(format!(
-                    "channel {name}: order l = {l} is ill-conditioned on these directions (noise amplification {:.1} > {MAX_AMPLIFICATION}): \
+                    "filter fit, channel {name}: order l = {l} is ill-conditioned on these directions (noise amplification {:.1} > {MAX_AMPLIFICATION}): \
                      add views or lower --lmax",
                     orders[l].amplification[ch].unwrap_or(f64::INFINITY)
                 )),
                 OrderStatus::Undetermined => warnings.push(format!(
-                    "channel {name}: order l = {l} cannot be determined from these views: the orders above l_max \
+                    "filter fit, channel {name}: order l = {l} cannot be determined from these views: the orders above l_max \
                      {lmax} can move it by {:.0} % of its size (`truncation_bound`, ≥ {:.0} %) — add views (e.g. the \
                      opposite one)",
                     100.0 * orders[l].truncation_bound[ch].unwrap_or(0.0)

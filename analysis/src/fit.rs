@@ -158,23 +158,33 @@ pub fn lsq(rows: &[Vec<f64>], value: &[f64], sigma: &[f64], weight: &[f64]) -> O
     })
 }
 
+/// P(χ²_ν ≥ χ²) below which every consistency test of a fit (`separate`'s two sides, `invert
+/// brdf`'s model against the measured filter) says the model does not describe the data: one false
+/// alarm in a thousand fits of a right model.
+pub const MISMATCH_P: f64 = 1e-3;
+
+/// P(χ²_ν ≥ χ²) below which (and at or above [`MISMATCH_P`]) a consistency test is called
+/// "marginal" rather than "consistent": weak evidence against the model, worth a look, not a verdict.
+pub const MARGINAL_P: f64 = 0.05;
+
 /// Robust χ²/ν ([`robust_chi2`], of the highest-order fit) above which a fit with per-pixel
-/// standard errors no longer scales its noise bars by √(χ²/ν): the bulk of the pixels then misfit,
-/// which is signal the model does not carry (truncation, a wrong model) — the truncation part and
-/// the mismatch warning report it — not noise. Scaling the noise by it gave a near-noiseless mirror
-/// sphere ±8 on L_00 = 2.5 (χ²/ν ≈ 10⁶, robust 10⁵). Below it a large plain χ²/ν comes from a few
-/// pixels whose Monte Carlo σ misses a heavy-tailed error (robust 2–7, plain up to 400 on Phong
-/// renders under Grace, tests/partial_view_renders.rs): those errors are in the estimates, so the
-/// noise is scaled.
+/// standard errors says that its residual is signal the model does not carry (truncation above the
+/// highest order fitted, a wrong model), not noise: the truncation part and the mismatch warning
+/// report it (a near-noiseless mirror sphere gives χ²/ν ≈ 10⁶, robust 10⁵).
 pub const NOISE_CHI2_MAX: f64 = 10.0;
 
-/// Factor on the propagated noise standard errors given χ²/ν `x` and robust χ²/ν `robust` of the
-/// highest-order fit: with per-pixel σ (`have_sigma`), √x when x > 1 unless `robust` >
-/// [`NOISE_CHI2_MAX`] (then 1); without them (σ_p = 1), √x, the residual σ.
-pub fn noise_scale(have_sigma: bool, x: Option<f64>, robust: Option<f64>) -> f64 {
+/// Factor on the propagated noise standard errors given χ²/ν `x` of the highest-order fit: with
+/// per-pixel σ (`have_sigma`) 1 — the noise part is the σ_p propagated, never scaled by √(χ²/ν);
+/// without them (σ_p = 1) √x, the residual σ.
+///
+/// Why not scale with σ_p: a χ²/ν above 1 there is not noise the σ_p missed but (a) signal the fit
+/// does not carry, which the truncation part of the bar and the mismatch warning carry, or (b) a few
+/// pixels whose own σ missed a rare heavy sample, which the bound near flagged pixels applied when
+/// a render is read (`reflect`'s `header::bound_near_flags`) carries. Scaling by it made Phong spheres
+/// under Grace (χ²/ν ≈ 10⁴ at 16 spp, robust 2–7) cover 95 % at 1σ, bars 3–10× too wide
+/// (tests/phong_coverage.rs, README "Partial views").
+pub fn noise_scale(have_sigma: bool, x: Option<f64>) -> f64 {
     match (have_sigma, x) {
-        (true, _) if robust.is_some_and(|r| r > NOISE_CHI2_MAX) => 1.0,
-        (true, Some(x)) if x > 1.0 => x.sqrt(),
         (false, Some(x)) => x.sqrt(),
         _ => 1.0,
     }

@@ -24,8 +24,8 @@
 //! albedo · Λ_l ρ̂_l fitted directly in pixel space for the known lighting,
 //! B(d) = Σ_l A_l Σ_m L_lm Y_lm(d) over the used pixels (`analysis::filter::fit_filter_pixels`,
 //! the function `verify` checks): right on one view, where dividing fitted B_lm by L_lm is not
-//! (one view sees one hemisphere of normals). Its error bars are the propagated noise (scaled by
-//! √(χ²/ν) when above 1, said in a warning) and an estimated truncation bias (from a fit to
+//! (one view sees one hemisphere of normals). Its error bars are the propagated noise (the
+//! per-pixel σ; a χ²/ν well above 1 is said in a warning, not folded in) and an estimated truncation bias (from a fit to
 //! l ≤ l_max + 2), with the design's noise amplification per order; orders the visible directions
 //! cannot determine are marked, a design they cannot solve at all is refused (exit 2). With a
 //! known BRDF: its analytic Λ_l ρ̂_l (eq. 38/43/33/50) scaled by the albedo, and eq. 15's B_lm.

@@ -265,6 +265,10 @@ pub struct RegularisedReport {
     /// λ per channel (null when all of B is noise).
     pub lambda: [f64; 3],
     pub residual: [f64; 3],
+    /// Per channel whether λ changes any coefficient by more than 10⁻⁶ of itself
+    /// (`analysis::inverse::lighting::Regularised::needed`); all `false`: "no regularization
+    /// needed", the regularised lighting is the plain inverse.
+    pub needed: [bool; 3],
     pub coefficients: Vec<[f64; 3]>,
 }
 
@@ -290,7 +294,7 @@ pub struct InvertLightingReport {
     pub coefficients: Vec<Option<[f64; 3]>>,
     /// Total standard error (noise ⊕ truncation for orthographic views).
     pub stderr: Vec<Option<[f64; 3]>>,
-    /// Orthographic views: the noise part (scaled by √(χ²/ν) when above 1).
+    /// Orthographic views: the noise part (the per-pixel σ propagated; the residual σ without them).
     pub stderr_noise: Option<Vec<Option<[f64; 3]>>>,
     /// Orthographic views: the estimated truncation bias, a standard deviation (`analysis::inverse::views`).
     pub truncation: Option<Vec<Option<[f64; 3]>>>,
@@ -420,6 +424,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
             rule: rule.name().into(),
             lambda: inv.regularised.lambda,
             residual: inv.regularised.residual,
+            needed: inv.regularised.needed,
             coefficients: inv.regularised.coefficients,
         },
         output: a.output.as_ref().map(|p| p.display().to_string()),
@@ -662,7 +667,7 @@ fn brdf_report_from_pixel_fit(
     let (ch, fit) = narrowest(&fits)
         .ok_or_else(|| Error::new("no channel has two determined filter orders to fit the model to"))?;
     for (c, f) in &fits {
-        if let Some(p) = f.p_value().filter(|&p| p < 1e-3) {
+        if let Some(p) = f.p_value().filter(|&p| p < analysis::fit::MISMATCH_P) {
             warnings.push(format!(
                 "channel {}: the {} model does not describe the measured filter (χ² = {:.1} for ν = {}, p = {p:.1e})",
                 CHANNELS[*c],
@@ -753,7 +758,18 @@ impl std::fmt::Display for InvertLightingReport {
             writeln!(f)?;
         }
         let l = self.regularised.lambda;
-        writeln!(f, "# Tikhonov: {}, λ = R {:.2e}, G {:.2e}, B {:.2e}", self.regularised.rule, l[0], l[1], l[2])?;
+        let need = &self.regularised.needed;
+        let verdict = if need.iter().any(|&n| n) {
+            let chans: Vec<&str> = (0..3).filter(|&c| need[c]).map(|c| CHANNELS[c]).collect();
+            format!("regularizes {}", chans.join(" "))
+        } else {
+            "no regularization needed (λ changes no coefficient by 1e-6 of itself: the plain inverse)".to_string()
+        };
+        writeln!(
+            f,
+            "# Tikhonov: {}, λ = R {:.2e}, G {:.2e}, B {:.2e}; {verdict}",
+            self.regularised.rule, l[0], l[1], l[2]
+        )?;
         if let Some(n) = &self.pixel_noise {
             writeln!(f, "{}", n.line())?;
         }

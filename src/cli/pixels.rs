@@ -8,6 +8,12 @@
 //! B_lm (the semivariogram of neighbouring pixels' differences with the smooth remainder fitted
 //! out, `analysis::noise::estimate_correlation`) and applied when the lag-1 correlation is
 //! significant. The noise part of every error bar is then multiplied by √F.
+//!
+//! Our own renders (a `reflect:render` header) need neither: `reflect render` adds each sample to
+//! the one pixel it was drawn in (a one-pixel box, independent pixels), so F = 1 for them, exactly.
+//! The residual measurement is still made and shown, but not applied: on our renders a correlation
+//! it "detects" is the truncation remainder left in the residuals (a Phong sphere under Grace at
+//! l_max 4 measured F̂ 6.8, which would widen every bar 2.6×), not noise.
 
 use super::Error;
 use super::header::Camera;
@@ -34,8 +40,9 @@ pub struct LagCorrelation {
 /// `invert lighting | brdf` on orthographic views).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PixelNoise {
-    /// `pixel-filter` (the flag's kernel), `residuals` (measured and applied) or `none` (no
-    /// correlation detected, or not measurable: F = 1).
+    /// `pixel-filter` (the flag's kernel), `reflect-render` (our renderer's header: one sample
+    /// counts in one pixel, F = 1 whatever the residuals show), `residuals` (measured and applied)
+    /// or `none` (no correlation detected, or not measurable: F = 1).
     pub source: String,
     /// The `--pixel-filter` given (`box`, `gaussian:STDDEV:RADIUS`, `tent:RADIUS`).
     pub pixel_filter: Option<String>,
@@ -124,9 +131,11 @@ pub fn prepare(
             Camera::NormalProbe { .. } => None,
         })
         .collect();
+    // Every view rendered by us: the box filter of `reflect render` (module docs).
+    let own = views.iter().all(|v| v.image.attributes.contains_key(vocab::header::RENDER));
     let fit = fit_orthographic(&views, sphere, param, lmax)?;
     let (samples, _) = ortho_samples(&views, sphere, param)?;
-    let mut report = noise(&views, sphere, param, &fit.coefficients, &samples, filter)?;
+    let mut report = noise(&views, sphere, param, &fit.coefficients, &samples, filter, own)?;
     drop(views);
     if report.source == "residuals"
         && let Some(rho) = report.lag1[0].measured.zip(report.lag1[1].measured).map(|(a, b)| 0.5 * (a + b))
@@ -145,8 +154,9 @@ pub fn prepare(
 
 /// The noise correlation of the pixels `samples` of `views` (as [`analysis::projection::ortho_samples`]
 /// returns them) and the variance inflation every fit over them applies (module docs): from
-/// `filter` when given, else measured from the residuals of the SH fit `coefficients` (RGB, index
-/// order, up to any l_max). Errors: as `ortho_samples` (a view without R, G, B, a degenerate camera).
+/// `filter` when given, else F = 1 when every view is our own render (`own`), else measured from the
+/// residuals of the SH fit `coefficients` (RGB, index order, up to any l_max). Errors: as
+/// `ortho_samples` (a view without R, G, B, a degenerate camera).
 pub fn noise(
     views: &[OrthoView],
     sphere: &Sphere,
@@ -154,6 +164,7 @@ pub fn noise(
     coefficients: &[[f64; 3]],
     samples: &[Sample],
     filter: Option<PixelFilter>,
+    own: bool,
 ) -> Result<PixelNoise, Error> {
     let at = ortho_sample_pixels(views, sphere, param)?;
     let measured = lmax_of(coefficients.len()).filter(|_| at.len() == samples.len()).and_then(|lmax| {
@@ -181,12 +192,12 @@ pub fn noise(
         }
         estimate_correlation(&grids)
     });
-    Ok(decide(measured.as_ref(), filter))
+    Ok(decide(measured.as_ref(), filter, own))
 }
 
-/// The report from the measurement and the flag: the flag's kernel when given, else the
-/// measurement when it detects a correlation (module docs).
-fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>) -> PixelNoise {
+/// The report from the measurement and the flag: the flag's kernel when given, else F = 1 for our
+/// own renders (`own`), else the measurement when it detects a correlation (module docs).
+fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>, own: bool) -> PixelNoise {
     let lags = &near_lags()[..4];
     let lag1 = lags
         .iter()
@@ -214,6 +225,18 @@ fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>) -> Pixel
             }
             ("pixel-filter", f.inflation(), note)
         }
+        (None, _) if own => (
+            "reflect-render",
+            1.0,
+            format!(
+                "the reflect:render header: each sample counts in the one pixel it was drawn in, independent pixels, F = 1{}",
+                m.map_or(String::new(), |m| format!(
+                    " (the residuals' lag-1 correlation {:.3} ± {:.3} is the fit's truncation remainder, not noise: not applied)",
+                    m.lag1(),
+                    m.rho_stderr
+                ))
+            ),
+        ),
         (None, Some(m)) if m.detected() => (
             {
                 warn = true;
@@ -457,4 +480,34 @@ pub fn check_silhouette(
         sphere.center.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
         sphere.radius
     )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A residual measurement that detects a strong lag-1 correlation (F̂ = 4.2).
+    fn correlated() -> MeasuredCorrelation {
+        let rho = near_lags().into_iter().enumerate().map(|(i, d)| (d, if i < 4 { 0.4 } else { 0.0 })).collect();
+        MeasuredCorrelation { rho, inflation: 4.2, rho_stderr: 0.01, pairs: 10_000, signal_dominated: false }
+    }
+
+    #[test]
+    fn own_renders_keep_f_one_whatever_the_residuals_show() {
+        let m = correlated();
+        assert!(m.detected());
+        // Another renderer's image: the measured F̂ is applied.
+        let foreign = decide(Some(&m), None, false);
+        assert_eq!(foreign.source, "residuals");
+        assert_eq!(foreign.inflation, 4.2);
+        // Our render: F = 1, the measurement only shown.
+        let own = decide(Some(&m), None, true);
+        assert_eq!(own.source, "reflect-render");
+        assert_eq!(own.inflation, 1.0);
+        assert!(own.note.contains("not applied"), "{}", own.note);
+        // An explicit --pixel-filter still wins on our render.
+        let flagged = decide(Some(&m), Some(PixelFilter::Tent { radius: 1.0 }), true);
+        assert_eq!(flagged.source, "pixel-filter");
+        assert!(flagged.inflation > 1.0);
+    }
 }

@@ -51,8 +51,9 @@ use std::process::ExitCode;
 
 /// Highest order of the recovered lighting: the least squares costs O(pixels · (lmax+1)⁴).
 pub const MAX_LMAX: usize = 32;
-/// P(χ²_9 ≥ χ²) below which the two sides are called inconsistent.
-pub const P_CONSISTENT: f64 = 1e-3;
+/// P(χ²_9 ≥ χ²) below which the two sides are called inconsistent: the one mismatch threshold of
+/// every fit, `analysis::fit::MISMATCH_P` (between it and `analysis::fit::MARGINAL_P`: "marginal").
+pub const P_CONSISTENT: f64 = analysis::fit::MISMATCH_P;
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 #[derive(clap::Args, Debug)]
@@ -552,7 +553,12 @@ fn meaning(chi2: Option<f64>, with_stderr: bool, lmax: usize) -> String {
     let p = chi2_survival(c, LOW as f64);
     // Without stderr layers σ̂ holds the lighting above l_max as well: a small χ² is weaker evidence.
     let noise = if with_stderr { "" } else { " (σ from the residual variance, an upper estimate of the noise)" };
-    if p >= P_CONSISTENT {
+    if (P_CONSISTENT..analysis::fit::MARGINAL_P).contains(&p) {
+        format!(
+            "marginal: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise{noise} at the {P_CONSISTENT:.0e} level but not at {:.2} (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.3}); worth a --scan of the split",
+            analysis::fit::MARGINAL_P
+        )
+    } else if p >= P_CONSISTENT {
         format!(
             "consistent: the diffuse side's 9 low-order coefficients and the recovered lighting's agree within the noise{noise} at this split (χ² = {c:.1}, P(χ²_9 ≥ χ²) = {p:.2})"
         )
@@ -859,6 +865,16 @@ mod tests {
     /// The report as the JSON document `--json` prints.
     fn separate_doc(a: &SeparateArgs) -> Result<Value, Error> {
         separate_report(a).map(|r| serde_json::to_value(r).unwrap())
+    }
+
+    /// The three verdicts of the 9-coefficient consistency χ² (ν = 9): P(χ²_9 ≥ 8.34) = 0.50,
+    /// P(≥ 21.67) = 0.010 (between MISMATCH_P and MARGINAL_P), P(≥ 30) = 4.4e-4.
+    #[test]
+    fn consistency_verdicts_follow_the_shared_thresholds() {
+        assert!(meaning(Some(8.34), true, 2).starts_with("consistent:"), "{}", meaning(Some(8.34), true, 2));
+        assert!(meaning(Some(21.67), true, 2).starts_with("marginal:"), "{}", meaning(Some(21.67), true, 2));
+        assert!(meaning(Some(30.0), true, 2).starts_with("inconsistent:"), "{}", meaning(Some(30.0), true, 2));
+        assert!(meaning(None, true, 2).starts_with("χ² undefined"));
     }
 
     const MIX: &str = r#"{"type":"mix","layers":[{"weight":0.5,"brdf":{"type":"lambert","albedo":1.0}},{"weight":0.5,"brdf":{"type":"mirror"}}]}"#;

@@ -2,7 +2,7 @@
 //! see part of the sphere of normals, by the functions `reflect invert lighting` runs on such views:
 //! the file reader, the visible-pixel selection `analysis::projection::ortho_samples` and the
 //! pixel-space inversion `analysis::inverse::views::invert_lighting_views` (conditioning from the
-//! actual design, error bars = noise scaled by √(χ²/ν) when above 1 ⊕ the estimated truncation).
+//! actual design, error bars = the propagated per-pixel noise ⊕ the estimated truncation).
 //!
 //! A Lambertian sphere (albedo 0.8) under the Grace probe, l ≤ 2, RGB:
 //! - **one view** from +x (the issue's fault: L_00 came out 1.969 ± 0.020 for the map's 2.530, 28 σ,
@@ -220,7 +220,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
     }
     c.note(format!(
         "Lambert albedo {ALBEDO} under Grace, orthographic {size}×{size}, {spp} spp, views from +x and −x; l ≤ {LMAX}; \
-         σ = noise (scaled by √(χ²/ν) when above 1) ⊕ truncation bias estimated from the fit to l ≤ {}",
+         σ = propagated per-pixel noise ⊕ truncation bias estimated from the fit to l ≤ {}",
         LMAX + 2
     ));
     for w in one.warnings.iter().chain(&two.warnings).chain(&one_t.warnings) {

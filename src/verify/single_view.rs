@@ -3,7 +3,7 @@
 //! `reflect render` writes it and analysed by the functions `analyze` runs: the file reader, the
 //! visible-pixel selection of `analysis::projection::ortho_samples` and the pixel-space filter fit
 //! `analysis::filter::fit_filter_pixels` (B(d) = Σ_l A_l Σ_m L_lm Y_lm(d) for the known lighting,
-//! error bars: noise scaled by √(χ²/ν) when above 1 ⊕ the estimated truncation bias).
+//! error bars: the propagated per-pixel noise ⊕ the estimated truncation bias).
 //!
 //! - **Lambert** (albedo 0.8) under the Grace probe (L_lm from the map, as `analyze --lighting`
 //!   computes them), view from (3, 0, 1), l ≤ 2: A_l = 0.8 · eq. 38/π = 0.8, 0.533, 0.2, every RGB

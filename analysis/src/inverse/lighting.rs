@@ -111,7 +111,18 @@ pub struct Regularised {
     pub coefficients: Vec<[f64; 3]>,
     /// Residual χ²(λ) per channel (with standard errors), or RSS(λ) (GCV without them).
     pub residual: [f64; 3],
+    /// Per channel: λ moves some coefficient by more than [`NEGLIGIBLE_LAMBDA`] of itself, i.e.
+    /// λ > [`NEGLIGIBLE_LAMBDA`] · min f² over the nonzero filter values f (the shrink factor
+    /// f² / (f² + λ) of every coefficient is then below 1 − 10⁻⁶ somewhere). `false`: the
+    /// regularised lighting is the plain inverse; no regularization was needed.
+    pub needed: [bool; 3],
 }
+
+/// Relative change of a coefficient below which λ is said to regularise nothing
+/// ([`Regularised::needed`]): the discrepancy rule returns λ = 0 when the plain inverse already
+/// fits to χ² ≥ n, and GCV's grid starts at 10⁻¹⁴ max f², both "no regularization", which the
+/// printed λ alone (e.g. 3.1e-15) does not say.
+pub const NEGLIGIBLE_LAMBDA: f64 = 1e-6;
 
 /// Result of [`invert_lighting`].
 #[derive(Clone, Debug)]
@@ -296,6 +307,7 @@ pub fn tikhonov(
     let mut coefficients = vec![[0.0; 3]; n];
     let mut lambda = [0.0; 3];
     let mut residual = [0.0; 3];
+    let mut needed = [false; 3];
     for ch in 0..3 {
         let f = filter_per_coefficient(orders, albedo[ch], lmax);
         let bc: Vec<f64> = b[..n].iter().map(|v| v[ch]).collect();
@@ -303,11 +315,13 @@ pub fn tikhonov(
         let (lam, res) = choose_lambda(&f, &bc, sc.as_deref(), rule)?;
         lambda[ch] = lam;
         residual[ch] = res;
+        let fmin2 = f.iter().filter(|v| **v != 0.0).fold(f64::INFINITY, |a, v| a.min(v * v));
+        needed[ch] = fmin2.is_finite() && lam > NEGLIGIBLE_LAMBDA * fmin2;
         for k in 0..n {
             coefficients[k][ch] = tikhonov_value(f[k], bc[k], lam);
         }
     }
-    Ok(Regularised { rule, lambda, coefficients, residual })
+    Ok(Regularised { rule, lambda, coefficients, residual, needed })
 }
 
 #[cfg(test)]
@@ -519,6 +533,15 @@ pub(crate) mod tests {
         let exact =
             tikhonov(&clean, Some(&vec![[0.0; 3]; clean.len()]), &orders, albedo, lmax, Rule::Discrepancy).unwrap();
         assert_eq!(exact.lambda, [0.0; 3]);
+        assert_eq!(exact.needed, [false; 3], "λ = 0 regularises nothing");
+        // The noisy data above at σ = 1e-2 do need it (GCV and discrepancy both shrink).
+        let mut g = Gauss::new(11);
+        let b: Vec<[f64; 3]> = clean.iter().map(|c| c.map(|v| v + 1e-2 * g.normal())).collect();
+        let se = vec![[1e-2; 3]; clean.len()];
+        for rule in [Rule::Gcv, Rule::Discrepancy] {
+            let reg = tikhonov(&b, Some(&se), &orders, albedo, lmax, rule).unwrap();
+            assert_eq!(reg.needed, [true; 3], "{rule:?}: λ = {:?}", reg.lambda);
+        }
     }
 
     #[test]
@@ -532,6 +555,8 @@ pub(crate) mod tests {
         for ch in 0..3 {
             // The bottom of the GCV grid is 1e-14 max f²: GCV picks (close to) it.
             assert!(inv.regularised.lambda[ch] < 1e-12, "{}", inv.regularised.lambda[ch]);
+            // ... which the report must call "no regularization needed", not a tiny λ.
+            assert!(!inv.regularised.needed[ch], "λ = {}", inv.regularised.lambda[ch]);
         }
         for k in 0..clean.len() {
             assert!((inv.regularised.coefficients[k][0] - truth[k][0]).abs() < 1e-9, "k={k}");

@@ -17,7 +17,7 @@
 //!   bias from those orders. One step (H = L + 2) misses the orders beyond, which can dominate (a
 //!   mirror under Grace at L = 8: the error of L̂_00(R), +0.075, comes from l = 9 … 16 — their
 //!   aliasing with the true L_lm reproduces the error to 10 %, while L + 2 gives 0.006). So the
-//!   sequence H = L + 2, L + 4, … up to [`truncation_lmax`] (2L, at most [`TRUNCATION_LMAX_CAP`],
+//!   sequence H = L + 2, L + 4, … up to [`TRUNCATION_LMAX_CAP`] ([`sequence_lmax`];
 //!   stopping after L + 2 where the design amplification exceeds [`TRUNCATION_MAX_DESIGN_AMPLIFICATION`] or the
 //!   pixels are fewer than 4 per column) is fitted from one Gram matrix, and the truncation part
 //!   is the largest |L̂_L − L̂_H| over it with the noise of each difference removed
@@ -50,10 +50,11 @@
 //!   [`UNDETERMINED_TRUNCATION`] of its RMS value is reported [`UNDETERMINED`] ("cannot be
 //!   determined from these views"), not `recovered`;
 //! - **consistency**: χ²/ν and its p-value per channel from the per-pixel standard errors. The
-//!   noise part is the propagated σ, scaled by √(χ²/ν) of the *highest-order* fit (what the
-//!   truncated orders do not explain) when that is in (1, [`crate::fit::NOISE_CHI2_MAX`]]; a larger
-//!   χ²/ν is signal the model does not carry, not noise (a mirror's near-noiseless pixels give
-//!   10⁶), so the noise is left unscaled and a warning says so. Without a `stderr` layer σ² comes
+//!   noise part is the propagated σ, never scaled by χ²/ν ([`crate::fit::noise_scale`]): an excess
+//!   is signal the model does not carry (a mirror's near-noiseless pixels give 10⁶; a clamped
+//!   horizon), which the truncation part and the warnings carry, or pixels whose σ missed a rare
+//!   heavy sample, which the bound near flagged pixels applied at load carries; a warning states a
+//!   χ²/ν of the highest-order fit above 2. Without a `stderr` layer σ² comes
 //!   from the residuals of the highest-order fit (said in a warning): then it also holds what that
 //!   fit leaves unexplained, an overestimate of the noise.
 
@@ -291,7 +292,7 @@ pub struct ViewsLighting {
     pub coefficients: Vec<Option<[f64; 3]>>,
     /// Total standard error √(noise² + truncation²).
     pub stderr: Vec<Option<[f64; 3]>>,
-    /// Noise part (scaled by √(χ²/ν) when above 1).
+    /// Noise part: the per-pixel σ propagated ([`crate::fit::noise_scale`]; the residual σ without them).
     pub stderr_noise: Vec<Option<[f64; 3]>>,
     /// Estimated truncation bias (a standard deviation): the larger of the sequence's and the
     /// predicted one (module docs); `None` where no higher orders could be fitted.
@@ -404,7 +405,7 @@ pub fn invert_lighting_views(
         let robust = if have_sigma { crate::fit::robust_chi2(&rows, &value, &sigma, &weight, &fit.coef) } else { None };
         let x_top = seq.as_ref().and_then(|q| q.chi2_per_dof[ch]).or(x);
         let robust_top = seq.as_ref().map_or(robust, |q| q.robust_chi2[ch]);
-        let scale = noise_scale(have_sigma, x_top, robust_top) * noise_inflation.max(1.0).sqrt();
+        let scale = noise_scale(have_sigma, x_top) * noise_inflation.max(1.0).sqrt();
         let p_value = if have_sigma { fit.p_value() } else { None };
         let relative_misfit =
             crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
@@ -412,7 +413,7 @@ pub fn invert_lighting_views(
         if have_sigma && let Some(x) = x {
             if let Some(r) = robust.filter(|&r| crate::filter::mismatch(r, relative_misfit)) {
                 warnings.push(format!(
-                    "channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}, misfit {:.0} % of the signal): the BRDF and \
+                    "lighting fit, channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}, misfit {:.0} % of the signal): the BRDF and \
                      l_max do not describe the image — lighting above l_max (a mirror under a detailed map: then the \
                      truncation part of the error bars, from fits up to l = {top}, carries it), or a wrong BRDF, \
                      albedo, camera, extent or sphere",
@@ -421,20 +422,21 @@ pub fn invert_lighting_views(
             }
             match (x_top, robust_top) {
                 (Some(xt), Some(rt)) if rt > crate::fit::NOISE_CHI2_MAX => warnings.push(format!(
-                    "channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) even with orders up to l = {top}: the \
-                     residual is signal the fit does not carry (lighting above l = {top}, or a wrong model), not \
-                     noise — the noise part is the propagated per-pixel σ, unscaled; the truncation part carries \
+                    "lighting fit, channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) even with orders up to \
+                     l = {top}: the residual is signal the fit does not carry (lighting above l = {top}, or a wrong \
+                     model), not noise — the noise part is the propagated per-pixel σ; the truncation part carries \
                      the orders up to l = {top}"
                 )),
-                (Some(xt), _) if xt > 1.0 => warnings.push(format!(
-                    "channel {name}: χ²/ν = {xt:.3} > 1 with orders up to l = {top}: noise standard errors scaled by \
-                     √(χ²/ν) = {scale:.3}"
+                (Some(xt), _) if xt > crate::filter::MISMATCH_CHI2 => warnings.push(format!(
+                    "lighting fit, channel {name}: χ²/ν = {xt:.3} with orders up to l = {top}: more scatter than the \
+                     per-pixel σ (pixels whose σ missed a rare heavy sample, or lighting above l = {top}); the noise \
+                     part of the error bars is the propagated σ, not scaled by it"
                 )),
                 _ => {}
             }
         } else if !have_sigma && ch == 0 {
             warnings.push(format!(
-                "no per-pixel standard errors (stderr layer): the noise σ is estimated from the residuals of the fit \
+                "lighting fit: no per-pixel standard errors (stderr layer): the noise σ is estimated from the residuals of the fit \
                  up to l = {top}, and so also holds whatever that fit leaves unexplained"
             ));
         }
@@ -502,7 +504,7 @@ pub fn invert_lighting_views(
     for o in &orders {
         if o.status == UNDETERMINED {
             warnings.push(format!(
-                "order l = {} cannot be determined from these views: the orders above l_max {lmax} (fitted to \
+                "lighting fit: order l = {} cannot be determined from these views: the orders above l_max {lmax} (fitted to \
                  calibrate the predicted truncation up to l = {}) can move it by {:.0} % of its size (worst case of \
                  the calibrated energies, `truncation_bound`; ≥ {:.0} %) — add views (e.g. the opposite one)",
                 o.l,
@@ -513,7 +515,7 @@ pub fn invert_lighting_views(
         }
         if o.status == Status::IllConditioned.name() {
             warnings.push(format!(
-                "order l = {} cannot be determined from these views: amplification {:.1} > {max_amplification} \
+                "lighting fit: order l = {} cannot be determined from these views: amplification {:.1} > {max_amplification} \
                  (filter × design; add views or lower --lmax)",
                 o.l,
                 o.amplification.unwrap_or(f64::INFINITY)
