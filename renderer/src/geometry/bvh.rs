@@ -10,7 +10,7 @@
 //!   one 48-byte record.
 //! - Traversal is an own loop over obvhs's nodes (`Walk`: obvhs's `traverse!` order and node-test
 //!   arithmetic, so every hit is bit for bit obvhs's), with a node test that widens each axis's
-//!   eight quantised planes at once (AVX2 plus POPCNT/LZCNT/BMI1 chosen at run time, SSE2
+//!   eight quantised planes at once (AVX2 plus POPCNT/LZCNT/BMI1/BMI2 chosen at run time, SSE2
 //!   otherwise; same bits) and a software prefetch of the hit children and leaf primitives of each
 //!   node (~5–8 % on a 1.3 M-triangle mesh, whose traversal is bound by cache misses). Any-hit
 //!   (`occluded`) stops at the first hit. The batch functions interleave several rays' walks.
@@ -219,13 +219,7 @@ impl SceneGeometry {
         if !Self::is_valid(ray) {
             return None;
         }
-        let best = if avx2() {
-            // SAFETY: avx2() checked the CPU.
-            unsafe { self.walk_avx2::<false>(bvh, ray) }
-        } else {
-            self.walk::<false, false>(bvh, ray)
-        };
-        let (slot, t, b1, b2) = best?;
+        let (slot, t, b1, b2) = self.walk_here::<false>(bvh, ray)?;
         Some(self.make_hit(ray, slot as usize, t, (b1, b2)))
     }
 
@@ -239,14 +233,42 @@ impl SceneGeometry {
         lane.best
     }
 
-    /// [`SceneGeometry::walk`] compiled with AVX2 (runtime dispatch: call only where [`avx2`] holds).
-    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
+    /// [`SceneGeometry::walk`] in the copy this CPU runs: [`SceneGeometry::walk_avx2`] where
+    /// [`avx2_walk`] holds, the SSE2 node test otherwise (the same bits, tested).
+    #[inline(always)]
+    fn walk_here<const ANY: bool>(&self, bvh: &CwBvh, ray: &Ray) -> Option<(u32, f32, f32, f32)> {
+        if avx2_walk() {
+            // SAFETY: avx2_walk() found every feature walk_avx2 is compiled for.
+            unsafe { self.walk_avx2::<ANY>(bvh, ray) }
+        } else {
+            self.walk::<ANY, false>(bvh, ray)
+        }
+    }
+
+    /// [`SceneGeometry::run_batch`] in the copy this CPU runs, as [`SceneGeometry::walk_here`].
+    #[inline(always)]
+    fn run_batch_here<const ANY: bool>(&self, bvh: &CwBvh, rays: &[Ray], finish: impl FnMut(usize, Option<&Lane>)) {
+        if avx2_walk() {
+            // SAFETY: as in walk_here.
+            unsafe { self.run_batch_avx2::<ANY>(bvh, rays, finish) }
+        } else {
+            self.run_batch::<ANY, false>(bvh, rays, finish)
+        }
+    }
+
+    /// [`SceneGeometry::walk`] with the AVX2 node test, compiled for AVX2 and for the bit
+    /// instructions the walk's child-slot arithmetic needs: POPCNT, LZCNT, BMI1 (TZCNT, BLSR) and
+    /// BMI2 (BZHI, SHLX). Without them a `count_ones` of a node's child bits is five instructions
+    /// (two multiplies) and the mask below a child slot four, where POPCNT and BZHI are one each.
+    /// Run-time dispatch: call only where [`avx2_walk`] holds, which checks exactly these features.
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,popcnt,lzcnt,bmi1,bmi2"))]
     fn walk_avx2<const ANY: bool>(&self, bvh: &CwBvh, ray: &Ray) -> Option<(u32, f32, f32, f32)> {
         self.walk::<ANY, true>(bvh, ray)
     }
 
-    /// [`SceneGeometry::run_batch`] compiled with AVX2 (call only where [`avx2`] holds).
-    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2"))]
+    /// [`SceneGeometry::run_batch`] compiled as [`SceneGeometry::walk_avx2`] (call only where
+    /// [`avx2_walk`] holds).
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,popcnt,lzcnt,bmi1,bmi2"))]
     fn run_batch_avx2<const ANY: bool>(&self, bvh: &CwBvh, rays: &[Ray], finish: impl FnMut(usize, Option<&Lane>)) {
         self.run_batch::<ANY, true>(bvh, rays, finish)
     }
@@ -280,12 +302,7 @@ impl SceneGeometry {
             hits[i] =
                 lane.and_then(|l| l.best).map(|(slot, t, b1, b2)| self.make_hit(&rays[i], slot as usize, t, (b1, b2)));
         };
-        if avx2() {
-            // SAFETY: avx2() checked the CPU.
-            unsafe { self.run_batch_avx2::<false>(bvh, rays, finish) }
-        } else {
-            self.run_batch::<false, false>(bvh, rays, finish)
-        }
+        self.run_batch_here::<false>(bvh, rays, finish)
     }
 
     /// Any hit of many rays: `occluded[i]` is exactly [`SceneGeometry::occluded`]`(&rays[i])`.
@@ -303,12 +320,7 @@ impl SceneGeometry {
             return;
         };
         let finish = |i: usize, lane: Option<&Lane>| occluded[i] = lane.is_some_and(|l| l.best.is_some());
-        if avx2() {
-            // SAFETY: avx2() checked the CPU.
-            unsafe { self.run_batch_avx2::<true>(bvh, rays, finish) }
-        } else {
-            self.run_batch::<true, false>(bvh, rays, finish)
-        }
+        self.run_batch_here::<true>(bvh, rays, finish)
     }
 
     /// The interleaving loop of the batch functions: keeps up to [`BATCH_LANES`] rays in flight,
@@ -496,13 +508,7 @@ impl SceneGeometry {
         if !Self::is_valid(ray) {
             return false;
         }
-        let best = if avx2() {
-            // SAFETY: avx2() checked the CPU.
-            unsafe { self.walk_avx2::<true>(bvh, ray) }
-        } else {
-            self.walk::<true, false>(bvh, ray)
-        };
-        best.is_some()
+        self.walk_here::<true>(bvh, ray).is_some()
     }
 
     /// The closest hit through obvhs's own `traverse!` loop and node test (the implementation
@@ -699,13 +705,41 @@ static XOR_PERMUTE: [[u8; 256]; 8] = {
     t
 };
 
-/// True when the AVX2 node test can run: compiled in (`-C target-cpu` with AVX2) or detected at
-/// run time (std caches the CPUID result; one load and test).
+/// True when the CPU has every feature [`SceneGeometry::walk_avx2`] is compiled for (the list of
+/// its `target_feature`; AVX2 alone does not imply the others): always when the build's target
+/// has them all (`-C target-cpu`), else asked once at run time and kept.
 #[inline(always)]
-fn avx2() -> bool {
+fn avx2_walk() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::arch::is_x86_feature_detected!("avx2")
+        use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
+        if cfg!(all(
+            target_feature = "avx2",
+            target_feature = "popcnt",
+            target_feature = "lzcnt",
+            target_feature = "bmi1",
+            target_feature = "bmi2"
+        )) {
+            return true;
+        }
+        // 0: not asked yet, 1: no, 2: yes. Every ray asks, and std's cache costs a load, a test and
+        // two branches per feature (~25 instructions a ray for five); this is one load. Relaxed
+        // suffices: every thread that asks computes the same answer.
+        static ANSWER: AtomicU8 = AtomicU8::new(0);
+        #[cold]
+        fn ask() -> bool {
+            let yes = std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("popcnt")
+                && std::arch::is_x86_feature_detected!("lzcnt")
+                && std::arch::is_x86_feature_detected!("bmi1")
+                && std::arch::is_x86_feature_detected!("bmi2");
+            ANSWER.store(1 + yes as u8, Relaxed);
+            yes
+        }
+        match ANSWER.load(Relaxed) {
+            0 => ask(),
+            a => a == 2,
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -718,14 +752,14 @@ const NODE_T_MIN: f32 = 1e-4;
 
 /// Bit i set when child i's slab interval [max(near·s + o, 1e-4), min(far·s + o, t_max)] is not
 /// empty; `near`/`far` hold each axis's eight quantised planes, one byte per child. `AVX`: eight
-/// children per instruction with AVX2 (the caller has checked [`avx2`]), else four with SSE2; both
+/// children per instruction with AVX2 (the caller has checked [`avx2_walk`]), else four with SSE2; both
 /// round identically (separate multiply and add), so they give the same bits.
 #[inline(always)]
 fn slab8<const AVX: bool>(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> u32 {
     #[cfg(target_arch = "x86_64")]
     {
         if AVX {
-            // SAFETY: AVX is true only on the paths taken when `avx2()` holds.
+            // SAFETY: AVX is true only on the paths taken when `avx2_walk()` holds.
             unsafe { slab8_avx2(near, far, s, o, t_max) }
         } else {
             slab8_sse2(near, far, s, o, t_max)
@@ -1043,8 +1077,8 @@ mod tests {
             for r in rays.iter().filter(|r| SceneGeometry::is_valid(r)) {
                 let (sse, sse_any) = (g.walk::<false, false>(bvh, r), g.walk::<true, false>(bvh, r));
                 assert_eq!(sse_any.is_some(), sse.is_some(), "{r:?}");
-                if avx2() {
-                    // SAFETY: avx2() checked the CPU.
+                if avx2_walk() {
+                    // SAFETY: avx2_walk() checked the CPU.
                     let (avx, avx_any) = unsafe { (g.walk_avx2::<false>(bvh, r), g.walk_avx2::<true>(bvh, r)) };
                     assert_eq!(bits(sse), bits(avx), "{r:?}");
                     assert_eq!(bits(sse_any), bits(avx_any), "{r:?}");
@@ -1074,6 +1108,21 @@ mod tests {
                 assert!(same(&hits[i], &g.intersect(r)) && occ[i] == g.occluded(r), "ray {i}");
             }
         }
+    }
+
+    /// The kept answer is the CPU's, whether this call asks or reads what another call kept (the
+    /// second call always reads it).
+    #[test]
+    fn avx2_walk_is_the_cpus_answer() {
+        #[cfg(target_arch = "x86_64")]
+        let cpu = std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let cpu = false;
+        assert_eq!((avx2_walk(), avx2_walk()), (cpu, cpu));
     }
 
     #[test]
