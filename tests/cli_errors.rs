@@ -120,7 +120,17 @@ fn invert_separate_and_factor_refuse_bad_input() {
         "missing node",
         &env,
     );
-    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"], "p180.exr", "same node", &env);
+    // Two files at one node (a copy: the same file twice is refused before, as any repeated image).
+    let copy = d.join("p180-copy.exr");
+    std::fs::copy(&p180, &copy).unwrap();
+    let c = copy.to_str().unwrap();
+    assert_bad_input(&["invert", "factor", &p0, &p90, &p180, c, "--lmax", "1"], "p180", "same node", &env);
+    assert_bad_input(
+        &["invert", "factor", &p0, &p90, &p180, &p180, "--lmax", "1"],
+        "p180.exr",
+        "given more than once",
+        &env,
+    );
 }
 
 /// Files in `dir` whose name marks a temporary output.
@@ -225,6 +235,7 @@ fn analysis_commands_refuse_bad_input() {
     write_nan_exr(&oblong); // 8 × 4 with a NaN
     let o = oblong.to_str().unwrap();
     let probe = render_to(&d, "probe.exr", &probe_toml(0.0, 0.0, "{ type = \"lambert\", albedo = 0.5 }"));
+    let probe_other_path = d.join(".").join("probe.exr").to_str().unwrap().to_string();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["analyze", m, "--lmax", "2"], "missing.exr"),
         (vec!["analyze", j, "--lmax", "2"], "junk.exr"),
@@ -244,6 +255,13 @@ fn analysis_commands_refuse_bad_input() {
         (vec!["invert", "brdf", m, "--model", "phong", "--lmax", "4"], "missing.exr"),
         (vec!["invert", "brdf", &probe, "--model", "velvet", "--lmax", "4"], "velvet"),
         (vec!["invert", "brdf", &probe, "--model", "phong", "--lmax", "4", "--lighting", m], "missing.exr"),
+        // One image twice (by the same or another path to it) would count its pixels twice.
+        (vec!["analyze", &probe, &probe, "--lmax", "2"], "given more than once"),
+        (vec!["analyze", &probe, &probe_other_path, "--lmax", "2"], "given more than once"),
+        (vec!["invert", "lighting", &probe, &probe, "--lmax", "2"], "given more than once"),
+        (vec!["invert", "brdf", &probe, &probe, "--model", "phong", "--lmax", "4"], "given more than once"),
+        (vec!["invert", "separate", &probe, &probe, "--lmax", "2"], "given more than once"),
+        (vec!["invert", "factor", &probe, &probe, "--lmax", "2"], "given more than once"),
     ];
     for (args, names) in cases {
         let (code, out, err) = reflect_out(&args);

@@ -11,7 +11,7 @@
 //! proportion; at 1σ, 2σ and 3σ it must not fall more than 3 binomial standard errors below the
 //! Gaussian rate (0.683 − 0.090, 0.954 − 0.040, 0.997 − 0.010; √(p(1 − p)/243)). The truncation
 //! part is the largest estimate over the sequence of higher-order fits, so it is conservative by
-//! design (measured: 0.840 / 0.988 / 1.000 with the stderr layer); bars inflated beyond use are caught
+//! design (measured: 0.844 / 0.988 / 1.000 with the stderr layer, bounded near flags at load); bars inflated beyond use are caught
 //! by the median |z|, 0.674 for honest Gaussian bars, which must stay above 0.674 / 3 (bars at most
 //! 3 × too wide). Without the stderr layer the noise σ comes from the residuals of the l ≤ 16 fit,
 //! which hold the signal above l = 16 too: the bars are conservative (measured 0.97 / 1.00 / 1.00,

@@ -46,6 +46,15 @@ fn mismatch_warnings(doc: &Value) -> usize {
     w.iter().filter(|w| w.as_str().unwrap().contains("does not describe the image")).count()
 }
 
+/// The fits' χ² notes that give the excess other causes than a mismatch (a rare heavy sample,
+/// signal above the fitted orders).
+fn other_chi2_notes(doc: &Value) -> usize {
+    let w = doc["warnings"].as_array().unwrap();
+    w.iter()
+        .filter(|w| w.as_str().unwrap().contains("more scatter than") || w.as_str().unwrap().contains("even with"))
+        .count()
+}
+
 /// Renders `scenes/phong-grace.toml` seen from `from` with the BRDF's horizon set to `horizon`.
 fn render_phong(dir: &std::path::Path, name: &str, from: &str, horizon: &str) -> std::path::PathBuf {
     let text = std::fs::read_to_string(root().join("scenes/phong-grace.toml")).unwrap();
@@ -129,12 +138,19 @@ fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_came
         assert!(robust(&doc["filter_fit"]["channels"]).iter().all(|&x| x > 20.0), "{}", doc["filter_fit"]);
         assert!(misfit(&doc["filter_fit"]["channels"]).iter().all(|&x| x > 0.3), "{}", doc["filter_fit"]);
         assert_eq!(mismatch_warnings(&doc), 3, "invert {imgs:?}: {}", doc["warnings"]);
+        // The mismatch is the reason given: no note blaming a rare heavy sample or higher orders.
+        assert_eq!(other_chi2_notes(&doc), 0, "invert {imgs:?}: {}", doc["warnings"]);
+        // s runs to the bottom of the search range (measured 0.5 of [0.5, 10000]): said, not left to
+        // an interval "[unbounded, 0.5]".
+        let edge = |w: &Value| w.as_str().unwrap().contains("at the edge of the search range");
+        assert!(doc["warnings"].as_array().unwrap().iter().any(edge), "invert {imgs:?}: {}", doc["warnings"]);
         let mut args = vec!["analyze"];
         args.extend(&imgs);
         args.extend(["--lighting", r, "--lmax", "12", "--json"]);
         let doc = run_json(&args);
         assert!(robust(&doc["filter_fit"]).iter().all(|&x| x > 20.0), "{}", doc["filter_fit"]);
         assert_eq!(mismatch_warnings(&doc), 3, "analyze {imgs:?}: {}", doc["warnings"]);
+        assert_eq!(other_chi2_notes(&doc), 0, "analyze {imgs:?}: {}", doc["warnings"]);
     }
 
     // A wrong camera: the header's extent 1.05 rewritten as 1.25, and the `normal.*` layer removed

@@ -367,7 +367,10 @@ pub fn fit_filter_pixels(
         let relative_misfit =
             crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
         if have_sigma && let Some(x) = chi2_per_dof {
-            if let Some(r) = robust.filter(|&r| mismatch(r, relative_misfit)) {
+            // A reported mismatch says what the excess χ² is; the notes below would only give it other
+            // causes (a rare heavy sample, signal above the fitted orders) and mislead.
+            let mismatched = robust.is_some_and(|r| mismatch(r, relative_misfit));
+            if let Some(r) = robust.filter(|_| mismatched) {
                 warnings.push(format!(
                     "filter fit, channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}): the model B = Σ_l A_l Σ_m L_lm \
                      Y_lm does not describe the image (misfit {:.0} % of the signal) — a mismatched or rotated \
@@ -378,6 +381,7 @@ pub fn fit_filter_pixels(
             }
             let top = seq.last().and_then(|s| s.0.last().copied()).unwrap_or(lmax);
             match (x_top, robust_top) {
+                _ if mismatched => {}
                 (Some(xt), Some(rt)) if rt > crate::fit::NOISE_CHI2_MAX => warnings.push(format!(
                     "filter fit, channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) even with the orders up to \
                      l = {top}: the residual is signal the model does not carry, not noise; the truncation part of \

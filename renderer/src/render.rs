@@ -179,11 +179,13 @@ fn render_tile(scene: &Scene, tracer: &PathTracer, rect: [u32; 4], start: u64, e
     render_tile_body(scene, tracer, rect, start, end)
 }
 
-/// Whether this CPU has the features of `render_tile_x86_64_v3` (std caches the CPUID answer).
+/// Whether this CPU has the features of `render_tile_x86_64_v3` (std caches the CPUID answer): every
+/// feature its `target_feature` list enables, so that the tests' own v3 copies can ask it too.
 #[cfg(target_arch = "x86_64")]
 #[inline]
-fn has_x86_64_v3() -> bool {
+pub(crate) fn has_x86_64_v3() -> bool {
     std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("popcnt")
         && std::arch::is_x86_feature_detected!("fma")
         && std::arch::is_x86_feature_detected!("bmi1")
         && std::arch::is_x86_feature_detected!("bmi2")

@@ -947,11 +947,16 @@ mod tests {
         // Two azimuths 120° apart in one ring imply n_φ ≥ 3, not 2: the missing node is named.
         let e = err(vec![paths[0].clone(), paths[1].clone()]);
         assert!(e.contains("missing node") && e.contains("2x3"), "{e}");
-        // A duplicate.
+        // The same file twice is refused as in every analysis; two files at one node (a copy) here.
         let mut dup = paths.clone();
         dup.push(paths[2].clone());
+        let e = err(dup.clone());
+        assert!(e.contains("given more than once") && e.contains("node2.exr"), "{e}");
+        let copy = paths[2].with_file_name("node2-copy.exr");
+        std::fs::copy(&paths[2], &copy).unwrap();
+        *dup.last_mut().unwrap() = copy;
         let e = err(dup);
-        assert!(e.contains("same node") && e.contains("node2.exr"), "{e}");
+        assert!(e.contains("same node") && e.contains("node2"), "{e}");
         // A θ_o = 0 image among the nodes, and a node set that disagrees with --nodes.
         let mut with0 = paths.clone();
         with0.push(normal.clone());

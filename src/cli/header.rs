@@ -224,6 +224,14 @@ struct SphereShown(Sphere);
 pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Description), Error> {
     // Notes go to stderr only once everything is read and described: bad input gets its one line.
     let mut notes = Vec::new();
+    // One image named twice (by any path to it) would count its pixels twice: every error bar √2
+    // too small and a view the design counts as two.
+    let mut seen = std::collections::HashSet::new();
+    for p in paths {
+        if !seen.insert(std::fs::canonicalize(p).unwrap_or_else(|_| p.clone())) {
+            return Err(Error::file(p, "given more than once: its pixels would count twice (name each view once)"));
+        }
+    }
     let mut images = Vec::with_capacity(paths.len());
     for p in paths {
         let (img, note) = read_image(p)?.select_layer(view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;

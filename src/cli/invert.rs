@@ -396,10 +396,26 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         coefficient_amplification = Some(v.amplification);
         channel_fits = Some(v.channels);
         warnings.extend(v.warnings);
-        warnings.push(
-            "the regularised lighting is the Tikhonov solution on the B_lm fitted to these views (not the pixel-space fit)"
-                .to_string(),
-        );
+        if inv.regularised.needed.iter().any(|&n| n) {
+            warnings.push(
+                "the regularised lighting is the Tikhonov solution on the B_lm fitted to these views (not the \
+                 pixel-space fit): on views that see part of the sphere those B_lm alias the orders above l_max, so \
+                 it carries no error bars and only the orders reported recovered are meaningful"
+                    .to_string(),
+            );
+        }
+    }
+    // The mean radiance L_00 / (2√π) cannot be negative: a regularised solution with L_00 < 0 is the
+    // filter's inverse of noise or aliasing, not a lighting (one Lambert view at --lmax 6 gave
+    // L_00 = −7.3 for the map's 2.5 while the pixel-space fit gave 2.25).
+    let negative: Vec<&str> =
+        (0..3).filter(|&c| inv.regularised.coefficients[0][c] < 0.0).map(|c| CHANNELS[c]).collect();
+    if !negative.is_empty() {
+        warnings.push(format!(
+            "the regularised lighting has L_00 < 0 in {} (a negative mean radiance): it is not a physical lighting — \
+             lower --lmax, add views, or use the coefficients of the orders reported recovered",
+            negative.join(" ")
+        ));
     }
     Ok(InvertLightingReport {
         command: "invert lighting".into(),
@@ -597,9 +613,23 @@ fn brdf_report(
     channels: Vec<BrdfChannelFit>,
     filter: Vec<BrdfOrder>,
     filter_fit: Option<FilterFitReport>,
-    warnings: Vec<String>,
+    mut warnings: Vec<String>,
 ) -> InvertBrdfReport {
     let model = fit.model;
+    // A minimum of χ² on the search range's bound is no estimate: χ² still falls beyond it (a
+    // mismatched model runs s to the bottom of the range: a 90°-rotated lighting gave s = 0.5 of
+    // [0.5, 10000], printed as the interval [unbounded, 0.5]).
+    let (lo, hi) = fit.range;
+    let near = |b: f64| (fit.parameter.ln() - b.ln()).abs() < 1e-6;
+    if near(lo) || near(hi) {
+        warnings.push(format!(
+            "{} = {} is at the edge of the search range [{lo}, {hi}]: χ² still falls beyond it, so it is no estimate \
+             — a model that does not fit these images (see the warnings above) or a value outside the range \
+             (--min / --max)",
+            model.parameter_name(),
+            fit.parameter
+        ));
+    }
     InvertBrdfReport {
         fit: how,
         channels,
@@ -796,16 +826,27 @@ impl std::fmt::Display for InvertBrdfReport {
             writeln!(f)?;
         }
         let iv = |v: Option<f64>| v.map_or("unbounded".to_string(), |x| format!("{x:.4}"));
+        // Per-channel fits: the one reported is the narrowest interval's; say which, and the others.
+        let reported = self.channels.iter().find(|c| c.estimate == self.estimate).map(|c| c.channel.as_str());
         writeln!(
             f,
-            "# {} {} = {:.4}, Δχ² = 1 interval [{}, {}] within the search range {:?}",
+            "# {} {} = {:.4}{}, Δχ² = 1 interval [{}, {}] within the search range {:?}",
             self.model,
             self.parameter,
             self.estimate,
+            reported.map_or(String::new(), |c| format!(" (channel {c}, the narrowest interval)")),
             iv(self.interval[0]),
             iv(self.interval[1]),
             self.range
         )?;
+        if self.channels.len() > 1 {
+            let each: Vec<String> = self
+                .channels
+                .iter()
+                .map(|c| format!("{} {:.4} [{}, {}]", c.channel, c.estimate, iv(c.interval[0]), iv(c.interval[1])))
+                .collect();
+            writeln!(f, "# per channel: {}", each.join(", "))?;
+        }
         if let Some(n) = &self.pixel_noise {
             writeln!(f, "{}", n.line())?;
         }

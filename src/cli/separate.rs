@@ -1202,6 +1202,8 @@ mod tests {
             path
         };
         let d0 = mk("bad-d0.exr", 0.0, 0.0, small, MIX);
+        let d0_copy = d0.with_file_name("bad-d0-copy.exr");
+        std::fs::copy(&d0, &d0_copy).unwrap();
         let s1 = mk("bad-s1.exr", 40.0, 0.0, small, MIX);
         let s2 = mk("bad-s2.exr", 40.0, 180.0, small, MIX);
         let s90 = mk("bad-s90.exr", 40.0, 90.0, small, MIX);
@@ -1222,7 +1224,8 @@ mod tests {
             (args(vec![d0.clone(), missing.clone()]), Some(&missing), "cannot read"),
             (args(vec![ortho_path.clone(), s1.clone()]), Some(&ortho_path), "not a normal-probe render"),
             (args(vec![s1.clone(), s2.clone()]), Some(&s1), "θ_o = 0"),
-            (args(vec![d0.clone(), d0.clone()]), Some(&d0), "θ_o > 0"),
+            (args(vec![d0.clone(), d0_copy.clone()]), Some(&d0_copy), "θ_o > 0"),
+            (args(vec![d0.clone(), d0.clone()]), Some(&d0), "given more than once"),
             (args(vec![d0.clone(), s1.clone(), big.clone()]), Some(&big), "differs"),
             (args(vec![d0.clone(), s90.clone()]), Some(&s90), "φ_o"),
             (args(vec![d0.clone()]), None, "at least one specular view"),

@@ -411,7 +411,10 @@ pub fn invert_lighting_views(
             crate::fit::relative_misfit(&rows, &value, have_sigma.then_some(&sigma[..]), &weight, &fit.coef);
         let top = seq.as_ref().map_or(lmax, |q| q.l_top);
         if have_sigma && let Some(x) = x {
-            if let Some(r) = robust.filter(|&r| crate::filter::mismatch(r, relative_misfit)) {
+            // A reported mismatch says what the excess χ² is; the notes below would only give it other
+            // causes (a rare heavy sample, signal above the fitted orders) and mislead.
+            let mismatched = robust.is_some_and(|r| crate::filter::mismatch(r, relative_misfit));
+            if let Some(r) = robust.filter(|_| mismatched) {
                 warnings.push(format!(
                     "lighting fit, channel {name}: robust χ²/ν = {r:.3} (χ²/ν = {x:.3}, misfit {:.0} % of the signal): the BRDF and \
                      l_max do not describe the image — lighting above l_max (a mirror under a detailed map: then the \
@@ -421,6 +424,7 @@ pub fn invert_lighting_views(
                 ));
             }
             match (x_top, robust_top) {
+                _ if mismatched => {}
                 (Some(xt), Some(rt)) if rt > crate::fit::NOISE_CHI2_MAX => warnings.push(format!(
                     "lighting fit, channel {name}: robust χ²/ν = {rt:.3e} (χ²/ν = {xt:.3e}) even with orders up to \
                      l = {top}: the residual is signal the fit does not carry (lighting above l = {top}, or a wrong \

@@ -282,8 +282,8 @@ mod tests {
         let a = scalar(&xy);
         let b = lanes_base(&ys, &xs);
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the feature was detected.
+        if crate::render::has_x86_64_v3() {
+            // SAFETY: every feature of lanes_v3 was detected.
             assert_eq!(b, unsafe { lanes_v3(&ys, &xs) });
         }
         assert!(a.is_finite() && b.is_finite());
