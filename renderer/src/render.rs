@@ -4,7 +4,6 @@
 
 use crate::film::{Film, Partial, PixelAccumulator, Stats, batch_log2, canonical_blocks};
 use crate::integrator::PathTracer;
-use crate::math::Vec2;
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -227,26 +226,18 @@ fn render_tile_body(
         for col in x0..x1 {
             let pixel_id = row as u64 * s.width as u64 + col as u64;
             acc.reset(start);
-            // Batches of LANES samples draw their first vertex's 2D numbers together, in SIMD
-            // lanes in the x86-64-v3 copy (`Sampler::draw_ahead`: the same bits); the rest of a
-            // pixel's samples, below a batch, draw theirs one by one.
-            let mut ahead = None;
-            for i in start..end {
-                let lane = ((i - start) % LANES as u64) as usize;
-                if lane == 0 {
-                    ahead = (end - i >= LANES as u64)
-                        .then(|| sampler.draw_ahead(pixel_id, &std::array::from_fn(|k| (i + k as u64) as u32)));
+            // The pixel's samples in batches of LANES (the last one partial), each traced stage by
+            // stage (`PathTracer::li_lanes`) and accumulated in sample order, so that the
+            // statistics keep their bits.
+            let mut i = start;
+            while i < end {
+                let n = (end - i).min(LANES as u64) as usize;
+                let results = tracer.li_lanes(&mut sampler, pixel_id, row, col, i, n, jitter);
+                for r in &results[..n] {
+                    rays += r.rays as u64;
+                    acc.add(r.radiance, r.normal, r.hit);
                 }
-                sampler.start(pixel_id, i as u32);
-                if let Some(ahead) = &ahead {
-                    sampler.use_ahead(ahead, lane);
-                }
-                let u = sampler.next_2d();
-                let u = if jitter { u } else { Vec2::splat(0.5) };
-                let primary = scene.camera.generate(row, col, u);
-                let r = tracer.li(primary, &mut sampler);
-                rays += r.rays as u64;
-                acc.add(r.radiance, r.normal, r.hit);
+                i += n as u64;
             }
             out.extend(acc.blocks().map(|(_, st)| *st));
         }
@@ -260,14 +251,49 @@ mod tests {
     use crate::scene::SceneFile;
     use std::path::PathBuf;
 
-    /// Every scene in `scenes/` (24², 4 spp: every camera, BRDF, light, texture and mesh there) gives
-    /// the same bits through the dispatched tile loop as through the loop compiled for the build's
-    /// baseline. On a CPU without x86-64-v3 both are the baseline and the test checks nothing more.
-    /// Rust's semantics give both copies the same values (no multiply-add contraction; `mul_add` is
-    /// fused in both, an `fmaf` call or an FMA instruction), so this guards the claim against a
-    /// mis-compilation and against feature-dependent code added to the tile loop later.
-    #[test]
-    fn dispatch_gives_the_baseline_bits() {
+    /// The tile loop of the one-sample-at-a-time path tracer (`li_reference`), as the renderer ran it
+    /// before the batched integrator: the oracle of `batched_integrator_gives_the_reference_bits`.
+    fn render_tile_reference(
+        scene: &Scene,
+        tracer: &PathTracer,
+        [x0, y0, x1, y1]: [u32; 4],
+        start: u64,
+        end: u64,
+    ) -> (Vec<Stats>, u64) {
+        let s = &scene.settings;
+        let mut sampler = Sampler::new(s.sampler, s.seed);
+        let jitter = scene.camera.jitters();
+        let mut out = Vec::new();
+        let mut rays = 0u64;
+        let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
+        for row in y0..y1 {
+            for col in x0..x1 {
+                let pixel_id = row as u64 * s.width as u64 + col as u64;
+                acc.reset(start);
+                let mut ahead = None;
+                for i in start..end {
+                    let lane = ((i - start) % LANES as u64) as usize;
+                    if lane == 0 {
+                        ahead = (end - i >= LANES as u64)
+                            .then(|| sampler.draw_ahead(pixel_id, &std::array::from_fn(|k| (i + k as u64) as u32)));
+                    }
+                    sampler.start(pixel_id, i as u32);
+                    if let Some(ahead) = &ahead {
+                        sampler.use_ahead(ahead, lane);
+                    }
+                    let u = sampler.next_2d();
+                    let u = if jitter { u } else { crate::math::Vec2::splat(0.5) };
+                    let r = tracer.li_reference(scene.camera.generate(row, col, u), &mut sampler);
+                    rays += r.rays as u64;
+                    acc.add(r.radiance, r.normal, r.hit);
+                }
+                out.extend(acc.blocks().map(|(_, st)| *st));
+            }
+        }
+        (out, rays)
+    }
+
+    fn scene_files() -> Vec<PathBuf> {
         let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes");
         let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
             .unwrap()
@@ -276,7 +302,47 @@ mod tests {
             .collect();
         paths.sort();
         assert!(paths.len() >= 20, "scenes/ has {} scene files", paths.len());
-        for path in paths {
+        paths
+    }
+
+    fn bits(v: &[Stats]) -> Vec<u64> {
+        v.iter().flat_map(|s| s.0.map(f64::to_bits)).collect()
+    }
+
+    /// The batched integrator (`PathTracer::li_lanes`, through the tile loop the renderer runs)
+    /// gives, on every scene in `scenes/` (every camera, BRDF, light, texture and mesh there), the
+    /// bits and ray counts of the one-sample-at-a-time path tracer it replaced. 16², depth as the
+    /// scene says (at least 4, so that Russian roulette runs), samples [3, 14) of 16 (a full batch
+    /// of 8 with its numbers drawn ahead, then a partial one of 3) and [0, 16).
+    #[test]
+    fn batched_integrator_gives_the_reference_bits() {
+        for path in scene_files() {
+            let mut file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            file.render.width = 16;
+            file.render.height = 16;
+            file.render.spp = 16;
+            file.render.max_depth = file.render.max_depth.max(5);
+            let scene = Scene::build(file, path.parent().unwrap()).unwrap();
+            let tracer = PathTracer::new(&scene);
+            let rect = [0, 0, 16, 16];
+            for (start, end) in [(3, 14), (0, 16)] {
+                let (a, ra) = render_tile(&scene, &tracer, rect, start, end);
+                let (b, rb) = render_tile_reference(&scene, &tracer, rect, start, end);
+                assert_eq!(ra, rb, "{}: ray counts", path.display());
+                assert!(bits(&a) == bits(&b), "{}: the batched integrator changed bits", path.display());
+            }
+        }
+    }
+
+    /// Every scene in `scenes/` (24², 4 spp: every camera, BRDF, light, texture and mesh there) gives
+    /// the same bits through the dispatched tile loop as through the loop compiled for the build's
+    /// baseline. On a CPU without x86-64-v3 both are the baseline and the test checks nothing more.
+    /// Rust's semantics give both copies the same values (no multiply-add contraction; `mul_add` is
+    /// fused in both, an `fmaf` call or an FMA instruction), so this guards the claim against a
+    /// mis-compilation and against feature-dependent code added to the tile loop later.
+    #[test]
+    fn dispatch_gives_the_baseline_bits() {
+        for path in scene_files() {
             let mut file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
             file.render.width = 24;
             file.render.height = 24;
@@ -287,7 +353,6 @@ mod tests {
             let (a, ra) = render_tile(&scene, &tracer, rect, 0, 4);
             let (b, rb) = render_tile_body(&scene, &tracer, rect, 0, 4);
             assert_eq!(ra, rb, "{}", path.display());
-            let bits = |v: &[Stats]| v.iter().flat_map(|s| s.0.map(f64::to_bits)).collect::<Vec<u64>>();
             assert!(bits(&a) == bits(&b), "{}: the dispatched tile loop changed bits", path.display());
         }
     }

@@ -179,6 +179,13 @@ impl SceneGeometry {
         self.single_sphere.is_some()
     }
 
+    /// The sphere of a scene made of one sphere alone (object 0; see
+    /// [`SceneGeometry::is_single_sphere`]): [`SceneGeometry::intersect`] is its intersection.
+    #[inline]
+    pub fn single_sphere(&self) -> Option<&Sphere> {
+        self.single_sphere.as_ref()
+    }
+
     /// Number of BVH primitives (triangles plus spheres); 1 for the single-sphere fast path.
     pub fn num_primitives(&self) -> usize {
         if self.single_sphere.is_some() { 1 } else { self.prims.len() }

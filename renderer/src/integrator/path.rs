@@ -1,4 +1,6 @@
-//! Unidirectional path tracer.
+//! Unidirectional path tracer, batched: the samples of a pixel are traced [`LANES`] at a time,
+//! stage by stage over the batch (a wavefront within one pixel's batch; Laine, Karras and Aila
+//! 2013, "Megakernels considered harmful", at the scale of 8 paths).
 //!
 //! At every vertex: next-event estimation (one light sample) and one BRDF sample, combined by
 //! multiple importance sampling with the power heuristic (Veach 1997); Russian roulette after
@@ -10,17 +12,17 @@
 //! Directions below the horizon only reach a BRDF with `horizon = "ignore"` (the paper's
 //! simplification, CONVENTIONS §4): they gather the distant light unoccluded by definition.
 
-use crate::brdf::Bxdf;
+use crate::brdf::{BrdfSample, Bxdf, Outgoing};
 use crate::camera::PrimarySample;
-use crate::geometry::Ray;
 use crate::geometry::shading::adapt_shading_normal;
-use crate::light::DistantLight;
-use crate::math::{Frame, Rgb, Vec3};
-use crate::sampling::Sampler;
+use crate::geometry::{Hit, Ray};
+use crate::light::{DistantLight, LightSample, Located};
+use crate::math::{Frame, Rgb, Vec2, Vec3};
+use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
 
 /// Russian roulette starts after this many vertices (the first bounces are never cut).
-const RR_START: u32 = 3;
+pub(super) const RR_START: u32 = 3;
 
 /// What one primary sample returns.
 #[derive(Clone, Copy, Debug, Default)]
@@ -34,14 +36,14 @@ pub struct SampleResult {
 }
 
 pub struct PathTracer<'a> {
-    scene: &'a Scene,
-    max_depth: u32,
+    pub(super) scene: &'a Scene,
+    pub(super) max_depth: u32,
     /// True when no geometry can occlude a direction above a hit's horizon.
-    single_convex: bool,
+    pub(super) single_convex: bool,
 }
 
 #[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
@@ -49,9 +51,90 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
 /// Offset along the geometric normal to keep secondary rays off their own surface, scaled with
 /// the magnitude of the position (f32 rounding grows with it).
 #[inline]
-fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+pub(super) fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     let eps = 1e-4 * (1.0 + p.abs().max_element());
     if ng.dot(dir) >= 0.0 { p + eps * ng } else { p - eps * ng }
+}
+
+/// One path between the stages of a vertex: what the one-sample loop carried from vertex to vertex.
+#[derive(Clone, Copy, Debug)]
+struct PathState {
+    /// Throughput: the product of the BRDF sample weights (and albedo textures) so far.
+    beta: Rgb,
+    /// Radiance gathered so far.
+    radiance: Rgb,
+    /// The current vertex: position, shading and geometric normals, ω_o (world) and its object.
+    p: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    wo_world: Vec3,
+    object: u32,
+    /// Surface vertices so far (1 at the first hit).
+    depth: u32,
+    /// The path has a vertex to shade.
+    alive: bool,
+}
+
+impl PathState {
+    const DONE: PathState = PathState {
+        beta: Rgb::ZERO,
+        radiance: Rgb::ZERO,
+        p: Vec3::ZERO,
+        n: Vec3::ZERO,
+        ng: Vec3::ZERO,
+        wo_world: Vec3::ZERO,
+        object: 0,
+        depth: 0,
+        alive: false,
+    };
+
+    #[inline(always)]
+    fn at(p: Vec3, n: Vec3, ng: Vec3, wo_world: Vec3, object: u32) -> Self {
+        PathState { beta: Rgb::ONE, radiance: Rgb::ZERO, p, n, ng, wo_world, object, depth: 1, alive: true }
+    }
+}
+
+/// What the first stage of a vertex ([`PathTracer::plan_vertex`]) leaves for the others.
+#[derive(Clone, Copy, Debug)]
+struct VertexPlan {
+    frame: Frame,
+    outgoing: Outgoing,
+    u_light: Vec2,
+    /// The BRDF's sample (`None`: no sample, or a zero weight).
+    bs: Option<BrdfSample>,
+    /// Its world direction, unit, and then (stage 1's second half) the light's data located for it.
+    located: Located,
+}
+
+impl VertexPlan {
+    const NONE: VertexPlan = VertexPlan {
+        frame: Frame { s: Vec3::ZERO, t: Vec3::ZERO, n: Vec3::ZERO },
+        outgoing: Outgoing { wo: Vec3::ZERO, lambda_o: 0.0 },
+        u_light: Vec2::ZERO,
+        bs: None,
+        located: Located::NONE,
+    };
+}
+
+/// Next-event estimation waiting for its shadow ray: the light sample and the BRDF's value for it.
+#[derive(Clone, Copy, Debug)]
+struct PendingNee {
+    ls: LightSample,
+    wi: Vec3,
+    f: Rgb,
+}
+
+/// One stage's rays, a slot per lane (`want[k]`: lane k has a ray to trace).
+struct LaneRays {
+    rays: [Ray; LANES],
+    want: [bool; LANES],
+}
+
+impl LaneRays {
+    #[inline(always)]
+    fn new() -> Self {
+        LaneRays { rays: [Ray::new(Vec3::ZERO, Vec3::Z); LANES], want: [false; LANES] }
+    }
 }
 
 impl<'a> PathTracer<'a> {
@@ -59,143 +142,356 @@ impl<'a> PathTracer<'a> {
         PathTracer { scene, max_depth: scene.settings.max_depth, single_convex: scene.geometry.is_single_sphere() }
     }
 
-    #[inline]
-    fn visible(&self, p: Vec3, ng: Vec3, n: Vec3, dir: Vec3, ignores_horizon: bool, rays: &mut u32) -> bool {
-        if n.dot(dir) <= 0.0 && ignores_horizon {
-            return true;
-        }
-        if self.single_convex && ng.dot(dir) > 0.0 {
-            return true;
-        }
-        *rays += 1;
-        !self.scene.geometry.occluded(&Ray::new(offset_origin(p, ng, dir), dir))
-    }
-
-    /// Estimates the radiance of one primary sample. The sampler must already be positioned at
-    /// the pixel sample (dimension 2 onward: the camera used dimensions 0–1). Always inlined, so
-    /// that each instruction-set version of the render's tile loop has its own copy (`render_tile`).
+    /// Traces samples `first .. first + n` (1 ≤ n ≤ [`LANES`]) of pixel (`row`, `col`), whose
+    /// sampler id is `pixel`, from their camera sample on; returns their results in lanes `0..n`
+    /// (the others are default). Sample k draws the numbers of `sampler.start(pixel, first + k)`
+    /// (a full batch draws its first vertex's 2D numbers together, [`Sampler::draw_ahead`]), and
+    /// computes the bits of the one-sample-at-a-time path tracer (`li_reference`, the tests'
+    /// oracle: `render::tests` compares every scene in `scenes/`). With `jitter` false the camera
+    /// sample is the pixel centre (the normal-probe camera's option).
+    ///
+    /// Each stage of a vertex runs over all live lanes before the next: the shading frame, the
+    /// numbers and the BRDF's sample, with the loads of the light's data for that direction and of
+    /// the light's sampling tables for u_light all issued before any is read; next-event
+    /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
+    /// next vertex. The lat-long lookups of the BRDF directions ([`DistantLight::locate_lanes`]) and
+    /// a single sphere's intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD
+    /// lanes; the rest loops over the live lanes with the one-sample code. The lanes keep their own place in their sample's
+    /// sequence ([`SampleCursor`]) and share the pixel's scrambling keys.
+    ///
+    /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
-    pub fn li(&self, primary: PrimarySample, sampler: &mut Sampler) -> SampleResult {
+    #[allow(clippy::too_many_arguments)]
+    pub fn li_lanes(
+        &self,
+        sampler: &mut Sampler,
+        pixel: u64,
+        row: u32,
+        col: u32,
+        first: u64,
+        n: usize,
+        jitter: bool,
+    ) -> [SampleResult; LANES] {
+        debug_assert!((1..=LANES).contains(&n));
         let scene = self.scene;
-        let light = &scene.light;
-        let mut out = SampleResult::default();
-        let mut beta = Rgb::ONE;
-        let mut radiance = Rgb::ZERO;
+        let mut out = [SampleResult::default(); LANES];
+        let mut st = [PathState::DONE; LANES];
+        let mut cursor = [sampler.cursor(); LANES];
 
-        // The first vertex: from the camera ray, or given directly by the normal-probe camera.
-        let (mut p, mut n, mut ng, mut wo_world, mut object) = match primary {
-            PrimarySample::Surface { p, n, wo } => (p, n, n, wo, 0u32),
-            PrimarySample::Ray(ray) => {
-                out.rays += 1;
-                match scene.geometry.intersect(&ray) {
-                    Some(h) => (h.p, h.n, h.ng, -ray.dir, h.object),
-                    None => {
-                        out.radiance = light.eval(ray.dir);
-                        return out;
-                    }
+        // Camera: each lane's first two dimensions, then its primary sample.
+        // (No closures on this path: a closure is a function of its own, compiled for the build's
+        // baseline even when called from the x86-64-v3 copy of the tile loop, where LLVM may leave
+        // it out of line; the draws ahead run in AVX2 lanes only inside that copy.)
+        let mut ahead = None;
+        if n == LANES {
+            let mut index = [0u32; LANES];
+            for (k, i) in index.iter_mut().enumerate() {
+                *i = (first + k as u64) as u32;
+            }
+            ahead = Some(sampler.draw_ahead(pixel, &index));
+        }
+        let mut camera = LaneRays::new();
+        for k in 0..n {
+            sampler.start(pixel, (first + k as u64) as u32);
+            if let Some(ahead) = &ahead {
+                sampler.use_ahead(ahead, k);
+            }
+            let u = sampler.next_2d();
+            let u = if jitter { u } else { Vec2::splat(0.5) };
+            match scene.camera.generate(row, col, u) {
+                // The normal-probe camera hands over the first vertex itself.
+                PrimarySample::Surface { p, n, wo } => st[k] = PathState::at(p, n, n, wo, 0),
+                PrimarySample::Ray(ray) => {
+                    camera.rays[k] = ray;
+                    camera.want[k] = true;
+                    out[k].rays += 1;
                 }
             }
-        };
-        out.hit = true;
-        out.normal = n;
-
-        let mut depth = 1u32;
-        loop {
-            let brdf = &scene.brdfs[object as usize];
-            // An albedo texture scales the BRDF at this vertex (f → T(n) f): every contribution
-            // from here on carries it, and no sampling density changes.
-            if let Some(t) = &scene.textures[object as usize] {
-                beta *= t.eval(n);
+            cursor[k] = sampler.cursor();
+        }
+        let hits = self.trace(&camera);
+        for k in 0..n {
+            if camera.want[k] {
+                match hits[k] {
+                    Some(h) => st[k] = PathState::at(h.p, h.n, h.ng, -camera.rays[k].dir, h.object),
+                    None => out[k].radiance = scene.light.eval(camera.rays[k].dir),
+                }
             }
-            // Smooth meshes: keep ω_o above the shading hemisphere (Keller et al. 2017).
-            n = adapt_shading_normal(n, ng, wo_world);
-            let frame = Frame::from_normal(n);
-            let wo = frame.to_local(wo_world);
-            if wo.z <= 0.0 {
-                // Seen from below the shading hemisphere (e.g. an interpolated normal facing
-                // away): no reflection defined.
+            if st[k].alive {
+                out[k].hit = true;
+                out[k].normal = st[k].n;
+            }
+        }
+
+        let mut plan = [VertexPlan::NONE; LANES];
+        let mut planned = [false; LANES];
+        loop {
+            let mut any = false;
+            for s in &st {
+                any |= s.alive;
+            }
+            if !any {
                 break;
             }
-            let ignores = brdf.ignores_horizon();
-            // The BRDF's terms of ω_o (a microfacet's Smith Λ(ω_o)), shared by its sample, eval and pdf.
-            let outgoing = brdf.outgoing(wo);
-
-            let u_light = sampler.next_2d();
-            // Only a mix reads u_lobe; for the others its dimension is skipped, not drawn (the
-            // same numbers everywhere else, one Owen-scrambled draw less per vertex).
-            let u_lobe = if brdf.uses_lobe_choice() {
-                sampler.next_1d()
-            } else {
-                sampler.skip_1d();
-                0.0
-            };
-            let u_brdf = sampler.next_2d();
-            // The light's sampling tables for u_light start loading now, while the BRDF samples.
-            light.prefetch_sample(u_light);
-
-            // The BRDF direction is drawn first so that the light's data for it (an environment
-            // texel, megabytes away from anything recently used) can be fetched from memory while
-            // next-event estimation runs; it is used only after NEE, as before.
-            // `locate` finds its texel once (an environment map's lookup costs two arctangents)
-            // and starts the load; `eval_pdf_located` uses it below.
-            let bs = brdf.sample_at(&outgoing, u_lobe, u_brdf).filter(|bs| bs.weight != Rgb::ZERO);
-            let located = bs.map(|bs| light.locate(frame.to_world(bs.wi).normalize()));
-
-            // Next-event estimation: one direction from the light.
-            if let Some(ls) = light.sample(u_light).filter(|_| !brdf.is_delta()) {
-                let wi = frame.to_local(ls.wi);
-                let f = brdf.eval_at(&outgoing, wi);
-                if f != Rgb::ZERO && self.visible(p, ng, n, ls.wi, ignores, &mut out.rays) {
-                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, brdf.pdf_at(&outgoing, wi)) };
-                    radiance += beta * f * ls.value * w;
+            // Stage 1: frame, numbers, the BRDF's sample; the light's loads start.
+            for k in 0..LANES {
+                planned[k] = false;
+                if st[k].alive {
+                    sampler.resume(&cursor[k]);
+                    if st[k].depth == 1
+                        && let Some(ahead) = &ahead
+                    {
+                        sampler.use_ahead(ahead, k);
+                    }
+                    planned[k] = self.plan_vertex(&mut st[k], sampler, &mut plan[k]);
+                    cursor[k] = sampler.cursor();
                 }
             }
-
-            // BRDF sampling: continues the path and, where it escapes, collects the light with
-            // the complementary MIS weight.
-            let (Some(bs), Some(located)) = (bs, located) else { break };
-            let wi_world = located.wi;
-            beta *= bs.weight;
-
-            // Below the horizon with horizon = "ignore" the lobe sees the distant light directly;
-            // above a single sphere's horizon nothing can be in the way.
-            let unoccluded = (n.dot(wi_world) <= 0.0 && ignores) || (self.single_convex && ng.dot(wi_world) > 0.0);
-            let escaped = if unoccluded {
-                None
-            } else {
-                out.rays += 1;
-                scene.geometry.intersect(&Ray::new(offset_origin(p, ng, wi_world), wi_world))
-            };
-            match escaped {
-                None => {
-                    let (le, light_pdf) = light.eval_pdf_located(located);
-                    if le != Rgb::ZERO {
-                        let w = if bs.delta || light.is_delta() { 1.0 } else { power_heuristic(bs.pdf, light_pdf) };
-                        radiance += beta * le * w;
-                    }
-                    break;
+            // The BRDF directions located in the light, all lanes at once (an environment map's
+            // lookups run in SIMD lanes), which starts the loads of their texels.
+            let mut dirs = [Vec3::Z; LANES];
+            let mut sampled = [false; LANES];
+            for k in 0..LANES {
+                sampled[k] = planned[k] && plan[k].bs.is_some();
+                dirs[k] = plan[k].located.wi;
+            }
+            let located = scene.light.locate_lanes(&dirs, &sampled);
+            for k in 0..LANES {
+                if sampled[k] {
+                    plan[k].located = located[k];
                 }
-                Some(h) => {
-                    if depth >= self.max_depth {
-                        break;
+            }
+            // Stage 2: next-event estimation up to its shadow ray, then the batch's shadow rays.
+            let mut nee = [None::<PendingNee>; LANES];
+            let mut shadow = LaneRays::new();
+            for k in 0..LANES {
+                if !planned[k] {
+                    continue;
+                }
+                if let Some(pending) = self.light_sample(&st[k], &plan[k]) {
+                    if let Some(ray) = self.shadow_ray(&st[k], pending.ls.wi) {
+                        shadow.rays[k] = ray;
+                        shadow.want[k] = true;
+                        out[k].rays += 1;
                     }
-                    depth += 1;
-                    if depth > RR_START {
-                        let q = beta.abs().max_element().min(0.95);
-                        if sampler.next_1d() >= q {
-                            break;
-                        }
-                        beta /= q;
+                    nee[k] = Some(pending);
+                }
+            }
+            let occluded = self.occluded(&shadow);
+            for k in 0..LANES {
+                if let (true, Some(pending), false) = (planned[k], &nee[k], occluded[k]) {
+                    self.add_light_sample(&mut st[k], &plan[k], pending);
+                }
+            }
+            // Stage 3: the BRDF's direction continues the path; the batch's bounce rays.
+            let mut bounce = LaneRays::new();
+            for k in 0..LANES {
+                if !planned[k] {
+                    continue;
+                }
+                let (Some(bs), located) = (plan[k].bs, plan[k].located) else {
+                    st[k].alive = false;
+                    planned[k] = false;
+                    continue;
+                };
+                st[k].beta *= bs.weight;
+                if let Some(ray) = self.bounce_ray(&st[k], located.wi) {
+                    bounce.rays[k] = ray;
+                    bounce.want[k] = true;
+                    out[k].rays += 1;
+                }
+            }
+            let hits = self.trace(&bounce);
+            // Stage 4: the light where the path escapes, or the next vertex.
+            for k in 0..LANES {
+                let (true, Some(bs), located) = (planned[k], plan[k].bs, plan[k].located) else { continue };
+                match hits[k] {
+                    None => self.add_escaped(&mut st[k], &bs, located),
+                    Some(h) => {
+                        sampler.resume(&cursor[k]);
+                        self.next_vertex(&mut st[k], &h, located.wi, sampler);
+                        cursor[k] = sampler.cursor();
                     }
-                    p = h.p;
-                    n = h.n;
-                    ng = h.ng;
-                    wo_world = -wi_world;
-                    object = h.object;
                 }
             }
         }
-        out.radiance = radiance;
+        for k in 0..n {
+            if out[k].hit {
+                out[k].radiance = st[k].radiance;
+            }
+        }
         out
+    }
+
+    /// Closest hits of the wanted rays (`None` elsewhere).
+    #[inline(always)]
+    fn trace(&self, r: &LaneRays) -> [Option<Hit>; LANES] {
+        let mut hits = [None; LANES];
+        let geometry = &self.scene.geometry;
+        if let Some(sphere) = geometry.single_sphere() {
+            // One sphere (object 0): its roots in SIMD lanes, then the hit records.
+            let (t, hit) = sphere.intersect_t_lanes(&r.rays);
+            for k in 0..LANES {
+                if r.want[k] && hit[k] {
+                    hits[k] = Some(sphere.hit_at(&r.rays[k], t[k], 0));
+                }
+            }
+            return hits;
+        }
+        // A BVH: ray by ray. `intersect_batch` on a stage's ≤ 8 rays gives the same hits, but costed
+        // 62 % more render instructions on bench-mesh-sky and no wall time (README "Performance",
+        // eighth round): its interleaving pays off over many rays, not over one pixel's batch.
+        for ((hit, ray), &want) in hits.iter_mut().zip(&r.rays).zip(&r.want) {
+            if want {
+                *hit = geometry.intersect(ray);
+            }
+        }
+        hits
+    }
+
+    /// Whether each wanted ray is occluded (`false` elsewhere).
+    #[inline(always)]
+    fn occluded(&self, r: &LaneRays) -> [bool; LANES] {
+        let mut occluded = [false; LANES];
+        for ((o, ray), &want) in occluded.iter_mut().zip(&r.rays).zip(&r.want) {
+            if want {
+                *o = self.scene.geometry.occluded(ray);
+            }
+        }
+        occluded
+    }
+
+    /// The vertex's shading frame, its numbers (light 2D, lobe 1D, BRDF 2D, in that order of
+    /// dimensions) and the BRDF's sample. The sample's direction is located in the light (which
+    /// starts loading its texel) and the light's sampling tables for u_light start loading too;
+    /// both are read in later stages. Writes `plan`; false ends the path: seen from below the shading
+    /// hemisphere (e.g. an interpolated normal facing away), no reflection is defined.
+    #[inline(always)]
+    fn plan_vertex(&self, st: &mut PathState, sampler: &mut Sampler, plan: &mut VertexPlan) -> bool {
+        let scene = self.scene;
+        let brdf = &scene.brdfs[st.object as usize];
+        // An albedo texture scales the BRDF at this vertex (f → T(n) f): every contribution
+        // from here on carries it, and no sampling density changes.
+        if let Some(t) = &scene.textures[st.object as usize] {
+            st.beta *= t.eval(st.n);
+        }
+        // Smooth meshes: keep ω_o above the shading hemisphere (Keller et al. 2017).
+        st.n = adapt_shading_normal(st.n, st.ng, st.wo_world);
+        let frame = Frame::from_normal(st.n);
+        let wo = frame.to_local(st.wo_world);
+        if wo.z <= 0.0 {
+            st.alive = false;
+            return false;
+        }
+        // The BRDF's terms of ω_o (a microfacet's Smith Λ(ω_o)), shared by its sample, eval and pdf.
+        let outgoing = brdf.outgoing(wo);
+        let u_light = sampler.next_2d();
+        // Only a mix reads u_lobe; for the others its dimension is skipped, not drawn (the same
+        // numbers everywhere else, one Owen-scrambled draw less per vertex).
+        let u_lobe = if brdf.uses_lobe_choice() {
+            sampler.next_1d()
+        } else {
+            sampler.skip_1d();
+            0.0
+        };
+        let u_brdf = sampler.next_2d();
+        scene.light.prefetch_sample(u_light);
+        // The direction is located in the light after this stage (`locate_lanes`: an environment
+        // map's texel found once, its load started); `eval_pdf_located` reads it in stage 4.
+        plan.bs = match brdf.sample_at(&outgoing, u_lobe, u_brdf) {
+            Some(bs) if bs.weight != Rgb::ZERO => {
+                plan.located.wi = frame.to_world(bs.wi).normalize();
+                Some(bs)
+            }
+            _ => None,
+        };
+        plan.frame = frame;
+        plan.outgoing = outgoing;
+        plan.u_light = u_light;
+        true
+    }
+
+    /// Next-event estimation's light sample and the BRDF's value for it; `None` where it cannot
+    /// contribute (no sample, a Dirac BRDF, or f = 0).
+    #[inline(always)]
+    fn light_sample(&self, st: &PathState, pl: &VertexPlan) -> Option<PendingNee> {
+        let brdf = &self.scene.brdfs[st.object as usize];
+        if brdf.is_delta() {
+            return None;
+        }
+        let ls = self.scene.light.sample(pl.u_light)?;
+        let wi = pl.frame.to_local(ls.wi);
+        let f = brdf.eval_at(&pl.outgoing, wi);
+        (f != Rgb::ZERO).then_some(PendingNee { ls, wi, f })
+    }
+
+    /// The shadow ray toward light direction `dir`, or `None` where nothing can be in the way:
+    /// below the horizon of a BRDF with `horizon = "ignore"` the lobe sees the distant light by
+    /// definition, and above a single sphere's horizon nothing can occlude.
+    #[inline(always)]
+    fn shadow_ray(&self, st: &PathState, dir: Vec3) -> Option<Ray> {
+        let ignores = self.scene.brdfs[st.object as usize].ignores_horizon();
+        if st.n.dot(dir) <= 0.0 && ignores {
+            return None;
+        }
+        if self.single_convex && st.ng.dot(dir) > 0.0 {
+            return None;
+        }
+        Some(Ray::new(offset_origin(st.p, st.ng, dir), dir))
+    }
+
+    /// Adds next-event estimation's contribution of an unoccluded light sample, MIS-weighted
+    /// against the BRDF's density (power heuristic).
+    #[inline(always)]
+    fn add_light_sample(&self, st: &mut PathState, pl: &VertexPlan, nee: &PendingNee) {
+        let brdf = &self.scene.brdfs[st.object as usize];
+        let w = if nee.ls.delta { 1.0 } else { power_heuristic(nee.ls.pdf, brdf.pdf_at(&pl.outgoing, nee.wi)) };
+        st.radiance += st.beta * nee.f * nee.ls.value * w;
+    }
+
+    /// The ray continuing the path along the BRDF's direction `dir`, or `None` where it escapes
+    /// unoccluded by definition (as [`PathTracer::shadow_ray`]).
+    #[inline(always)]
+    fn bounce_ray(&self, st: &PathState, dir: Vec3) -> Option<Ray> {
+        let ignores = self.scene.brdfs[st.object as usize].ignores_horizon();
+        let unoccluded = (st.n.dot(dir) <= 0.0 && ignores) || (self.single_convex && st.ng.dot(dir) > 0.0);
+        if unoccluded { None } else { Some(Ray::new(offset_origin(st.p, st.ng, dir), dir)) }
+    }
+
+    /// The path escaped along the BRDF's direction: the light there, with the complementary MIS
+    /// weight. Ends the path.
+    #[inline(always)]
+    fn add_escaped(&self, st: &mut PathState, bs: &BrdfSample, located: Located) {
+        let light = &self.scene.light;
+        let (le, light_pdf) = light.eval_pdf_located(located);
+        if le != Rgb::ZERO {
+            let w = if bs.delta || light.is_delta() { 1.0 } else { power_heuristic(bs.pdf, light_pdf) };
+            st.radiance += st.beta * le * w;
+        }
+        st.alive = false;
+    }
+
+    /// The path hit `h` along `wi_world`: the next vertex, unless the depth limit or Russian
+    /// roulette (after [`RR_START`] vertices, survival probability min(max β, 0.95)) ends it.
+    #[inline(always)]
+    fn next_vertex(&self, st: &mut PathState, h: &Hit, wi_world: Vec3, sampler: &mut Sampler) {
+        if st.depth >= self.max_depth {
+            st.alive = false;
+            return;
+        }
+        st.depth += 1;
+        if st.depth > RR_START {
+            let q = st.beta.abs().max_element().min(0.95);
+            if sampler.next_1d() >= q {
+                st.alive = false;
+                return;
+            }
+            st.beta /= q;
+        }
+        st.p = h.p;
+        st.n = h.n;
+        st.ng = h.ng;
+        st.wo_world = -wi_world;
+        st.object = h.object;
     }
 }

@@ -21,6 +21,7 @@
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample, Located};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
+use crate::sampling::LANES;
 use crate::sampling::distribution::PiecewiseConstant2D;
 use rayon::prelude::*;
 use std::path::Path;
@@ -252,6 +253,40 @@ impl DistantLight for Envmap {
         let (index, theta) = self.texel_index(wi);
         prefetch_read(self.texel(index));
         Located { wi, index, theta }
+    }
+
+    /// Lat-long: the rotation to the map's frame and [`LatLongGrid::cell`] in SIMD lanes (the
+    /// operations of `locate`, lane by lane: the same bits), then each texel's load starts.
+    #[inline(always)]
+    fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
+        let EnvSampler::LatLong(grid) = &self.sampler else {
+            let mut out = [Located::NONE; LANES];
+            for k in 0..LANES {
+                if want[k] {
+                    out[k] = self.locate(wi[k]);
+                }
+            }
+            return out;
+        };
+        // d = rotationᵀ · wi as glam's `Mat3 * Vec3` computes it: x_axis·wx + y_axis·wy + z_axis·wz,
+        // added in that order.
+        let m = &self.inv_rotation;
+        let (mut x, mut y, mut z) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        for k in 0..LANES {
+            let w = wi[k];
+            x[k] = m.x_axis.x * w.x + m.y_axis.x * w.y + m.z_axis.x * w.z;
+            y[k] = m.x_axis.y * w.x + m.y_axis.y * w.y + m.z_axis.y * w.z;
+            z[k] = m.x_axis.z * w.x + m.y_axis.z * w.y + m.z_axis.z * w.z;
+        }
+        let index = grid.cell_index_lanes(&x, &y, &z);
+        let mut out = [Located::NONE; LANES];
+        for k in 0..LANES {
+            if want[k] {
+                prefetch_read(self.texel(index[k]));
+                out[k] = Located { wi: wi[k], index: index[k], theta: 0.0 };
+            }
+        }
+        out
     }
 
     #[inline]

@@ -16,6 +16,7 @@ pub use sh::ShLight;
 pub use uniform::Uniform;
 
 use crate::math::{Rgb, Vec2, Vec3};
+use crate::sampling::LANES;
 
 /// A direction drawn from a light.
 #[derive(Clone, Copy, Debug)]
@@ -41,6 +42,11 @@ pub struct Located {
     pub(crate) theta: f32,
 }
 
+impl Located {
+    /// A placeholder for lanes that locate nothing.
+    pub(crate) const NONE: Located = Located { wi: Vec3::ZERO, index: 0, theta: 0.0 };
+}
+
 /// The interface of every distant light.
 pub trait DistantLight {
     /// Radiance arriving from world direction `wi` (0 for a delta light).
@@ -59,6 +65,18 @@ pub trait DistantLight {
     #[inline]
     fn locate(&self, wi: Vec3) -> Located {
         Located { wi, index: 0, theta: 0.0 }
+    }
+    /// [`DistantLight::locate`] of the lanes `k` with `want[k]` (the same results; the other lanes'
+    /// are unspecified). An environment map locates lat-long directions in SIMD lanes.
+    #[inline(always)]
+    fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
+        let mut out = [Located::NONE; LANES];
+        for k in 0..LANES {
+            if want[k] {
+                out[k] = self.locate(wi[k]);
+            }
+        }
+        out
     }
     /// `eval_pdf(at.wi)` for `at` returned by this light's [`DistantLight::locate`] (same bits).
     #[inline]
@@ -121,6 +139,10 @@ impl DistantLight for Light {
     #[inline]
     fn locate(&self, wi: Vec3) -> Located {
         dispatch!(self, l => l.locate(wi))
+    }
+    #[inline(always)]
+    fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
+        dispatch!(self, l => l.locate_lanes(wi, want))
     }
     #[inline]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {

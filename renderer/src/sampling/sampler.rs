@@ -290,9 +290,41 @@ impl Sampler {
     }
 }
 
-/// Lanes of a batch: the samples the batched integrator (not built yet; branch `speed`) traces in
-/// lockstep, one per SIMD lane of AVX2's 256-bit registers.
+/// Lanes of a batch: the samples of one pixel the batched integrator
+/// ([`crate::integrator::PathTracer::li_lanes`]) traces together, stage by stage, one per SIMD lane
+/// of AVX2's 256-bit registers where a stage runs in them.
 pub const LANES: usize = 8;
+
+/// Where one sample of the current pixel stands in its sequence (its index and next dimension).
+/// The batched integrator keeps one per lane and moves the sampler between them
+/// ([`Sampler::cursor`], [`Sampler::resume`]), so that the lanes of a pixel share the pixel's
+/// memoized scrambling keys and each lane draws exactly the numbers it would alone.
+#[derive(Clone, Copy, Debug)]
+pub struct SampleCursor {
+    index: u32,
+    index_reversed: u32,
+    dim: u32,
+}
+
+impl Sampler {
+    /// The current sample's position (see [`SampleCursor`]).
+    #[inline(always)]
+    pub fn cursor(&self) -> SampleCursor {
+        SampleCursor { index: self.index, index_reversed: self.index_reversed, dim: self.dim }
+    }
+
+    /// Continues the sample of `c`, taken by [`Sampler::cursor`] since the last `start` at another
+    /// pixel: the next draws are those that sample would have made next (the same bits). Draws made
+    /// ahead ([`Sampler::use_ahead`]) are not part of a cursor: they are forgotten, and computed
+    /// again where reached (the same bits) unless `use_ahead` gives them back.
+    #[inline(always)]
+    pub fn resume(&mut self, c: &SampleCursor) {
+        self.index = c.index;
+        self.index_reversed = c.index_reversed;
+        self.dim = c.dim;
+        self.have_pre = 0;
+    }
+}
 
 impl Sampler {
     /// The next 2D draw of `LANES` samples of the current pixel at once, in structure-of-arrays
