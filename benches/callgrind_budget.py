@@ -7,9 +7,9 @@
     python3 benches/callgrind_budget.py cg.out target/release/reflect --samples 262144
 
 Callgrind charges an instruction to the function symbol it sits in, and in a release build most of the
-render is inlined into `PathTracer::li`. This script asks `addr2line -i` for the inline chain of every
+render is inlined into `PathTracer::li_lanes`. This script asks `addr2line -i` for the inline chain of every
 instruction address and charges the instruction to the stage of the renderer that called it (the frame
-just inside `li` or `render_tile`, or the non-inlined function around it), so e.g. a `reverse_bits`
+just inside the integrator (`li_lanes` and its stage functions) or `render_tile`, or the non-inlined function around it), so e.g. a `reverse_bits`
 inlined into the sampler counts as the sampler and a `dot` inlined into `Frame::to_local` as the
 integrator. Calls into libc are charged to their caller's stage (memcpy and malloc to the film, sincosf to
 the BRDF sample). Out-of-line functions are charged by name (e.g. `Envmap::texel_index` to the light
@@ -116,7 +116,7 @@ def inline_chains(binary, addrs):
 
 
 def stage_of_callee(name, f):
-    """The stage of a frame called from `li` or `render_tile`, or None."""
+    """The stage of a frame called from the integrator or `render_tile`, or None."""
     if f.endswith("sampling/sampler.rs"):
         return "Sobol sampler (next_1d, next_2d)"
     if f.endswith("film.rs"):
@@ -147,14 +147,14 @@ def stage(frames):
     names = [n for n, _ in frames]
     files = [f for _, f in frames]
     for i, (n, f) in enumerate(frames):
-        if f.endswith("integrator/path.rs") or n.endswith("PathTracer::li"):
+        # The innermost frame of the integrator: `li_lanes` or one of its stage functions.
+        if f.endswith("integrator/path.rs") or "PathTracer::li" in n:
             if n == "power_heuristic":
                 return "MIS (power heuristic)"
-            if n in ("visible", "offset_origin"):
+            if n in ("visible", "offset_origin", "shadow_ray", "occluded"):
                 return "shadow rays / visibility"
-            if n == "li" or n.endswith("PathTracer::li"):
-                c = stage_of_callee(*frames[i - 1]) if i > 0 else None
-                return c or "integrator (li: frames, dot products, control)"
+            c = stage_of_callee(*frames[i - 1]) if i > 0 else None
+            return c or "integrator (li_lanes and its stages: frames, dot products, lane state, control)"
     for i, (n, f) in enumerate(frames):
         if f.endswith("render.rs") or n.endswith("render_tile"):
             c = stage_of_callee(*frames[i - 1]) if i > 0 else None

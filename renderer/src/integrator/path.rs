@@ -157,7 +157,7 @@ impl<'a> PathTracer<'a> {
     /// next vertex. The lat-long lookups of the BRDF directions ([`DistantLight::locate_lanes`]) and
     /// a single sphere's intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD
     /// lanes; the rest loops over the live lanes with the one-sample code. The lanes keep their own place in their sample's
-    /// sequence ([`SampleCursor`]) and share the pixel's scrambling keys.
+    /// sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]

@@ -255,7 +255,7 @@ impl DistantLight for Envmap {
         Located { wi, index, theta }
     }
 
-    /// Lat-long: the rotation to the map's frame and [`LatLongGrid::cell`] in SIMD lanes (the
+    /// Lat-long: the rotation to the map's frame and the grid's `cell` in SIMD lanes (the
     /// operations of `locate`, lane by lane: the same bits), then each texel's load starts.
     #[inline(always)]
     fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {

@@ -147,7 +147,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// `cell`'s arctangents) may move it across; a caller then looks the direction up. A caller
     /// given the index can read the cell's data without the lookup (two arctangents) and gets the
     /// bits `cell` would give.
-    #[inline]
+    #[inline(always)]
     pub fn sample_direction_cell(&self, u: Vec2) -> Option<(Vec3, Option<usize>)> {
         self.sample_direction_cell_with(u, Z_MARGIN, PHI_MARGIN, PHI_ROUNDING)
     }

@@ -336,7 +336,7 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
 
     /// Draws (u, v) ∈ [0, 1)² with density f/∫∫f. Returns the point and its cell (column, row),
     /// without reading the density (callers that recompute it from the point save a cache miss).
-    #[inline]
+    #[inline(always)]
     pub fn sample_point_cell(&self, u: Vec2) -> (Vec2, (usize, usize)) {
         let (iv, dv) = sample_entries(&self.marginal.entries, u.y);
         let (iu, du) = sample_cells(self.row(iv), u.x);
