@@ -154,8 +154,8 @@ impl<'a> PathTracer<'a> {
     /// numbers and the BRDF's sample, with the loads of the light's data for that direction and of
     /// the light's sampling tables for u_light all issued before any is read; next-event
     /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
-    /// next vertex. The lat-long lookups of the BRDF directions ([`DistantLight::locate_lanes`]) and
-    /// a single sphere's intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD
+    /// next vertex. The lat-long light samples ([`DistantLight::sample_lanes`]), the lat-long lookups
+    /// of the BRDF directions ([`DistantLight::locate_lanes`]) and a single sphere's intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD
     /// lanes; the rest loops over the live lanes with the one-sample code. The lanes keep their own place in their sample's
     /// sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
     ///
@@ -262,13 +262,21 @@ impl<'a> PathTracer<'a> {
                 }
             }
             // Stage 2: next-event estimation up to its shadow ray, then the batch's shadow rays.
+            let mut u_light = [Vec2::ZERO; LANES];
+            let mut nee_wanted = [false; LANES];
+            for k in 0..LANES {
+                // A Dirac BRDF takes no light sample.
+                nee_wanted[k] = planned[k] && !scene.brdfs[st[k].object as usize].is_delta();
+                u_light[k] = plan[k].u_light;
+            }
+            let light_samples = scene.light.sample_lanes(&u_light, &nee_wanted);
             let mut nee = [None::<PendingNee>; LANES];
             let mut shadow = LaneRays::new();
             for k in 0..LANES {
-                if !planned[k] {
+                if !nee_wanted[k] {
                     continue;
                 }
-                if let Some(pending) = self.light_sample(&st[k], &plan[k]) {
+                if let Some(pending) = self.light_sample(&st[k], &plan[k], light_samples[k]) {
                     if let Some(ray) = self.shadow_ray(&st[k], pending.ls.wi) {
                         shadow.rays[k] = ray;
                         shadow.want[k] = true;
@@ -411,15 +419,13 @@ impl<'a> PathTracer<'a> {
         true
     }
 
-    /// Next-event estimation's light sample and the BRDF's value for it; `None` where it cannot
-    /// contribute (no sample, a Dirac BRDF, or f = 0).
+    /// Next-event estimation's light sample `ls` (drawn for the batch by
+    /// [`DistantLight::sample_lanes`]) and the BRDF's value for it; `None` where it cannot
+    /// contribute (no sample, or f = 0).
     #[inline(always)]
-    fn light_sample(&self, st: &PathState, pl: &VertexPlan) -> Option<PendingNee> {
+    fn light_sample(&self, st: &PathState, pl: &VertexPlan, ls: Option<LightSample>) -> Option<PendingNee> {
         let brdf = &self.scene.brdfs[st.object as usize];
-        if brdf.is_delta() {
-            return None;
-        }
-        let ls = self.scene.light.sample(pl.u_light)?;
+        let ls = ls?;
         let wi = pl.frame.to_local(ls.wi);
         let f = brdf.eval_at(&pl.outgoing, wi);
         (f != Rgb::ZERO).then_some(PendingNee { ls, wi, f })

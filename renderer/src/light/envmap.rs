@@ -255,6 +255,52 @@ impl DistantLight for Envmap {
         Located { wi, index, theta }
     }
 
+    /// Lat-long: the grid's warp and in-cell tests, the rotation to the world and the normalize in
+    /// SIMD lanes (the operations of `sample`, lane by lane: the same bits), then each lane's texel
+    /// or, near a pixel edge, its lookup.
+    #[inline(always)]
+    fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
+        let mut out = [None; LANES];
+        let EnvSampler::LatLong(grid) = &self.sampler else {
+            for k in 0..LANES {
+                if want[k] {
+                    out[k] = self.sample(u[k]);
+                }
+            }
+            return out;
+        };
+        let Some((d, cell)) = grid.sample_direction_cell_lanes(u, want) else { return out };
+        // wi = normalize(rotation · d) as glam computes `(Mat3 * Vec3).normalize()`.
+        let m = &self.rotation;
+        let mut wi = [Vec3::ZERO; LANES];
+        for k in 0..LANES {
+            let v = d[k];
+            let x = m.x_axis.x * v.x + m.y_axis.x * v.y + m.z_axis.x * v.z;
+            let y = m.x_axis.y * v.x + m.y_axis.y * v.y + m.z_axis.y * v.z;
+            let z = m.x_axis.z * v.x + m.y_axis.z * v.y + m.z_axis.z * v.z;
+            let r = 1.0 / ((x * x + y * y) + z * z).sqrt();
+            wi[k] = Vec3::new(x * r, y * r, z * r);
+        }
+        for k in 0..LANES {
+            if !want[k] {
+                continue;
+            }
+            // As `sample`: the drawn pixel's texel where the direction is provably in it, else the
+            // lookup from wi.
+            let (value, pdf) = match cell[k] {
+                Some(index) => {
+                    let t = self.texel(index);
+                    (Rgb::from(t.radiance), t.pdf)
+                }
+                None => self.eval_pdf(wi[k]),
+            };
+            if pdf > 0.0 && pdf.is_finite() {
+                out[k] = Some(LightSample { wi: wi[k], value: value / pdf, pdf, delta: false });
+            }
+        }
+        out
+    }
+
     /// Lat-long: the rotation to the map's frame and the grid's `cell` in SIMD lanes (the
     /// operations of `locate`, lane by lane: the same bits), then each texel's load starts.
     #[inline(always)]
@@ -488,6 +534,52 @@ mod tests {
 
     /// `locate` + `eval_pdf_located` (the path tracer's lookup of a BRDF-sampled direction) returns
     /// each pixel's radiance and density at its rotated centre, with the bits of `eval` and `pdf`.
+    #[test]
+    fn lanes_give_the_scalar_samples_and_lookups() {
+        let rotation = rotation_xyz_deg([20.0, -35.0, 110.0]);
+        for (mapping, w, h) in [(Mapping::LatLong, 64, 32), (Mapping::Angular, 64, 64)] {
+            for rot in [glam::Mat3::IDENTITY, rotation] {
+                let e = Envmap::new(synthetic(w, h), mapping, 2.5, rot).unwrap();
+                let mut rng = crate::sampling::chi2::TestRng::new(11);
+                let (mut near_edge, mut given) = (0, 0);
+                for batch in 0..512 {
+                    let u: [Vec2; LANES] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
+                    let want: [bool; LANES] = std::array::from_fn(|k| (batch + k) % 5 != 0);
+                    let lanes = e.sample_lanes(&u, &want);
+                    let dirs: [Vec3; LANES] = std::array::from_fn(|k| lanes[k].map_or(Vec3::Z, |s| s.wi));
+                    let located = e.locate_lanes(&dirs, &want);
+                    for k in 0..LANES {
+                        if !want[k] {
+                            assert!(lanes[k].is_none());
+                            continue;
+                        }
+                        let one = e.sample(u[k]);
+                        let bits = |s: Option<LightSample>| {
+                            s.map(|s| {
+                                (
+                                    s.wi.to_array().map(f32::to_bits),
+                                    s.value.to_array().map(f32::to_bits),
+                                    s.pdf.to_bits(),
+                                )
+                            })
+                        };
+                        assert_eq!(bits(lanes[k]), bits(one), "{mapping:?} u = {:?}", u[k]);
+                        let at = e.locate(dirs[k]);
+                        assert_eq!((located[k].index, located[k].theta.to_bits()), (at.index, at.theta.to_bits()));
+                        if let EnvSampler::LatLong(grid) = &e.sampler {
+                            let cell = grid.sample_direction_cell(u[k]).and_then(|(_, c)| c);
+                            if cell.is_some() { given += 1 } else { near_edge += 1 }
+                        }
+                    }
+                }
+                if mapping == Mapping::LatLong {
+                    // Both branches of the sample (the drawn texel, and the lookup near a pixel edge) ran.
+                    assert!(given > 1000 && near_edge > 0, "given {given}, near an edge {near_edge}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn located_lookup_is_the_pixel_and_matches_eval_pdf() {
         let rotation = rotation_xyz_deg([20.0, -35.0, 110.0]);

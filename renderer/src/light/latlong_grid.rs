@@ -152,6 +152,47 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         self.sample_direction_cell_with(u, Z_MARGIN, PHI_MARGIN, PHI_ROUNDING)
     }
 
+    /// [`LatLongGrid::sample_direction_cell`] of the lanes `k` with `want[k]` (the same results, bit
+    /// for bit; `None` in every lane when nothing can be sampled; the other lanes' values are
+    /// unspecified). The cutpoint walk of each lane runs on its own (its loop length depends on the
+    /// table); the warp to the sphere and the in-cell tests run as branch-free lane loops, in SIMD
+    /// registers inside the x86-64-v3 copy of the render's tile loop.
+    #[inline(always)]
+    pub fn sample_direction_cell_lanes<const N: usize>(
+        &self,
+        u: &[Vec2; N],
+        want: &[bool; N],
+    ) -> Option<([Vec3; N], [Option<usize>; N])> {
+        if !self.can_sample() {
+            return None;
+        }
+        let (mut ux, mut uy, mut iu) = ([0.0; N], [0.0; N], [0usize; N]);
+        for k in 0..N {
+            if want[k] {
+                let (uv, (c, _)) = self.dist.sample_point_cell(u[k]);
+                (ux[k], uy[k], iu[k]) = (uv.x, uv.y, c);
+            }
+        }
+        let (hf, wf) = (len_f32(self.height), len_f32(self.width));
+        let (mut d, mut cell) = ([Vec3::ZERO; N], [None; N]);
+        for k in 0..N {
+            // `warp`, then the tests of `sample_direction_cell_with` at the shipped margins.
+            let fv = uy[k] * hf;
+            let r = index_below(fv, self.height);
+            let t = (fv - len_f32(r)).clamp(0.0, 1.0);
+            let (z0, z1) = (self.z_edge[r], self.z_edge[r + 1]);
+            let z = z0 + t * (z1 - z0);
+            let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
+            let (sp, cp) = fast::sincos_2pi(ux[k]);
+            d[k] = Vec3::new(sin_theta * cp, sin_theta * sp, z);
+            let row_inside = z0 - z > Z_MARGIN && z - z1 > Z_MARGIN;
+            let tu = ux[k] * wf - len_f32(iu[k]);
+            let col_inside = (tu.min(1.0 - tu) - PHI_ROUNDING * wf) * sin_theta > PHI_MARGIN * wf * (0.5 / PI);
+            cell[k] = if row_inside && col_inside { Some(r * self.width + iu[k]) } else { None };
+        }
+        Some((d, cell))
+    }
+
     /// [`LatLongGrid::sample_direction_cell`] with its margins as arguments (the tests show that
     /// zero margins give wrong cells).
     #[inline(always)]

@@ -66,6 +66,18 @@ pub trait DistantLight {
     fn locate(&self, wi: Vec3) -> Located {
         Located { wi, index: 0, theta: 0.0 }
     }
+    /// [`DistantLight::sample`] of the lanes `k` with `want[k]` (the same results; the other lanes'
+    /// are `None`). An environment map warps its lat-long samples in SIMD lanes.
+    #[inline(always)]
+    fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
+        let mut out = [None; LANES];
+        for k in 0..LANES {
+            if want[k] {
+                out[k] = self.sample(u[k]);
+            }
+        }
+        out
+    }
     /// [`DistantLight::locate`] of the lanes `k` with `want[k]` (the same results; the other lanes'
     /// are unspecified). An environment map locates lat-long directions in SIMD lanes.
     #[inline(always)]
@@ -143,6 +155,10 @@ impl DistantLight for Light {
     #[inline(always)]
     fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
         dispatch!(self, l => l.locate_lanes(wi, want))
+    }
+    #[inline(always)]
+    fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
+        dispatch!(self, l => l.sample_lanes(u, want))
     }
     #[inline]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
