@@ -154,10 +154,11 @@ impl<'a> PathTracer<'a> {
     /// numbers and the BRDF's sample, with the loads of the light's data for that direction and of
     /// the light's sampling tables for u_light all issued before any is read; next-event
     /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
-    /// next vertex. The lat-long light samples ([`DistantLight::sample_lanes`]), the lat-long lookups
-    /// of the BRDF directions ([`DistantLight::locate_lanes`]) and a single sphere's intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD
-    /// lanes; the rest loops over the live lanes with the one-sample code. The lanes keep their own place in their sample's
-    /// sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
+    /// next vertex. The lat-long light samples ([`DistantLight::sample_lanes`]), the lat-long
+    /// lookups of the BRDF directions ([`DistantLight::locate_lanes`]) and a single sphere's
+    /// intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD lanes; the rest
+    /// loops over the live lanes with the one-sample code. The lanes keep their own place in their
+    /// sample's sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
@@ -277,7 +278,7 @@ impl<'a> PathTracer<'a> {
                     continue;
                 }
                 if let Some(pending) = self.light_sample(&st[k], &plan[k], light_samples[k]) {
-                    if let Some(ray) = self.shadow_ray(&st[k], pending.ls.wi) {
+                    if let Some(ray) = self.ray_toward(&st[k], pending.ls.wi) {
                         shadow.rays[k] = ray;
                         shadow.want[k] = true;
                         out[k].rays += 1;
@@ -303,7 +304,7 @@ impl<'a> PathTracer<'a> {
                     continue;
                 };
                 st[k].beta *= bs.weight;
-                if let Some(ray) = self.bounce_ray(&st[k], located.wi) {
+                if let Some(ray) = self.ray_toward(&st[k], located.wi) {
                     bounce.rays[k] = ray;
                     bounce.want[k] = true;
                     out[k].rays += 1;
@@ -431,11 +432,12 @@ impl<'a> PathTracer<'a> {
         (f != Rgb::ZERO).then_some(PendingNee { ls, wi, f })
     }
 
-    /// The shadow ray toward light direction `dir`, or `None` where nothing can be in the way:
-    /// below the horizon of a BRDF with `horizon = "ignore"` the lobe sees the distant light by
-    /// definition, and above a single sphere's horizon nothing can occlude.
+    /// The ray from the vertex toward `dir` (a shadow ray, or the bounce along the BRDF's
+    /// direction), or `None` where nothing can be in the way: below the horizon of a BRDF with
+    /// `horizon = "ignore"` the lobe sees the distant light by definition, and above a single
+    /// sphere's horizon nothing can occlude.
     #[inline(always)]
-    fn shadow_ray(&self, st: &PathState, dir: Vec3) -> Option<Ray> {
+    fn ray_toward(&self, st: &PathState, dir: Vec3) -> Option<Ray> {
         let ignores = self.scene.brdfs[st.object as usize].ignores_horizon();
         if st.n.dot(dir) <= 0.0 && ignores {
             return None;
@@ -453,15 +455,6 @@ impl<'a> PathTracer<'a> {
         let brdf = &self.scene.brdfs[st.object as usize];
         let w = if nee.ls.delta { 1.0 } else { power_heuristic(nee.ls.pdf, brdf.pdf_at(&pl.outgoing, nee.wi)) };
         st.radiance += st.beta * nee.f * nee.ls.value * w;
-    }
-
-    /// The ray continuing the path along the BRDF's direction `dir`, or `None` where it escapes
-    /// unoccluded by definition (as [`PathTracer::shadow_ray`]).
-    #[inline(always)]
-    fn bounce_ray(&self, st: &PathState, dir: Vec3) -> Option<Ray> {
-        let ignores = self.scene.brdfs[st.object as usize].ignores_horizon();
-        let unoccluded = (st.n.dot(dir) <= 0.0 && ignores) || (self.single_convex && st.ng.dot(dir) > 0.0);
-        if unoccluded { None } else { Some(Ray::new(offset_origin(st.p, st.ng, dir), dir)) }
     }
 
     /// The path escaped along the BRDF's direction: the light there, with the complementary MIS

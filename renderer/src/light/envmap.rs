@@ -67,6 +67,17 @@ struct Texel {
     pdf: f32,
 }
 
+/// m · v with the operations of glam's `Mat3 * Vec3` (x_axis·vx + y_axis·vy + z_axis·vz, added in
+/// that order: the same bits), as plain f32 arithmetic for the lane loops.
+#[inline(always)]
+fn mat3_mul(m: &glam::Mat3, v: Vec3) -> [f32; 3] {
+    [
+        m.x_axis.x * v.x + m.y_axis.x * v.y + m.z_axis.x * v.z,
+        m.x_axis.y * v.x + m.y_axis.y * v.y + m.z_axis.y * v.z,
+        m.x_axis.z * v.x + m.y_axis.z * v.y + m.z_axis.z * v.z,
+    ]
+}
+
 /// sinθ/θ, → 1 at θ = 0 (the angular map's solid-angle factor).
 #[inline]
 fn sinc(theta: f32) -> f32 {
@@ -271,13 +282,9 @@ impl DistantLight for Envmap {
         };
         let Some((d, cell)) = grid.sample_direction_cell_lanes(u, want) else { return out };
         // wi = normalize(rotation · d) as glam computes `(Mat3 * Vec3).normalize()`.
-        let m = &self.rotation;
         let mut wi = [Vec3::ZERO; LANES];
         for k in 0..LANES {
-            let v = d[k];
-            let x = m.x_axis.x * v.x + m.y_axis.x * v.y + m.z_axis.x * v.z;
-            let y = m.x_axis.y * v.x + m.y_axis.y * v.y + m.z_axis.y * v.z;
-            let z = m.x_axis.z * v.x + m.y_axis.z * v.y + m.z_axis.z * v.z;
+            let [x, y, z] = mat3_mul(&self.rotation, d[k]);
             let r = 1.0 / ((x * x + y * y) + z * z).sqrt();
             wi[k] = Vec3::new(x * r, y * r, z * r);
         }
@@ -314,15 +321,10 @@ impl DistantLight for Envmap {
             }
             return out;
         };
-        // d = rotationᵀ · wi as glam's `Mat3 * Vec3` computes it: x_axis·wx + y_axis·wy + z_axis·wz,
-        // added in that order.
-        let m = &self.inv_rotation;
+        // d = rotationᵀ · wi.
         let (mut x, mut y, mut z) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
-            let w = wi[k];
-            x[k] = m.x_axis.x * w.x + m.y_axis.x * w.y + m.z_axis.x * w.z;
-            y[k] = m.x_axis.y * w.x + m.y_axis.y * w.y + m.z_axis.y * w.z;
-            z[k] = m.x_axis.z * w.x + m.y_axis.z * w.y + m.z_axis.z * w.z;
+            [x[k], y[k], z[k]] = mat3_mul(&self.inv_rotation, wi[k]);
         }
         let index = grid.cell_index_lanes(&x, &y, &z);
         let mut out = [Located::NONE; LANES];
