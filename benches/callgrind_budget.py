@@ -151,7 +151,7 @@ def stage(frames):
         if f.endswith("integrator/path.rs") or "PathTracer::li" in n:
             if n == "power_heuristic":
                 return "MIS (power heuristic)"
-            if n in ("visible", "offset_origin", "shadow_ray", "occluded"):
+            if n in ("visible", "offset_origin", "ray_toward", "occluded"):
                 return "shadow rays / visibility"
             c = stage_of_callee(*frames[i - 1]) if i > 0 else None
             return c or "integrator (li_lanes and its stages: frames, dot products, lane state, control)"
