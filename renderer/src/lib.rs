@@ -18,6 +18,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod math;
+pub mod memory;
 pub mod noise;
 pub mod output;
 pub mod render;

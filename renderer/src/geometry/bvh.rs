@@ -166,8 +166,13 @@ impl SceneGeometry {
             let mut core_time = Duration::ZERO;
             let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, params, &mut core_time);
             // Reorder into leaf order so a slot id indexes the records directly.
-            let p2 = bvh.primitive_indices.iter().map(|&k| prims[k as usize]).collect();
-            let r2 = bvh.primitive_indices.iter().map(|&k| refs[k as usize]).collect();
+            let p2: Vec<Prim> = bvh.primitive_indices.iter().map(|&k| prims[k as usize]).collect();
+            let r2: Vec<PrimRef> = bvh.primitive_indices.iter().map(|&k| refs[k as usize]).collect();
+            // Every ray walks the nodes and reads the records of the leaves it reaches, at
+            // random addresses: in huge pages where the kernel gives them.
+            crate::memory::advise_huge_pages(&bvh.nodes);
+            crate::memory::advise_huge_pages(&p2);
+            crate::memory::advise_huge_pages(&r2);
             (Some(bvh), p2, r2)
         };
         SceneGeometry { shapes, bvh, prims, refs, single_sphere: None, build_time: start.elapsed() }

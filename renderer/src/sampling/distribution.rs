@@ -309,6 +309,9 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
     pub fn set_payloads(&mut self, payloads: &[P]) {
         assert_eq!(payloads.len(), self.conditional.len(), "PiecewiseConstant2D: one payload per cell");
         self.conditional.par_iter_mut().zip(payloads.par_iter()).for_each(|(c, p)| c.payload = *p);
+        // The table is complete now, and a light sample and a BRDF direction's lookup read it at
+        // random: in huge pages where the kernel gives them.
+        crate::memory::advise_huge_pages(&self.conditional);
     }
 
     /// The payload of cell `index = iv * nu + iu`.
