@@ -127,7 +127,8 @@ def stage_of_callee(name, f):
         return "intersection (analytic sphere)"
     if "brdf/" in f:
         # `sample_at` etc. are `sample` given the vertex's precomputed terms of ω_o (`outgoing`).
-        name = name.removesuffix("_at")
+        # The batch's lane versions (`sample_at_lanes`, …) count as the one-vertex method.
+        name = name.removesuffix("_lanes").removesuffix("_at")
         for k in ("sample", "eval", "pdf"):
             if name.endswith(k):
                 return "BRDF " + k
@@ -135,6 +136,7 @@ def stage_of_callee(name, f):
             return "BRDF terms of ω_o (outgoing)"
         return "BRDF other"
     if "light/" in f or f.endswith("distribution.rs"):
+        name = name.removesuffix("_lanes")
         if name in ("sample", "prefetch_sample"):
             return "light sample (cutpoint walk, warp, its texel)"
         if name in ("locate", "eval_pdf_located", "eval", "eval_pdf", "pdf"):

@@ -24,6 +24,7 @@ pub use phong::Phong;
 pub use torrance_sparrow::TorranceSparrow;
 
 use crate::math::{Rgb, Vec2, Vec3};
+use crate::sampling::LANES;
 use crate::scene::build::color;
 use vocab::FresnelKind;
 use vocab::scene::BrdfSection;
@@ -174,6 +175,79 @@ impl Bxdf for Brdf {
     #[inline]
     fn pdf_at(&self, o: &Outgoing, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf_at(o, wi))
+    }
+}
+
+/// The one-vertex methods over [`LANES`] vertices that all have this BRDF (the path tracer's
+/// batch, where every live lane hit the same object): each lane gets the bits of the one-vertex
+/// method. Beckmann microfacets compute in SIMD lanes ([`Microfacet::sample_at_lanes`] and the
+/// rest); every other model runs its one-vertex method lane by lane. `live` marks the lanes to
+/// compute; the others return `None`, zero, or a plain [`Outgoing`].
+impl Brdf {
+    /// [`Bxdf::outgoing`] of each live lane.
+    #[inline(always)]
+    pub fn outgoing_lanes(&self, wo: &[Vec3; LANES], live: &[bool; LANES]) -> [Outgoing; LANES] {
+        if let Brdf::Microfacet(m) = self {
+            return m.outgoing_lanes(wo, live);
+        }
+        let mut out = [Outgoing::plain(Vec3::ZERO); LANES];
+        for k in 0..LANES {
+            if live[k] {
+                out[k] = self.outgoing(wo[k]);
+            }
+        }
+        out
+    }
+
+    /// [`Bxdf::sample_at`] of each live lane.
+    #[inline(always)]
+    pub fn sample_at_lanes(
+        &self,
+        o: &[Outgoing; LANES],
+        u_lobe: &[f32; LANES],
+        u: &[Vec2; LANES],
+        live: &[bool; LANES],
+    ) -> [Option<BrdfSample>; LANES] {
+        if let Brdf::Microfacet(m) = self {
+            return m.sample_at_lanes(o, u, live);
+        }
+        let mut out = [None; LANES];
+        for k in 0..LANES {
+            if live[k] {
+                out[k] = self.sample_at(&o[k], u_lobe[k], u[k]);
+            }
+        }
+        out
+    }
+
+    /// [`Bxdf::eval_at`] of each live lane (zero elsewhere).
+    #[inline(always)]
+    pub fn eval_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [Rgb; LANES] {
+        if let Brdf::Microfacet(m) = self {
+            return m.eval_at_lanes(o, wi, live);
+        }
+        let mut out = [Rgb::ZERO; LANES];
+        for k in 0..LANES {
+            if live[k] {
+                out[k] = self.eval_at(&o[k], wi[k]);
+            }
+        }
+        out
+    }
+
+    /// [`Bxdf::pdf_at`] of each live lane (zero elsewhere).
+    #[inline(always)]
+    pub fn pdf_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [f32; LANES] {
+        if let Brdf::Microfacet(m) = self {
+            return m.pdf_at_lanes(o, wi, live);
+        }
+        let mut out = [0.0f32; LANES];
+        for k in 0..LANES {
+            if live[k] {
+                out[k] = self.pdf_at(&o[k], wi[k]);
+            }
+        }
+        out
     }
 }
 

@@ -120,7 +120,6 @@ impl VertexPlan {
 #[derive(Clone, Copy, Debug)]
 struct PendingNee {
     ls: LightSample,
-    wi: Vec3,
     f: Rgb,
 }
 
@@ -235,6 +234,9 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             // Stage 1: frame, numbers, the BRDF's sample; the light's loads start.
+            let mut wo = [Vec3::Z; LANES];
+            let mut u_lobe = [0.0f32; LANES];
+            let mut u_brdf = [Vec2::ZERO; LANES];
             for k in 0..LANES {
                 planned[k] = false;
                 if st[k].alive {
@@ -244,8 +246,46 @@ impl<'a> PathTracer<'a> {
                     {
                         sampler.use_ahead(ahead, k);
                     }
-                    planned[k] = self.plan_vertex(&mut st[k], sampler, &mut plan[k]);
+                    planned[k] = self.plan_vertex(&mut st[k], sampler, &mut plan[k], &mut wo[k], &mut u_lobe[k], &mut u_brdf[k]);
                     cursor[k] = sampler.cursor();
+                }
+            }
+            // The BRDF's terms of ω_o and its sample: in SIMD lanes where every planned lane has
+            // the same BRDF (`Brdf::sample_at_lanes`), else lane by lane.
+            let shared = shared_object(&st, &planned);
+            let samples = match shared {
+                Some(object) => {
+                    let brdf = &scene.brdfs[object as usize];
+                    let outgoing = brdf.outgoing_lanes(&wo, &planned);
+                    for k in 0..LANES {
+                        plan[k].outgoing = outgoing[k];
+                    }
+                    brdf.sample_at_lanes(&outgoing, &u_lobe, &u_brdf, &planned)
+                }
+                None => {
+                    let mut samples = [None; LANES];
+                    for k in 0..LANES {
+                        if planned[k] {
+                            let brdf = &scene.brdfs[st[k].object as usize];
+                            plan[k].outgoing = brdf.outgoing(wo[k]);
+                            samples[k] = brdf.sample_at(&plan[k].outgoing, u_lobe[k], u_brdf[k]);
+                        }
+                    }
+                    samples
+                }
+            };
+            for k in 0..LANES {
+                if planned[k] {
+                    // The direction is located in the light after this stage (`locate_lanes`: an
+                    // environment map's texel found once, its load started); `eval_pdf_located`
+                    // reads it in stage 4.
+                    plan[k].bs = match samples[k] {
+                        Some(bs) if bs.weight != Rgb::ZERO => {
+                            plan[k].located.wi = plan[k].frame.to_world(bs.wi).normalize();
+                            Some(bs)
+                        }
+                        _ => None,
+                    };
                 }
             }
             // The BRDF directions located in the light, all lanes at once (an environment map's
@@ -271,25 +311,64 @@ impl<'a> PathTracer<'a> {
                 u_light[k] = plan[k].u_light;
             }
             let light_samples = scene.light.sample_lanes(&u_light, &nee_wanted);
+            // The BRDF's value for each light sample (in SIMD lanes where the BRDF is shared).
+            let mut wi_local = [Vec3::Z; LANES];
+            let mut evaluate = [false; LANES];
+            for k in 0..LANES {
+                if let (true, Some(ls)) = (nee_wanted[k], light_samples[k]) {
+                    wi_local[k] = plan[k].frame.to_local(ls.wi);
+                    evaluate[k] = true;
+                }
+            }
+            let outgoing = plan.map(|p| p.outgoing);
+            let f = match shared {
+                Some(object) => scene.brdfs[object as usize].eval_at_lanes(&outgoing, &wi_local, &evaluate),
+                None => {
+                    let mut f = [Rgb::ZERO; LANES];
+                    for k in 0..LANES {
+                        if evaluate[k] {
+                            f[k] = scene.brdfs[st[k].object as usize].eval_at(&outgoing[k], wi_local[k]);
+                        }
+                    }
+                    f
+                }
+            };
             let mut nee = [None::<PendingNee>; LANES];
             let mut shadow = LaneRays::new();
             for k in 0..LANES {
-                if !nee_wanted[k] {
+                let (true, Some(ls)) = (evaluate[k], light_samples[k]) else { continue };
+                if f[k] == Rgb::ZERO {
                     continue;
                 }
-                if let Some(pending) = self.light_sample(&st[k], &plan[k], light_samples[k]) {
-                    if let Some(ray) = self.ray_toward(&st[k], pending.ls.wi) {
-                        shadow.rays[k] = ray;
-                        shadow.want[k] = true;
-                        out[k].rays += 1;
-                    }
-                    nee[k] = Some(pending);
+                if let Some(ray) = self.ray_toward(&st[k], ls.wi) {
+                    shadow.rays[k] = ray;
+                    shadow.want[k] = true;
+                    out[k].rays += 1;
                 }
+                nee[k] = Some(PendingNee { ls, f: f[k] });
             }
             let occluded = self.occluded(&shadow);
+            // Next-event estimation's MIS weights need the BRDF's density of each unoccluded,
+            // non-Dirac light sample.
+            let mut weigh = [false; LANES];
+            for k in 0..LANES {
+                weigh[k] = matches!((planned[k], &nee[k], occluded[k]), (true, Some(p), false) if !p.ls.delta);
+            }
+            let brdf_pdf = match shared {
+                Some(object) => scene.brdfs[object as usize].pdf_at_lanes(&outgoing, &wi_local, &weigh),
+                None => {
+                    let mut pdf = [0.0f32; LANES];
+                    for k in 0..LANES {
+                        if weigh[k] {
+                            pdf[k] = scene.brdfs[st[k].object as usize].pdf_at(&outgoing[k], wi_local[k]);
+                        }
+                    }
+                    pdf
+                }
+            };
             for k in 0..LANES {
                 if let (true, Some(pending), false) = (planned[k], &nee[k], occluded[k]) {
-                    self.add_light_sample(&mut st[k], &plan[k], pending);
+                    add_light_sample(&mut st[k], pending, brdf_pdf[k]);
                 }
             }
             // Stage 3: the BRDF's direction continues the path; the batch's bounce rays.
@@ -370,13 +449,21 @@ impl<'a> PathTracer<'a> {
         occluded
     }
 
-    /// The vertex's shading frame, its numbers (light 2D, lobe 1D, BRDF 2D, in that order of
-    /// dimensions) and the BRDF's sample. The sample's direction is located in the light (which
-    /// starts loading its texel) and the light's sampling tables for u_light start loading too;
-    /// both are read in later stages. Writes `plan`; false ends the path: seen from below the shading
-    /// hemisphere (e.g. an interpolated normal facing away), no reflection is defined.
+    /// The vertex's shading frame, ω_o in it and its numbers (light 2D, lobe 1D, BRDF 2D, in that
+    /// order of dimensions); the light's sampling tables for u_light start loading (read in stage
+    /// 2). Writes `plan`'s frame and u_light, `wo`, `u_lobe` and `u_brdf`; the BRDF's sample
+    /// follows for the whole batch. False ends the path: seen from below the shading hemisphere
+    /// (e.g. an interpolated normal facing away), no reflection is defined.
     #[inline(always)]
-    fn plan_vertex(&self, st: &mut PathState, sampler: &mut Sampler, plan: &mut VertexPlan) -> bool {
+    fn plan_vertex(
+        &self,
+        st: &mut PathState,
+        sampler: &mut Sampler,
+        plan: &mut VertexPlan,
+        wo_out: &mut Vec3,
+        u_lobe_out: &mut f32,
+        u_brdf_out: &mut Vec2,
+    ) -> bool {
         let scene = self.scene;
         let brdf = &scene.brdfs[st.object as usize];
         // An albedo texture scales the BRDF at this vertex (f → T(n) f): every contribution
@@ -392,44 +479,21 @@ impl<'a> PathTracer<'a> {
             st.alive = false;
             return false;
         }
-        // The BRDF's terms of ω_o (a microfacet's Smith Λ(ω_o)), shared by its sample, eval and pdf.
-        let outgoing = brdf.outgoing(wo);
         let u_light = sampler.next_2d();
         // Only a mix reads u_lobe; for the others its dimension is skipped, not drawn (the same
         // numbers everywhere else, one Owen-scrambled draw less per vertex).
-        let u_lobe = if brdf.uses_lobe_choice() {
+        *u_lobe_out = if brdf.uses_lobe_choice() {
             sampler.next_1d()
         } else {
             sampler.skip_1d();
             0.0
         };
-        let u_brdf = sampler.next_2d();
+        *u_brdf_out = sampler.next_2d();
         scene.light.prefetch_sample(u_light);
-        // The direction is located in the light after this stage (`locate_lanes`: an environment
-        // map's texel found once, its load started); `eval_pdf_located` reads it in stage 4.
-        plan.bs = match brdf.sample_at(&outgoing, u_lobe, u_brdf) {
-            Some(bs) if bs.weight != Rgb::ZERO => {
-                plan.located.wi = frame.to_world(bs.wi).normalize();
-                Some(bs)
-            }
-            _ => None,
-        };
+        *wo_out = wo;
         plan.frame = frame;
-        plan.outgoing = outgoing;
         plan.u_light = u_light;
         true
-    }
-
-    /// Next-event estimation's light sample `ls` (drawn for the batch by
-    /// [`DistantLight::sample_lanes`]) and the BRDF's value for it; `None` where it cannot
-    /// contribute (no sample, or f = 0).
-    #[inline(always)]
-    fn light_sample(&self, st: &PathState, pl: &VertexPlan, ls: Option<LightSample>) -> Option<PendingNee> {
-        let brdf = &self.scene.brdfs[st.object as usize];
-        let ls = ls?;
-        let wi = pl.frame.to_local(ls.wi);
-        let f = brdf.eval_at(&pl.outgoing, wi);
-        (f != Rgb::ZERO).then_some(PendingNee { ls, wi, f })
     }
 
     /// The ray from the vertex toward `dir` (a shadow ray, or the bounce along the BRDF's
@@ -446,15 +510,6 @@ impl<'a> PathTracer<'a> {
             return None;
         }
         Some(Ray::new(offset_origin(st.p, st.ng, dir), dir))
-    }
-
-    /// Adds next-event estimation's contribution of an unoccluded light sample, MIS-weighted
-    /// against the BRDF's density (power heuristic).
-    #[inline(always)]
-    fn add_light_sample(&self, st: &mut PathState, pl: &VertexPlan, nee: &PendingNee) {
-        let brdf = &self.scene.brdfs[st.object as usize];
-        let w = if nee.ls.delta { 1.0 } else { power_heuristic(nee.ls.pdf, brdf.pdf_at(&pl.outgoing, nee.wi)) };
-        st.radiance += st.beta * nee.f * nee.ls.value * w;
     }
 
     /// The path escaped along the BRDF's direction: the light there, with the complementary MIS
@@ -493,4 +548,29 @@ impl<'a> PathTracer<'a> {
         st.wo_world = -wi_world;
         st.object = h.object;
     }
+}
+
+/// The object of every planned lane, where they all have the same (the BRDF's calls can then
+/// run over the batch in SIMD lanes); `None` when they differ or none is planned.
+#[inline(always)]
+fn shared_object(st: &[PathState; LANES], planned: &[bool; LANES]) -> Option<u32> {
+    let mut object = None;
+    for k in 0..LANES {
+        if planned[k] {
+            match object {
+                None => object = Some(st[k].object),
+                Some(o) if o != st[k].object => return None,
+                Some(_) => {}
+            }
+        }
+    }
+    object
+}
+
+/// Adds next-event estimation's contribution of an unoccluded light sample, MIS-weighted against
+/// the BRDF's density `brdf_pdf` of its direction (power heuristic; a Dirac light takes weight 1).
+#[inline(always)]
+fn add_light_sample(st: &mut PathState, nee: &PendingNee, brdf_pdf: f32) {
+    let w = if nee.ls.delta { 1.0 } else { power_heuristic(nee.ls.pdf, brdf_pdf) };
+    st.radiance += st.beta * nee.f * nee.ls.value * w;
 }

@@ -156,15 +156,20 @@ pub fn exp_f64(x: f64) -> f64 {
     const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3fe62e42fee00000
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     let xc = x.clamp(-708.0, 709.0);
-    let k = (xc * std::f64::consts::LOG2_E + ROUND_MAGIC_F64) - ROUND_MAGIC_F64;
+    let shifted = xc * std::f64::consts::LOG2_E + ROUND_MAGIC_F64;
+    let k = shifted - ROUND_MAGIC_F64;
     let r = (xc - k * LN2_HI) - k * LN2_LO;
     let mut p = EXP_F64_TAYLOR[0];
     for c in &EXP_F64_TAYLOR[1..] {
         p = p * r + c;
     }
-    let scale = f64::from_bits(((k as i64 + 1023) as u64) << 52);
+    // k as an integer from the bits of `shifted` (1.5·2⁵² + k, one exponent for |k| < 2⁵¹): the
+    // same integer as `k as i64`, but 64-bit integer lane arithmetic, which AVX2 has (it has no
+    // f64 → i64 conversion), so that lane loops of this function stay in SIMD registers.
+    let k_int = (shifted.to_bits() as i64).wrapping_sub(ROUND_MAGIC_F64.to_bits() as i64);
+    let scale = f64::from_bits(((k_int + 1023) as u64) << 52);
     let y = p * scale;
-    // NaN survives the clamp and the polynomial; the exponent bits of `k as i64` (0) do not matter then.
+    // NaN survives the clamp and the polynomial; the exponent bits of `k_int` do not matter then.
     if x < -708.0 { 0.0 } else { y }
 }
 
