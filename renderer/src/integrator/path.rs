@@ -210,11 +210,22 @@ impl<'a> PathTracer<'a> {
             cursor[k] = sampler.cursor();
         }
         let hits = self.trace(&camera);
+        // The light seen by the camera rays that miss (in SIMD lanes for a lat-long map).
+        // Most batches have none (every lane inside an object's silhouette): then no lookup runs.
+        let mut missed = [false; LANES];
+        let mut miss_dirs = [Vec3::Z; LANES];
+        let mut any_missed = false;
+        for k in 0..n {
+            missed[k] = camera.want[k] && hits[k].is_none();
+            miss_dirs[k] = camera.rays[k].dir;
+            any_missed |= missed[k];
+        }
+        let background = if any_missed { scene.light.eval_lanes(&miss_dirs, &missed) } else { [Rgb::ZERO; LANES] };
         for k in 0..n {
             if camera.want[k] {
                 match hits[k] {
                     Some(h) => st[k] = PathState::at(h.p, h.n, h.ng, -camera.rays[k].dir, h.object),
-                    None => out[k].radiance = scene.light.eval(camera.rays[k].dir),
+                    None => out[k].radiance = background[k],
                 }
             }
             if st[k].alive {

@@ -337,7 +337,29 @@ impl DistantLight for Envmap {
         out
     }
 
-    #[inline]
+    /// Lat-long: the lookups of `locate_lanes` (SIMD lanes), then each texel's radiance, which is
+    /// what `eval` reads.
+    #[inline(always)]
+    fn eval_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Rgb; LANES] {
+        let mut out = [Rgb::ZERO; LANES];
+        if !matches!(self.sampler, EnvSampler::LatLong(_)) {
+            for k in 0..LANES {
+                if want[k] {
+                    out[k] = self.eval(wi[k]);
+                }
+            }
+            return out;
+        }
+        let located = self.locate_lanes(wi, want);
+        for k in 0..LANES {
+            if want[k] {
+                out[k] = Rgb::from(self.texel(located[k].index).radiance);
+            }
+        }
+        out
+    }
+
+    #[inline(always)]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
         let t = self.texel(at.index);
         let pdf = match &self.sampler {

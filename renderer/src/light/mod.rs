@@ -90,6 +90,19 @@ pub trait DistantLight {
         }
         out
     }
+    /// [`DistantLight::eval`] of the lanes `k` with `want[k]` (the same bits; zero elsewhere): the
+    /// light seen by a batch's camera rays that miss. An environment map looks its lat-long
+    /// directions up in SIMD lanes.
+    #[inline(always)]
+    fn eval_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Rgb; LANES] {
+        let mut out = [Rgb::ZERO; LANES];
+        for k in 0..LANES {
+            if want[k] {
+                out[k] = self.eval(wi[k]);
+            }
+        }
+        out
+    }
     /// `eval_pdf(at.wi)` for `at` returned by this light's [`DistantLight::locate`] (same bits).
     #[inline]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
@@ -160,7 +173,11 @@ impl DistantLight for Light {
     fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
         dispatch!(self, l => l.sample_lanes(u, want))
     }
-    #[inline]
+    #[inline(always)]
+    fn eval_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Rgb; LANES] {
+        dispatch!(self, l => l.eval_lanes(wi, want))
+    }
+    #[inline(always)]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
         dispatch!(self, l => l.eval_pdf_located(at))
     }
