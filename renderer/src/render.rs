@@ -235,7 +235,13 @@ fn render_tile_body(
                 let results = tracer.li_lanes(&mut sampler, pixel_id, row, col, i, n, jitter);
                 for r in &results[..n] {
                     rays += r.rays as u64;
-                    acc.add(r.radiance, r.normal, r.hit);
+                }
+                if n == LANES {
+                    acc.add_8(&results.map(|r| r.radiance), &results.map(|r| r.normal), &results.map(|r| r.hit));
+                } else {
+                    for r in &results[..n] {
+                        acc.add(r.radiance, r.normal, r.hit);
+                    }
                 }
                 i += n as u64;
             }
