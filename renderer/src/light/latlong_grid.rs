@@ -155,8 +155,9 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// [`LatLongGrid::sample_direction_cell`] of the lanes `k` with `want[k]` (the same results, bit
     /// for bit; `None` in every lane when nothing can be sampled; the other lanes' values are
     /// unspecified). The cutpoint walk of each lane runs on its own (its loop length depends on the
-    /// table); the warp to the sphere and the in-cell tests run as branch-free lane loops, in SIMD
-    /// registers inside the x86-64-v3 copy of the render's tile loop.
+    /// table; [`PiecewiseConstant2D::sample_point_cell_lanes`] runs the rest in lanes); the warp to
+    /// the sphere and the in-cell tests run as branch-free lane loops, in SIMD registers inside
+    /// the x86-64-v3 copy of the render's tile loop.
     #[inline(always)]
     pub fn sample_direction_cell_lanes<const N: usize>(
         &self,
@@ -166,13 +167,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         if !self.can_sample() {
             return None;
         }
-        let (mut ux, mut uy, mut iu) = ([0.0; N], [0.0; N], [0usize; N]);
-        for k in 0..N {
-            if want[k] {
-                let (uv, (c, _)) = self.dist.sample_point_cell(u[k]);
-                (ux[k], uy[k], iu[k]) = (uv.x, uv.y, c);
-            }
-        }
+        let (ux, uy, iu) = self.dist.sample_point_cell_lanes(u, want);
         let (hf, wf) = (len_f32(self.height), len_f32(self.width));
         let (mut d, mut cell) = ([Vec3::ZERO; N], [None; N]);
         for k in 0..N {
