@@ -13,7 +13,8 @@
 //!   eight quantised planes at once (AVX2 plus POPCNT/LZCNT/BMI1/BMI2 chosen at run time, SSE2
 //!   otherwise; same bits) and a software prefetch of the hit children and leaf primitives of each
 //!   node (~5–8 % on a 1.3 M-triangle mesh, whose traversal is bound by cache misses). Any-hit
-//!   (`occluded`) stops at the first hit. The batch functions interleave several rays' walks.
+//!   (`occluded`) stops at the first hit. The batch functions interleave several rays' walks;
+//!   `intersect_packet` (`bvh/packet.rs`) walks a pixel's camera rays as one packet.
 //! - A scene that is a single sphere bypasses the BVH (one analytic test per ray), and an empty
 //!   scene always misses.
 //!
@@ -36,6 +37,8 @@ use obvhs::cwbvh::node::CwBvhNode;
 pub use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
 use std::mem::MaybeUninit;
 use std::time::{Duration, Instant};
+
+mod packet;
 
 /// The build preset: PLOC with a medium search radius, a small reinsertion pass, up to 3
 /// primitives per leaf (the CwBvh maximum).
@@ -877,18 +880,18 @@ mod tests {
     use super::*;
     use crate::sampling::chi2::TestRng;
 
-    fn uniform_dir(rng: &mut TestRng) -> Vec3 {
+    pub(super) fn uniform_dir(rng: &mut TestRng) -> Vec3 {
         let z = 1.0 - 2.0 * rng.next_f32();
         let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
         let r = (1.0 - z * z).max(0.0).sqrt();
         Vec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 
-    fn in_box(rng: &mut TestRng, half: f32) -> Vec3 {
+    pub(super) fn in_box(rng: &mut TestRng, half: f32) -> Vec3 {
         Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * (2.0 * half) - Vec3::splat(half)
     }
 
-    fn scene() -> SceneGeometry {
+    pub(super) fn scene() -> SceneGeometry {
         let mut ico = icosphere(3);
         ico.transform(glam::Affine3A::from_scale_rotation_translation(
             Vec3::splat(1.2),
@@ -998,7 +1001,7 @@ mod tests {
     }
 
     /// Bitwise equality of two hit results (every field, as bits).
-    fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    pub(super) fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
         let bits = |h: &Hit| {
             let v = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
             (h.t.to_bits(), v(h.p), v(h.n), v(h.ng), h.object)

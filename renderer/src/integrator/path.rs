@@ -154,9 +154,12 @@ impl<'a> PathTracer<'a> {
     /// the light's sampling tables for u_light all issued before any is read; next-event
     /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
     /// next vertex. The lat-long light samples ([`DistantLight::sample_lanes`]), the lat-long
-    /// lookups of the BRDF directions ([`DistantLight::locate_lanes`]) and a single sphere's
-    /// intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) run in SIMD lanes; the rest
-    /// loops over the live lanes with the one-sample code. The lanes keep their own place in their
+    /// lookups of the BRDF directions ([`DistantLight::locate_lanes`]), a single sphere's
+    /// intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) and, where every planned
+    /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Brdf::sample_at_lanes`])
+    /// run in SIMD lanes; a BVH's camera rays are walked as one packet
+    /// ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the live lanes
+    /// with the one-sample code. The lanes keep their own place in their
     /// sample's sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
@@ -209,7 +212,8 @@ impl<'a> PathTracer<'a> {
             }
             cursor[k] = sampler.cursor();
         }
-        let hits = self.trace(&camera);
+        // A pixel's camera rays run nearly parallel: one packet walk of a BVH for all of them.
+        let hits = if self.single_convex { self.trace(&camera) } else { scene.geometry.intersect_packet(&camera.rays, &camera.want) };
         // The light seen by the camera rays that miss (in SIMD lanes for a lat-long map).
         // Most batches have none (every lane inside an object's silhouette): then no lookup runs.
         let mut missed = [false; LANES];
