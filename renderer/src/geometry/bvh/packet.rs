@@ -13,10 +13,14 @@
 //! part in a child only where its own bit is set. So each ray sees exactly its own node visits
 //! and primitive tests, in its own order, each with its own t_max of the moment: the same node
 //! masks, the same closest hit, the same tie-breaks. This needs one octant for the whole packet
-//! (the child order depends on it): a packet whose rays disagree walks them one by one. Tested
-//! against the single-ray walk on coherent, divergent and mixed packets.
+//! (the child order depends on it): a packet whose rays disagree walks them one by one. Where
+//! only one ray of the packet enters a node, the packet hands that subtree to the ray's own
+//! single walk (nothing else of the packet enters it), so packets that spread out (a coarse
+//! image's pixels, few samples) cost about what their single walks would. Tested against the
+//! single-ray walk on coherent, divergent and mixed packets.
 
-use super::{NodeRay, STACK, SceneGeometry, avx2_walk};
+use super::{Lane, NodeRay, STACK, SceneGeometry, avx2_walk};
+use glam::UVec2;
 use crate::geometry::{Hit, Ray};
 use crate::sampling::LANES;
 use obvhs::cwbvh::CwBvh;
@@ -176,17 +180,35 @@ impl SceneGeometry {
                 let node = &bvh.nodes[(current.base + relative) as usize];
                 let mut bits = [0u32; LANES];
                 let mut hit_union = 0;
+                let (mut visitors, mut last) = (0, 0);
                 for r in 0..LANES {
                     if visit[r] {
                         let hitmask = rays[r].node_hitmask::<AVX>(node);
                         bits[r] = hitmask & 0xff00_0000;
                         prims[r] = hitmask & 0x00ff_ffff;
                         hit_union |= hitmask;
+                        (visitors, last) = (visitors + 1, r);
                     }
                 }
                 self.prefetch(bvh, node, hit_union, oct_inv4);
-                current = Group { base: node.child_base_idx, imask: node.imask as u32, bits };
-                prims_base = node.primitive_base_idx;
+                if visitors == 1 {
+                    // One ray alone in this subtree (the others skip all of it): its single walk
+                    // from here, with an empty stack of its own, costs less than the packet's.
+                    let r = last;
+                    let mut lane = Lane::EMPTY;
+                    lane.ray = rays[r];
+                    lane.best = best[r];
+                    lane.walk.current = UVec2::new(node.child_base_idx, bits[r] | node.imask as u32);
+                    lane.walk.prims = UVec2::new(node.primitive_base_idx, prims[r]);
+                    while !self.step_closest::<AVX>(bvh, &mut lane) {}
+                    rays[r] = lane.ray;
+                    best[r] = lane.best;
+                    prims = [0; LANES];
+                    current.bits = [0; LANES];
+                } else {
+                    current = Group { base: node.child_base_idx, imask: node.imask as u32, bits };
+                    prims_base = node.primitive_base_idx;
+                }
             } else {
                 current.bits = [0; LANES];
             }
