@@ -98,6 +98,7 @@ const RENDER_KEYS: &[&str] = &[
     ".render_seconds: number",
     ".save_seconds: number",
     ".total_seconds: number",
+    ".peak_rss_mb: number",
     ".noise: object",
     ".noise.pixels: number",
     ".noise.black: number",

@@ -11,16 +11,21 @@ Usage (from the repository root, after `cargo build --release`):
 
 Timing protocol: scene loading is not counted. reflect: the render wall time it prints
 (`reflect render` excludes map loading and BVH construction). Mitsuba: one warm-up render (JIT), then
-`mi.render(scene, spp, seed)` plus the conversion to a numpy array. Median of `--runs`.
+`mi.render(scene, spp, seed)` plus the conversion to a numpy array. The runs alternate (reflect with
+seed s, then Mitsuba with seed s, for s < `--runs`), so that a change of the machine's speed during the
+run falls on both sides of a pair; the times are the medians of each side, the ratio the median of the
+pairs' ratios.
 
 Agreement: both images are cut into 16×16-pixel blocks; blocks whose pixel centres all lie on the
 sphere (radius < 0.98 in the image plane) are compared by their RGB means:
 rms = sqrt(mean over blocks and channels of (ours − theirs)²) / mean(theirs). Mitsuba's seed-to-seed
 value at the same spp is printed beside it (the noise floor).
 
-Memory: the peak resident set size of the `reflect render` process (largest over the runs), and that of a
-fresh Python process that loads the same scene in Mitsuba and renders it once (interpreter, numpy and the
-LLVM JIT included, as in any use of Mitsuba from Python).
+Memory: the peak resident set size of the `reflect render` process (largest over the runs; the peak it
+prints, Linux's VmHWM), and that of a fresh Python process that loads the same scene in Mitsuba and renders
+it once (interpreter, numpy and the LLVM JIT included, as in any use of Mitsuba from Python; its VmHWM).
+Both are MB of 10⁶ bytes. Not the rusage the parent reads: Linux keeps a process's peak from before its
+exec in ru_maxrss, so a child of this script (which holds Mitsuba) would report at least this script's size.
 
 Without the `mitsuba` package it prints how to install it and exits with status 0.
 """
@@ -66,7 +71,7 @@ def scene_file(name):
 
 def run_reflect(binary, scene, spp, seed, threads, out):
     """Renders one bench scene; returns the render wall time (s) that reflect prints and the process's
-    peak resident set size (MB, from the kernel's rusage of the child: map, BVH, film and all)."""
+    peak resident set size (MB of 10⁶ bytes, the peak reflect prints: map, BVH, film and all)."""
     cmd = [binary, "render", scene_file(scene), "--spp", str(spp),
            "--seed", str(seed), "--threads", str(threads), "--out", out]
     with tempfile.TemporaryFile("w+") as err:
@@ -80,7 +85,25 @@ def run_reflect(binary, scene, spp, seed, threads, out):
     m = re.search(r"render loop ([0-9.]+) s on", stderr)
     if not m:
         sys.exit(f"cannot find the render time in reflect's output:\n{stderr}")
-    return float(m.group(1)), usage.ru_maxrss / 1024
+    # reflect's own peak (VmHWM): the rusage of a child spawned by this process also holds this
+    # process's peak at the spawn (Linux keeps the pre-exec peak in ru_maxrss), which with Mitsuba
+    # loaded is larger than a sphere render's.
+    peak = re.search(r"peak memory ([0-9.]+) MB", stderr)
+    return float(m.group(1)), float(peak.group(1)) if peak else usage.ru_maxrss * 1024 / 1e6
+
+
+def own_peak_mb(resource):
+    """This process's peak RSS in MB (10⁶ bytes): VmHWM of /proc/self/status, which is the peak of the
+    address space since exec (ru_maxrss also holds the parent's peak at the spawn); ru_maxrss where
+    there is no /proc."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024 / 1e6
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
 
 
 def mitsuba_peak_mb(name, spp, threads, tmp):
@@ -223,7 +246,7 @@ def main():
     if args.peak_of:
         np.array(mi.render(mitsuba_scene(mi, np, args.peak_of, args.spp, args.tmp), spp=args.spp, seed=0))
         import resource
-        print(f"peak_mb {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.1f}")
+        print(f"peak_mb {own_peak_mb(resource):.1f}")
         return 0
     print(f"reflect: {args.reflect}; Mitsuba {mi.__version__} llvm_ad_rgb; {args.threads} threads, "
           f"512², {args.spp} spp, median of {args.runs}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
@@ -231,23 +254,26 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.scenes.split(","):
             out = os.path.join(tmp, f"{name}.exr")
-            runs = [run_reflect(args.reflect, name, args.spp, s, args.threads, out) for s in range(args.runs)]
-            ours = statistics.median(t for t, _ in runs)
-            ours_mb = max(mb for _, mb in runs)
-            ours_img = read_rgb(mi, np, out)
             scene = mitsuba_scene(mi, np, name, args.spp, tmp)
             np.array(mi.render(scene, spp=4, seed=99))  # warm-up: JIT compilation
-            times, imgs = [], []
+            # Pairs: reflect with seed s, then Mitsuba with seed s, so that a change of the
+            # machine's speed during the run (a shared host) falls on both sides of a pair.
+            runs, times, imgs = [], [], []
             for s in range(args.runs):
+                runs.append(run_reflect(args.reflect, name, args.spp, s, args.threads, out))
                 t = time.perf_counter()
                 imgs.append(np.array(mi.render(scene, spp=args.spp, seed=s)))
                 times.append(time.perf_counter() - t)
+            ours = statistics.median(t for t, _ in runs)
+            ours_mb = max(mb for _, mb in runs)
+            ours_img = read_rgb(mi, np, out)
             theirs = statistics.median(times)
+            ratio = statistics.median(a / b for (a, _), b in zip(runs, times))
             samples = SIZE * SIZE * args.spp
             rms = block_rms(ours_img, imgs[0], np)
             floor = block_rms(imgs[1], imgs[0], np) if len(imgs) > 1 else float("nan")
             theirs_mb = mitsuba_peak_mb(name, args.spp, args.threads, tmp)
-            rows.append((name, ours, samples / ours / 1e6, theirs, samples / theirs / 1e6, ours / theirs, rms, floor,
+            rows.append((name, ours, samples / ours / 1e6, theirs, samples / theirs / 1e6, ratio, rms, floor,
                          ours_mb, theirs_mb))
             print(f"  {name}: done", file=sys.stderr)
     print()

@@ -286,6 +286,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         render_seconds: stats.wall.as_secs_f64(),
         save_seconds: t_save.as_secs_f64(),
         total_seconds: t_start.elapsed().as_secs_f64(),
+        peak_rss_mb: peak_rss_mb(),
         // One sample per pixel has no spread: its stderr is 0, which is no error estimate, not a
         // zero error (issue 9: flag where the error cannot be estimated, never print 0 %).
         noise: if scene.settings.spp >= 2 { renderer::noise::summarize(&film) } else { None },
@@ -334,6 +335,9 @@ pub struct RenderReport {
     pub save_seconds: f64,
     /// The whole command, seconds.
     pub total_seconds: f64,
+    /// The process's peak resident memory so far, MB (10⁶ bytes): map, BVH, film and all (Linux's
+    /// `VmHWM`; null where the system does not say).
+    pub peak_rss_mb: Option<f64>,
     /// Relative standard error of the object's pixels (null when no object pixel is > 0, and at
     /// 1 spp, where one sample per pixel has no spread to estimate an error from).
     pub noise: Option<renderer::noise::NoiseSummary>,
@@ -364,6 +368,18 @@ pub struct ProgressiveReport {
     pub rel_error_p95: Option<f64>,
 }
 
+/// The peak resident set size of this process in MB (10⁶ bytes), from `VmHWM` in
+/// `/proc/self/status` (Linux); `None` elsewhere or if it cannot be read. `VmHWM` belongs to the
+/// address space this process got at `exec`, so, unlike the `ru_maxrss` a parent reads from
+/// `wait4`, it does not include the memory of a large process that spawned it (Linux keeps the
+/// pre-`exec` peak in `ru_maxrss`).
+fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.trim_start_matches("VmHWM:").trim().trim_end_matches("kB").trim().parse().ok()?;
+    Some(kib * 1024.0 / 1e6)
+}
+
 /// The PNG preview of a render.
 #[derive(Clone, Debug, serde::Serialize, PartialEq)]
 pub struct PngReport {
@@ -390,11 +406,15 @@ impl std::fmt::Display for RenderReport {
             cancelled: false,
         };
         writeln!(f, "{stats}")?;
-        writeln!(
+        write!(
             f,
             "time: load {:.3} s (scene, meshes, environment tables), render loop {:.3} s, save {:.3} s; whole command {:.3} s",
             self.load_seconds, self.render_seconds, self.save_seconds, self.total_seconds
         )?;
+        match self.peak_rss_mb {
+            Some(mb) => writeln!(f, "; peak memory {mb:.0} MB")?,
+            None => writeln!(f)?,
+        }
         match &self.noise {
             Some(n) => writeln!(f, "{n}")?,
             None if self.spp < 2 => writeln!(
