@@ -253,10 +253,10 @@ impl Bxdf for Microfacet {
 /// SIMD instructions; the early returns of the one-vertex code become lane masks, written with
 /// the same comparisons (`!(x <= 0 || …)`, not `x > 0 && …`, so that NaN goes the same way). The lanes'
 /// vertices must all have this BRDF; `live` marks the lanes to compute (the others return
-/// nothing). GGX is not laned: its lanes run the one-vertex code.
+/// nothing). Beckmann only ([`Microfacet::has_lanes`]): `Brdf`'s lane methods run GGX's lanes
+/// through the one-vertex code.
 impl Microfacet {
-    /// Whether the lane functions below compute in SIMD lanes (Beckmann) rather than lane by
-    /// lane (GGX).
+    /// Whether the distribution has the lane functions below (Beckmann).
     #[inline(always)]
     pub fn has_lanes(&self) -> bool {
         self.distribution == MicrofacetDistribution::Beckmann
@@ -296,41 +296,29 @@ impl Microfacet {
 
     /// [`Bxdf::outgoing`] of each live lane.
     #[inline(always)]
-    pub fn outgoing_lanes(&self, wo: &[Vec3; LANES], live: &[bool; LANES]) -> [Outgoing; LANES] {
+    pub(super) fn outgoing_lanes(&self, wo: &[Vec3; LANES], live: &[bool; LANES]) -> [Outgoing; LANES] {
+        debug_assert!(self.has_lanes());
         let mut out = [Outgoing::plain(Vec3::ZERO); LANES];
-        if !self.has_lanes() {
-            for k in 0..LANES {
-                if live[k] {
-                    out[k] = self.outgoing(wo[k]);
-                }
-            }
-            return out;
-        }
         let z = wo.map(|w| w.z);
         let lambda = self.beckmann_lambda_lanes(&z);
         for k in 0..LANES {
-            out[k] = Outgoing { wo: wo[k], lambda_o: if wo[k].z > 0.0 { lambda[k] } else { 0.0 } };
+            if live[k] {
+                out[k] = Outgoing { wo: wo[k], lambda_o: if wo[k].z > 0.0 { lambda[k] } else { 0.0 } };
+            }
         }
         out
     }
 
     /// [`Bxdf::sample_at`] of each live lane.
     #[inline(always)]
-    pub fn sample_at_lanes(
+    pub(super) fn sample_at_lanes(
         &self,
         o: &[Outgoing; LANES],
         u: &[Vec2; LANES],
         live: &[bool; LANES],
     ) -> [Option<BrdfSample>; LANES] {
         let mut out = [None; LANES];
-        if !self.has_lanes() {
-            for k in 0..LANES {
-                if live[k] {
-                    out[k] = self.sample_at(&o[k], 0.0, u[k]);
-                }
-            }
-            return out;
-        }
+        debug_assert!(self.has_lanes());
         let (mut wi, mut h, mut ok) = ([[0.0f32; 3]; LANES], [[0.0f32; 3]; LANES], [false; LANES]);
         let mut wih = [0.0f32; LANES];
         let mut hz = [0.0f32; LANES];
@@ -401,16 +389,9 @@ impl Microfacet {
 
     /// [`Bxdf::eval_at`] of each live lane (zero elsewhere).
     #[inline(always)]
-    pub fn eval_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [Rgb; LANES] {
+    pub(super) fn eval_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [Rgb; LANES] {
         let mut out = [Rgb::ZERO; LANES];
-        if !self.has_lanes() {
-            for k in 0..LANES {
-                if live[k] {
-                    out[k] = self.eval_at(&o[k], wi[k]);
-                }
-            }
-            return out;
-        }
+        debug_assert!(self.has_lanes());
         let (hz, _, wih, above) = Self::half_vectors_lanes(o, wi);
         let d = self.beckmann_d_lanes(&hz);
         let lambda_i = self.beckmann_lambda_lanes(&wi.map(|w| w.z));
@@ -429,16 +410,9 @@ impl Microfacet {
 
     /// [`Bxdf::pdf_at`] of each live lane (zero elsewhere).
     #[inline(always)]
-    pub fn pdf_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [f32; LANES] {
+    pub(super) fn pdf_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [f32; LANES] {
         let mut out = [0.0f32; LANES];
-        if !self.has_lanes() {
-            for k in 0..LANES {
-                if live[k] {
-                    out[k] = self.pdf_at(&o[k], wi[k]);
-                }
-            }
-            return out;
-        }
+        debug_assert!(self.has_lanes());
         let (hz, woh, _, above) = Self::half_vectors_lanes(o, wi);
         let d = self.beckmann_d_lanes(&hz);
         for k in 0..LANES {

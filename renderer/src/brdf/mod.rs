@@ -187,7 +187,9 @@ impl Brdf {
     /// [`Bxdf::outgoing`] of each live lane.
     #[inline(always)]
     pub fn outgoing_lanes(&self, wo: &[Vec3; LANES], live: &[bool; LANES]) -> [Outgoing; LANES] {
-        if let Brdf::Microfacet(m) = self {
+        if let Brdf::Microfacet(m) = self
+            && m.has_lanes()
+        {
             return m.outgoing_lanes(wo, live);
         }
         let mut out = [Outgoing::plain(Vec3::ZERO); LANES];
@@ -208,7 +210,9 @@ impl Brdf {
         u: &[Vec2; LANES],
         live: &[bool; LANES],
     ) -> [Option<BrdfSample>; LANES] {
-        if let Brdf::Microfacet(m) = self {
+        if let Brdf::Microfacet(m) = self
+            && m.has_lanes()
+        {
             return m.sample_at_lanes(o, u, live);
         }
         let mut out = [None; LANES];
@@ -223,7 +227,9 @@ impl Brdf {
     /// [`Bxdf::eval_at`] of each live lane (zero elsewhere).
     #[inline(always)]
     pub fn eval_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [Rgb; LANES] {
-        if let Brdf::Microfacet(m) = self {
+        if let Brdf::Microfacet(m) = self
+            && m.has_lanes()
+        {
             return m.eval_at_lanes(o, wi, live);
         }
         let mut out = [Rgb::ZERO; LANES];
@@ -238,7 +244,9 @@ impl Brdf {
     /// [`Bxdf::pdf_at`] of each live lane (zero elsewhere).
     #[inline(always)]
     pub fn pdf_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [f32; LANES] {
-        if let Brdf::Microfacet(m) = self {
+        if let Brdf::Microfacet(m) = self
+            && m.has_lanes()
+        {
             return m.pdf_at_lanes(o, wi, live);
         }
         let mut out = [0.0f32; LANES];
