@@ -389,7 +389,12 @@ impl Microfacet {
 
     /// [`Bxdf::eval_at`] of each live lane (zero elsewhere).
     #[inline(always)]
-    pub(super) fn eval_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [Rgb; LANES] {
+    pub(super) fn eval_at_lanes(
+        &self,
+        o: &[Outgoing; LANES],
+        wi: &[Vec3; LANES],
+        live: &[bool; LANES],
+    ) -> [Rgb; LANES] {
         let mut out = [Rgb::ZERO; LANES];
         debug_assert!(self.has_lanes());
         let (hz, _, wih, above) = Self::half_vectors_lanes(o, wi);
@@ -502,7 +507,10 @@ mod tests {
                 let p = brdf.pdf_at_lanes(&o, &wi, &live);
                 for k in 0..LANES {
                     if !live[k] {
-                        assert!(s[k].is_none() && f[k] == Rgb::ZERO && p[k] == 0.0, "{brdf:?}: a lane that is not live");
+                        assert!(
+                            s[k].is_none() && f[k] == Rgb::ZERO && p[k] == 0.0,
+                            "{brdf:?}: a lane that is not live"
+                        );
                         continue;
                     }
                     let o1 = brdf.outgoing(wo[k]);
@@ -511,7 +519,10 @@ mod tests {
                         (None, None) => {}
                         (Some(a), Some(b)) => {
                             assert!(
-                                same3(a.wi, b.wi) && same3(a.weight, b.weight) && same(a.pdf, b.pdf) && a.delta == b.delta,
+                                same3(a.wi, b.wi)
+                                    && same3(a.weight, b.weight)
+                                    && same(a.pdf, b.pdf)
+                                    && a.delta == b.delta,
                                 "{brdf:?} sample wo {:?} u {:?}: {a:?} against {b:?}",
                                 wo[k],
                                 u[k]

@@ -213,7 +213,11 @@ impl<'a> PathTracer<'a> {
             cursor[k] = sampler.cursor();
         }
         // A pixel's camera rays run nearly parallel: one packet walk of a BVH for all of them.
-        let hits = if self.single_convex { self.trace(&camera) } else { scene.geometry.intersect_packet(&camera.rays, &camera.want) };
+        let hits = if self.single_convex {
+            self.trace(&camera)
+        } else {
+            scene.geometry.intersect_packet(&camera.rays, &camera.want)
+        };
         // The light seen by the camera rays that miss (in SIMD lanes for a lat-long map).
         // Most batches have none (every lane inside an object's silhouette): then no lookup runs.
         let mut missed = [false; LANES];
@@ -261,7 +265,8 @@ impl<'a> PathTracer<'a> {
                     {
                         sampler.use_ahead(ahead, k);
                     }
-                    planned[k] = self.plan_vertex(&mut st[k], sampler, &mut plan[k], &mut wo[k], &mut u_lobe[k], &mut u_brdf[k]);
+                    planned[k] =
+                        self.plan_vertex(&mut st[k], sampler, &mut plan[k], &mut wo[k], &mut u_lobe[k], &mut u_brdf[k]);
                     cursor[k] = sampler.cursor();
                 }
             }

@@ -487,7 +487,12 @@ mod tests {
             for k in 0..8 {
                 if want[k] {
                     let (p, (c, _)) = d.sample_point_cell(u[k]);
-                    assert_eq!((pu[k].to_bits(), pv[k].to_bits(), iu[k]), (p.x.to_bits(), p.y.to_bits(), c), "u {:?}", u[k]);
+                    assert_eq!(
+                        (pu[k].to_bits(), pv[k].to_bits(), iu[k]),
+                        (p.x.to_bits(), p.y.to_bits(), c),
+                        "u {:?}",
+                        u[k]
+                    );
                     compared += 1;
                 }
             }

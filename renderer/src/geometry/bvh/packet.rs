@@ -20,9 +20,9 @@
 //! single-ray walk on coherent, divergent and mixed packets.
 
 use super::{Lane, NodeRay, STACK, SceneGeometry, avx2_walk};
-use glam::UVec2;
 use crate::geometry::{Hit, Ray};
 use crate::sampling::LANES;
+use glam::UVec2;
 use obvhs::cwbvh::CwBvh;
 use std::mem::MaybeUninit;
 
