@@ -180,7 +180,7 @@ impl Bxdf for Brdf {
 
 /// The one-vertex methods over [`LANES`] vertices that all have this BRDF (the path tracer's
 /// batch, where every live lane hit the same object): each lane gets the bits of the one-vertex
-/// method. Beckmann microfacets compute in SIMD lanes ([`Microfacet::sample_at_lanes`] and the
+/// method. Beckmann microfacets compute in SIMD lanes (`Microfacet::sample_at_lanes` and the
 /// rest); every other model runs its one-vertex method lane by lane. `live` marks the lanes to
 /// compute; the others return `None`, zero, or a plain [`Outgoing`].
 impl Brdf {
