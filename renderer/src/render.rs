@@ -4,6 +4,7 @@
 
 use crate::film::{Film, Partial, PixelAccumulator, Stats, batch_log2, canonical_blocks};
 use crate::integrator::PathTracer;
+use crate::math::{Rgb, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -237,7 +238,12 @@ fn render_tile_body(
                     rays += r.rays as u64;
                 }
                 if n == LANES {
-                    acc.add_8(&results.map(|r| r.radiance), &results.map(|r| r.normal), &results.map(|r| r.hit));
+                    // Plain loops, not `array::map` (a guard and a copy per call on this path).
+                    let (mut radiance, mut normal, mut hit) = ([Rgb::ZERO; LANES], [Vec3::ZERO; LANES], [false; LANES]);
+                    for k in 0..LANES {
+                        (radiance[k], normal[k], hit[k]) = (results[k].radiance, results[k].normal, results[k].hit);
+                    }
+                    acc.add_8(&radiance, &normal, &hit);
                 } else {
                     for r in &results[..n] {
                         acc.add(r.radiance, r.normal, r.hit);

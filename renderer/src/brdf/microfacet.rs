@@ -299,7 +299,10 @@ impl Microfacet {
     pub(super) fn outgoing_lanes(&self, wo: &[Vec3; LANES], live: &[bool; LANES]) -> [Outgoing; LANES] {
         debug_assert!(self.has_lanes());
         let mut out = [Outgoing::plain(Vec3::ZERO); LANES];
-        let z = wo.map(|w| w.z);
+        let mut z = [0.0f32; LANES];
+        for k in 0..LANES {
+            z[k] = wo[k].z;
+        }
         let lambda = self.beckmann_lambda_lanes(&z);
         for k in 0..LANES {
             if live[k] {
@@ -399,7 +402,11 @@ impl Microfacet {
         debug_assert!(self.has_lanes());
         let (hz, _, wih, above) = Self::half_vectors_lanes(o, wi);
         let d = self.beckmann_d_lanes(&hz);
-        let lambda_i = self.beckmann_lambda_lanes(&wi.map(|w| w.z));
+        let mut wiz = [0.0f32; LANES];
+        for k in 0..LANES {
+            wiz[k] = wi[k].z;
+        }
+        let lambda_i = self.beckmann_lambda_lanes(&wiz);
         let mut scale = [0.0f32; LANES];
         for k in 0..LANES {
             let g = 1.0 / (1.0 + o[k].lambda_o + lambda_i[k]);

@@ -340,7 +340,10 @@ impl<'a> PathTracer<'a> {
                     evaluate[k] = true;
                 }
             }
-            let outgoing = plan.map(|p| p.outgoing);
+            let mut outgoing = [Outgoing::plain(Vec3::Z); LANES];
+            for k in 0..LANES {
+                outgoing[k] = plan[k].outgoing;
+            }
             let f = match shared {
                 Some(object) => scene.brdfs[object as usize].eval_at_lanes(&outgoing, &wi_local, &evaluate),
                 None => {
