@@ -1,5 +1,5 @@
 //! Writes a render in another renderer's conventions, to try `reflect analyze` and `reflect invert`
-//! on an image `reflect` did not write (README, "Analysing another renderer's images").
+//! on an image `reflect` did not write (guide "Analysing another renderer's images").
 //!
 //! The scene is `scenes/lambert-grace.toml` (a Lambert 0.8 unit sphere under Grace's light probe,
 //! orthographic from (3, 0, 1), extent 1.05). The file has

@@ -1,4 +1,4 @@
-//! `reflect`: render, analyse and verify (see README.md).
+//! `reflect`: render, analyse and verify (see README.md and the guide in docs/).
 
 use clap::Parser;
 use reflect::cli;

@@ -17,7 +17,7 @@ use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
 
-/// Lambert Λ_l ρ̂_l (albedo 1), l ≤ 2, CONVENTIONS §4.
+/// Lambert Λ_l ρ̂_l (albedo 1), l ≤ 2, docs/src/conventions.md §4.
 const LAMBERT: [f64; 3] = [1.0, 2.0 / 3.0, 0.25];
 
 fn reflect(args: &[&str]) -> (i32, String, String) {

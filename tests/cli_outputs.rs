@@ -1,6 +1,6 @@
 //! The numbers the analysis commands print, through the binary, against closed forms: `analyze`,
-//! `sh transfer`, `sh project` (CONVENTIONS §7 JSON). Inputs are synthesised here from the
-//! CONVENTIONS §3 check values of Y_lm (l ≤ 2), not from the analysis crate's basis.
+//! `sh transfer`, `sh project` (docs/src/conventions.md §7 JSON). Inputs are synthesised here from the
+//! docs/src/conventions.md §3 check values of Y_lm (l ≤ 2), not from the analysis crate's basis.
 
 mod common;
 use analysis::image::{Image, write_exr};
@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 use std::process::Command;
 
-/// Y_lm, l ≤ 2, from the check values of CONVENTIONS §3 (k = l(l+1) + m).
+/// Y_lm, l ≤ 2, from the check values of docs/src/conventions.md §3 (k = l(l+1) + m).
 fn y9(d: [f64; 3]) -> [f64; 9] {
     let [x, y, z] = d;
     [
@@ -50,7 +50,7 @@ fn arr(v: &Value) -> Vec<f64> {
     v.as_array().unwrap_or_else(|| panic!("not an array: {v}")).iter().map(|x| x.as_f64().unwrap()).collect()
 }
 
-/// Lambert Λ_l ρ̂_l (albedo 1), CONVENTIONS §4.
+/// Lambert Λ_l ρ̂_l (albedo 1), docs/src/conventions.md §4.
 const LAMBERT: [f64; 9] = [1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0, 0.0, 1.0 / 64.0, 0.0, -1.0 / 128.0];
 
 /// `reflect analyze` of a Lambertian normal-probe image under SH lighting: B_lm = albedo Λ_l ρ̂_l L_lm
@@ -117,7 +117,7 @@ fn analyze_normal_probe_numbers_against_closed_forms() {
     assert!((bf[0] - bc[0]).abs() < 0.02 * b[6][0].abs(), "{} vs {}", bf[0], bc[0]);
 }
 
-/// `reflect sh transfer --json`: Λ_l ρ̂_l of CONVENTIONS §4 in closed form (Lambert's series, mirror
+/// `reflect sh transfer --json`: Λ_l ρ̂_l of docs/src/conventions.md §4 in closed form (Lambert's series, mirror
 /// 1, Phong eq. 43 for s = 1 (the Lambert values) and s = 2 (1, 3/4, 2/5, 0 at l = 4 and 6), and
 /// Torrance–Sparrow eq. 50 by a Simpson rule written here (error < 1e-9 at 20 000 panels).
 #[test]
@@ -170,8 +170,8 @@ fn sh_transfer_numbers_against_closed_forms() {
     close(&get(&["--brdf", "torrance-sparrow", "--sigma", "0.2"]), &ts, 1e-6, "torrance-sparrow σ=0.2");
 }
 
-/// `reflect sh project --json` of a lat-long map of known SH content (l ≤ 2, from the CONVENTIONS
-/// check values): L_lm within the lat-long quadrature error, stated as the difference between the
+/// `reflect sh project --json` of a lat-long map of known SH content (l ≤ 2, from the check values of
+/// docs/src/conventions.md §3): L_lm within the lat-long quadrature error, stated as the difference between the
 /// 64 × 32 and 128 × 64 maps (the finer one must lie within it), and higher orders ≈ 0 likewise.
 #[test]
 fn sh_project_numbers_against_closed_forms() {

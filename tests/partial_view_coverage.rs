@@ -20,7 +20,7 @@ use common::*;
 use serde_json::Value;
 use std::path::Path;
 
-/// Lambert Λ_l ρ̂_l (albedo 1), l ≤ 2, CONVENTIONS §4.
+/// Lambert Λ_l ρ̂_l (albedo 1), l ≤ 2, docs/src/conventions.md §4.
 const LAMBERT: [f64; 3] = [1.0, 2.0 / 3.0, 0.25];
 const SEEDS: u64 = 20;
 

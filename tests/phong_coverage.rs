@@ -11,7 +11,7 @@
 //!   call): every order's filter estimate against Phong's closed form Λ_l ρ̂_l (eq. 43).
 //!
 //! Full measurement (`cargo test --release --test phong_coverage -- --ignored --nocapture`, 20
-//! seeds, 2026-12-01; the table is in README "Partial views: coverage on Phong spheres"): the
+//! seeds, 2026-12-01; the table is in guide "Partial views: coverage on Phong spheres"): the
 //! filter orders cover at the nominal rate — |z| < 1 for 67.7 % (one view) and 63.7 % (two views),
 //! < 2 for 99.7 % / 100 % (nominal 68.3 %, 95.4 %) — and the recovered L_lm a little wide, 88.8 %
 //! / 76.3 % at 1σ, 100 % / 99.0 % at 2σ. The noise part is the per-pixel σ with the bound near

@@ -79,7 +79,7 @@ fn white_furnace_lambert_and_mirror() {
 /// per-pixel standard errors of the independent sampler. Where the albedo is known independently it
 /// is asserted within kσ: exactly 1 for Lambert (albedo 1), the Lambert + mirror mix, and Phong at
 /// normal exitance (the lobe about R = n lies above the horizon); Phong at 60° (the lobe cut by the
-/// horizon) and Torrance–Sparrow (eq. 48, not normalized) by a 2-D quadrature of CONVENTIONS §4's
+/// horizon) and Torrance–Sparrow (eq. 48, not normalized) by a 2-D quadrature of docs/src/conventions.md §4's
 /// definitions written here. Microfacet models lose energy to Smith masking by an amount specific
 /// to the Smith form; they are held to ≤ 1 + kσ only (their eval/sample/pdf consistency is the χ²
 /// tests' job). (Torrance–Sparrow's eq. 48 itself exceeds 1 near grazing exitance, so angles stay
@@ -210,7 +210,7 @@ fn lambert_under_directional_light_is_the_clamped_cosine() {
 
 /// The same check through an orthographic camera: each pixel averages B over its footprint, so
 /// compare with a supersampled average of the closed form over the footprint. The reference is
-/// built here from CONVENTIONS §5's camera (ray origin from + x·right + y·up', direction f) and the
+/// built here from docs/src/conventions.md §5's camera (ray origin from + x·right + y·up', direction f) and the
 /// ray–sphere quadratic, not from the renderer's camera or intersector. Its quadrature error is
 /// stated per pixel as |mean₃₂ₓ₃₂ − mean₁₆ₓ₁₆| (the midpoint rule's error at 32 × 32 is about a
 /// quarter of that); the noise term is Šidák's k over the compared pixels, Student-t for σ
@@ -292,7 +292,7 @@ fn lambert_under_directional_light_orthographic() {
 
 /// A mirror sphere shows the environment exactly in the reflected direction R = 2(n·ω_o)n − ω_o,
 /// at normal and at oblique exitance. The reference is built here, not from the renderer's camera
-/// or environment lookup: n from the lat-long pixel centre (CONVENTIONS §2), ω_o = cos θ_o n +
+/// or environment lookup: n from the lat-long pixel centre (docs/src/conventions.md §2), ω_o = cos θ_o n +
 /// sin θ_o t (§6), and the probe read by the analysis crate's loader and looked up at the nearest
 /// pixel of the angular map (§2). Directions within 1e-3 pixel of a pixel edge are skipped (f32 vs
 /// f64 may pick the neighbour there).

@@ -1,4 +1,4 @@
-//! The renderer's environment rotation (`rotate_deg`, CONVENTIONS §6) against the analysis crate's
+//! The renderer's environment rotation (`rotate_deg`, docs/src/conventions.md §6) against the analysis crate's
 //! rotation of SH coefficients. Every example scene uses zero rotation, so a disagreement between
 //! the two (axis order, transpose, degrees) would pass every other test.
 
@@ -71,7 +71,7 @@ fn rotated_environment_matches_the_rotated_coefficients() {
         [v.x as f64, v.y as f64, v.z as f64]
     };
 
-    // (1) Pointwise: the rotated light at ω is the map's pixel containing Rᵀω (CONVENTIONS §2
+    // (1) Pointwise: the rotated light at ω is the map's pixel containing Rᵀω (docs/src/conventions.md §2
     // lat-long, nearest pixel), with R the analysis crate's rotation of the same rotate_deg.
     // Directions within 1e-3 pixel of a pixel edge are skipped (f32 vs f64 may pick the neighbour).
     let (zs, ws) = gauss_legendre(48);
@@ -152,7 +152,7 @@ fn rotated_environment_matches_the_rotated_coefficients() {
     assert!((1..got.len()).any(|k| (got[k][0] - c[k][0]).abs() > 10.0 * tol));
 }
 
-/// Λ_l ρ̂_l of a Lambertian of albedo 1 for l ≤ 4 (CONVENTIONS §4; eq. 26 of the paper).
+/// Λ_l ρ̂_l of a Lambertian of albedo 1 for l ≤ 4 (docs/src/conventions.md §4; eq. 26 of the paper).
 const LAMBERT: [f64; 5] = [1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0];
 
 /// Solid angle of a lat-long row r of an H-row map, per column of a W-column map.

@@ -1,4 +1,4 @@
-//! Scene files (CONVENTIONS §6): parsing (defaults, unknown keys), validation at build time (every
+//! Scene files (docs/src/conventions.md §6): parsing (defaults, unknown keys), validation at build time (every
 //! refusal names the field), and the perspective camera's geometry.
 
 mod common;
@@ -44,7 +44,7 @@ fn build_err(toml: &str) -> String {
 #[test]
 fn defaults_and_parse_errors() {
     let f = SceneFile::parse(BASE).unwrap();
-    // CONVENTIONS §6 defaults: seed 0, max_depth 8, the Sobol sampler; sphere at the origin, radius 1.
+    // docs/src/conventions.md §6 defaults: seed 0, max_depth 8, the Sobol sampler; sphere at the origin, radius 1.
     assert_eq!((f.render.width, f.render.height, f.render.spp, f.render.seed, f.render.max_depth), (8, 6, 2, 0, 8));
     assert_eq!(f.render.sampler, vocab::Sampler::Sobol);
     let s = build(BASE).unwrap();
@@ -164,7 +164,7 @@ fn perspective(fov: f32, w: u32, h: u32) -> renderer::camera::perspective::Persp
 
 /// The pinhole camera: rays start at `from`; the image centre looks at `to`; the vertical field of
 /// view is `fov_deg` (the top and bottom edge centres are fov/2 from the axis); the horizontal one
-/// follows the aspect ratio; image right is forward × up and row 0 is the top (CONVENTIONS §5); and
+/// follows the aspect ratio; image right is forward × up and row 0 is the top (docs/src/conventions.md §5); and
 /// a world point projects to the pixel whose ray passes through it.
 #[test]
 fn perspective_camera_geometry() {
@@ -218,7 +218,7 @@ fn perspective_camera_geometry() {
 /// pinhole projection, not the camera's ray generation: seen from distance d, a sphere of radius r
 /// centred on the optical axis fills the cone of half-angle α = asin(r/d), whose image on the plane
 /// at unit distance is the disc of radius tan α about the image centre; the image plane spans
-/// ±tan(fov/2) vertically and ±tan(fov/2)·W/H horizontally, row 0 at the top (CONVENTIONS §5).
+/// ±tan(fov/2) vertically and ±tan(fov/2)·W/H horizontally, row 0 at the top (docs/src/conventions.md §5).
 #[test]
 fn perspective_render_sees_the_sphere_where_geometry_says() {
     let (w, h) = (40, 30);

@@ -219,7 +219,7 @@ fn plain_scene_error_bars_are_not_inflated() {
     // Not inflated: coverage at most NOMINAL + 3 binomial σ (99.82 % for 32768 pairs; measured
     // 99.66 %, mean z² 1.028: the own σ of the independent sampler is right to ≈ 1.4 %). The lower
     // side is not asserted here: a mean of 256 skewed samples has slightly heavier tails than a normal,
-    // which puts |z| < 3 a little below 99.73 % whatever the error bar (README "Error bars").
+    // which puts |z| < 3 a little below 99.73 % whatever the error bar (guide "Error bars").
     let not_inflated = |c: &Coverage| Coverage::rate(c.all()) <= highest_honest(c.all().0);
     assert!(not_inflated(&cp), "{}", cp.line("pooled σ"));
     // Planted error: error bars 1.25× too wide (the median inflation pooling gives a flagged pixel,
@@ -366,7 +366,7 @@ fn analyze_at_4_spp_sees_no_model_inadequacy() {
             .count()
     };
     // χ²/ν of ν ≈ 11,400 pixels has a sampling σ of √(2/ν) ≈ 0.013; "near 1" allows for the Sobol
-    // sampler's conservatism (printed σ 1.2× the real error at 8 spp, README "Error bars") and the
+    // sampler's conservatism (printed σ 1.2× the real error at 8 spp, guide "Error bars") and the
     // bound's (the max of two estimates).
     assert!(written.iter().all(|&x| (0.3..1.5).contains(&x)), "written σ: χ²/ν {written:?}");
     assert_eq!(scaled(&written_warnings), 0, "{written_warnings:?}");

@@ -1,6 +1,6 @@
 //! Writes synthetic "renders" with the exact reflected radiance B = Σ albedo Λ_l ρ̂_l L_lm Y_lm
 //! (eq. 15) for trying `reflect analyze` without the renderer:
-//! - `lambert_ortho.exr`: orthographic view of a Lambertian sphere (headers of CONVENTIONS §5);
+//! - `lambert_ortho.exr`: orthographic view of a Lambertian sphere (headers of docs/src/conventions.md §5);
 //! - `lambert_ortho_rgb_only.exr`: the same pixels, R, G, B only, no header attributes;
 //! - `phong_probe.exr`: a `normal-probe` image of a Phong (s = 8) sphere, with a stderr layer.
 //!

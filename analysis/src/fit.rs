@@ -7,7 +7,7 @@
 //!   (eq. 15 written in pixel space) over any set of directions d — a `normal-probe` grid or the
 //!   visible normals of orthographic views — for a known lighting;
 //! - [`project_probe`], [`sh_design`]: the lat-long quadrature and the SH design of a `normal-probe`
-//!   image (CONVENTIONS §2).
+//!   image (docs/src/conventions.md §2).
 //!
 //! Everything is linear in the pixel values, so independent per-pixel standard errors σ_p propagate
 //! exactly: Var(Σ_p w_p B_p) = Σ_p w_p² σ_p². Fitting the filter in pixel space needs no quadrature
@@ -19,7 +19,7 @@ use crate::sh::{ShBasis, index, latlong_direction, num_coefficients};
 use crate::special::chi2_survival;
 use std::f64::consts::PI;
 
-/// Exact solid angle (sr) of a pixel of row `r` of a W × H lat-long grid (CONVENTIONS §2).
+/// Exact solid angle (sr) of a pixel of row `r` of a W × H lat-long grid (docs/src/conventions.md §2).
 pub fn latlong_omega(r: usize, w: usize, h: usize) -> f64 {
     let t0 = PI * r as f64 / h as f64;
     let t1 = PI * (r as f64 + 1.0) / h as f64;
@@ -182,7 +182,7 @@ pub const NOISE_CHI2_MAX: f64 = 10.0;
 /// pixels whose own σ missed a rare heavy sample, which the bound near flagged pixels applied when
 /// a render is read (`reflect`'s `header::bound_near_flags`) carries. Scaling by it made Phong spheres
 /// under Grace (χ²/ν ≈ 10⁴ at 16 spp, robust 2–7) cover 95 % at 1σ, bars 3–10× too wide
-/// (tests/phong_coverage.rs, README "Partial views").
+/// (tests/phong_coverage.rs, guide "Partial views").
 pub fn noise_scale(have_sigma: bool, x: Option<f64>) -> f64 {
     match (have_sigma, x) {
         (false, Some(x)) => x.sqrt(),

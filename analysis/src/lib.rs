@@ -4,7 +4,7 @@
 //! Ramamoorthi & Hanrahan, "A Signal-Processing Framework for Reflection, Part 2": lighting
 //! coefficients L_lm, transfer coefficients Λ_l ρ̂_l, reflected-light coefficients B_lm, and the
 //! comparison B_lm = Λ_l ρ̂_l L_lm (eq. 15). It does not depend on the renderer, so it can analyse
-//! any renderer's EXR files. Conventions: `shared/CONVENTIONS.md` §2, §3, §4, §7.
+//! any renderer's EXR files. Conventions: docs/src/conventions.md §2, §3, §4, §7.
 //!
 //! - [`sh`]: basis, reconstruction, rotation;
 //! - [`projection`]: environment maps, functions, `normal-probe` and orthographic renders;

@@ -1,4 +1,4 @@
-//! Lighting descriptions (the `[lighting]` table of a scene, CONVENTIONS §6, or the
+//! Lighting descriptions (the `[lighting]` table of a scene, docs/src/conventions.md §6, or the
 //! `reflect:lighting` JSON of a render's header, both read into `vocab`'s [`LightingSection`]) and
 //! their SH coefficients L_lm.
 //!
@@ -24,7 +24,7 @@ pub enum Lighting {
 }
 
 impl Lighting {
-    /// From a scene's `[lighting]` table ([`LightingSection`], CONVENTIONS §6); a relative `file`
+    /// From a scene's `[lighting]` table ([`LightingSection`], docs/src/conventions.md §6); a relative `file`
     /// is resolved against `base`. Values are checked here (finite colours, a non-zero direction,
     /// a non-empty coefficient list); `axial` is refused (its profile is the renderer's).
     pub fn from_section(section: &LightingSection, base: Option<&Path>) -> Result<Lighting> {
@@ -73,7 +73,7 @@ impl Lighting {
     }
 
     /// From the JSON form of a `[lighting]` table (as in a `reflect:lighting` header); relative
-    /// `file` paths are resolved against `base`. Unknown keys and bad values are errors (CONVENTIONS §6).
+    /// `file` paths are resolved against `base`. Unknown keys and bad values are errors (docs/src/conventions.md §6).
     pub fn from_json(v: &serde_json::Value, base: Option<&Path>) -> Result<Lighting> {
         let section: LightingSection =
             serde_json::from_value(v.clone()).map_err(|e| Error::new(format!("lighting: {e}")))?;

@@ -72,7 +72,7 @@ pub const UNDETERMINED: &str = "undetermined";
 /// Fraction of an order's size at which its truncation bound makes it [`UNDETERMINED`]. Measured
 /// (RMS over m, largest channel): one view of a Lambert sphere under Grace at l_max 2
 /// (tests/partial_view_truncation.rs) gives 29 / 38 / 55 % (R G B) at l = 0; two opposite views
-/// ≤ 13 % at every order; one view of a mirror (the Mitsuba 3 render of README, l_max 8) 3–6 % at
+/// ≤ 13 % at every order; one view of a mirror (the Mitsuba 3 render of guide "Analysing another renderer's images", l_max 8) 3–6 % at
 /// l = 0 and at most 24 % (l = 7, R), whose bars cover the truth.
 pub const UNDETERMINED_TRUNCATION: f64 = 0.35;
 

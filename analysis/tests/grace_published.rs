@@ -1,4 +1,4 @@
-//! An independent check of the frame and mapping conventions (CONVENTIONS §1–§3) against real
+//! An independent check of the frame and mapping conventions (docs/src/conventions.md §1–§3) against real
 //! data: the nine lighting coefficients of the Grace Cathedral probe that Ramamoorthi & Hanrahan
 //! published ("An Efficient Representation for Irradiance Environment Maps", SIGGRAPH 2001,
 //! Table 1, two decimals). Their probe file was exposed differently from `grace_probe.hdr`, so one

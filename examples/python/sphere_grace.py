@@ -1,5 +1,5 @@
 """Render a Lambertian sphere under the Grace Cathedral probe, project it into SH, and compare the
-measured B_lm with the prediction B_lm = albedo · Λ_l ρ̂_l · L_lm (eq. 15; README "Spherical harmonics:
+measured B_lm with the prediction B_lm = albedo · Λ_l ρ̂_l · L_lm (eq. 15; guide "Spherical harmonics:
 the terms the commands print").
 
     pip install ./python matplotlib        # from the checkout

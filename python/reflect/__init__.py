@@ -8,9 +8,9 @@ theory of reflection, with NumPy arrays in and out.
 - :func:`analyze`, :mod:`reflect.invert`, :func:`verify`: the CLI's ``--json`` documents as
   dicts, with numeric lists as NumPy arrays.
 
-Conventions (frame, SH basis, image layers, scene files) are those of the project's README
-(sections "Frames and directions", "Spherical harmonics: the terms the commands print", "Output
-images", "Scene files"). Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the
+Conventions (frame, SH basis, image layers, scene files) are those of the project's guide,
+``docs/src/conventions.md`` (sections "Spherical harmonics: the terms the commands print", "Output
+images", "Scene files" of the guide give the details). Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the
 CLI's one-line message, its flags named as this API's keywords (``--from`` → ``from_=``).
 """
 
@@ -57,7 +57,7 @@ def render(
     """Renders a scene and returns its image layers as NumPy arrays.
 
     ``scene`` is a path (``str`` without a line break, or ``os.PathLike``), TOML text (a ``str``
-    with line breaks), a dict in the scene vocabulary (README "Scene files"; relative data paths from
+    with line breaks), a dict in the scene vocabulary (guide "Scene files"; relative data paths from
     the current directory) or a :class:`Scene`. The keyword arguments override the scene's
     ``[render]`` table as the CLI's ``--spp``, ``--seed``, ``--size WxH`` (here ``(width,
     height)``), ``--threads`` and ``--sampler`` do; the image does not depend on ``threads``.

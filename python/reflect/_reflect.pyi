@@ -1,8 +1,8 @@
 """Type stub of the native module ``reflect._reflect`` (Rust, PyO3).
 
 The public API is the package ``reflect`` (``reflect/__init__.py``, ``reflect/sh.py``, …), which
-shapes arguments and calls these functions. Conventions: the project's README (sections
-"Frames and directions", "Environment maps and `rotate_deg`", "Spherical harmonics: the terms the
+shapes arguments and calls these functions. Conventions: the project's guide in ``docs/``
+(sections "Frames and directions", "Environment maps and `rotate_deg`", "Spherical harmonics: the terms the
 commands print", "BRDFs", "Output images", "Scene files", "Command line"). Every function
 raises ``ValueError`` with the CLI's one-line message on bad input, ``FileNotFoundError`` when a
 named input file does not exist.
@@ -16,7 +16,7 @@ import numpy.typing as npt
 __version__: str
 
 class RenderResult:
-    """A finished render (README "Output images"), row 0 at the top of the image."""
+    """A finished render (guide "Output images"), row 0 at the top of the image."""
 
     @property
     def rgb(self) -> npt.NDArray[np.float32]:

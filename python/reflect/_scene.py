@@ -1,4 +1,4 @@
-"""Scenes: a path, TOML text, a dict in the scene vocabulary (README "Scene files"), or a `Scene`."""
+"""Scenes: a path, TOML text, a dict in the scene vocabulary (guide "Scene files"), or a `Scene`."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ class Scene:
     """A scene description whose fields can be changed before rendering.
 
     The tables of the scene file are plain, mutable Python objects: ``render``, ``camera`` and
-    ``lighting`` are dicts, ``objects`` a list of dicts, with the keys of the README's section "Scene
+    ``lighting`` are dicts, ``objects`` a list of dicts, with the keys of the guide's section "Scene
     files". Only what the source gave is there; defaults are filled in, and every
     value is checked with the same serde types as a scene file, when the scene is rendered.
     Relative data paths (``lighting.file``, mesh ``file``) are resolved against ``base``: the

@@ -1,4 +1,4 @@
-"""Spherical harmonics on NumPy arrays (README "Spherical harmonics: the terms the commands
+"""Spherical harmonics on NumPy arrays (guide "Spherical harmonics: the terms the commands
 print").
 
 Real, orthonormal basis without the Condon–Shortley phase; coefficient k = l(l+1) + m, so
@@ -41,7 +41,7 @@ def project(
 
     ``env`` is an ``.exr``/``.hdr`` file or an (H, W, 3) array of linear RGB radiance (taken as
     float32, the precision the renderer lights with). ``mapping`` is ``"latlong"`` or
-    ``"angular"`` (README "Environment maps and `rotate_deg`"); by default it is inferred from
+    ``"angular"`` (guide "Environment maps and `rotate_deg`"); by default it is inferred from
     the aspect ratio (W = H angular, W = 2H lat-long). Each Y_lm is integrated exactly over each pixel of the
     piecewise-constant map, so every order is the exact expansion of the map the renderer lights
     with (``reflect sh project``). lmax ≤ 200.
@@ -86,7 +86,7 @@ def transfer(
     sigma: Optional[float] = None,
     theta_o_deg: Optional[float] = None,
 ) -> np.ndarray:
-    """Λ_l ρ̂_l for l = 0 … lmax: (lmax+1,) float64, for unit albedo / k_s (README "BRDFs").
+    """Λ_l ρ̂_l for l = 0 … lmax: (lmax+1,) float64, for unit albedo / k_s (guide "BRDFs").
 
     ``brdf``: ``"lambert"`` (eq. 38: 1, 2/3, 1/4, 0, −1/24, …), ``"phong"`` with exponent ``s``
     (eq. 43, exact), ``"mirror"`` (eq. 33: all 1) or ``"torrance-sparrow"`` with roughness

@@ -155,7 +155,7 @@ pub fn render(
     RenderResult::new(py, &scene, film, &stats)
 }
 
-/// A finished render: the AOVs of README "Output images" as NumPy arrays, and the film to save.
+/// A finished render: the AOVs of guide "Output images" as NumPy arrays, and the film to save.
 #[pyclass(module = "reflect._reflect", frozen)]
 pub struct RenderResult {
     /// Linear RGB radiance, float32 (H, W, 3), row 0 at the top.
@@ -223,7 +223,7 @@ impl RenderResult {
 
 #[pymethods]
 impl RenderResult {
-    /// Writes the render as the CLI does: 32-bit float OpenEXR with the layers of README "Output images"
+    /// Writes the render as the CLI does: 32-bit float OpenEXR with the layers of guide "Output images"
     /// and the scene in the header, atomically.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         if path.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {

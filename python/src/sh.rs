@@ -1,5 +1,5 @@
 //! `reflect.sh`: projection of environments, evaluation, transfer coefficients and rotation, on
-//! NumPy arrays (README sections "Environment maps and `rotate_deg`", "Spherical harmonics: the
+//! NumPy arrays (guide sections "Environment maps and `rotate_deg`", "Spherical harmonics: the
 //! terms the commands print", "BRDFs"). The Python side (`reflect/sh.py`) shapes the arrays;
 //! these functions take and return C-contiguous float64 arrays.
 

@@ -1,4 +1,4 @@
-//! The film: per-pixel estimates with their standard errors, and the AOVs of CONVENTIONS §5.
+//! The film: per-pixel estimates with their standard errors, and the AOVs of docs/src/conventions.md §5.
 //!
 //! # Accumulation in a fixed dyadic tree (bit-exact shards)
 //!
@@ -46,7 +46,7 @@
 //! 256 spp, |z| < 3 against the leave-one-out mean; nominal 99.73 %): the pixels' own σ covers the
 //! unflagged pixels at 91.9 %, the pooled σ at 99.90 %, and the flagged at 100.00 % (own σ:
 //! 99.70 %); the Grace probe at 64 spp, which flags 8.7 % of its pixels, goes from 98.42 % (flagged:
-//! 92.49 %) to 99.69 % (flagged: 99.89 %; README "Error bars"). The pooled bound is conservative where the rare event was
+//! 92.49 %) to 99.69 % (flagged: 99.89 %; guide "Error bars"). The pooled bound is conservative where the rare event was
 //! seen and honest where it was not; an event too rare to be flagged anywhere in a pixel's
 //! neighbourhood stays a documented limit.
 //!
@@ -67,7 +67,7 @@
 //! applies the bound at low batch counts only; the bound near flags is [`Partial::finish_pooled`],
 //! and `reflect verify` applies [`pool_heavy_tails`] to every render it judges. In renders it makes
 //! the two-view filter fits of tests/partial_view_coverage.rs cover 47 % at 1σ but 96 % at 2σ (a
-//! fixed bias in some coefficients that the own σ's χ²/ν inflation hid; README "Error bars").
+//! fixed bias in some coefficients that the own σ's χ²/ν inflation hid; guide "Error bars").
 //!
 //! The pooling is a fixed sequential function of the finished own values, so the result is the same
 //! bits whatever the thread count or shard partition.
@@ -102,7 +102,7 @@ pub const POOL_TRIGGER_RADIUS: usize = 2;
 
 /// log2 of the batch size B of the standard error used by renders: 0, i.e. batches of one sample.
 ///
-/// Batches of B > 1 samples were measured on the `env-sun` case (tests/stderr_coverage.rs, README
+/// Batches of B > 1 samples were measured on the `env-sun` case (tests/stderr_coverage.rs, guide
 /// "Error bars"): with the independent sampler the samples are already independent, so batching only
 /// removes degrees of freedom, and the coverage failures come from rare events that were never drawn,
 /// which no batching can see. A fixed B (not a function of spp) also keeps a render to a target error,

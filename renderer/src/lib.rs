@@ -1,7 +1,7 @@
 //! `renderer`: a CPU Monte Carlo path tracer for convex objects under distant lighting.
 //!
 //! Layout (one concept per file):
-//! - [`math`]: colours, shading frames, spherical coordinates (CONVENTIONS §1).
+//! - [`math`]: colours, shading frames, spherical coordinates (docs/src/conventions.md §1).
 //! - [`sampling`]: counter-based samplers (independent and Owen-scrambled Sobol), warps, discrete
 //!   and piecewise-constant distributions, and the chi-square harness that tests every sampler.
 //! - [`brdf`]: the paper's BRDFs (mirror, Lambert, Phong, Torrance–Sparrow) and a full microfacet

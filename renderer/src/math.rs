@@ -1,4 +1,4 @@
-//! Small geometric helpers in the world frame of CONVENTIONS §1 (+z up, right-handed).
+//! Small geometric helpers in the world frame of docs/src/conventions.md §1 (+z up, right-handed).
 
 pub mod fast;
 
@@ -44,7 +44,7 @@ pub fn spherical_angles(d: Vec3) -> (f32, f32) {
     (theta, phi)
 }
 
-/// Reflection of `wo` about `n`: R = 2(n·ω_o)n − ω_o (CONVENTIONS §1).
+/// Reflection of `wo` about `n`: R = 2(n·ω_o)n − ω_o (docs/src/conventions.md §1).
 #[inline]
 pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     2.0 * n.dot(wo) * n - wo
@@ -82,7 +82,7 @@ impl Frame {
     }
 }
 
-/// Rotation matrix of CONVENTIONS §6 `rotate_deg = [x, y, z]`: about x, then y, then z.
+/// Rotation matrix of docs/src/conventions.md §6 `rotate_deg = [x, y, z]`: about x, then y, then z.
 pub fn rotation_xyz_deg(deg: [f32; 3]) -> glam::Mat3 {
     let [x, y, z] = deg.map(f32::to_radians);
     glam::Mat3::from_rotation_z(z) * glam::Mat3::from_rotation_y(y) * glam::Mat3::from_rotation_x(x)

@@ -1,4 +1,4 @@
-//! Writing results: float OpenEXR with the layers of CONVENTIONS §5 and the scene's camera, render
+//! Writing results: float OpenEXR with the layers of docs/src/conventions.md §5 and the scene's camera, render
 //! settings, lighting and objects as JSON string attributes in the header (`reflect:camera`,
 //! `reflect:render`, `reflect:lighting`, `reflect:objects`, the whole scene as `reflect:scene` and
 //! `reflect:integrator`; written and read back by [`vocab::header`]), so an analysis can read the
@@ -113,7 +113,7 @@ fn srgb(v: f32) -> f32 {
 /// Tone map of the PNG previews (`reflect png`, `reflect render --png`), per channel: the linear
 /// value v is scaled by 2^EV, compressed by Reinhard's x/(1 + x) (so nothing clips: highlights
 /// approach white smoothly, 1.0 maps to 0.5), then sRGB-encoded and quantized to 8 bits (round
-/// to nearest). Negative values show as 0. Not for analysis (CONVENTIONS §5).
+/// to nearest). Negative values show as 0. Not for analysis (docs/src/conventions.md §5).
 pub fn tone_map(v: f32, exposure_ev: f64) -> u8 {
     let x = (v as f64 * exposure_ev.exp2()).max(0.0);
     let y = if x.is_finite() { x / (1.0 + x) } else { 1.0 };

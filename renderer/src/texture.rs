@@ -1,5 +1,5 @@
 //! Albedo textures: a spatially varying RGB reflectance factor T(n) of an object, given as a function
-//! of its world-space surface normal n by spherical-harmonic coefficients (CONVENTIONS §3):
+//! of its world-space surface normal n by spherical-harmonic coefficients (docs/src/conventions.md §3):
 //! T(n) = Σ_k T_k Y_k(n), k = l(l+1) + m, l ≤ [`MAX_LMAX`]. On a sphere this is an ordinary texture
 //! (n is the point on the sphere); on a convex mesh it paints by orientation.
 //!

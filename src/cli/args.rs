@@ -14,14 +14,14 @@ use std::path::PathBuf;
 /// not say them (another renderer's images, in the renderer's camera convention). The one place
 /// these flags are parsed and documented: every command that takes a view flattens this struct.
 ///
-/// `--from/--to/--up/--extent` (an orthographic view, CONVENTIONS §5) or `--theta-o/--phi-o` (a
-/// normal-probe view, CONVENTIONS §6) are given once per image, in the order of the images, or not
+/// `--from/--to/--up/--extent` (an orthographic view, docs/src/conventions.md §5) or `--theta-o/--phi-o` (a
+/// normal-probe view, docs/src/conventions.md §6) are given once per image, in the order of the images, or not
 /// at all ([`flags::per_image`]); `--center` and `--radius` describe the one sphere; `--scene S.toml` says
 /// the images are renders of that scene (camera, sphere, BRDF, lighting; its `[render]` size must be
 /// the images'). A header's `reflect:camera` / `reflect:objects`, the scene and the flags are
 /// combined by [`super::header::describe`]: each fills in what the others leave open, and two that
 /// contradict each other are an error naming both values. Positions and lengths are in world units
-/// of our frame (CONVENTIONS §1, +z up); `--extent` is the half-width of the view.
+/// of our frame (docs/src/conventions.md §1, +z up); `--extent` is the half-width of the view.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ViewArgs {
     /// Orthographic camera position x,y,z of an image without reflect:camera; once per image, in
@@ -72,7 +72,7 @@ pub struct ImageArgs {
     /// ViewLayer.Combined.R/G/B); needed only when the file has several radiance layers.
     #[arg(long)]
     pub layer: Option<String>,
-    /// Normal-probe camera (a lat-long map over the sphere's normals, README "Cameras") of an image
+    /// Normal-probe camera (a lat-long map over the sphere's normals, guide "Cameras") of an image
     /// without reflect:camera: its exitance θ_o in degrees, 0 ≤ θ_o < 90, once per image (default 0
     /// when only --phi-o is given); a --scene normal-probe camera takes these angles per image.
     #[arg(long = "theta-o", value_parser = flags::parse_theta_o, allow_hyphen_values = true)]

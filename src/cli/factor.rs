@@ -3,7 +3,7 @@
 //! `analysis::inverse::factorization` (its module doc has the derivation), as the `factorization`
 //! check does (`src/verify/factorization.rs`).
 //!
-//! The light field B(n; θ'_o, φ'_o) is sampled by `normal-probe` images (CONVENTIONS §6), one per
+//! The light field B(n; θ'_o, φ'_o) is sampled by `normal-probe` images (docs/src/conventions.md §6), one per
 //! node of a product rule over the outgoing hemisphere: n_μ Gauss–Legendre nodes in μ = cos θ'_o on
 //! (0, 1) × n_φ azimuths φ'_o = 360° k / n_φ (`hemisphere_nodes`). Normals are integrated over the
 //! lat-long pixels with Fejér's first rule (`--quadrature fejer`, default) or exact pixel solid
@@ -36,7 +36,7 @@
 //! P a(θ'_o) per node ring, and with a normal view the filter ratios Λ_l ρ̂_l / Λ_0 ρ̂_0 at θ_o = 0
 //! from eq. 16, with the factored L_lm and with Y_lm(ŝ) of the recovered direction. One channel
 //! (`--channel r|g|b`, default r) is factored: a coloured light field factors per channel.
-//! `--json` prints one JSON document (CONVENTIONS §7) instead of the text tables.
+//! `--json` prints one JSON document (docs/src/conventions.md §7) instead of the text tables.
 
 use super::Error;
 use super::args::{Channel, ImageArgs, Quadrature};

@@ -72,7 +72,7 @@ pub fn parse_positive(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Parses `--theta-o`: an exitance angle in degrees, 0 ≤ θ_o < 90 (CONVENTIONS §6, as
+/// Parses `--theta-o`: an exitance angle in degrees, 0 ≤ θ_o < 90 (docs/src/conventions.md §6, as
 /// [`analysis::transfer::validate_exitance`]).
 pub fn parse_theta_o(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {

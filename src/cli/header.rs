@@ -12,7 +12,7 @@
 //! Every value may come from several of them; where two give it they must agree (a flag fills in
 //! what the header and scene leave open, it never silently replaces a different value): a
 //! contradiction is an error naming both values and where each came from. Everything is in our world
-//! frame (CONVENTIONS §1, §5): an image from a renderer with another up axis is described by flags
+//! frame (docs/src/conventions.md §1, §5): an image from a renderer with another up axis is described by flags
 //! in our frame.
 
 use super::Error;
@@ -29,9 +29,9 @@ use vocab::scene::{BrdfSection, CameraSection, LightingSection, ObjectSection, S
 /// The camera of one image, in our world frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Camera {
-    /// CONVENTIONS §5 orthographic camera (world units).
+    /// docs/src/conventions.md §5 orthographic camera (world units).
     Ortho(OrthoCamera),
-    /// CONVENTIONS §6 normal-probe camera at exitance (θ_o, φ_o), degrees.
+    /// docs/src/conventions.md §6 normal-probe camera at exitance (θ_o, φ_o), degrees.
     NormalProbe { theta_o_deg: f64, phi_o_deg: f64 },
 }
 
@@ -122,7 +122,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
-/// Two orthographic cameras make the same image (CONVENTIONS §5) when their forward and right
+/// Two orthographic cameras make the same image (docs/src/conventions.md §5) when their forward and right
 /// vectors, extents and the line through the image centre agree: `from` may slide along the view
 /// direction and `up` may tilt within the plane of forward and up', as neither changes a ray.
 pub fn same_view(a: &OrthoCamera, b: &OrthoCamera) -> bool {
@@ -317,7 +317,7 @@ pub fn stderr_flag_note(img: &Image, path: &Path) -> Option<String> {
     let n = img.channel("stderr_flag.Y")?.iter().filter(|&&v| v > 0.0).count();
     (n > 0).then(|| {
         format!(
-            "{}: {n} pixels have stderr_flag.Y = 1 (one rare sample dominated their own error bar, README \"Error \
+            "{}: {n} pixels have stderr_flag.Y = 1 (one rare sample dominated their own error bar, guide \"Error \
              bars\"); no pixel excluded, the error bars within {} px of them bounded by their {}×{} window's pooled error",
             path.display(),
             renderer::film::POOL_TRIGGER_RADIUS,
@@ -328,7 +328,7 @@ pub fn stderr_flag_note(img: &Image, path: &Path) -> Option<String> {
 }
 
 /// Applies to a render of ours, as every analysis reads it, the bound of the error bars near flagged
-/// pixels that `reflect render` does not write (`renderer::film::pool_heavy_tails`, README "Error
+/// pixels that `reflect render` does not write (`renderer::film::pool_heavy_tails`, guide "Error
 /// bars"; `verify` applies it to every render it judges): each pixel within
 /// `renderer::film::POOL_TRIGGER_RADIUS` of one with `stderr_flag.Y` = 1 gets, per channel,
 /// `stderr` = max(`stderr`, √(mean of `stderr_own`² over its window)). Without that bound the pixels
@@ -727,7 +727,7 @@ pub fn lighting_of(
         };
         // Unlike the camera, sphere and BRDF (the image's description, where a contradiction is an
         // error), the lighting is what the image is compared with: `--lighting` replaces the
-        // sidecar's or header's by rule (README "Images from other renderers"), to test whether a
+        // sidecar's or header's by rule (guide "Images from other renderers"), to test whether a
         // lighting describes the image. It never does so silently: a different lighting is named
         // with the one it replaces in the report's lighting source.
         // A described lighting the analysis cannot read (axial, a missing map) is replaced as well.
@@ -764,7 +764,7 @@ pub fn lighting_of(
 /// NDCFromWorld = Translate(½, ½, ½) · Scale(½, ½, ½) · screenFromWorld).
 ///
 /// An orthographic camera maps world points affinely: ndc_x = a_x·p + b_x, ndc_y = a_y·p + b_y, so
-/// (CONVENTIONS §5) right = a_x/|a_x|, up' = a_y/|a_y|, extent = 1/(2|a_x|), forward f = right ×
+/// (docs/src/conventions.md §5) right = a_x/|a_x|, up' = a_y/|a_y|, extent = 1/(2|a_x|), forward f = right ×
 /// up'... taken from `worldToCamera` (camera +z) or NDC z when given, and the centre ray through the
 /// point where ndc = (½, ½). A camera whose forward is up' × right instead sees the mirror image of
 /// ours: `Ok(Some((camera, true)))` then asks the caller to mirror the image's columns.

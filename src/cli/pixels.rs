@@ -282,7 +282,7 @@ fn decide(m: Option<&MeasuredCorrelation>, filter: Option<PixelFilter>, own: boo
 
 /// The sphere's disc in an orthographic view, in pixel coordinates: centre (column, row) measured
 /// from the top-left corner of the image to the pixel centres (pixel (0, 0) has centre (0, 0)) and
-/// radius, from CONVENTIONS §5's pixel → ray mapping. `None` for a degenerate camera.
+/// radius, from docs/src/conventions.md §5's pixel → ray mapping. `None` for a degenerate camera.
 pub fn disc(camera: &OrthoCamera, sphere: &Sphere, width: usize, height: usize) -> Option<([f64; 2], f64)> {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];

@@ -1,5 +1,5 @@
 //! `reflect png IMAGE.exr [--exposure EV] [--layer NAME] [--out FILE.png]`: a tone-mapped sRGB
-//! preview of an image (never an analysis input, CONVENTIONS §5).
+//! preview of an image (never an analysis input, docs/src/conventions.md §5).
 //!
 //! The value v of each channel is shown as sRGB(x / (1 + x)) with x = v · 2^EV
 //! (`renderer::output::tone_map`): Reinhard's curve, so bright values approach white instead of

@@ -1,7 +1,7 @@
 //! `reflect render [SCENE.toml] [--out FILE.exr] [--spp N] [--seed N] [--threads N] [--png FILE]`
 //!
 //! Renders a scene file (or the built-in default: a Lambertian sphere under a built-in sky) to a
-//! float OpenEXR with the AOVs of README "Output images", and prints the stats line (render-loop time,
+//! float OpenEXR with the AOVs of guide "Output images", and prints the stats line (render-loop time,
 //! samples/s, rays/s; see `RenderStats`), the load / render / save / whole-command times, and the
 //! noise summary of the object's pixels (`renderer::noise`).
 
@@ -13,7 +13,7 @@ use std::process::ExitCode;
 
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct RenderArgs {
-    /// Scene file (TOML; README "Scene files"). Without it, the built-in default scene.
+    /// Scene file (TOML; guide "Scene files"). Without it, the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Output OpenEXR file [default: out/SCENE_NAME.exr].
     #[arg(long)]

@@ -3,7 +3,7 @@
 //! algorithm of reference \[17\]; library `analysis::inverse::separation`).
 //!
 //! The surface is ρ̂ = k_d · lambert (unit albedo) + k_s · mirror (unit k_r). The inputs are
-//! `normal-probe` renders of it (CONVENTIONS §6; with the `reflect:camera` header, or another
+//! `normal-probe` renders of it (docs/src/conventions.md §6; with the `reflect:camera` header, or another
 //! renderer's described by `--theta-o/--phi-o` per image or a `--scene` sidecar, as in every analysis
 //! command, [`super::header::load`]): the *diffuse
 //! view* first, at normal exitance θ_o = 0 (R = n), which gives the 9 low-order lighting
@@ -158,7 +158,7 @@ fn header_split(brdf: &Value) -> Option<([f64; 3], [f64; 3])> {
         let b = layer.get("brdf")?;
         match b.get("type")?.as_str()? {
             "lambert" if kd.is_none() => kd = Some(json_rgb(b.get("albedo"))?.map(|a| w * a)),
-            // k_r defaults to 1 (CONVENTIONS §4).
+            // k_r defaults to 1 (docs/src/conventions.md §4).
             "mirror" if ks.is_none() => ks = Some(json_rgb(b.get("kr")).unwrap_or([1.0; 3]).map(|k| w * k)),
             _ => return None,
         }

@@ -6,10 +6,10 @@
 //!   exactly over each pixel's footprint, for the piecewise-constant map the renderer lights with
 //!   (analysis::projection::envmap), so every order is the exact expansion of that map.
 //! - `reflect sh transfer --brdf lambert|phong|mirror|torrance-sparrow [--s S] [--sigma X]
-//!   [--brdf-param KEY=VALUE] [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (CONVENTIONS §4), with the
+//!   [--brdf-param KEY=VALUE] [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (docs/src/conventions.md §4), with the
 //!   paper's approximation alongside where it has one (eq. 46, 57, 59).
 //!
-//! `--json` prints one JSON document (CONVENTIONS §7) to stdout; otherwise a table.
+//! `--json` prints one JSON document (docs/src/conventions.md §7) to stdout; otherwise a table.
 use super::Error;
 use super::args::BrdfFlags;
 use analysis::image::read_rgb;
@@ -172,12 +172,12 @@ fn transfer(a: TransferArgs) -> Result<ExitCode, Error> {
 pub const PROJECT_INTEGRATION: &str = "exact: each Y_lm integrated over each pixel of the piecewise-constant map the \
                                        renderer lights with, so every order is the exact expansion of that map";
 
-/// The output of `reflect sh project` (`--json` prints it; CONVENTIONS §7). `Display` is the table.
+/// The output of `reflect sh project` (`--json` prints it; docs/src/conventions.md §7). `Display` is the table.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct ProjectReport {
     /// The environment map, as given.
     pub file: String,
-    /// `latlong` or `angular` (CONVENTIONS §2).
+    /// `latlong` or `angular` (docs/src/conventions.md §2).
     pub mapping: String,
     /// Map size in pixels.
     pub width: usize,
@@ -185,7 +185,7 @@ pub struct ProjectReport {
     pub lmax: usize,
     /// How the coefficients were integrated.
     pub integration: String,
-    /// L_lm as `[r, g, b]`, (lmax + 1)² triples in index order k = l² + l + m (CONVENTIONS §3).
+    /// L_lm as `[r, g, b]`, (lmax + 1)² triples in index order k = l² + l + m (docs/src/conventions.md §3).
     pub coefficients: Vec<[f64; 3]>,
 }
 
@@ -211,7 +211,7 @@ pub struct Approximation {
     pub lambda_rho: Vec<f64>,
 }
 
-/// The output of `reflect sh transfer` (`--json` prints it; CONVENTIONS §7). `Display` is the table.
+/// The output of `reflect sh transfer` (`--json` prints it; docs/src/conventions.md §7). `Display` is the table.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct TransferReport {
     /// `lambert`, `phong`, `mirror` or `torrance-sparrow`.

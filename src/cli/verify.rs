@@ -1,7 +1,7 @@
 //! `reflect verify [--quick] [--check NAME] [--json] [--verbose] [--out DIR] [--data DIR] [--seed N] [--threads N]`
 //!
 //! Renders, projects into SH and compares with the paper's analytic predictions (issue 4); see
-//! `src/verify/`. Prints a table on stdout (or, with `--json`, the JSON document of CONVENTIONS §7
+//! `src/verify/`. Prints a table on stdout (or, with `--json`, the JSON document of docs/src/conventions.md §7
 //! on stdout and the table on stderr), progress on stderr (a progress bar on a terminal, else one
 //! line per finished check; `--verbose`: a line per render too), and writes `report.md`,
 //! `report.html`, `report.json`, SVG plots and PNG pictures of the renders into `--out` (default `out/verify/`). Exit status 1 when a check

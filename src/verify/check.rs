@@ -229,7 +229,7 @@ impl Check {
             .max_by(|a, b| a.ratio().partial_cmp(&b.ratio()).unwrap_or(std::cmp::Ordering::Equal))
     }
 
-    /// The typed JSON object of this check (CONVENTIONS §7 plus rows, details, files).
+    /// The typed JSON object of this check (docs/src/conventions.md §7 plus rows, details, files).
     pub fn doc(&self) -> CheckDoc {
         let deciding: Vec<&Row> = self.rows.iter().filter(|r| !r.informative).collect();
         CheckDoc {
@@ -299,7 +299,7 @@ pub struct RowDoc {
     pub outside_range: Option<String>,
 }
 
-/// One check in `reflect verify --json` / `report.json` (CONVENTIONS §7: `name`, `equation`,
+/// One check in `reflect verify --json` / `report.json` (docs/src/conventions.md §7: `name`, `equation`,
 /// `passed`, `measured`, `expected`, `tolerance` over the deciding rows, in row order).
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct CheckDoc {

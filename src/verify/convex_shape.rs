@@ -234,7 +234,7 @@ mod tests {
 
     #[test]
     fn differences_and_wrong_predictions_fail() {
-        // Three independent paths: eq. 38/π's closed values (CONVENTIONS §4), each with its own
+        // Three independent paths: eq. 38/π's closed values (docs/src/conventions.md §4), each with its own
         // scatter of ±σ (σ = 0.005), so both the per-path rows and the difference rows see noise.
         let exact = [1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0, 0.0, 1.0 / 64.0];
         let path = |shift: usize| {

@@ -2,7 +2,7 @@
 //! directional source, at many exitance directions, recover the lighting and the BRDF up to the
 //! global scale P = ∫ L dω, with `analysis::inverse::factorization`.
 //!
-//! Renders: `normal-probe` (CONVENTIONS §6) at every node (θ'_o, φ'_o) of a product rule over the
+//! Renders: `normal-probe` (docs/src/conventions.md §6) at every node (θ'_o, φ'_o) of a product rule over the
 //! outgoing hemisphere (Gauss–Legendre in μ = cos θ'_o × trapezoid in φ'_o), which samples the 4D
 //! light field B(n; θ'_o, φ'_o); normals are integrated with Fejér's first rule on the lat-long rows.
 //! The source (unit irradiance, direction [`SOURCE`], θ_s = φ_s·(−1) = 36.87°) is not told to the

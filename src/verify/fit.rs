@@ -7,7 +7,7 @@ use renderer::film::Film;
 #[cfg(test)]
 use std::f64::consts::PI;
 
-/// Direction of the centre of lat-long pixel (r, c) of a W × H grid (CONVENTIONS §2).
+/// Direction of the centre of lat-long pixel (r, c) of a W × H grid (docs/src/conventions.md §2).
 pub fn latlong_dir(r: usize, c: usize, w: usize, h: usize) -> [f64; 3] {
     analysis::sh::latlong_direction(r, c, w, h)
 }

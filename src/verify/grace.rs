@@ -1,5 +1,5 @@
 //! The Grace Cathedral probe's SH coefficients L_lm (one channel), by quadrature over the pixels
-//! of the angular map with their exact solid angles (CONVENTIONS §2), computed once per run.
+//! of the angular map with their exact solid angles (docs/src/conventions.md §2), computed once per run.
 //!
 //! The renderer looks the map up by nearest pixel, so the lighting it integrates is piecewise
 //! constant; the pixel-centre quadrature differs from that lighting's exact coefficients by
@@ -45,7 +45,7 @@ fn project(path: &Path) -> Result<Vec<f64>, String> {
             let mut y = vec![0.0; n];
             let mut acc = vec![0.0; n];
             for c in 0..w {
-                // The library's pixel-centre direction and exact solid angle (CONVENTIONS §2).
+                // The library's pixel-centre direction and exact solid angle (docs/src/conventions.md §2).
                 let Some((dir, om)) = angular_pixel(r, c, w) else { continue };
                 basis.eval_into(dir, &mut y);
                 let val = img.get(r, c)[CHANNEL] as f64 * om;

@@ -129,7 +129,7 @@ pub fn integrate_lobe_with(nodes: &LobeNodes, n: [f64; 3], wo: [f64; 3], mut f: 
     sum
 }
 
-/// (n, ω_o, R) of normal-probe pixel (r, c) at exitance θ_o (CONVENTIONS §6).
+/// (n, ω_o, R) of normal-probe pixel (r, c) at exitance θ_o (docs/src/conventions.md §6).
 pub fn probe_geometry(r: usize, c: usize, w: usize, h: usize, theta_o: f64) -> ([f64; 3], [f64; 3], [f64; 3]) {
     let t = PI * (r as f64 + 0.5) / h as f64;
     let p = 2.0 * PI * (c as f64 + 0.5) / w as f64;

@@ -133,7 +133,7 @@ impl Picture {
         }
     }
 
-    /// A `normal-probe` render (lat-long in the normal, CONVENTIONS §2) of a radially symmetric
+    /// A `normal-probe` render (lat-long in the normal, docs/src/conventions.md §2) of a radially symmetric
     /// BRDF under the SH lighting `light` (coefficients in index order k): predicted
     /// B(n) = Σ_l filter\[l\] Σ_m L_lm Y_lm(n) for l < filter.len(). `extra_sigma(i)` is added in
     /// quadrature to the render's σ of pixel i (the prediction's own error; `|_| 0.0` for none).

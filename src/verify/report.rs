@@ -1,6 +1,6 @@
 //! Reporting: the typed [`Report`] (its `Display` is the table on stdout — check, equation,
 //! expected, measured, tolerance, pass/fail of the deciding row with the largest |Δ|/tolerance;
-//! serialized, it is the JSON document of CONVENTIONS §7), and the report folder: `report.md`,
+//! serialized, it is the JSON document of docs/src/conventions.md §7), and the report folder: `report.md`,
 //! `report.html` (a summary table with pass/fail colours, then per check the pictures of its renders
 //! — measured, predicted, z map, see [`super::picture`] —, its plots and every row), `report.json`,
 //! the SVG plots and the PNG pictures.

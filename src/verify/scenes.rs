@@ -1,4 +1,4 @@
-//! The scenes the checks render, built as values of the scene-file types (CONVENTIONS §6, `vocab`)
+//! The scenes the checks render, built as values of the scene-file types (docs/src/conventions.md §6, `vocab`)
 //! from a [`Spec`] (one constructor per common shape: [`Spec::probe`], and the BRDF tables
 //! [`lambert`], [`mirror`], [`phong`], [`torrance_sparrow`], [`beckmann`], [`mix`]), and the call
 //! that renders one. Every scene uses the `independent` sampler, whose per-pixel standard error is an
@@ -50,7 +50,7 @@ pub enum Lighting {
     },
     /// The Grace probe with a scale.
     Grace(f64),
-    /// The Grace probe with a scale, rotated by `rotate_deg` (about x, then y, then z; CONVENTIONS §6).
+    /// The Grace probe with a scale, rotated by `rotate_deg` (about x, then y, then z; docs/src/conventions.md §6).
     GraceRotated {
         scale: f64,
         rotate_deg: [f64; 3],

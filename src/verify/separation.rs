@@ -282,7 +282,7 @@ pub fn evaluate(inp: &Inputs, truth: &[f64]) -> Check {
 }
 
 /// The Grace map (green) at a direction, nearest pixel of the angular map (as the renderer's
-/// `angular_lookup`, CONVENTIONS §2).
+/// `angular_lookup`, docs/src/conventions.md §2).
 pub fn grace_lookup(img: &analysis::image::RgbImage) -> impl Fn([f64; 3]) -> f64 + '_ {
     move |d: [f64; 3]| {
         let s = (d[0] * d[0] + d[1] * d[1]).sqrt();

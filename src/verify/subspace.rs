@@ -65,7 +65,7 @@ pub enum Light {
     Sum(Vec<(usize, f64)>),
     /// Grey SH coefficients, l ≤ [`LMAX_FIELD`], non-negative.
     Field(Vec<f64>),
-    /// Grace rotated by `rotate_deg` (scene convention, CONVENTIONS §6).
+    /// Grace rotated by `rotate_deg` (scene convention, docs/src/conventions.md §6).
     Grace([f64; 3]),
 }
 

@@ -58,7 +58,7 @@ pub fn scatter(v: &[f64], sigma: f64) -> Vec<f64> {
 
 #[test]
 fn references_reproduce_known_closed_forms() {
-    // Lambert (CONVENTIONS §4): 1, 2/3, 1/4, 0, −1/24, 0, 1/64.
+    // Lambert (docs/src/conventions.md §4): 1, 2/3, 1/4, 0, −1/24, 0, 1/64.
     let lam = radial_simpson(|t| t.cos() / PI, 0.5 * PI, 6, 2000);
     for (a, b) in lam.iter().zip([1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0, 0.0, 1.0 / 64.0]) {
         assert!((a - b).abs() < 1e-10, "{a} vs {b}");

@@ -48,7 +48,7 @@ pub const NINE_TERM: f64 = 1.0 / 49.0;
 pub fn low_texture() -> Vec<f64> {
     let a = normalize(LOW_AXIS);
     let s = (4.0 * PI / 3.0).sqrt();
-    // Y_1,−1 ∝ y, Y_10 ∝ z, Y_11 ∝ x (CONVENTIONS §3).
+    // Y_1,−1 ∝ y, Y_10 ∝ z, Y_11 ∝ x (docs/src/conventions.md §3).
     vec![(4.0 * PI).sqrt(), LOW_AMPLITUDE * s * a[1], LOW_AMPLITUDE * s * a[2], LOW_AMPLITUDE * s * a[0]]
 }
 

@@ -1,5 +1,5 @@
 //! **The oracle**: the one independent source of the transfer coefficients Λ_l ρ̂_l
-//! (CONVENTIONS §4) in `verify` (issue 11), computed apart from the `analysis` crate so the verifier
+//! (docs/src/conventions.md §4) in `verify` (issue 11), computed apart from the `analysis` crate so the verifier
 //! does not check a formula against itself: closed forms (eq. 38, 43), the approximations (eq. 46,
 //! 57) and numerical quadrature of eq. 41/50 for any radial lobe ([`super::oblique`] extends its
 //! quadrature to non-normal exitance, eq. 48). Every predicted Λ_l ρ̂_l that a check compares a

@@ -3,7 +3,7 @@
 //! but the factorization will remain ill-posed since further information regarding the BRDF cannot be
 //! obtained".
 //!
-//! Renders: `normal-probe` images (CONVENTIONS §6) of spheres under uniform radiance [`RADIANCE`] at
+//! Renders: `normal-probe` images (docs/src/conventions.md §6) of spheres under uniform radiance [`RADIANCE`] at
 //! every node (θ'_o, φ'_o) of [`analysis::inverse::factorization::hemisphere_nodes`], reduced by
 //! [`LightField`] with Fejér's rule over the normals; the lighting is not told to the analysis.
 //! BRDFs: a reciprocal glossy `microfacet` (Beckmann α 0.4, F = 1, as the `factorization` check), a
@@ -68,7 +68,7 @@ pub struct Measured {
 }
 
 /// Builds [`Measured`] from the images and per-pixel standard errors of every node (W × H row-major,
-/// CONVENTIONS §2). Errors: the factorization's (no energy, wrong image size).
+/// docs/src/conventions.md §2). Errors: the factorization's (no energy, wrong image size).
 pub fn measure(w: usize, h: usize, images: &[(OutgoingNode, Vec<f64>, Vec<f64>)]) -> Result<Measured, String> {
     let e = |e: analysis::Error| e.to_string();
     let mut lf = LightField::new(w, h, NormalRule::Fejer).map_err(e)?;

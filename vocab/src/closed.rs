@@ -80,7 +80,7 @@ closed_set! {
 }
 
 closed_set! {
-    /// Horizon handling of `phong` and `torrance-sparrow` (CONVENTIONS §4, paper sec. 3.6).
+    /// Horizon handling of `phong` and `torrance-sparrow` (docs/src/conventions.md §4, paper sec. 3.6).
     #[derive(Default)]
     "horizon", Horizon {
         /// Physical (the default): nothing arrives from n·ω_i ≤ 0 (the convex object occludes itself).
@@ -118,7 +118,7 @@ closed_set! {
 }
 
 closed_set! {
-    /// Environment-map parameterization (CONVENTIONS §2).
+    /// Environment-map parameterization (docs/src/conventions.md §2).
     "mapping", Mapping {
         /// Equirectangular: W = 2H, row 0 at θ = 0 (+z).
         LatLong = "latlong",
@@ -149,7 +149,7 @@ impl Mapping {
 }
 
 closed_set! {
-    /// The lighting types of CONVENTIONS §6 (the `type` of the `[lighting]` table).
+    /// The lighting types of docs/src/conventions.md §6 (the `type` of the `[lighting]` table).
     "lighting type", LightingKind {
         /// Constant radiance.
         Uniform = "uniform",
@@ -165,7 +165,7 @@ closed_set! {
 }
 
 closed_set! {
-    /// The camera types of CONVENTIONS §6 (the `type` of the `[camera]` table).
+    /// The camera types of docs/src/conventions.md §6 (the `type` of the `[camera]` table).
     "camera type", CameraKind {
         /// Parallel rays along `to − from`, half-width `extent`.
         Orthographic = "orthographic",

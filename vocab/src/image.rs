@@ -1,6 +1,6 @@
 //! Reading images: OpenEXR (any channels, half or float, plus the string attributes of its header)
-//! and Radiance RGBE `.hdr`. Used for environment maps (CONVENTIONS §2) and for renders to analyse
-//! (CONVENTIONS §5). Every failure becomes an [`Error`] naming the file.
+//! and Radiance RGBE `.hdr`. Used for environment maps (docs/src/conventions.md §2) and for renders to analyse
+//! (docs/src/conventions.md §5). Every failure becomes an [`Error`] naming the file.
 //!
 //! NaN or infinite values are rejected here, once, so no analysis or light ever sees them.
 
@@ -69,7 +69,7 @@ impl Image {
         })
     }
 
-    /// The per-pixel standard-error layer `stderr.R/G/B` (CONVENTIONS §5), validated once for every
+    /// The per-pixel standard-error layer `stderr.R/G/B` (docs/src/conventions.md §5), validated once for every
     /// consumer: each value is a standard deviation, so it must be finite and ≥ 0 (a negative one
     /// would be squared into a valid-looking variance) — an error naming the layer (callers add the
     /// file). 0 is allowed here: it is an exact pixel (a deterministic render, e.g. a pixel-centre
@@ -241,7 +241,7 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
     let img = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
         read_exr_bytes(&bytes).map(|(img, note)| {
             if let Some(n) = note {
-                // Human text goes to stderr (CONVENTIONS §7): the user learns which part lit the scene.
+                // Human text goes to stderr (docs/src/conventions.md §7): the user learns which part lit the scene.
                 eprintln!("note: {}: {n}", path.display());
             }
             img

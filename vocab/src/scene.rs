@@ -1,4 +1,4 @@
-//! The scene-file vocabulary of CONVENTIONS §6, as serde types. Unknown keys are errors
+//! The scene-file vocabulary of docs/src/conventions.md §6, as serde types. Unknown keys are errors
 //! (`deny_unknown_fields` everywhere), so a typo never silently changes a render, and every closed
 //! set (`sampler`, `horizon`, `distribution`, `fresnel`, `mapping`, and the `type`/`shape` tags) is
 //! an enum, so a bad value is refused by the parser with the line and the accepted names.
@@ -85,7 +85,7 @@ pub enum CameraSection {
     NormalProbe {
         #[serde(default)]
         theta_o_deg: f32,
-        /// Azimuth of ω_o about the normal, from the θ tangent (an extension of CONVENTIONS §6).
+        /// Azimuth of ω_o about the normal, from the θ tangent (an extension of docs/src/conventions.md §6).
         #[serde(default)]
         phi_o_deg: f32,
         /// Average each pixel over its solid angle instead of sampling the pixel centre.
@@ -186,7 +186,7 @@ pub enum ObjectSection {
     },
 }
 
-/// An albedo texture (CONVENTIONS §6 extension, README "Scene files").
+/// An albedo texture (docs/src/conventions.md §6 extension, guide "Scene files").
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum TextureSection {
@@ -214,11 +214,11 @@ impl ObjectSection {
 
 /// Defines the BRDF tables once: [`BrdfSection`] (the `brdf` table of an object, its variants
 /// tagged by `type`) and, from the same list, the closed set [`BrdfKind`] of their names and
-/// [`BrdfSection::kind`]. Adding a BRDF to the scene format is one entry here (README "Adding a
+/// [`BrdfSection::kind`]. Adding a BRDF to the scene format is one entry here (guide "Adding a
 /// BRDF").
 macro_rules! brdf_tables {
     ($( $(#[$vmeta:meta])* $variant:ident = $text:literal { $($fields:tt)* } ),+ $(,)?) => {
-        /// A `brdf` table (CONVENTIONS §4 and §6), tagged by `type`.
+        /// A `brdf` table (docs/src/conventions.md §4 and §6), tagged by `type`.
         #[derive(Clone, Debug, Deserialize, Serialize)]
         #[serde(tag = "type", deny_unknown_fields)]
         pub enum BrdfSection {
@@ -226,7 +226,7 @@ macro_rules! brdf_tables {
         }
 
         crate::closed::closed_set! {
-            /// The BRDF models of CONVENTIONS §4 (the `type` of a `brdf` table), one per
+            /// The BRDF models of docs/src/conventions.md §4 (the `type` of a `brdf` table), one per
             /// [`BrdfSection`] variant.
             "BRDF type", BrdfKind { $( $(#[$vmeta])* $variant = $text ),+ }
         }

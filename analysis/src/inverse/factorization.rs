@@ -3,7 +3,7 @@
 //!
 //! Input: the 4D light field B(n; θ'_o, φ'_o) of a sphere of one isotropic, reciprocal BRDF under
 //! distant lighting, sampled as lat-long images over the normals n (one image per outgoing node
-//! (θ'_o, φ'_o), e.g. `normal-probe` renders, CONVENTIONS §6), with quadrature weights over both.
+//! (θ'_o, φ'_o), e.g. `normal-probe` renders, docs/src/conventions.md §6), with quadrature weights over both.
 //! Only two slices of the light field's coefficients are needed (eq. 18, lines 2 and 6):
 //!
 //! - B̃_lm00 (p = q = 0) = M_lm / √(4π), with M(n) = ∫_H B(n, ω'_o) cos θ'_o dω'_o the radiant
@@ -23,7 +23,7 @@
 //! (and the albedo profile P a(θ'_o) from the node sums), and at any other slice eq. 16 with the
 //! factored lighting, e.g. the normal-exitance filter P Λ_l ρ̂_l(0) = B_lm(0) / (L_lm / P) by least
 //! squares over m ([`filter_from_lighting`]). For a directional source L_lm / P = Y_lm(s) (eq. 19,
-//! 23), and s = (L_11, L_1,−1, L_10) / |·| (CONVENTIONS §3: Y_11 ∝ x, Y_1,−1 ∝ y, Y_10 ∝ z).
+//! 23), and s = (L_11, L_1,−1, L_10) / |·| (docs/src/conventions.md §3: Y_11 ∝ x, Y_1,−1 ∝ y, Y_10 ∝ z).
 //!
 //! Orders where κ_l = 0 (a Lambertian a = const gives k̂_l = 0 at odd l ≥ 3, eq. 38) are 0/0: the
 //! factorization is ill-posed there (end of sec. 3.1: lighting or BRDF coefficient zero); they are
@@ -168,7 +168,7 @@ impl LightField {
         })
     }
 
-    /// Adds the image B(n_p; node) (row-major W × H, CONVENTIONS §2).
+    /// Adds the image B(n_p; node) (row-major W × H, docs/src/conventions.md §2).
     pub fn add(&mut self, node: OutgoingNode, image: &[f64]) -> Result<()> {
         check_image(image, self.width, self.height)?;
         if !(node.theta_o >= 0.0 && node.theta_o < 0.5 * PI && node.weight.is_finite() && node.phi_o.is_finite()) {

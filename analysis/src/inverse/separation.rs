@@ -30,12 +30,12 @@
 //! χ² = dᵀ Cov(d)⁻¹ d follows χ²_9 for a correct split when the bias (9-term residual, grid
 //! aliasing) is below the noise.
 //!
-//! Sampling: [`probe_samples`] turns a `normal-probe` image (CONVENTIONS §6) at θ_o and φ_o ∈ {0°,
+//! Sampling: [`probe_samples`] turns a `normal-probe` image (docs/src/conventions.md §6) at θ_o and φ_o ∈ {0°,
 //! 180°} into [`Samples`] with exact R-space pixel solid angles; the views at φ_o = 0° and 180°
 //! each miss a polar cap of R of radius θ_o, and together ([`Samples::append`]) cover the sphere.
 //!
 //! Parameters: `lmax` (order of the recovered lighting), `k_d`, `k_s` (> 0; unit-albedo lambert
-//! and unit-k_r mirror weights, CONVENTIONS §4).
+//! and unit-k_r mirror weights, docs/src/conventions.md §4).
 
 use crate::error::{Error, Result};
 use crate::lsq::Cholesky;
@@ -229,7 +229,7 @@ pub fn abs_sin_integral(x: f64) -> f64 {
     2.0 * k + 1.0 - (x - k * PI).cos()
 }
 
-/// Samples of a W × H `normal-probe` image (CONVENTIONS §6, row-major values and standard errors)
+/// Samples of a W × H `normal-probe` image (docs/src/conventions.md §6, row-major values and standard errors)
 /// at exitance θ_o (radians) and azimuth φ_o ∈ {0, π} (`flip` = φ_o = π): normals (the lat-long
 /// pixel centres), reflection vectors and the pixels' solid angles about R (about n at θ_o = 0).
 /// At φ_o ∈ {0, π} ω_o lies in the meridian plane of n, so R = cos θ_o n − sin θ_o (±t) stays on
@@ -263,7 +263,7 @@ pub fn probe_samples(value: &[f64], sigma: &[f64], w: usize, h: usize, theta_o: 
     s
 }
 
-/// The reflection vector R = 2(n·ω_o)n − ω_o (CONVENTIONS §1).
+/// The reflection vector R = 2(n·ω_o)n − ω_o (docs/src/conventions.md §1).
 #[inline]
 pub fn reflect(n: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
     let d = 2.0 * (n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2]);

@@ -1,5 +1,5 @@
 //! Projection of environment maps into SH: L_lm = Σ_pixels L(ω_p) Y_lm(ω_p) ΔΩ_p with the exact
-//! per-pixel solid angles of CONVENTIONS §2, RGB.
+//! per-pixel solid angles of docs/src/conventions.md §2, RGB.
 //!
 //! - Lat-long (W × H): every row has one θ, so the sum separates: a φ-Fourier sum per row and order m,
 //!   then the associated Legendre functions once per row. O(W H l_max) instead of O(W H l_max²), which
@@ -16,7 +16,7 @@ use crate::sh::{RgbCoeffs, ShBasis, index, num_coefficients};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-/// Environment-map parameterization (CONVENTIONS §2), defined in `vocab`.
+/// Environment-map parameterization (docs/src/conventions.md §2), defined in `vocab`.
 pub use vocab::Mapping;
 
 /// Direction of the angular-map pixel (row, col) and its solid angle, or `None` outside the disc.
@@ -275,7 +275,7 @@ fn m_offset(m: usize, lmax: usize) -> usize {
 
 /// Recurrence tables for the exact θ integrals of the normalized associated Legendre functions.
 ///
-/// With P̄_l^m = K_lm P_l^m (K_lm of CONVENTIONS §3, no √2) and Ḡ_l^m(x) an antiderivative of
+/// With P̄_l^m = K_lm P_l^m (K_lm of docs/src/conventions.md §3, no √2) and Ḡ_l^m(x) an antiderivative of
 /// P̄_l^m(x), the integral over a band x₁ ≤ x ≤ x₂ (x = cosθ) is Ḡ(x₂) − Ḡ(x₁). Ḡ follows from
 /// (1 − x²) dP_n^m/dx = (n + m) P_{n−1}^m − n x P_n^m and the three-term recurrence in n, integrated:
 ///   (n − m + 1)(n + 2) G_{n+1}^m = (n + m)(n − 1) G_{n−1}^m − (2n + 1)(1 − x²) P_n^m,   G_{m−1}^m = 0,
@@ -493,7 +493,7 @@ impl RowFourier {
     }
 }
 
-/// Exact projection of a lat-long map (CONVENTIONS §2) as the renderer lights with it: radiance
+/// Exact projection of a lat-long map (docs/src/conventions.md §2) as the renderer lights with it: radiance
 /// constant over each pixel's cell θ ∈ [πr/H, π(r+1)/H], φ ∈ [2πc/W, 2π(c+1)/W] (nearest pixel).
 /// L_lm = Σ_pixels L_p ∫_cell Y_lm dω, with both integrals in closed form: the φ integral of
 /// cos mφ / sin mφ over a column (`RowFourier`) and the θ integral of K_lm P_l^m(cosθ) sinθ over

@@ -1,4 +1,4 @@
-//! Projection of a `normal-probe` render (CONVENTIONS §6): a lat-long image whose pixel (r, c) is
+//! Projection of a `normal-probe` render (docs/src/conventions.md §6): a lat-long image whose pixel (r, c) is
 //! the reflected radiance B at the sphere point with normal = the lat-long direction of that pixel.
 //! Its SH coefficients B_lm follow by plain lat-long quadrature; with a `stderr.R/G/B` layer the
 //! per-coefficient standard errors are √(Σ ΔΩ² Y² σ²) (pixels are independent estimates).
@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::image::{Image, RgbImage};
 use crate::sh::RgbCoeffs;
 
-/// The outgoing direction ω_o of the `normal-probe` camera at normal n (CONVENTIONS §6, with the
+/// The outgoing direction ω_o of the `normal-probe` camera at normal n (docs/src/conventions.md §6, with the
 /// azimuth `phi_o_deg` of our extension): cos θ_o n + sin θ_o (cos φ_o t + sin φ_o b), t the unit
 /// tangent of increasing θ and b = n × t. Angles in radians.
 pub fn normal_probe_outgoing(n: [f64; 3], theta_o: f64, phi_o: f64) -> [f64; 3] {
@@ -42,7 +42,7 @@ pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Opti
     Ok((c, v.map(|v| v.iter().map(|x| [x[0].sqrt(), x[1].sqrt(), x[2].sqrt()]).collect())))
 }
 
-/// The pixels of a `normal-probe` image as fit samples: direction the pixel's normal (CONVENTIONS
+/// The pixels of a `normal-probe` image as fit samples: direction the pixel's normal (docs/src/conventions.md
 /// §2 lat-long grid), weight its exact solid angle, RGB radiance and variance (from the `stderr`
 /// layer, else 1), and whether the image has that layer. Errors as [`project_normal_probe`].
 pub fn probe_samples(img: &Image) -> Result<(Vec<super::orthographic::Sample>, bool)> {

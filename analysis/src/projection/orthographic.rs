@@ -2,7 +2,7 @@
 //! weighted least squares over the covered part of the sphere.
 //!
 //! Parameters:
-//! - [`OrthoCamera`]: `from`, `to`, `up`, `extent` (CONVENTIONS §5 pixel → ray mapping);
+//! - [`OrthoCamera`]: `from`, `to`, `up`, `extent` (docs/src/conventions.md §5 pixel → ray mapping);
 //! - [`Sphere`]: centre and radius: which pixels are covered, and the normals when the image has no
 //!   `normal.X/Y/Z` layer (so EXR files of any renderer with only R, G, B work); with the layer, its
 //!   normalized per-pixel normal is used;
@@ -25,7 +25,7 @@ use crate::lsq::Cholesky;
 use crate::sh::{ShBasis, num_coefficients};
 use rayon::prelude::*;
 
-/// Orthographic camera of CONVENTIONS §5.
+/// Orthographic camera of docs/src/conventions.md §5.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OrthoCamera {
     pub from: [f64; 3],
@@ -35,7 +35,7 @@ pub struct OrthoCamera {
 }
 
 impl OrthoCamera {
-    /// The camera's orthonormal frame (forward f, right, up) of CONVENTIONS §5: f = unit(to − from),
+    /// The camera's orthonormal frame (forward f, right, up) of docs/src/conventions.md §5: f = unit(to − from),
     /// right = unit(f × up), up' = right × f. Errors: `from` equals `to`, or `up` is parallel to f.
     pub fn basis(&self) -> Result<[[f64; 3]; 3]> {
         let f = normalize(sub(self.to, self.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;

@@ -1,7 +1,7 @@
 //! Evaluation of all real spherical harmonics Y_lm, l ≤ l_max, at one direction.
 //!
 //! Uses the standard stable three-term recurrences for the normalized associated Legendre functions
-//! (never factorials), so it stays accurate far beyond l = 100. Real basis per CONVENTIONS §3:
+//! (never factorials), so it stays accurate far beyond l = 100. Real basis per docs/src/conventions.md §3:
 //! Y_l0 = K_l0 P_l, Y_lm = √2 K_lm P_l^m cos(mφ) (m > 0), √2 K_l|m| P_l^|m| sin(|m|φ) (m < 0),
 //! with no Condon–Shortley phase.
 
@@ -67,7 +67,7 @@ impl ShBasis {
     }
 
     /// Writes Y_k(dir) for k < (lmax+1)² into `out` (which must have at least that length).
-    /// `dir` must be a unit vector (x, y, z) in the world frame of CONVENTIONS §1.
+    /// `dir` must be a unit vector (x, y, z) in the world frame of docs/src/conventions.md §1.
     ///
     /// Two passes, no allocation: (1) the normalized associated Legendre values P̄_l^m(z) (without
     /// the sin^m θ factor) go into the m ≥ 0 slots, l outer and m inner, so the recurrences of the

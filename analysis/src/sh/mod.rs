@@ -1,4 +1,4 @@
-//! Real spherical harmonics in the convention of CONVENTIONS §3 (orthonormal, no Condon–Shortley
+//! Real spherical harmonics in the convention of docs/src/conventions.md §3 (orthonormal, no Condon–Shortley
 //! phase, flat index k = l(l+1) + m): evaluation, reconstruction and rotation.
 
 pub mod basis;

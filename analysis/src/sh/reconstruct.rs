@@ -1,6 +1,6 @@
 //! Reconstruction of a function of direction from its SH coefficients: f(ω) = Σ_k c_k Y_k(ω).
 //!
-//! Coefficients are RGB triples in index order k (CONVENTIONS §3); their count fixes l_max.
+//! Coefficients are RGB triples in index order k (docs/src/conventions.md §3); their count fixes l_max.
 //! [`Reconstructor`] owns its scratch buffer so repeated evaluation does not allocate.
 
 use super::basis::{ShBasis, num_coefficients};
@@ -43,7 +43,7 @@ impl Reconstructor {
     }
 }
 
-/// Direction of the lat-long pixel (row, col) of a W × H map (CONVENTIONS §2).
+/// Direction of the lat-long pixel (row, col) of a W × H map (docs/src/conventions.md §2).
 #[inline]
 pub fn latlong_direction(row: usize, col: usize, width: usize, height: usize) -> [f64; 3] {
     let theta = std::f64::consts::PI * (row as f64 + 0.5) / height as f64;

@@ -5,7 +5,7 @@
 //! A_l = 2π (−1)^{l/2−1} / ((l+2)(l−1)) · l! / (2^l (l/2)!²)   (eq. 38 × Λ_l; eq. 39 numbers).
 //! The central binomial ratio l!/(2^l (l/2)!²) is built by its recurrence ×(l+1)/(l+2) per step of
 //! 2, never from factorials, so any l is exact to rounding. For BRDF = albedo/π divide by π:
-//! 1, 2/3, 1/4, 0, −1/24, 0, 1/64, … (CONVENTIONS §4).
+//! 1, 2/3, 1/4, 0, −1/24, 0, 1/64, … (docs/src/conventions.md §4).
 
 use std::f64::consts::PI;
 

@@ -1,4 +1,4 @@
-//! The Beckmann microfacet BRDF (CONVENTIONS §4: `microfacet`, distribution `beckmann`, Smith
+//! The Beckmann microfacet BRDF (docs/src/conventions.md §4: `microfacet`, distribution `beckmann`, Smith
 //! masking–shadowing, Fresnel off) at normal exitance, where it is radially symmetric about n:
 //! its lobe ρ̂(θ_i) and transfer coefficients Λ_l ρ̂_l (eq. 13–15 by quadrature of the lobe).
 

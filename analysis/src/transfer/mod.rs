@@ -1,5 +1,5 @@
 //! Transfer coefficients Λ_l ρ̂_l of radially symmetric (or reparameterized) BRDFs, unit albedo /
-//! k_s, l = 0 … l_max (CONVENTIONS §4). With them B_lm = Λ_l ρ̂_l L_lm (eq. 15).
+//! k_s, l = 0 … l_max (docs/src/conventions.md §4). With them B_lm = Λ_l ρ̂_l L_lm (eq. 15).
 //!
 //! - [`lambert`]: eq. 38 in closed form (÷ π for BRDF = albedo/π); [`lambert::irradiance_kernel`]
 //!   is the BRDF = 1 kernel A_l of eq. 39.
@@ -22,7 +22,7 @@ use crate::projection::Param;
 use vocab::BrdfKind;
 use vocab::scene::{BrdfSection, decimal, decimal3};
 
-/// Horizon handling of `phong` and `torrance-sparrow` (CONVENTIONS §4), defined in `vocab`.
+/// Horizon handling of `phong` and `torrance-sparrow` (docs/src/conventions.md §4), defined in `vocab`.
 pub use vocab::Horizon;
 
 /// A BRDF model whose transfer coefficients we can compute.
@@ -215,7 +215,7 @@ impl TransferModel {
 }
 
 /// How the command line spells BRDF parameter `name`: the built-in models' `--s` and `--sigma`,
-/// any other as `--brdf-param NAME=…` (README "Adding a BRDF").
+/// any other as `--brdf-param NAME=…` (guide "Adding a BRDF").
 fn flag(name: &str) -> String {
     match name {
         "s" | "sigma" => format!("--{name}"),

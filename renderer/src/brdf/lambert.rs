@@ -1,5 +1,5 @@
 //! `lambert`: the ideal diffuse reflector, BRDF = albedo/π, so ρ̂ = albedo/π · max(cosθ_i, 0)
-//! (CONVENTIONS §4; its transfer coefficients are eq. 38 × 1/π).
+//! (docs/src/conventions.md §4; its transfer coefficients are eq. 38 × 1/π).
 //!
 //! Parameters: `albedo` (RGB, the directional albedo at every θ_o). Sampling: cosine-weighted
 //! hemisphere, pdf = cosθ_i/π, so every sample carries weight = albedo exactly.

@@ -1,4 +1,4 @@
-//! `microfacet`: the Cook–Torrance / Walter et al. (2007) microfacet BRDF (CONVENTIONS §4),
+//! `microfacet`: the Cook–Torrance / Walter et al. (2007) microfacet BRDF (docs/src/conventions.md §4),
 //! BRDF = D(h) G(ω_o, ω_i) F(ω_i·h) / (4 cosθ_i cosθ_o), so ρ̂ = D G F / (4 cosθ_o).
 //!
 //! Parameters:

@@ -1,4 +1,4 @@
-//! `mirror`: the perfect specular reflector, ρ̂ = k_r δ(ω_i = R) (CONVENTIONS §4, paper eq. 33:
+//! `mirror`: the perfect specular reflector, ρ̂ = k_r δ(ω_i = R) (docs/src/conventions.md §4, paper eq. 33:
 //! Λ_l ρ̂_l = 1 for k_r = 1).
 //!
 //! Parameters: `kr` (RGB reflectance). In the local frame R = (−ω_o.x, −ω_o.y, ω_o.z). The lobe is

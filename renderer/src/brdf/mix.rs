@@ -1,4 +1,4 @@
-//! `mix`: a weighted sum of BRDFs, ρ̂ = Σ_j w_j ρ̂_j (CONVENTIONS §4; e.g. diffuse + specular as in
+//! `mix`: a weighted sum of BRDFs, ρ̂ = Σ_j w_j ρ̂_j (docs/src/conventions.md §4; e.g. diffuse + specular as in
 //! the paper's reference \[17\]).
 //!
 //! Parameters: `layers` = [(w_j, BRDF_j)], weights w_j ≥ 0 (negative weights are not selected by

@@ -1,4 +1,4 @@
-//! BRDFs exactly as CONVENTIONS §4 defines them.
+//! BRDFs exactly as docs/src/conventions.md §4 defines them.
 //!
 //! Every model works in the local shading frame (normal = +z, see [`crate::math::Frame`]) with
 //! ω_o and ω_i pointing away from the surface. `eval` returns the *transfer function*
@@ -29,7 +29,7 @@ use crate::scene::build::color;
 use vocab::FresnelKind;
 use vocab::scene::BrdfSection;
 
-/// Whether a lobe sees light from below the local horizon (CONVENTIONS §4, paper sec. 3.6), defined in
+/// Whether a lobe sees light from below the local horizon (docs/src/conventions.md §4, paper sec. 3.6), defined in
 /// `vocab`.
 pub use vocab::Horizon;
 
@@ -264,7 +264,7 @@ fn positive(v: f32, what: &str) -> std::result::Result<f32, String> {
     if v > 0.0 && v.is_finite() { Ok(v) } else { Err(format!("{what} must be positive, got {v}")) }
 }
 
-/// Builds a BRDF from its scene-file table (CONVENTIONS §4), checking every value: colours finite
+/// Builds a BRDF from its scene-file table (docs/src/conventions.md §4), checking every value: colours finite
 /// and non-negative, lobe parameters finite and positive, mix weights finite and non-negative.
 /// Errors: one line naming the key (the caller adds the object).
 pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {

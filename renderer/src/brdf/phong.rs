@@ -1,4 +1,4 @@
-//! `phong`: the normalised Phong lobe about the reflection vector (CONVENTIONS §4, paper eq. 40),
+//! `phong`: the normalised Phong lobe about the reflection vector (docs/src/conventions.md §4, paper eq. 40),
 //! ρ̂ = k_s (s+1)/(2π) · max(R·ω_i, 0)^s. The cosine of the transfer function is *inside* this
 //! definition (the lobe is written for ρ̂, as in the paper), so no extra cosθ_i factor appears.
 //!

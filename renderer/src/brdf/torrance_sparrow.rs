@@ -1,4 +1,4 @@
-//! `torrance-sparrow`: the paper's simplified Torrance–Sparrow lobe (eq. 48, CONVENTIONS §4),
+//! `torrance-sparrow`: the paper's simplified Torrance–Sparrow lobe (eq. 48, docs/src/conventions.md §4),
 //! BRDF = k_s exp(−(θ_h/σ)²) / (4π σ² cosθ_i cosθ_o), so ρ̂ = k_s exp(−(θ_h/σ)²) / (4π σ² cosθ_o),
 //! with θ_h = angle(n, h) in radians and h = normalize(ω_i + ω_o). No Fresnel, no shadowing.
 //!

@@ -1,4 +1,4 @@
-//! Cameras (CONVENTIONS §5, §6). A camera turns a pixel and a film sample into either a ray or,
+//! Cameras (docs/src/conventions.md §5, §6). A camera turns a pixel and a film sample into either a ray or,
 //! for the `normal-probe` camera, directly into a shading point on a sphere.
 //!
 //! - [`orthographic`]: parallel rays, half-width `extent`.
@@ -55,7 +55,7 @@ impl Camera {
     }
 }
 
-/// The camera basis of CONVENTIONS §5: f = normalize(to − from), right = normalize(f × up),
+/// The camera basis of docs/src/conventions.md §5: f = normalize(to − from), right = normalize(f × up),
 /// up' = right × f.
 pub fn look_at_basis(from: Vec3, to: Vec3, up: Vec3) -> Result<(Vec3, Vec3, Vec3), String> {
     let f = to - from;

@@ -1,10 +1,10 @@
-//! `normal-probe` camera (CONVENTIONS §6): pixel (r, c) of a W × H image looks at the point of a
+//! `normal-probe` camera (docs/src/conventions.md §6): pixel (r, c) of a W × H image looks at the point of a
 //! sphere (centre `center`, radius `radius`: the scene's first object) whose outward normal n is
-//! the lat-long direction of that pixel (CONVENTIONS §2), from the outgoing direction
+//! the lat-long direction of that pixel (docs/src/conventions.md §2), from the outgoing direction
 //! ω_o = cos(θ_o) n + sin(θ_o) (cos(φ_o) t + sin(φ_o) b), with t = (cosθ cosφ, cosθ sinφ, −sinθ)
 //! the unit tangent of increasing θ and b = n × t = (−sinφ, cosφ, 0) that of increasing φ. So
 //! (θ_o, φ_o) are the local outgoing angles (θ'_o, φ'_o) of the paper's eq. 5–10 in the frame
-//! (t, b, n); φ_o = 0 is CONVENTIONS §6, and other azimuths (an extension of it) sample the 4D
+//! (t, b, n); φ_o = 0 is docs/src/conventions.md §6, and other azimuths (an extension of it) sample the 4D
 //! reflected light field B(α, β, θ'_o, φ'_o) that factorization (eq. 18) needs.
 //! At θ_o = 0 (normal exitance) R = n, and the image is the reflection map B(α, β) of eq. 13–14.
 //!

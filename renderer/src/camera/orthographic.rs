@@ -1,6 +1,6 @@
 //! `orthographic` camera: parameters `from`, `to`, `up`, `extent` (half-width of the view).
 //! The ray through film point (x, y) has direction f and origin from + x·right + y·up'
-//! (CONVENTIONS §5), with x = extent·(2(c+½)/W − 1), y = extent·(H/W)·(1 − 2(r+½)/H) at pixel
+//! (docs/src/conventions.md §5), with x = extent·(2(c+½)/W − 1), y = extent·(H/W)·(1 − 2(r+½)/H) at pixel
 //! centres; `u` moves the point inside the pixel (box filter).
 
 use super::look_at_basis;

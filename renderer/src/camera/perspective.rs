@@ -1,5 +1,5 @@
 //! `perspective` (pinhole) camera: parameters `from`, `to`, `up`, `fov_deg` (full vertical field
-//! of view). Same image axes as the orthographic camera (CONVENTIONS §5).
+//! of view). Same image axes as the orthographic camera (docs/src/conventions.md §5).
 
 use super::look_at_basis;
 use crate::geometry::Ray;

@@ -10,7 +10,7 @@
 //! Visibility: a scene made of a single sphere cannot shadow itself in any direction above the
 //! local horizon, so shadow rays are skipped there (exact, and the common case of the paper).
 //! Directions below the horizon only reach a BRDF with `horizon = "ignore"` (the paper's
-//! simplification, CONVENTIONS §4): they gather the distant light unoccluded by definition.
+//! simplification, docs/src/conventions.md §4): they gather the distant light unoccluded by definition.
 
 use crate::brdf::{BrdfSample, Bxdf, Outgoing};
 use crate::camera::PrimarySample;
@@ -450,7 +450,7 @@ impl<'a> PathTracer<'a> {
             return hits;
         }
         // A BVH: ray by ray. `intersect_batch` on a stage's ≤ 8 rays gives the same hits, but costed
-        // 62 % more render instructions on bench-mesh-sky and no wall time (README "Performance",
+        // 62 % more render instructions on bench-mesh-sky and no wall time (guide "Performance",
         // eighth round): its interleaving pays off over many rays, not over one pixel's batch.
         for ((hit, ray), &want) in hits.iter_mut().zip(&r.rays).zip(&r.want) {
             if want {

@@ -1,7 +1,7 @@
-//! Environment-map lighting: measured radiance from an HDR image (CONVENTIONS §2, §6).
+//! Environment-map lighting: measured radiance from an HDR image (docs/src/conventions.md §2, §6).
 //!
 //! Parameters: `image` (linear RGB radiance, no negative values), `mapping` (`LatLong` or
-//! `Angular`, exactly as CONVENTIONS §2), `scale` (multiplies the radiance) and `rotation`
+//! `Angular`, exactly as docs/src/conventions.md §2), `scale` (multiplies the radiance) and `rotation`
 //! (world = rotation · map direction, from `rotate_deg`; `eval(wi)` looks up rotationᵀ·wi).
 //!
 //! The radiance is piecewise constant: the pixel whose area on the continuous image plane contains
@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use std::path::Path;
 use vocab::image::RgbImage;
 
-/// Environment-map parameterization (CONVENTIONS §2), defined in `vocab`.
+/// Environment-map parameterization (docs/src/conventions.md §2), defined in `vocab`.
 pub use vocab::Mapping;
 
 /// The importance-sampling structure of each mapping.
@@ -44,7 +44,7 @@ pub struct Envmap {
     pub image: RgbImage,
     pub mapping: Mapping,
     pub scale: f32,
-    /// Applied to the map's directions (CONVENTIONS §6 `rotate_deg`): world = rotation · map.
+    /// Applied to the map's directions (docs/src/conventions.md §6 `rotate_deg`): world = rotation · map.
     pub rotation: glam::Mat3,
     /// rotationᵀ: world → map.
     inv_rotation: glam::Mat3,
@@ -159,7 +159,7 @@ impl Envmap {
     }
 
     /// Reads an `.exr` / `.hdr` file and builds the light; every error names the file.
-    /// `rotate_deg` = rotations about x, then y, then z applied to the map (CONVENTIONS §6).
+    /// `rotate_deg` = rotations about x, then y, then z applied to the map (docs/src/conventions.md §6).
     pub fn load(path: &Path, mapping: Mapping, scale: f32, rotate_deg: [f32; 3]) -> crate::Result<Self> {
         let image = vocab::image::read_rgb(path)?;
         Envmap::new(image, mapping, scale, crate::math::rotation_xyz_deg(rotate_deg)).map_err(|e| e.in_file(path))
@@ -207,7 +207,7 @@ impl Envmap {
     }
 
     /// ∫ L dω over the sphere (the scalar irradiance, 4π × the mean radiance), per channel, as the
-    /// pixel sum with the per-pixel solid angles of CONVENTIONS §2 (exact for lat-long; the
+    /// pixel sum with the per-pixel solid angles of docs/src/conventions.md §2 (exact for lat-long; the
     /// midpoint value (2π/W)² sinθ/θ for the angular map, whose pixels outside the disc count 0).
     pub fn radiance_integral(&self) -> [f64; 3] {
         let (w, h) = (self.image.width, self.image.height);
@@ -497,7 +497,7 @@ mod tests {
         refused
     }
 
-    /// Map direction of the centre of pixel (r, c), straight from CONVENTIONS §2.
+    /// Map direction of the centre of pixel (r, c), straight from docs/src/conventions.md §2.
     fn centre_direction(mapping: Mapping, r: usize, c: usize, w: usize, h: usize) -> Option<Vec3> {
         match mapping {
             Mapping::LatLong => {
@@ -780,7 +780,7 @@ mod tests {
     #[test]
     fn grace_integral_by_sampling_matches_pixel_sum() {
         // ∫ L dω by MC with the light's own samples vs the pixel sum with the per-pixel solid angles
-        // of CONVENTIONS §2. 4σ per channel with σ = sqrt(sample variance / n) (≈ 3e-4 relative).
+        // of docs/src/conventions.md §2. 4σ per channel with σ = sqrt(sample variance / n) (≈ 3e-4 relative).
         // The §2 angular formula is the midpoint value of the exact Jacobian (2/W)²·π² sinθ/θ: its
         // error, O((2/W)²) ≈ 1e-5 relative plus the few dark rim pixels, is far below σ.
         let e = Envmap::load(Path::new(GRACE), Mapping::Angular, 0.5, [10.0, 20.0, 30.0]).unwrap();

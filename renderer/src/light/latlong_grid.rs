@@ -1,4 +1,4 @@
-//! Importance sampling of directions on a lat-long grid of cells (CONVENTIONS §2: row r spans
+//! Importance sampling of directions on a lat-long grid of cells (docs/src/conventions.md §2: row r spans
 //! θ ∈ [πr/H, π(r+1)/H], column c spans φ ∈ [2πc/W, 2π(c+1)/W], row 0 at the top, θ = 0).
 //!
 //! Parameters: `height` H, `width` W and a non-negative value g per cell (the radiance to follow,

@@ -1,4 +1,4 @@
-//! Distant lights (CONVENTIONS §1, §6): radiance L(ω) arriving *from* direction ω, the same at
+//! Distant lights (docs/src/conventions.md §1, §6): radiance L(ω) arriving *from* direction ω, the same at
 //! every point of the scene. Each light has `eval`, `sample` and `pdf` over directions; the
 //! integrator combines light samples with BRDF samples by multiple importance sampling.
 

@@ -1,4 +1,4 @@
-//! Distant lighting given by its spherical-harmonic coefficients (CONVENTIONS §3):
+//! Distant lighting given by its spherical-harmonic coefficients (docs/src/conventions.md §3):
 //! L(ω) = Σ_k L_k Y_k(ω), k = l(l+1) + m, l ≤ l_max — the lighting of the paper's eq. 15 tests.
 //!
 //! Parameters: `coefficients`, (l_max + 1)² RGB triples, l_max ≤ `MAX_LMAX` = 30. A truncated
@@ -27,7 +27,7 @@ const UNIFORM_FRACTION: f64 = 0.1;
 
 #[derive(Clone, Debug)]
 pub struct ShLight {
-    /// L_lm in flat index order k = l(l+1) + m (CONVENTIONS §3).
+    /// L_lm in flat index order k = l(l+1) + m (docs/src/conventions.md §3).
     pub coefficients: Vec<Rgb>,
     lmax: usize,
     basis: ShBasis,
@@ -175,7 +175,7 @@ mod tests {
 
     #[test]
     fn sh_eval_matches_closed_form_of_order_two() {
-        // Check values of CONVENTIONS §3 for l ≤ 2.
+        // Check values of docs/src/conventions.md §3 for l ≤ 2.
         let c: Vec<Rgb> = (0..9).map(|k| Rgb::new(1.0 + k as f32, -0.5 * k as f32, (k as f32).sin())).collect();
         let l = ShLight::new(c.clone()).unwrap();
         let d = Vec3::new(0.3, -0.5, 0.7).normalize();

@@ -1,6 +1,6 @@
 //! Counter-based samplers: every number is a pure function of (seed, pixel, sample index,
 //! dimension), so an image is bit-identical whatever the number of threads or the tile order
-//! (CONVENTIONS §5).
+//! (docs/src/conventions.md §5).
 //!
 //! - `Independent`: a 64-bit hash of the four counters.
 //! - `Sobol`: padded Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based Owen
@@ -405,7 +405,7 @@ impl Sampler {
 mod tests {
     use super::*;
 
-    /// Not a check: a workload for counting instructions (run under callgrind, README "Performance",
+    /// Not a check: a workload for counting instructions (run under callgrind, guide "Performance",
     /// round seven): 2^16 batches of `LANES` 2D Sobol draws through `next_2d_lanes` in a function
     /// compiled for x86-64-v3, and the same draws one by one through `next_2d`.
     #[test]
