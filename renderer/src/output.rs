@@ -95,7 +95,8 @@ pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
         chan("stderr_own.G", &|p| p.stderr_own[1]),
         chan("stderr_own.B", &|p| p.stderr_own[2]),
     ];
-    let mut layer = Layer::new((w, h), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+    let mut layer =
+        Layer::new((w, h), LayerAttributes::default(), vocab::exr_order::FAST_LOSSLESS, AnyChannels::sort(list));
     for (k, v) in attributes {
         if let (Some(k), Some(v)) = (Text::new_or_none(k), Text::new_or_none(v)) {
             layer.attributes.other.insert(k, AttributeValue::Text(v));

@@ -118,8 +118,12 @@ pub fn write_partial(path: &Path, p: &Partial, header: &PartialHeader, attribute
         // An empty range: one channel so that the file is a valid image.
         list.push(AnyChannel::new("empty", FlatSamples::U32(vec![0; npix])));
     }
-    let mut layer =
-        Layer::new((w.max(1), h.max(1)), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+    let mut layer = Layer::new(
+        (w.max(1), h.max(1)),
+        LayerAttributes::default(),
+        vocab::exr_order::FAST_LOSSLESS,
+        AnyChannels::sort(list),
+    );
     let json =
         serde_json::to_string(header).map_err(|e| crate::Error::file(path, format!("cannot encode header: {e}")))?;
     for (k, v) in attributes.iter().map(|(k, v)| (k.as_str(), v.as_str())).chain([(PARTIAL_ATTRIBUTE, json.as_str())]) {

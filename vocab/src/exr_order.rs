@@ -4,7 +4,9 @@
 //! in its iteration order, which is seeded anew for every map, so the same film written twice
 //! gave two different files (same pixels, permuted header). Every EXR writer of the project
 //! therefore encodes to memory, sorts each header's attributes by name here, and writes those
-//! bytes: the same seed gives the same file, byte for byte.
+//! bytes: the same seed gives the same file, byte for byte. The chunks must be written in
+//! increasing order too ([`FAST_LOSSLESS`]): with the `exr` crate's "unspecified" line order its
+//! compression threads write their chunks as they finish, and the offset table differs.
 //!
 //! Sorting in place is safe because a permutation of the attributes keeps the header's length,
 //! so the offset table that follows (absolute file positions of the chunks) stays valid. The
@@ -22,17 +24,14 @@ const MULTIPART: u32 = 1 << 12;
 /// One header: where its attributes start and end, and each attribute's byte span.
 type HeaderSpans = (usize, usize, Vec<(usize, usize)>);
 
-/// Sorts the attributes of every header of the OpenEXR file in `bytes` by name (byte order), in
-/// place. Returns `None`, leaving `bytes` untouched, when the bytes are not a header layout this
-/// function understands (then they are written as they are: a permuted header is still a valid
-/// file).
-pub fn sort_header_attributes(bytes: &mut [u8]) -> Option<()> {
+/// The byte spans of every header of the OpenEXR file in `bytes`, or `None` when the bytes are not
+/// a header layout this module understands.
+fn header_spans(bytes: &[u8]) -> Option<Vec<HeaderSpans>> {
     if bytes.len() < 8 || bytes[..4] != MAGIC {
         return None;
     }
     let version = u32::from_le_bytes(bytes[4..8].try_into().ok()?);
     let multipart = version & MULTIPART != 0;
-    // Parse every header first, so that bytes this function does not understand stay untouched.
     let mut headers: Vec<HeaderSpans> = Vec::new();
     let mut at = 8;
     loop {
@@ -61,17 +60,46 @@ pub fn sort_header_attributes(bytes: &mut [u8]) -> Option<()> {
             break;
         }
     }
+    Some(headers)
+}
+
+/// The attribute's name: the NUL-terminated string at the start of its span.
+fn attribute_name(bytes: &[u8], (s, _): (usize, usize)) -> &[u8] {
+    let b = &bytes[s..];
+    &b[..b.iter().position(|&c| c == 0).unwrap_or(0)]
+}
+
+/// Sorts the attributes of every header of the OpenEXR file in `bytes` by name (byte order), in
+/// place. Returns `None`, leaving `bytes` untouched, when the bytes are not a header layout this
+/// function understands (then they are written as they are: a permuted header is still a valid
+/// file).
+pub fn sort_header_attributes(bytes: &mut [u8]) -> Option<()> {
+    // Parse every header first, so that bytes this function does not understand stay untouched.
+    let headers = header_spans(bytes)?;
     for (start, end, mut spans) in headers {
-        let name = |&(s, _): &(usize, usize)| {
-            let b = &bytes[s..];
-            b[..b.iter().position(|&c| c == 0).unwrap_or(0)].to_vec()
-        };
-        spans.sort_by_key(name);
+        spans.sort_by(|&a, &b| attribute_name(bytes, a).cmp(attribute_name(bytes, b)));
         let sorted: Vec<u8> = spans.iter().flat_map(|&(s, e)| bytes[s..e].iter().copied()).collect();
         bytes[start..end].copy_from_slice(&sorted);
     }
     Some(())
 }
+
+/// Whether every header of the file says `lineOrder` = INCREASING_Y (value 0). With any other line
+/// order the `exr` crate writes the chunks that its threads compress in the order they finish, so
+/// the offset table (and the chunks' places) differ from one run to the next.
+pub fn chunks_in_increasing_order(bytes: &[u8]) -> bool {
+    header_spans(bytes).is_some_and(|headers| {
+        headers.iter().all(|(_, _, spans)| {
+            spans.iter().any(|&(s, e)| attribute_name(bytes, (s, e)) == b"lineOrder" && e > s && bytes[e - 1] == 0)
+        })
+    })
+}
+
+/// The project's lossless encoding of renders and partial renders: the `exr` crate's fast lossless
+/// choice (RLE, 64 × 64 tiles), with the chunks in increasing order so that the file's bytes do not
+/// depend on which compression thread finishes first.
+pub const FAST_LOSSLESS: exr::prelude::Encoding =
+    exr::prelude::Encoding { line_order: exr::prelude::LineOrder::Increasing, ..exr::prelude::Encoding::FAST_LOSSLESS };
 
 /// Encodes an image with `encode` (e.g. `|c| image.write().to_buffered(c)`), puts its header
 /// attributes in canonical order ([`sort_header_attributes`]) and writes the bytes to `path`.
@@ -83,6 +111,12 @@ pub fn write_exr_canonical(
     let mut cursor = Cursor::new(Vec::new());
     encode(&mut cursor).map_err(|e| format!("cannot write OpenEXR: {e}"))?;
     let mut bytes = cursor.into_inner();
+    if !chunks_in_increasing_order(&bytes) {
+        // A writer chose an encoding whose chunk order depends on thread timing.
+        return Err("cannot write OpenEXR: the encoding's line order is not increasing (the file's bytes would \
+                    depend on thread timing)"
+            .to_string());
+    }
     sort_header_attributes(&mut bytes);
     std::fs::write(path, &bytes).map_err(|e| format!("cannot write OpenEXR: {e}"))
 }
@@ -156,5 +190,41 @@ mod tests {
         let before = truncated.clone();
         assert!(sort_header_attributes(&mut truncated).is_none());
         assert_eq!(truncated, before);
+    }
+
+    /// Tiles compressed by several threads: with the crate's "unspecified" line order the chunk
+    /// order depends on which thread finishes first, so such an encoding is refused outright (a
+    /// deterministic check, where comparing files would only fail by chance); the project's
+    /// encoding gives the same bytes every time, with the offset table increasing.
+    #[test]
+    fn only_increasing_chunk_orders_are_written() {
+        let (w, h) = (320, 200); // 5 × 4 tiles of 64²
+        let samples: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 1013) as f32 * 0.25).collect();
+        let write = |enc: Encoding| {
+            let layer = Layer::new(
+                (w, h),
+                LayerAttributes::default(),
+                enc,
+                AnyChannels::sort(std::iter::once(AnyChannel::new("Y", FlatSamples::F32(samples.clone()))).collect()),
+            );
+            let image = Image::from_layer(layer);
+            let path = std::env::temp_dir().join(format!("reflect-exr-order-{}.exr", std::process::id()));
+            let r =
+                write_exr_canonical(&path, |c| image.write().to_buffered(c)).map(|()| std::fs::read(&path).unwrap());
+            let _ = std::fs::remove_file(&path);
+            r
+        };
+        let err = write(Encoding::FAST_LOSSLESS).unwrap_err();
+        assert!(err.contains("line order"), "{err}");
+        let files: Vec<Vec<u8>> = (0..8).map(|_| write(FAST_LOSSLESS).unwrap()).collect();
+        assert!(files.iter().all(|f| f == &files[0]));
+        assert!(chunks_in_increasing_order(&files[0]));
+        // The offset table follows the header: 20 little-endian u64 positions, increasing.
+        let headers = header_spans(&files[0]).unwrap();
+        let table = headers[0].1 + 1;
+        let offsets: Vec<u64> = (0..20)
+            .map(|i| u64::from_le_bytes(files[0][table + 8 * i..table + 8 * i + 8].try_into().unwrap()))
+            .collect();
+        assert!(offsets.windows(2).all(|p| p[0] < p[1]), "{offsets:?}");
     }
 }
