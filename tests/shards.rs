@@ -121,56 +121,65 @@ fn merge_refuses_mismatched_overlapping_and_missing_parts() {
     refused(&["render", s(&scene), "--checkpoint", s(&ck), "--out", o, "--quiet"], &ck);
 }
 
-/// The process is killed (SIGKILL) at pseudo-random moments and run again with the same command;
-/// the final image equals an uninterrupted render bit for bit, and the checkpoint is gone.
+/// The process is killed (SIGKILL) at pseudo-random moments after it saved a checkpoint, four times,
+/// and each run starts where the last saved checkpoint ended (the saved sample count never goes back:
+/// a run that started again from sample 0 would be seen saving fewer samples first); then SIGTERM makes it
+/// save and exit 130; the same command then finishes, the final image equals an uninterrupted render bit
+/// for bit, and the checkpoint is gone.
 #[test]
 fn killed_and_resumed_render_is_bit_identical() {
     let dir = common::temp_dir("resume");
-    let scene = scene_file(&dir, 48, 48, 96);
+    // 1024 passes of 1 spp, each saved (--checkpoint-every 0): seconds in all, so every kill comes
+    // long before the end.
+    let scene = scene_file(&dir, 48, 48, 1024);
     let single = dir.join("single.exr");
     ok(&["render", s(&scene), "--out", s(&single), "--quiet"]);
     let out = dir.join("out.exr");
     let ck = dir.join("ck.exr");
     let args = ["render", s(&scene), "--out", s(&out), "--checkpoint", s(&ck), "--checkpoint-every", "0", "--quiet"];
-    // Delays from a fixed LCG: the moments differ between kills but not between runs of the test.
+    // The sample count a checkpoint has saved (None while there is none, or while it is being replaced).
+    let saved = || renderer::shard::read_partial(&ck).ok().map(|f| f.partial.end);
+    // Spawns the command and waits until it has saved a checkpoint beyond `after`.
+    let run_until_saved_beyond = |after: u64| {
+        let child = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).spawn().unwrap();
+        let t = std::time::Instant::now();
+        loop {
+            // Every checkpoint this run saves starts from the one it resumed: a run that started
+            // again from sample 0 would be seen saving fewer samples on its way back.
+            match saved() {
+                Some(n) if n > after => break,
+                Some(n) => assert!(n == after, "the checkpoint went back from sample {after} to {n}: no resume"),
+                None => {}
+            }
+            assert!(t.elapsed().as_secs() < 120, "no checkpoint beyond sample {after} within 120 s");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        child
+    };
+    // Extra delays after a save from a fixed LCG: the moments differ between kills, not between runs.
     let mut x: u64 = 12345;
-    let mut killed_with_checkpoint = 0;
-    for _ in 0..4 {
+    let mut last = 0;
+    for kill in 0..4 {
+        let mut child = run_until_saved_beyond(last);
         x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        let ms = 150 + (x >> 33) % 900;
-        let mut child = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).spawn().unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(ms));
-        let _ = child.kill(); // SIGKILL
-        let _ = child.wait();
-        killed_with_checkpoint += ck.exists() as u32;
-        if out.exists() {
-            break;
-        }
+        std::thread::sleep(std::time::Duration::from_millis((x >> 33) % 40));
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        assert!(!out.exists(), "kill {kill}: the render finished before it was killed; make it longer");
+        let now = saved().expect("a checkpoint survives SIGKILL (it is replaced atomically)");
+        assert!(now > last, "kill {kill}: the checkpoint went from sample {last} to {now}");
+        last = now;
     }
-    // SIGTERM once the process has saved a checkpoint (so its handler is installed): it saves and exits 130.
-    let t = std::time::SystemTime::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).spawn().unwrap();
-    let mut status = None;
-    for _ in 0..2000 {
-        status = child.try_wait().unwrap();
-        let saved = std::fs::metadata(&ck).and_then(|m| m.modified()).is_ok_and(|m| m > t);
-        if saved || status.is_some() {
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    if status.is_none() {
-        sigterm(child.id());
-    }
-    let status = status.unwrap_or_else(|| child.wait().unwrap());
-    if !out.exists() {
-        assert_eq!(status.code(), Some(130), "SIGTERM exits 130 after saving");
-        assert!(ck.exists());
-    }
+    // SIGTERM once the process has saved (so its handler is installed): it saves and exits 130.
+    let mut child = run_until_saved_beyond(last);
+    sigterm(child.id());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "SIGTERM exits 130 after saving");
+    assert!(!out.exists());
+    assert!(saved().is_some_and(|n| n > last && n < 1024), "SIGTERM saved the samples done: {:?}", saved());
     ok(&args);
     assert!(!ck.exists(), "the checkpoint is removed after the final image");
     assert_same_image(&single, &out);
-    eprintln!("kills that left a checkpoint: {killed_with_checkpoint}");
 }
 
 fn sigterm(pid: u32) {

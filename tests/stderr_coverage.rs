@@ -137,10 +137,7 @@ fn highest_honest(n: usize) -> f64 {
 #[test]
 fn env_sun_error_bars_cover_where_flagged_and_where_not() {
     let sun = |s| case_scene("conv_independent_256.toml", s, &|t| t);
-    if sun(0).is_none() {
-        eprintln!("skipped: ../shared/cases/env-sun is not present");
-        return;
-    }
+    assert!(sun(0).is_some(), "missing data: ../shared/cases/env-sun (the tests need ../shared beside the checkout)");
     let (pooled, own) = renders(&|s| sun(s).unwrap());
     let (cp, co) = (Coverage::of(&pooled), Coverage::of(&own));
     eprintln!("env-sun, {SEEDS} seeds at 256 spp, channel G");
@@ -169,11 +166,10 @@ fn grace_probe_at_64_spp_flagged_pixels_cover() {
                 .replace("spp = 256", "spp = 64")
         })
     };
-    if !PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/grace_probe.hdr").exists() || grace(0).is_none()
-    {
-        eprintln!("skipped: ../shared/cases/env-sun or ../shared/data is not present");
-        return;
-    }
+    assert!(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/grace_probe.hdr").exists() && grace(0).is_some(),
+        "missing data: ../shared/cases/env-sun or ../shared/data (the tests need ../shared beside the checkout)"
+    );
     let (pooled, own) = renders(&|s| grace(s).unwrap());
     let (cp, co) = (Coverage::of(&pooled), Coverage::of(&own));
     eprintln!("Grace probe, {SEEDS} seeds at 64 spp, channel G");
@@ -195,14 +191,11 @@ fn plain_scene_error_bars_are_not_inflated() {
             t.replace("file = \"sun_latlong.exr\"", "file = \"../../data/sky_latlong.exr\"")
         })
     };
-    match sky(0) {
-        Some(s)
-            if s.settings.width > 0 && PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data").exists() => {}
-        _ => {
-            eprintln!("skipped: ../shared/cases/env-sun or ../shared/data is not present");
-            return;
-        }
-    }
+    assert!(
+        sky(0).is_some_and(|s| s.settings.width > 0)
+            && PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data").exists(),
+        "missing data: ../shared/cases/env-sun or ../shared/data (the tests need ../shared beside the checkout)"
+    );
     let (pooled, own) = renders(&|s| sky(s).unwrap());
     let (cp, co) = (Coverage::of(&pooled), Coverage::of(&own));
     let touched: usize = pooled.iter().map(Film::pooled_count).sum();
@@ -239,10 +232,7 @@ fn plain_scene_error_bars_are_not_inflated() {
 #[test]
 fn analyze_and_invert_state_the_flagged_pixels() {
     let case = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/cases/env-sun/conv_independent_256.toml");
-    if !case.exists() {
-        eprintln!("skipped: ../shared/cases/env-sun is not present");
-        return;
-    }
+    assert!(case.exists(), "missing data: {} (the tests need ../shared beside the checkout)", case.display());
     let dir = std::env::temp_dir().join(format!("reflect-stderr-flags-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let exr = dir.join("sun.exr");
@@ -298,10 +288,10 @@ fn low_spp_error_bars_cover() {
                         .replace("spp = 256", &format!("spp = {spp}"))
                 })
             };
-            if !data.exists() || mk(0).is_none() {
-                eprintln!("skipped: ../shared/cases/env-sun or ../shared/data is not present");
-                return;
-            }
+            assert!(
+                data.exists() && mk(0).is_some(),
+                "missing data: ../shared/cases/env-sun or ../shared/data (the tests need ../shared beside the checkout)"
+            );
             let (written, own) = renders(&|s| mk(s).unwrap());
             let (cw, co, cx) = (Coverage::of(&written), Coverage::of(&own), Coverage::of(&oracle(&own)));
             eprintln!("{name}, {SEEDS} seeds at {spp} spp, channel G");
@@ -334,10 +324,8 @@ fn analyze_at_4_spp_sees_no_model_inadequacy() {
     let path = root.join("scenes/lambert-grace.toml");
     let mut file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
     (file.render.spp, file.render.width, file.render.height) = (4, 128, 128);
-    let Ok(scene) = Scene::build(file, &root.join("scenes")) else {
-        eprintln!("skipped: the Grace probe of scenes/lambert-grace.toml is not present");
-        return;
-    };
+    let scene = Scene::build(file, &root.join("scenes"))
+        .unwrap_or_else(|e| panic!("scenes/lambert-grace.toml (its Grace map is in ../shared/data): {e}"));
     let p = render_range(&scene, &RenderOptions::default(), 0, 4).0.unwrap();
     let dir = std::env::temp_dir().join(format!("reflect-stderr-4spp-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
