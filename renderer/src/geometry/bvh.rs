@@ -2,7 +2,10 @@
 //! hierarchy.
 //!
 //! - One obvhs compressed wide BVH8 (`CwBvh`, Ylitie et al. 2017) is built over the AABBs of all
-//!   primitives: each triangle of each mesh, and each sphere as a single custom primitive.
+//!   primitives: each triangle of each mesh, and each sphere as a single custom primitive. The
+//!   binary tree it is converted from is obvhs's PLOC tree, or an object-median tree where PLOC
+//!   degenerates or builds too deep a tree (`build_cwbvh`): no input makes the conversion's
+//!   recursion or the traversal stack overflow.
 //! - After the build the primitive records are reordered into the BVH's leaf order
 //!   (`primitive_indices`), so a leaf slot indexes a `Prim` directly with no indirection.
 //! - Each `Prim` is three 16-byte lanes: triangles store (v0, e1, e2) for Möller–Trumbore, spheres
