@@ -188,10 +188,10 @@ fn write_glb_triangles(path: &std::path::Path, positions: &[[f32; 3]], indices: 
         indices.len()
     );
     let mut json = json.into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let mut out = Vec::new();

@@ -7,13 +7,14 @@
 //! - the two roots come from the stable quadratic q = b' + sign(b')·√Δ, t₀ = c/q, t₁ = q
 //!   (eq. 7.10 with a = 1), so the near root does not lose digits to cancellation either.
 //!
-//! A root is accepted only above its own round-off: c = |f|² − r² carries an error of a few ε·(|f|² + r²),
-//! so the near root c/q is indistinguishable from 0 below [`ROOT_ULPS`]·ε·(|f|² + r²)/|q| (a ray
-//! leaving the surface must not re-hit it there). The bound grows with the sphere and the origin's
+//! A root is accepted only above its own round-off: c = |f|² − r² carries an error of a few
+//! u·(|f|² + r²) (u the unit round-off of the precision used), so the near root c/q is
+//! indistinguishable from 0 below `ROOT_ULPS`·u·(|f|² + r²)/|q| (a ray leaving the surface must
+//! not re-hit it there). The bound grows with the sphere and the origin's
 //! distance, not with the radius alone: a camera ray 5 units above a ground sphere of radius 2e5 is a
 //! hit. The hit point is re-projected onto the sphere and the normal is the outward (p − c)/r.
 //!
-//! Single precision resolves the surface to about ε·(|c| + r): a sphere whose bounds reach beyond
+//! Single precision resolves the surface to about u·(|c| + r): a sphere whose bounds reach beyond
 //! [`SINGLE_PRECISION_EXTENT`] from the origin is intersected and re-projected in double precision
 //! (a ground sphere of radius 1e9 then stays within ~1e-7 of its surface near the origin, where f32
 //! would put it anywhere within ±64). Beyond [`MAX_EXTENT`] even double precision cannot place the
@@ -22,13 +23,13 @@
 use super::{Hit, Ray};
 use crate::math::Vec3;
 
-/// Accepted roots exceed `ROOT_ULPS`·ε·(|f|² + r²)/|q|: the error of c = |f|² − r² (three products
+/// Accepted roots exceed `ROOT_ULPS`·u·(|f|² + r²)/|q|: the error of c = |f|² − r² (three products
 /// and two sums for |f|², one product for r², the difference: under 5 ulps of |f|² + r²), with a
 /// margin of 3 for the rounding of f = o − c and of q.
 const ROOT_ULPS: f32 = 16.0;
 
 /// Largest |centre| + radius (largest coordinate of the bounds) intersected in single precision.
-/// f32's error in the hit distance is about ε·(|c| + r)/cosθ: 4e-6 at this extent, below the
+/// f32's error in the hit distance is about u·(|c| + r)/cosθ: 4e-6 at this extent, below the
 /// integrator's ray offsets (1e-4); larger spheres take the double-precision path.
 pub const SINGLE_PRECISION_EXTENT: f32 = 64.0;
 
