@@ -426,6 +426,24 @@ fn bad_mesh_files_exit_2_with_one_line() {
     assert_bad_input(&["render", d.join("bad.toml").to_str().unwrap(), "--out", o], "bad.obj", "line 4", &out);
 }
 
+/// Issue 33, kind 6 (`sphere-huge`): a ground sphere of radius 1e19 beside a unit sphere panicked
+/// inside obvhs (its surface-area costs overflow f32), a lone sphere of radius 1e30 rendered
+/// nothing (r² overflows): both exit 2 with one line naming the scene, the object and the limit.
+#[test]
+fn huge_spheres_exit_2_naming_the_object_and_the_limit() {
+    let d = temp_dir("cli-errors-huge");
+    let out = d.join("out.exr");
+    let o = out.to_str().unwrap();
+    let cases = root().join("../shared/cases/sphere-huge");
+    for (scene, mentions) in [
+        ("ground_1e19.toml", "objects[0]: sphere (centre [0.0, 0.0, -1e19], radius 1e19) reaches 2.000e19"),
+        ("alone_1e30.toml", "objects[0]: sphere (centre [0.0, 0.0, -1e30], radius 1e30) reaches 2.000e30"),
+    ] {
+        assert_bad_input(&["render", cases.join(scene).to_str().unwrap(), "--out", o], scene, mentions, &out);
+        assert_bad_input(&["render", cases.join(scene).to_str().unwrap(), "--out", o], scene, "limit is 1e10", &out);
+    }
+}
+
 /// `reflect … --json` on good input: exit 0 and the JSON document.
 /// Issue 18, analysis at the edges: orders the input cannot carry, transfer coefficients at the
 /// limits of their parameters, exitance angles and BRDF parameters from headers, and degenerate

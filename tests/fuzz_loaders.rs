@@ -47,6 +47,42 @@ const OBJ_SEEDS: &[&str] = &[
     "o a\ng x\nusemtl m\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 \\\n 3 4\n",
 ];
 
+/// A disc as one OBJ polygon of `n` corners (fan-triangulated into slivers sharing its first
+/// corner: the `mesh-long-fan` kind at a fuzzable size).
+fn long_polygon_obj(n: usize) -> String {
+    let mut s = String::new();
+    for i in 0..n {
+        let a = std::f32::consts::TAU * i as f32 / n as f32;
+        s.push_str(&format!("v 0 {:?} {:?}\n", a.cos(), a.sin()));
+    }
+    s.push('f');
+    for i in 1..=n {
+        s.push_str(&format!(" {i}"));
+    }
+    s.push('\n');
+    s
+}
+
+/// The same disc as a GLB with one TRIANGLE_FAN primitive of `n` vertices.
+fn long_fan_glb(n: usize) -> Vec<u8> {
+    let bin: Vec<u8> = (0..n)
+        .flat_map(|i| {
+            let a = std::f32::consts::TAU * i as f32 / n as f32;
+            [0.0, a.cos(), a.sin()]
+        })
+        .flat_map(|x: f32| x.to_le_bytes())
+        .collect();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"mode":6}}]}}],"buffers":[{{"byteLength":{}}}],
+"bufferViews":[{{"buffer":0,"byteLength":{}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":{n},"type":"VEC3","min":[0,-1,-1],"max":[0,1,1]}}]}}"#,
+        bin.len(),
+        bin.len()
+    );
+    glb(json.as_bytes(), Some(&bin))
+}
+
 const OBJ_DICT: &[&[u8]] = &[
     b"v ",
     b"vn ",
@@ -75,6 +111,7 @@ fn fuzz_obj() {
     let mut seeds = read_seeds(&seed_files(&cases(), &[".obj"], 64 << 10));
     seeds.extend(read_seeds(&seed_files(&root().join("scenes"), &[".obj"], 64 << 10)));
     seeds.extend(OBJ_SEEDS.iter().map(|s| s.as_bytes().to_vec()));
+    seeds.push(long_polygon_obj(2000).into_bytes());
     let dir = work_dir("obj");
     let run = |smooth: bool, seed: u64| {
         let path = dir.join(format!("input{}.obj", smooth as u8));
@@ -155,6 +192,7 @@ fn fuzz_gltf() {
     if let Some(first) = seeds.first().cloned() {
         seeds.push(glb(&first, None));
     }
+    seeds.push(long_fan_glb(2000));
     let dir = work_dir("gltf");
     let run = |ext: &'static str, smooth: bool, seed: u64| {
         let path = dir.join(format!("input{}.{ext}", smooth as u8));
@@ -185,6 +223,9 @@ const TOML_DICT: &[&[u8]] = &[
     b"shape = \"mesh\"\n",
     b"file = \"reference.obj\"\n",
     b"file = \"u16.gltf\"\n",
+    b"file = \"fan.obj\"\n",
+    b"radius = 1e10\n",
+    b"scale = 1e9\n",
     b"smooth = true\n",
     b"brdf = { type = \"microfacet\", roughness = 0.3 }\n",
     b"[",
@@ -200,12 +241,33 @@ fn fuzz_scene_toml() {
     fuzz::set_hard_cap(HARD_CAP);
     let mut paths = seed_files(&cases(), &[".toml"], 16 << 10);
     paths.extend(seed_files(&root().join("scenes"), &[".toml"], 16 << 10));
-    let seeds = read_seeds(&paths);
+    let mut seeds = read_seeds(&paths);
     let dir = work_dir("scene");
     // Mesh files the seeds name, next to the mutated scene (other referenced files are missing,
     // which must be a clean error).
     for p in seed_files(&cases(), &[".obj", ".gltf"], 16 << 10) {
         let _ = std::fs::copy(&p, dir.join(p.file_name().expect("file name")));
+    }
+    // Extreme scale and long fans: spheres about the reach limit, and a fan of slivers large
+    // enough for the BVH's degenerate-input path, scaled about the limit.
+    std::fs::write(dir.join("fan.obj"), long_polygon_obj(5000)).expect("fan seed");
+    for (shape, size) in
+        [("sphere", "1e9"), ("sphere", "1e10"), ("sphere", "1.1e10"), ("sphere", "3e38"), ("mesh", "4e9")]
+    {
+        let object = if shape == "sphere" {
+            format!("shape = \"sphere\"\ncenter = [0.0, 0.0, -{size}]\nradius = {size}")
+        } else {
+            format!("shape = \"mesh\"\nfile = \"fan.obj\"\nsmooth = false\nscale = {size}")
+        };
+        seeds.push(
+            format!(
+                "[render]\nwidth = 8\nheight = 8\nspp = 1\n[camera]\ntype = \"orthographic\"\nfrom = [5.0, 0.0, 1.0]\n\
+                 to = [0.0, 0.0, 0.0]\nextent = 2.0\n[lighting]\ntype = \"uniform\"\nradiance = 1.0\n[[objects]]\n{object}\n\
+                 brdf = {{ type = \"lambert\", albedo = 0.5 }}\n[[objects]]\nshape = \"sphere\"\n\
+                 brdf = {{ type = \"lambert\", albedo = 0.5 }}\n"
+            )
+            .into_bytes(),
+        );
     }
     let path = dir.join("input.toml");
     let dir_s = dir.to_string_lossy().into_owned();

@@ -2,7 +2,10 @@
 //! hierarchy.
 //!
 //! - One obvhs compressed wide BVH8 (`CwBvh`, Ylitie et al. 2017) is built over the AABBs of all
-//!   primitives: each triangle of each mesh, and each sphere as a single custom primitive.
+//!   primitives: each triangle of each mesh, and each sphere as a single custom primitive. The
+//!   binary tree it is converted from is obvhs's PLOC tree, or an object-median tree where PLOC
+//!   degenerates or builds too deep a tree (`build_cwbvh`): no input makes the conversion's
+//!   recursion or the traversal stack overflow.
 //! - After the build the primitive records are reordered into the BVH's leaf order
 //!   (`primitive_indices`), so a leaf slot indexes a `Prim` directly with no indirection.
 //! - Each `Prim` is three 16-byte lanes: triangles store (v0, e1, e2) for Möller–Trumbore, spheres
@@ -23,8 +26,8 @@
 //! radius or 6× more reinsertion changed the nodes visited per hitting ray by < 2% (14.1 → 13.9)
 //! at 2–3× the build time).
 //!
-//! Hits have t in (0, t_max) for triangles and (1e-4·r, t_max) for spheres (see
-//! [`super::sphere::SPHERE_T_EPSILON`]); rays with non-finite origin or direction hit nothing.
+//! Hits have t in (0, t_max) for triangles and above the round-off of the root for spheres (see
+//! [`super::sphere`]); rays with non-finite origin or direction hit nothing.
 
 use super::mesh::TriangleRecord;
 use super::{Hit, Ray, Shape, Sphere};
@@ -166,8 +169,7 @@ impl SceneGeometry {
         let (bvh, prims, refs) = if prims.is_empty() {
             (None, prims, refs)
         } else {
-            let mut core_time = Duration::ZERO;
-            let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, params, &mut core_time);
+            let bvh = build_cwbvh(&aabbs, params);
             // Reorder into leaf order so a slot id indexes the records directly.
             let p2: Vec<Prim> = bvh.primitive_indices.iter().map(|&k| prims[k as usize]).collect();
             let r2: Vec<PrimRef> = bvh.primitive_indices.iter().map(|&k| refs[k as usize]).collect();
@@ -601,6 +603,172 @@ impl SceneGeometry {
         }
         best
     }
+}
+
+/// Deepest binary tree handed to obvhs's CwBvh conversion, whose cost pass and node pass recurse
+/// once per level (a few hundred bytes of stack each: 64 levels stay far inside any thread's
+/// stack). PLOC builds trees of 2–3 × log₂(primitives) levels; degenerate input makes it chain
+/// primitives one by one (a fan of slivers sharing a vertex: 100,000 levels, which overflowed a
+/// 2 MiB worker stack).
+const MAX_BVH2_DEPTH: usize = 64;
+
+/// The scene's CwBvh: obvhs's `build_cwbvh` (PLOC, reinsertion, conversion; the same calls, so the
+/// same tree) when PLOC's tree is at most [`MAX_BVH2_DEPTH`] deep and its CwBvh shallower than the
+/// traversal stack ([`STACK`]); otherwise the median-split tree of [`median_split_bvh2`], whose depth
+/// is ⌈log₂ n⌉ (at most 24 for the 2^24 triangles a scene may hold). Inputs on which PLOC degrades
+/// ([`ploc_degenerates`]) skip PLOC, whose passes then merge only a few pairs each (quadratic time).
+fn build_cwbvh(aabbs: &[Aabb], params: BvhBuildParams) -> CwBvh {
+    use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+    use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
+    let leaf = params.max_prims_per_leaf.clamp(1, 3);
+    if !ploc_degenerates(aabbs) {
+        let indices = (0..aabbs.len() as u32).collect();
+        let mut bvh2 = obvhs::ploc::PlocBuilder::with_capacity(aabbs.len()).build(
+            params.ploc_search_distance,
+            aabbs,
+            indices,
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        if bvh2_depth(&bvh2) <= MAX_BVH2_DEPTH {
+            ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+            if bvh2_depth(&bvh2) <= MAX_BVH2_DEPTH {
+                let cw = bvh2_to_cwbvh(&bvh2, leaf, true, false);
+                if cwbvh_depth(&cw) < STACK {
+                    return cw;
+                }
+            }
+        }
+    }
+    bvh2_to_cwbvh(&median_split_bvh2(aabbs), leaf, true, false)
+}
+
+/// Levels of a binary tree (1 for a single leaf), walked without recursion.
+fn bvh2_depth(bvh2: &obvhs::bvh2::Bvh2) -> usize {
+    let mut stack = vec![(0usize, 1usize)];
+    let mut deepest = 0;
+    while let Some((i, level)) = stack.pop() {
+        deepest = deepest.max(level);
+        let node = &bvh2.nodes[i];
+        if !node.is_leaf() {
+            stack.push((node.first_index as usize, level + 1));
+            stack.push((node.first_index as usize + 1, level + 1));
+        }
+    }
+    deepest
+}
+
+/// Levels of a CwBvh's internal nodes (1 for the root alone): the most node groups a traversal
+/// can hold on its stack.
+fn cwbvh_depth(bvh: &CwBvh) -> usize {
+    let mut stack = vec![(0usize, 1usize)];
+    let mut deepest = 0;
+    while let Some((i, level)) = stack.pop() {
+        deepest = deepest.max(level);
+        let node = &bvh.nodes[i];
+        for k in 0..node.imask.count_ones() as usize {
+            stack.push((node.child_base_idx as usize + k, level + 1));
+        }
+    }
+    deepest
+}
+
+/// True when obvhs's PLOC would chain rather than pair. Its first passes pair each node with the
+/// neighbour (in Morton order) whose union box has the smaller area, and a pair forms only where
+/// both agree, i.e. at the local minima of the neighbours' union areas. Where that area changes
+/// monotonically along long runs (slivers sharing a vertex, whose boxes all reach it) only the
+/// ends of the runs pair and each pass removes a few nodes instead of a fraction: quadratic time
+/// and a chain of a tree. Simulated here for [`PAIRING_PASSES`] passes on the centroids' Morton
+/// order: on ordinary meshes each pass pairs a third or more of the nodes (under a quarter of them
+/// remain), on a fan of slivers next to none.
+fn ploc_degenerates(aabbs: &[Aabb]) -> bool {
+    const PAIRING_PASSES: usize = 4;
+    // Small inputs build fast whatever PLOC does (the depth checks still apply).
+    if aabbs.len() < 4096 {
+        return false;
+    }
+    let mut cb = Aabb::empty();
+    for b in aabbs {
+        cb.extend(b.center());
+    }
+    let scale = Vec3A::splat(((1u32 << 21) - 1) as f32) / cb.diagonal().max(Vec3A::splat(f32::MIN_POSITIVE));
+    let spread = |v: u32| {
+        let mut x = v as u64 & 0x1f_ffff;
+        x = (x | x << 32) & 0x001f_0000_0000_ffff;
+        x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        (x | x << 2) & 0x1249_2492_4924_9249
+    };
+    let mut keyed: Vec<(u64, u32)> = aabbs
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let q = ((b.center() - cb.min) * scale).as_uvec3();
+            (spread(q.x) << 2 | spread(q.y) << 1 | spread(q.z), i as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    let mut nodes: Vec<Aabb> = keyed.iter().map(|&(_, i)| aabbs[i as usize]).collect();
+    for _ in 0..PAIRING_PASSES {
+        let cost: Vec<f32> = nodes.windows(2).map(|w| w[0].union(&w[1]).half_area()).collect();
+        let mut next = Vec::with_capacity(nodes.len());
+        let mut i = 0;
+        while i < nodes.len() {
+            // Pair i with i + 1 where both prefer each other: pair (i, i+1) cheaper than (i−1, i)
+            // and than (i+1, i+2).
+            let left = if i > 0 { cost[i - 1] } else { f32::INFINITY };
+            let right = cost.get(i + 1).copied().unwrap_or(f32::INFINITY);
+            if i + 1 < nodes.len() && cost[i] <= left && cost[i] < right {
+                next.push(nodes[i].union(&nodes[i + 1]));
+                i += 2;
+            } else {
+                next.push(nodes[i]);
+                i += 1;
+            }
+        }
+        nodes = next;
+    }
+    nodes.len() > aabbs.len() / 2
+}
+
+/// A binary tree over `aabbs` by recursive object-median splits along the longest axis of the
+/// centroids' bounds (ties by index, so the tree is deterministic): ⌈log₂ n⌉ levels whatever the
+/// input, O(n log n) time, one primitive per leaf (what obvhs's conversion expects).
+fn median_split_bvh2(aabbs: &[Aabb]) -> obvhs::bvh2::Bvh2 {
+    use obvhs::bvh2::{Bvh2, node::Bvh2Node};
+    let n = aabbs.len();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    let centroid: Vec<Vec3A> = aabbs.iter().map(|b| b.center()).collect();
+    let mut nodes = vec![Bvh2Node::default(); 1];
+    nodes.reserve(2 * n);
+    // (node, first, end) ranges of `order` still to split.
+    let mut todo = vec![(0usize, 0usize, n)];
+    while let Some((node, first, end)) = todo.pop() {
+        let range = &mut order[first..end];
+        let mut bounds = Aabb::empty();
+        let mut cbounds = Aabb::empty();
+        for &k in range.iter() {
+            bounds = bounds.union(&aabbs[k as usize]);
+            cbounds.extend(centroid[k as usize]);
+        }
+        if range.len() == 1 {
+            nodes[node] = Bvh2Node::new(bounds, 1, first as u32);
+            continue;
+        }
+        let axis = cbounds.largest_axis();
+        let mid = range.len() / 2;
+        range.select_nth_unstable_by(mid, |&a, &b| {
+            centroid[a as usize][axis].total_cmp(&centroid[b as usize][axis]).then(a.cmp(&b))
+        });
+        let child = nodes.len();
+        nodes.push(Bvh2Node::default());
+        nodes.push(Bvh2Node::default());
+        nodes[node] = Bvh2Node::new(bounds, 0, child as u32);
+        todo.push((child, first, first + mid));
+        todo.push((child + 1, first + mid, end));
+    }
+    Bvh2 { nodes, primitive_indices: order, ..Default::default() }
 }
 
 /// Rays in flight in [`SceneGeometry::intersect_batch`] and [`SceneGeometry::occluded_batch`].
@@ -1138,6 +1306,110 @@ mod tests {
         #[cfg(not(target_arch = "x86_64"))]
         let cpu = false;
         assert_eq!((avx2_walk(), avx2_walk()), (cpu, cpu));
+    }
+
+    /// A disc of radius 1 in the x = 0 plane as one fan of `n` slivers from the rim vertex (0, 1, 0)
+    /// (the `mesh-long-fan` case's layout, generated at any size).
+    pub(crate) fn sliver_fan(n: usize) -> TriangleMesh {
+        let k = n + 2;
+        let positions = (0..k)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / k as f32;
+                Vec3::new(0.0, a.cos(), a.sin())
+            })
+            .collect();
+        let triangles = (1..k as u32 - 1).map(|i| [0, i, i + 1]).collect();
+        TriangleMesh { positions, normals: Vec::new(), triangles }
+    }
+
+    fn mesh_aabbs(m: &TriangleMesh) -> Vec<Aabb> {
+        (0..m.len())
+            .map(|i| {
+                let v = m.vertices(i);
+                let mut bb = Aabb::from_point(v[0].into());
+                bb.extend(v[1].into()).extend(v[2].into());
+                bb
+            })
+            .collect()
+    }
+
+    /// Closest hits equal brute force on rays through the disc of a fan (and its depth bound holds).
+    fn check_fan_hits(g: &SceneGeometry, rng: &mut TestRng) {
+        let bvh = g.bvh.as_ref().expect("a BVH");
+        assert!(cwbvh_depth(bvh) < STACK, "CwBvh depth {}", cwbvh_depth(bvh));
+        let mut hits = 0;
+        for i in 0..3000 {
+            let target = Vec3::new(0.0, 2.2 * rng.next_f32() - 1.1, 2.2 * rng.next_f32() - 1.1);
+            let o = Vec3::new(if i % 2 == 0 { 3.0 } else { -3.0 }, 0.0, 0.0) + in_box(rng, 1.0);
+            let ray = Ray::new(o, (target - o).normalize());
+            let (a, b) = (g.intersect(&ray), g.intersect_brute_force(&ray));
+            // At the rim the slivers are ~1e-4 wide and a hit lies on the corner of its box, where
+            // obvhs's quantised node test can round it out (obvhs's own PLOC tree misses the same
+            // ray): those rays are left out.
+            if b.is_some_and(|h| h.p.length() > 0.999) {
+                continue;
+            }
+            assert_eq!(a.is_some(), b.is_some(), "ray {i}: bvh {a:?} vs brute force {b:?}");
+            assert_eq!(g.occluded(&ray), b.is_some(), "ray {i}");
+            if let (Some(a), Some(b)) = (a, b) {
+                assert!((a.t - b.t).abs() <= 1e-5 * b.t, "ray {i}: {} vs {}", a.t, b.t);
+                hits += 1;
+            }
+        }
+        assert!(hits > 1500, "{hits} of 3000 rays hit the disc");
+    }
+
+    /// A fan of slivers sharing a vertex: PLOC's pairing degenerates (detected before PLOC runs),
+    /// the median-split tree replaces it, ⌈log₂ n⌉ levels deep, and it finds every hit. Ordinary
+    /// meshes are not taken for degenerate.
+    #[test]
+    fn long_fan_skips_ploc_and_builds_shallow() {
+        let n = 50_000;
+        let fan = sliver_fan(n);
+        assert!(ploc_degenerates(&mesh_aabbs(&fan)), "a fan of {n} slivers is not detected");
+        for sub in [5, 6] {
+            assert!(!ploc_degenerates(&mesh_aabbs(&icosphere(sub))), "icosphere({sub}) taken for degenerate");
+        }
+        let mut bunny = icosphere(6);
+        bunny.transform(glam::Affine3A::from_scale(Vec3::new(3.0, 1.0, 0.2)));
+        assert!(!ploc_degenerates(&mesh_aabbs(&bunny)));
+        let tree = median_split_bvh2(&mesh_aabbs(&fan));
+        assert_eq!(bvh2_depth(&tree), (n as f64).log2().ceil() as usize + 1);
+        let start = Instant::now();
+        let g = SceneGeometry::new(vec![Shape::Mesh(fan)]);
+        assert!(start.elapsed() < Duration::from_secs(5), "{:?}", start.elapsed());
+        check_fan_hits(&g, &mut TestRng::new(17));
+    }
+
+    /// A fan below the pre-check's size: PLOC runs and chains it (hundreds of levels, a CwBvh deeper
+    /// than the traversal stack); the depth checks replace the tree, and every hit is found.
+    #[test]
+    fn chained_ploc_tree_is_replaced() {
+        let fan = sliver_fan(3000);
+        let aabbs = mesh_aabbs(&fan);
+        assert!(!ploc_degenerates(&aabbs), "below the pre-check's size");
+        let p = BUILD_PARAMS;
+        let ploc = obvhs::ploc::PlocBuilder::with_capacity(aabbs.len()).build(
+            p.ploc_search_distance,
+            &aabbs,
+            (0..aabbs.len() as u32).collect(),
+            p.sort_precision,
+            p.search_depth_threshold,
+        );
+        assert!(bvh2_depth(&ploc) > MAX_BVH2_DEPTH, "PLOC's tree is {} deep", bvh2_depth(&ploc));
+        check_fan_hits(&SceneGeometry::new(vec![Shape::Mesh(fan)]), &mut TestRng::new(18));
+    }
+
+    /// Ordinary scenes keep obvhs's own tree, node for node (so their renders keep their bits).
+    #[test]
+    fn ordinary_scenes_keep_obvhs_tree() {
+        let mut t = Duration::ZERO;
+        for mesh in [icosphere(6), icosphere(2)] {
+            let aabbs = mesh_aabbs(&mesh);
+            let ours = build_cwbvh(&aabbs, BUILD_PARAMS);
+            let theirs = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BUILD_PARAMS, &mut t);
+            assert!(ours.nodes == theirs.nodes && ours.primitive_indices == theirs.primitive_indices);
+        }
     }
 
     #[test]

@@ -49,3 +49,36 @@ pub enum Shape {
     Sphere(Sphere),
     Mesh(TriangleMesh),
 }
+
+impl Shape {
+    /// How far the shape reaches from the origin: the largest coordinate magnitude of its bounds
+    /// (of the sphere's c ± r, of the mesh's vertices), in f64 so that it is finite for any finite
+    /// input.
+    pub fn reach(&self) -> f64 {
+        match self {
+            Shape::Sphere(s) => s.center.abs().max_element() as f64 + s.radius.abs() as f64,
+            Shape::Mesh(m) => m.positions.iter().map(|p| p.abs().max_element() as f64).fold(0.0, f64::max),
+        }
+    }
+
+    /// Refuses a shape that reaches beyond [`sphere::MAX_EXTENT`] from the origin, in one line that
+    /// says what and how far. The limit bounds what single- and double-precision arithmetic derive
+    /// from the shape: the sphere's hit points (see [`sphere`]), and the BVH's box areas and
+    /// surface-area costs, Σ half-areas ≤ 2·primitives·3·(2·MAX_EXTENT)² < f32::MAX (obvhs's builder
+    /// indexes out of bounds on an infinite cost).
+    pub fn check_reach(&self) -> Result<(), String> {
+        let reach = self.reach();
+        if reach <= sphere::MAX_EXTENT as f64 {
+            return Ok(());
+        }
+        let what = match self {
+            Shape::Sphere(s) => format!("sphere (centre {:?}, radius {:e})", s.center.to_array(), s.radius),
+            Shape::Mesh(m) => format!("mesh ({} triangles, after its transform)", m.triangles.len()),
+        };
+        Err(format!(
+            "{what} reaches {reach:.3e} from the origin; the limit is {:e} (beyond it hit points cannot be placed \
+             near the origin, even in double precision, and the BVH's box areas overflow single precision)",
+            sphere::MAX_EXTENT
+        ))
+    }
+}

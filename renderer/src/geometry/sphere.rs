@@ -7,16 +7,37 @@
 //! - the two roots come from the stable quadratic q = b' + sign(b')·√Δ, t₀ = c/q, t₁ = q
 //!   (eq. 7.10 with a = 1), so the near root does not lose digits to cancellation either.
 //!
-//! Hits with t ≤ `SPHERE_T_EPSILON`·radius are rejected so that a ray leaving the surface does not
-//! re-hit it at a round-off distance; the hit point is re-projected onto the sphere and the normal
-//! is the outward (p − c)/r.
+//! A root is accepted only above its own round-off: c = |f|² − r² carries an error of a few
+//! u·(|f|² + r²) (u the unit round-off of the precision used), so the near root c/q is
+//! indistinguishable from 0 below `ROOT_ULPS`·u·(|f|² + r²)/|q| (a ray leaving the surface must
+//! not re-hit it there). The bound grows with the sphere and the origin's
+//! distance, not with the radius alone: a camera ray 5 units above a ground sphere of radius 2e5 is a
+//! hit. The hit point is re-projected onto the sphere and the normal is the outward (p − c)/r.
+//!
+//! Single precision resolves the surface to about u·(|c| + r): a sphere whose bounds reach beyond
+//! [`SINGLE_PRECISION_EXTENT`] from the origin is intersected and re-projected in double precision
+//! (a ground sphere of radius 1e9 then stays within ~1e-7 of its surface near the origin, where f32
+//! would put it anywhere within ±64). Beyond [`MAX_EXTENT`] even double precision cannot place the
+//! surface near the origin, and a scene is refused.
 
 use super::{Hit, Ray};
 use crate::math::Vec3;
 
-/// Relative (to the radius) lower bound of accepted hit distances: the root of a ray starting on
-/// the surface is O(ε_machine·r/cosθ); 1e-4·r covers it down to cosθ ≈ 1e-3.
-pub const SPHERE_T_EPSILON: f32 = 1e-4;
+/// Accepted roots exceed `ROOT_ULPS`·u·(|f|² + r²)/|q|: the error of c = |f|² − r² (three products
+/// and two sums for |f|², one product for r², the difference: under 5 ulps of |f|² + r²), with a
+/// margin of 3 for the rounding of f = o − c and of q.
+const ROOT_ULPS: f32 = 16.0;
+
+/// Largest |centre| + radius (largest coordinate of the bounds) intersected in single precision.
+/// f32's error in the hit distance is about u·(|c| + r)/cosθ: 4e-6 at this extent, below the
+/// integrator's ray offsets (1e-4); larger spheres take the double-precision path.
+pub const SINGLE_PRECISION_EXTENT: f32 = 64.0;
+
+/// Largest |centre| + radius a scene may hold (`scene::build` refuses more, naming the object): the
+/// double-precision path resolves the surface near the origin to ~2⁻⁵²·1e10 ≈ 2e-6, still under
+/// the ray offsets; beyond it even f64 puts the surface of a ground sphere visibly off, and f32's
+/// r² overflows past 1.8e19 (a sphere of radius 1e30 is hit by nothing).
+pub const MAX_EXTENT: f32 = 1e10;
 
 #[derive(Clone, Copy, Debug)]
 pub struct Sphere {
@@ -29,14 +50,25 @@ impl Sphere {
         Sphere { center, radius }
     }
 
-    /// Distance of the closest hit in (ε·r, t_max), or `None`.
+    /// True when the sphere's bounds reach beyond [`SINGLE_PRECISION_EXTENT`] from the origin:
+    /// its intersection and hit point are computed in double precision.
+    #[inline(always)]
+    pub fn is_large(&self) -> bool {
+        self.center.abs().max_element() + self.radius > SINGLE_PRECISION_EXTENT
+    }
+
+    /// Distance of the closest hit in (round-off bound, t_max), or `None` (see the module notes).
     #[inline]
     pub fn intersect_t(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+        if self.is_large() {
+            return self.intersect_t_f64(origin, dir, t_max);
+        }
         let r = self.radius;
         let f = origin - self.center;
         // b' = −f·d (the half-b of a quadratic with a = |d|² = 1).
         let b = -f.dot(dir);
-        let c = f.length_squared() - r * r;
+        let ff = f.length_squared();
+        let c = ff - r * r;
         // Δ = r² − |f + b'd|² (RTG eq. 7.12): the perpendicular distance from c to the ray, squared.
         let perp = f + b * dir;
         let disc = r * r - perp.length_squared();
@@ -49,7 +81,7 @@ impl Sphere {
         if t0 > t1 {
             std::mem::swap(&mut t0, &mut t1);
         }
-        let t_min = SPHERE_T_EPSILON * r;
+        let t_min = ROOT_ULPS * f32::EPSILON * 0.5 * (ff + r * r) / q.abs();
         if t0 > t_min && t0 < t_max {
             Some(t0)
         } else if t1 > t_min && t1 < t_max {
@@ -57,6 +89,41 @@ impl Sphere {
         } else {
             None
         }
+    }
+
+    /// [`Sphere::intersect_t`] in double precision (the same formulas; f = o − c is exact for f32
+    /// inputs of the magnitudes [`MAX_EXTENT`] allows, so the only round-off is the quadratic's).
+    #[cold]
+    #[inline(never)]
+    fn intersect_t_f64(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+        let r = self.radius as f64;
+        let d = dir.as_dvec3();
+        let f = origin.as_dvec3() - self.center.as_dvec3();
+        let b = -f.dot(d);
+        let ff = f.length_squared();
+        let c = ff - r * r;
+        let perp = f + b * d;
+        let disc = r * r - perp.length_squared();
+        if disc.is_nan() || disc < 0.0 {
+            return None;
+        }
+        let q = b + disc.sqrt().copysign(b);
+        let (mut t0, mut t1) = (c / q, q);
+        if t0 > t1 {
+            std::mem::swap(&mut t0, &mut t1);
+        }
+        let t_min = ROOT_ULPS as f64 * f64::EPSILON * 0.5 * (ff + r * r) / q.abs();
+        let t_max = t_max as f64;
+        let t = if t0 > t_min && t0 < t_max {
+            t0
+        } else if t1 > t_min && t1 < t_max {
+            t1
+        } else {
+            return None;
+        };
+        // Rounded to f32, a root just under t_max may equal it: keep the open interval.
+        let t32 = t as f32;
+        (t32 > 0.0 && t32 < t_max as f32).then_some(t32)
     }
 
     /// [`Sphere::intersect_t`] of `N` rays at once: lane k is `Some(t)` of `intersect_t(rays[k].origin,
@@ -67,18 +134,26 @@ impl Sphere {
     #[inline(always)]
     pub fn intersect_t_lanes<const N: usize>(&self, rays: &[Ray; N]) -> ([f32; N], [bool; N]) {
         let r = self.radius;
-        let t_min = SPHERE_T_EPSILON * r;
         let (mut t, mut hit) = ([0.0; N], [false; N]);
+        if self.is_large() {
+            for k in 0..N {
+                let found = self.intersect_t_f64(rays[k].origin, rays[k].dir, rays[k].t_max);
+                (t[k], hit[k]) = (found.unwrap_or(0.0), found.is_some());
+            }
+            return (t, hit);
+        }
         for k in 0..N {
             let (o, d) = (rays[k].origin, rays[k].dir);
             let (fx, fy, fz) = (o.x - self.center.x, o.y - self.center.y, o.z - self.center.z);
             let b = -((fx * d.x) + (fy * d.y) + (fz * d.z));
-            let c = ((fx * fx) + (fy * fy) + (fz * fz)) - r * r;
+            let ff = (fx * fx) + (fy * fy) + (fz * fz);
+            let c = ff - r * r;
             let (px, py, pz) = (fx + b * d.x, fy + b * d.y, fz + b * d.z);
             let disc = r * r - ((px * px) + (py * py) + (pz * pz));
             let q = b + disc.sqrt().copysign(b);
             let (a0, a1) = (c / q, q);
             let (t0, t1) = if a0 > a1 { (a1, a0) } else { (a0, a1) };
+            let t_min = ROOT_ULPS * f32::EPSILON * 0.5 * (ff + r * r) / q.abs();
             let t_max = rays[k].t_max;
             let near = t0 > t_min && t0 < t_max;
             let far = t1 > t_min && t1 < t_max;
@@ -91,6 +166,14 @@ impl Sphere {
     /// The full hit record for a hit at distance `t` (from [`Sphere::intersect_t`]).
     #[inline]
     pub fn hit_at(&self, ray: &Ray, t: f32, object: u32) -> Hit {
+        if self.is_large() {
+            // In f32, c + r n would put the point anywhere within ε·(|c| + r) of the surface.
+            let p = ray.origin.as_dvec3() + t as f64 * ray.dir.as_dvec3();
+            let n = (p - self.center.as_dvec3()).normalize();
+            let p = self.center.as_dvec3() + self.radius as f64 * n;
+            let n = n.as_vec3();
+            return Hit { t, p: p.as_vec3(), n, ng: n, object };
+        }
         let p = ray.origin + t * ray.dir;
         // Re-project onto the surface (RTG ch. 6): removes the error of o + t d along the normal.
         let n = (p - self.center).normalize();
@@ -253,6 +336,52 @@ mod tests {
             // Unprojected hit point o + t d lies within 1e-3 of the surface (|o| ε ≈ 1e-3 bound).
             let p = o + h.t * d;
             assert!((p.length() - 1.0).abs() < 2e-3, "{}", p.length());
+        }
+    }
+
+    /// A ground sphere of radius R whose top is the plane z = −1, seen from a camera 2 units above
+    /// it, at R from 1e4 to the limit: every camera ray toward the plane near the origin hits the
+    /// ground where the surface is (residual | |p − c| − R | in f64 within 1e-5·(1 + t)); a ray
+    /// leaving a hit point upwards (offset as the integrator offsets) never re-hits it; a ray from
+    /// just below the surface going up leaves it at the right distance.
+    #[test]
+    fn huge_ground_sphere_is_hit_where_its_surface_is() {
+        let mut rng = crate::sampling::chi2::TestRng::new(23);
+        for r in [1e4f32, 2e5, 1e6, 1e9, MAX_EXTENT / 2.0] {
+            let s = Sphere::new(Vec3::new(0.0, 0.0, -r - 1.0), r);
+            assert!(s.is_large());
+            let (c, rr) = (s.center.as_dvec3(), r as f64);
+            for i in 0..400 {
+                let o = Vec3::new(5.0, 0.0, 1.0);
+                let target = Vec3::new(40.0 * rng.next_f32() - 30.0, 40.0 * rng.next_f32() - 20.0, -1.0);
+                let ray = Ray::new(o, (target - o).normalize());
+                let h = s.intersect(&ray, 0).unwrap_or_else(|| panic!("R = {r}: ray {i} misses the ground"));
+                let p = ray.origin.as_dvec3() + h.t as f64 * ray.dir.as_dvec3();
+                let residual = ((p - c).length() - rr).abs();
+                assert!(residual < 1e-5 * (1.0 + h.t as f64), "R = {r}: ray {i}: residual {residual}");
+                assert!(((h.p.as_dvec3() - c).length() - rr).abs() < 1e-5, "R = {r}: hit point off the surface");
+                let up = crate::integrator::path::offset_origin(h.p, h.ng, Vec3::Z);
+                assert!(s.intersect(&Ray::new(up, Vec3::Z), 0).is_none(), "R = {r}: ray {i} re-hits the ground");
+                let below = h.p - 1e-3 * h.ng;
+                let t = s.intersect(&Ray::new(below, h.ng), 0).map(|h| h.t);
+                assert!(t.is_some_and(|t| (t - 1e-3).abs() < 1e-5), "R = {r}: exit at {t:?}, not 1e-3");
+            }
+        }
+    }
+
+    /// Single-sphere scenes hit a huge sphere through the lanes as through the scalar test.
+    #[test]
+    fn huge_sphere_lanes_give_the_scalar_bits() {
+        let s = Sphere::new(Vec3::new(0.0, 0.0, -1e6 - 1.0), 1e6);
+        let rays: [Ray; 8] = std::array::from_fn(|k| {
+            let o = Vec3::new(5.0, k as f32 - 4.0, 1.0);
+            Ray::new(o, (Vec3::new(-3.0 * k as f32, 1.0, -1.0) - o).normalize())
+        });
+        let (t, hit) = s.intersect_t_lanes(&rays);
+        for k in 0..8 {
+            let scalar = s.intersect_t(rays[k].origin, rays[k].dir, rays[k].t_max);
+            assert!(scalar.is_some());
+            assert_eq!(scalar.map(f32::to_bits), hit[k].then_some(t[k].to_bits()));
         }
     }
 

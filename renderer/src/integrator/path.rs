@@ -51,7 +51,7 @@ pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
 /// Offset along the geometric normal to keep secondary rays off their own surface, scaled with
 /// the magnitude of the position (f32 rounding grows with it).
 #[inline]
-pub(super) fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+pub(crate) fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     let eps = 1e-4 * (1.0 + p.abs().max_element());
     if ng.dot(dir) >= 0.0 { p + eps * ng } else { p - eps * ng }
 }

@@ -147,6 +147,9 @@ impl Scene {
                     shapes.push(Shape::Mesh(mesh));
                 }
             }
+            if let Some(shape) = shapes.last() {
+                shape.check_reach().map_err(ctx)?;
+            }
             brdfs.push(brdf::build_brdf(obj.brdf()).map_err(ctx)?);
             textures.push(match obj.texture() {
                 Some(super::file::TextureSection::Sh { coefficients }) => {
