@@ -1631,4 +1631,37 @@ mod tests {
         let e = load_gltf_with_warnings(&gltf_file("morph_cap.gltf", &json, &buf), false).unwrap_err().to_string();
         assert!(e.contains("more than 67108864 weighted vertex displacements"), "{e}");
     }
+
+    #[test]
+    fn quantized_morph_targets() {
+        // Target 0's POSITION as normalized i8 (KHR_mesh_quantization): 127 decodes to 1, so weight
+        // 1 lifts the triangle by +z as the float target does.
+        let json = MORPH_JSON
+            .replace(r#""targets": [{"POSITION": 2,"#, r#""targets": [{"POSITION": 5,"#)
+            .replace(
+                r#"{"buffer": 0, "byteOffset": 124, "byteLength": 36}]"#,
+                r#"{"buffer": 0, "byteOffset": 124, "byteLength": 36}, {"buffer": 0, "byteOffset": 160, "byteLength": 12, "byteStride": 4}]"#,
+            )
+            .replace(
+                r#"{"bufferView": 5, "componentType": 5126, "count": 3, "type": "VEC3"}]"#,
+                r#"{"bufferView": 5, "componentType": 5126, "count": 3, "type": "VEC3"},
+                   {"bufferView": 6, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"}]"#,
+            )
+            .replace("NODES", r#"[{"mesh": 0, "weights": [1, 0]}, {}]"#)
+            .replace("WEIGHTS", "");
+        let mut buf = morph_buffer();
+        buf.extend_from_slice(&[0, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0]);
+        let ext = r#"{"extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"], "#;
+        let p = gltf_file("morph_quantized.gltf", &json.replacen('{', ext, 1), &buf);
+        let (m, _) = load_gltf_with_warnings(&p, false).expect("quantized target");
+        assert_eq!(m.positions, vec![Vec3::Z, Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)]);
+        // Without the extension: refused naming the target's accessor and the extension.
+        let e = load_gltf_with_warnings(&gltf_file("morph_quantized_noext.gltf", &json, &buf), false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("accessor 5 (POSITION of mesh 0 primitive 0 morph target 0)") && e.contains(QUANTIZATION),
+            "{e}"
+        );
+    }
 }
