@@ -399,8 +399,9 @@ fn build(
                 return Err(format!("node {} instance {k} has a non-finite transform", node.index()));
             }
             // A node scaled to zero (a common way to hide an object) has no area to render, and its
-            // normal matrix would not exist.
-            if glam::Mat3::from_mat4(t).determinant() == 0.0 || per_mesh == 0 {
+            // normal matrix would not exist. A mesh without triangles is read once, for its
+            // warnings (skipped primitives), however many instances it has.
+            if glam::Mat3::from_mat4(t).determinant() == 0.0 || (per_mesh == 0 && k > 0) {
                 continue;
             }
             total = total.saturating_add(per_mesh);
@@ -1270,6 +1271,20 @@ mod tests {
         assert_eq!(m.triangles.len(), 1);
         assert!((m.face_normal_area(0) - Vec3::Z).length() < 1e-6);
         assert!(w.len() == 1 && w[0].contains("mesh 0 primitive 1") && w[0].contains("Lines"), "{w:?}");
+        // The lines as a mesh of their own on a second node (no triangles to instance): still read,
+        // and warned about.
+        let json2 = json
+            .replace(
+                r#""scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}]"#,
+                r#""scenes": [{"nodes": [0, 1]}], "nodes": [{"mesh": 0}, {"mesh": 1}]"#,
+            )
+            .replace(
+                r#"{"attributes": {"POSITION": 0}}, {"attributes": {"POSITION": 0}, "mode": 1}]}]"#,
+                r#"{"attributes": {"POSITION": 0}}]}, {"primitives": [{"attributes": {"POSITION": 0}, "mode": 1}]}]"#,
+            );
+        assert_ne!(json2, json);
+        let (_, w) = load_gltf_with_warnings(&gltf_file("sparse_lines_mesh.gltf", &json2, &buf), false).expect("lines");
+        assert!(w.len() == 1 && w[0].contains("mesh 1 primitive 0") && w[0].contains("Lines"), "{w:?}");
     }
 
     #[test]
