@@ -30,7 +30,8 @@
 //!   its weighted morph displacements, then normalized) if present, else angle-weighted normals of
 //!   the (morphed) primitive, computed in world space.
 //! - `EXT_mesh_gpu_instancing`: each instance's TRANSLATION/ROTATION/SCALE transform is applied
-//!   before the node's world transform.
+//!   before the node's world transform. `KHR_node_visibility`: a node with `"visible": false` is
+//!   left out with its descendants.
 //! - Skins are refused, naming the node and the skin: the mesh holds the bind pose, not the pose
 //!   the file shows. Animations do not change the static scene (the default pose is the one
 //!   without animation); cameras, lights and materials in the file are ignored.
@@ -73,6 +74,9 @@ const QUANTIZATION: &str = "KHR_mesh_quantization";
 
 /// The extension that instances a node's mesh with per-instance TRS transforms.
 const GPU_INSTANCING: &str = "EXT_mesh_gpu_instancing";
+
+/// The extension that hides a node and its descendants (`"visible": false`).
+const VISIBILITY: &str = "KHR_node_visibility";
 
 /// Mesh compression, not read (only an uncompressed fallback is).
 const DRACO: &str = "KHR_draco_mesh_compression";
@@ -138,7 +142,7 @@ fn check_position_references(root: &json::Root) -> Result<(), String> {
 }
 
 /// Extensions this loader reads.
-const IMPLEMENTED: &[&str] = &[QUANTIZATION, GPU_INSTANCING];
+const IMPLEMENTED: &[&str] = &[QUANTIZATION, GPU_INSTANCING, VISIBILITY];
 
 /// Extensions that by their specifications change only materials, textures, lights, animations or
 /// metadata, never the static geometry: ignoring them loads the geometry exactly (materials come
@@ -373,6 +377,10 @@ fn build(
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if !world.is_finite() {
             return Err(format!("node {} has a non-finite transform", node.index()));
+        }
+        let ext = |name: &str| root.nodes[node.index()].extensions.as_ref().and_then(|e| e.others.get(name));
+        if ext(VISIBILITY).and_then(|v| v.get("visible")).is_some_and(|v| *v == serde_json::Value::Bool(false)) {
+            continue; // hidden with its descendants
         }
         let children: Vec<gltf::Node> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
@@ -1321,6 +1329,24 @@ mod tests {
             let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
             assert!(e.contains(name) && e.contains(want), "{name}: {e}");
         }
+    }
+
+    #[test]
+    fn node_visibility_hides_a_subtree() {
+        // Node 0 (the parent of node 1) hidden: only node 2's untransformed tetrahedron remains.
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
+        let json = tetra_json(Some(&uri), 3)
+            .replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [0, 2]}]"#)
+            .replace(
+                r#""children": [1]}"#,
+                r#""children": [1], "extensions": {"KHR_node_visibility": {"visible": false}}}"#,
+            )
+            .replacen("{\n", "{\n  \"extensionsUsed\": [\"KHR_node_visibility\"], \"extensionsRequired\": [\"KHR_node_visibility\"],\n", 1);
+        let p = temp_dir().join("hidden.gltf");
+        std::fs::write(&p, json).expect("write");
+        let (m, _) = load_gltf_with_warnings(&p, false).expect("visibility");
+        assert_eq!(m.triangles.len(), 4);
+        assert!((m.signed_volume() - 1.0 / 6.0).abs() < 1e-9 && m.positions.contains(&Vec3::ZERO));
     }
 
     #[test]
