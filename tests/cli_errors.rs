@@ -444,6 +444,50 @@ fn huge_spheres_exit_2_naming_the_object_and_the_limit() {
     }
 }
 
+/// glTF features that change the geometry and cannot be honoured (issue 33): a morph weight count
+/// that does not match the targets, a skin, a required extension reflect does not implement.
+/// Each is refused through the binary: exit 2, one line naming the file and the feature, no output.
+#[test]
+fn gltf_geometry_features_refused_by_name() {
+    let d = temp_dir("cli-errors-gltf-geometry");
+    let out = d.join("out.exr");
+    let o = out.to_str().unwrap();
+    let cases = root().join("../shared/cases/gltf-morph-targets");
+    let gltf = std::fs::read_to_string(cases.join("mesh_weights_1.gltf")).unwrap();
+    let toml = std::fs::read_to_string(cases.join("mesh_weights_1.toml")).unwrap();
+    let edits = [
+        (
+            "weights.gltf",
+            gltf.replace(r#""weights": [1.0]"#, r#""weights": [1.0, 0.5]"#),
+            "mesh 0: 2 morph weights for 1 morph targets",
+        ),
+        (
+            "skinned.gltf",
+            gltf.replace(
+                r#""nodes": [{"mesh": 0}]"#,
+                r#""skins": [{"joints": [0]}], "nodes": [{"mesh": 0, "skin": 0}]"#,
+            ),
+            "node 0 uses skin 0",
+        ),
+        (
+            "required.gltf",
+            gltf.replacen(
+                '{',
+                r#"{"extensionsUsed": ["EXT_foo_geometry"], "extensionsRequired": ["EXT_foo_geometry"], "#,
+                1,
+            ),
+            "requires the extension EXT_foo_geometry",
+        ),
+    ];
+    for (file, text, mentions) in edits {
+        assert!(text != gltf, "{file}: the edit applies");
+        std::fs::write(d.join(file), text).unwrap();
+        let scene = d.join(format!("{file}.toml"));
+        std::fs::write(&scene, toml.replace("mesh_weights_1.gltf", file)).unwrap();
+        assert_bad_input(&["render", scene.to_str().unwrap(), "--out", o], file, mentions, &out);
+    }
+}
+
 /// `reflect … --json` on good input: exit 0 and the JSON document.
 /// Issue 18, analysis at the edges: orders the input cannot carry, transfer coefficients at the
 /// limits of their parameters, exitance angles and BRDF parameters from headers, and degenerate

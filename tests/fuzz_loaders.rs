@@ -147,7 +147,53 @@ const GLTF_DICT: &[&[u8]] = &[
     b"\"type\": \"VEC2\"",
     b"\"type\": \"MAT4\"",
     b"{\"mesh\": 0}, ",
+    b"\"weights\": [0.5, 1], ",
+    b"\"weights\": [1e39], ",
+    b"\"targets\": [{\"POSITION\": 0, \"NORMAL\": 1}], ",
+    b"\"skin\": 0, ",
+    b"\"skins\": [{\"joints\": [0]}], ",
+    b"\"extensionsRequired\": [\"EXT_foo\"], ",
+    b"\"extensions\": {\"EXT_mesh_gpu_instancing\": {\"attributes\": {\"TRANSLATION\": 0, \"ROTATION\": 1}}}, ",
+    b"\"extensions\": {\"KHR_draco_mesh_compression\": {}}, ",
 ];
+
+/// GLB seeds of the geometry-changing features (issue 33): a triangle with two morph targets (one
+/// sparse, without a buffer view; NORMAL displacements) under mesh and node weights, and the
+/// triangle instanced three times by `EXT_mesh_gpu_instancing` (ROTATION as normalized i16).
+fn morph_and_instancing_seeds() -> Vec<Vec<u8>> {
+    let f32s = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let tri = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.];
+    let mut morph = f32s(&tri);
+    morph.extend(f32s(&[0., 0., 1., 0., 0., 1., 0., 0., 1.]));
+    morph.extend(f32s(&[0., 0., 1., 0., 0., 1., 0., 0., 1.]));
+    morph.extend([2, 0, 0, 0]);
+    morph.extend(f32s(&[1., 0., 0.]));
+    morph.extend(f32s(&[1., 0., 0., 1., 0., 0., 1., 0., 0.]));
+    let morph_json = br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1]}],
+"nodes":[{"mesh":0},{"mesh":0,"weights":[1,0.5],"translation":[2,0,0]}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1},"targets":[{"POSITION":2,"NORMAL":4},{"POSITION":3}]}],"weights":[0.5,0.25]}],
+"buffers":[{"byteLength":160}],
+"bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":36},{"buffer":0,"byteOffset":72,"byteLength":36},
+{"buffer":0,"byteOffset":108,"byteLength":1},{"buffer":0,"byteOffset":112,"byteLength":12},{"buffer":0,"byteOffset":124,"byteLength":36}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5126,"count":3,"type":"VEC3"},
+{"bufferView":2,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,1],"max":[0,0,1]},
+{"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,0,0],"sparse":{"count":1,"indices":{"bufferView":3,"componentType":5121},"values":{"bufferView":4}}},
+{"bufferView":5,"componentType":5126,"count":3,"type":"VEC3"}]}"#;
+    let mut inst = f32s(&tri);
+    inst.extend(f32s(&[0., 0., 0., 2., 0., 0., 0., 2., 0.]));
+    inst.extend([0i16, 0, 0, 32767, 0, 0, 23170, 23170, 0, 0, 0, 32767].iter().flat_map(|x| x.to_le_bytes()));
+    inst.extend(f32s(&[1., 1., 1., 1., 1., 1., 2., 2., 2.]));
+    let inst_json = br#"{"asset":{"version":"2.0"},"extensionsUsed":["EXT_mesh_gpu_instancing"],"scene":0,"scenes":[{"nodes":[0]}],
+"nodes":[{"mesh":0,"extensions":{"EXT_mesh_gpu_instancing":{"attributes":{"TRANSLATION":1,"ROTATION":2,"SCALE":3}}}}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"buffers":[{"byteLength":132}],
+"bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":36},{"buffer":0,"byteOffset":72,"byteLength":24},{"buffer":0,"byteOffset":96,"byteLength":36}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5126,"count":3,"type":"VEC3"},
+{"bufferView":2,"componentType":5122,"normalized":true,"count":3,"type":"VEC4"},
+{"bufferView":3,"componentType":5126,"count":3,"type":"VEC3"}]}"#;
+    vec![glb(morph_json, Some(&morph)), glb(inst_json, Some(&inst))]
+}
 
 /// Wraps a glTF JSON document into a GLB container (JSON chunk only, or with `bin`).
 fn glb(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
@@ -194,6 +240,12 @@ fn fuzz_gltf() {
     }
     seeds.push(long_fan_glb(2000));
     let dir = work_dir("gltf");
+    for (k, seed) in morph_and_instancing_seeds().into_iter().enumerate() {
+        let p = dir.join(format!("seed{k}.glb"));
+        std::fs::write(&p, &seed).expect("write seed");
+        load_gltf(&p, true).unwrap_or_else(|e| panic!("seed {k} loads: {e}"));
+        seeds.push(seed);
+    }
     let run = |ext: &'static str, smooth: bool, seed: u64| {
         let path = dir.join(format!("input{}.{ext}", smooth as u8));
         let cfg = FuzzConfig { seed, ..FuzzConfig::new(if smooth { "gltf-smooth" } else { "gltf-flat" }) };

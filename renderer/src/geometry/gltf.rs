@@ -21,8 +21,24 @@
 //!   type without the extension is refused naming the accessor, its type and the extension.
 //!   Normalized integers are decoded as the specification defines (c/127 clamped to −1, c/255, …).
 //! - Sparse accessors and accessors without a buffer view (zeros) are read.
-//! - `smooth = false`: flat (no normals). `smooth = true`: the primitive's NORMAL attribute if
-//!   present, else angle-weighted normals of the primitive, computed in world space.
+//! - Morph targets (§3.7.2.2): POSITION and NORMAL displacements, weighted by the node's
+//!   `weights`, else the mesh's, else 0, are added to the base attributes (in f64, rounded once).
+//!   Every primitive of a mesh must have the same number of targets, every `weights` array one
+//!   weight per target, and every target accessor one element per vertex; each is refused
+//!   otherwise, naming the mesh or node.
+//! - `smooth = false`: flat (no normals). `smooth = true`: the primitive's NORMAL attribute (plus
+//!   its weighted morph displacements, then normalized) if present, else angle-weighted normals of
+//!   the (morphed) primitive, computed in world space.
+//! - `EXT_mesh_gpu_instancing`: each instance's TRANSLATION/ROTATION/SCALE transform is applied
+//!   before the node's world transform. `KHR_node_visibility`: a node with `"visible": false` is
+//!   left out with its descendants.
+//! - Skins are refused, naming the node and the skin: the mesh holds the bind pose, not the pose
+//!   the file shows. Animations do not change the static scene (the default pose is the one
+//!   without animation); cameras, lights and materials in the file are ignored.
+//! - Required extensions: those read here, and those that by their specifications change only
+//!   materials, textures, lights or metadata, are accepted; any other is refused by name, since it
+//!   may change the geometry. Extensions only in `extensionsUsed` are optional by definition and
+//!   ignored (a Draco-compressed primitive then carries its uncompressed fallback, which is read).
 //! - Buffers: the GLB binary chunk, base64 `data:` URIs, or files relative to the glTF file (no
 //!   absolute paths, no other URI schemes, regular files only, at most `byteLength` bytes read).
 //!   Images are never decoded.
@@ -34,8 +50,7 @@
 //! file.
 
 use super::TriangleMesh;
-use crate::math::Vec3;
-use glam::{Affine3A, Mat4};
+use glam::{Affine3A, DVec3, Mat4};
 use gltf::json;
 use gltf::json::accessor::{ComponentType, Type};
 use gltf::json::validation::Checked;
@@ -50,8 +65,22 @@ pub const MAX_TRIANGLES: usize = 1 << 24;
 /// its elements: such an accessor's size is not backed by any data in the file.
 pub const MAX_VIEWLESS_BYTES: usize = 1 << 24;
 
+/// Largest number of weighted vertex displacements (vertices × morph targets of non-zero weight,
+/// summed over the distinct weightings of each primitive) a glTF scene may need.
+pub const MAX_MORPH_DISPLACEMENTS: usize = 1 << 26;
+
 /// The extension that allows integer positions and normals.
 const QUANTIZATION: &str = "KHR_mesh_quantization";
+
+/// The extension that instances a node's mesh with per-instance TRS transforms.
+const GPU_INSTANCING: &str = "EXT_mesh_gpu_instancing";
+
+/// The extension that hides a node and its descendants (`"visible": false`).
+const VISIBILITY: &str = "KHR_node_visibility";
+
+/// Mesh compression, not read (only an uncompressed fallback is).
+const DRACO: &str = "KHR_draco_mesh_compression";
+const MESHOPT: &str = "EXT_meshopt_compression";
 
 /// Loads every triangle primitive of a glTF/GLB scene (node transforms applied) into one mesh.
 /// Warnings (skipped primitives, orientation problems) are printed to stderr, one line each,
@@ -112,13 +141,41 @@ fn check_position_references(root: &json::Root) -> Result<(), String> {
     Ok(())
 }
 
-/// Refuses the required extensions that store geometry in a way this loader cannot read (mesh
-/// compression); `KHR_mesh_quantization` is read, and the others (materials, textures, lights…)
-/// do not change the geometry.
+/// Extensions this loader reads.
+const IMPLEMENTED: &[&str] = &[QUANTIZATION, GPU_INSTANCING, VISIBILITY];
+
+/// Extensions that by their specifications change only materials, textures, lights, animations or
+/// metadata, never the static geometry: ignoring them loads the geometry exactly (materials come
+/// from the scene file). Every `KHR_materials_*` extension is of this kind too.
+const NOT_GEOMETRY: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_texture_basisu",
+    "EXT_texture_webp",
+    "EXT_texture_avif",
+    "MSFT_texture_dds",
+    "KHR_lights_punctual",
+    "EXT_lights_image_based",
+    "KHR_animation_pointer",
+    "KHR_xmp_json_ld",
+];
+
+/// Refuses every required extension that this loader neither reads ([`IMPLEMENTED`]) nor may
+/// ignore without changing the geometry ([`NOT_GEOMETRY`]): a required extension the loader does
+/// not know may store or change geometry (compression, skinning, visibility…), and the
+/// specification (§3.12) forbids loading such a file without it. Extensions only in
+/// `extensionsUsed` are by definition optional (the file is valid without them) and are ignored.
 fn check_required_extensions(required: &[String]) -> Result<(), String> {
     for ext in required {
-        if ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" {
+        if ext == DRACO || ext == MESHOPT {
             return Err(format!("the file requires the extension {ext}, which is not supported (compressed meshes)"));
+        }
+        let known = IMPLEMENTED.contains(&ext.as_str())
+            || NOT_GEOMETRY.contains(&ext.as_str())
+            || ext.starts_with("KHR_materials_");
+        if !known {
+            return Err(format!(
+                "the file requires the extension {ext}, which is not supported (it may change the geometry)"
+            ));
         }
     }
     Ok(())
@@ -305,8 +362,15 @@ fn build(
     check_node_graph(root, scene.index())?;
     let quantized = root.extensions_used.iter().any(|e| e == QUANTIZATION);
 
-    // Instances (node, world transform) in depth-first order: each node once, the graph is a forest.
-    let mut instances: Vec<(gltf::Node, Mat4)> = Vec::new();
+    // Instances (node, morph weights, world transform) in depth-first order: each node once (the
+    // graph is a forest), times its EXT_mesh_gpu_instancing instances. Triangles and morph work are
+    // counted as instances are found, before any vertex is read: a small file may instance a large
+    // mesh many times.
+    let mut instances: Vec<(gltf::Node, usize, Mat4)> = Vec::new();
+    let mut weight_sets: Vec<Vec<f32>> = Vec::new();
+    let mut mesh_triangles: std::collections::HashMap<usize, usize> = Default::default();
+    let mut morph_keys: std::collections::HashSet<PrimitiveKey> = Default::default();
+    let (mut total, mut morph_total) = (0usize, 0usize);
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     stack.reverse();
     while let Some((node, parent)) = stack.pop() {
@@ -314,43 +378,77 @@ fn build(
         if !world.is_finite() {
             return Err(format!("node {} has a non-finite transform", node.index()));
         }
+        let ext = |name: &str| root.nodes[node.index()].extensions.as_ref().and_then(|e| e.others.get(name));
+        if ext(VISIBILITY).and_then(|v| v.get("visible")).is_some_and(|v| *v == serde_json::Value::Bool(false)) {
+            continue; // hidden with its descendants
+        }
         let children: Vec<gltf::Node> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
-        // A node scaled to zero (a common way to hide an object) has no area to render, and its
-        // normal matrix would not exist.
-        if node.mesh().is_some() && glam::Mat3::from_mat4(world).determinant() != 0.0 {
-            instances.push((node, world));
+        let Some(mesh) = node.mesh() else { continue };
+        if let Some(skin) = node.skin() {
+            return Err(format!(
+                "node {} uses skin {}: skinned meshes are not supported (the mesh's rest pose is not the posed mesh)",
+                node.index(),
+                skin.index()
+            ));
         }
+        let weights = morph_weights(root, node.index(), mesh.index())?;
+        let per_mesh = match mesh_triangles.entry(mesh.index()) {
+            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
+            std::collections::hash_map::Entry::Vacant(e) => *e.insert(mesh_triangle_count(&mesh)),
+        };
+        let transforms = match gpu_instances(root, node.index(), buffers, quantized)? {
+            Some(local) => local.into_iter().map(|m| world * m).collect(),
+            None => vec![world],
+        };
+        let w = weight_sets.len();
+        for (k, t) in transforms.into_iter().enumerate() {
+            if !t.is_finite() {
+                return Err(format!("node {} instance {k} has a non-finite transform", node.index()));
+            }
+            // A node scaled to zero (a common way to hide an object) has no area to render, and its
+            // normal matrix would not exist. A mesh without triangles is read once, for its
+            // warnings (skipped primitives), however many instances it has.
+            if glam::Mat3::from_mat4(t).determinant() == 0.0 || (per_mesh == 0 && k > 0) {
+                continue;
+            }
+            total = total.saturating_add(per_mesh);
+            if total > MAX_TRIANGLES {
+                return Err(format!("the scene instantiates more than {MAX_TRIANGLES} triangles (the limit)"));
+            }
+            instances.push((node.clone(), w, t));
+        }
+        if instances.last().is_some_and(|i| i.1 == w) {
+            // Morph work: each distinct (primitive, weights) is read once.
+            for prim in mesh.primitives() {
+                let key = primitive_key(mesh.index(), prim.index(), &weights);
+                let base = prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.count());
+                if !key.2.is_empty() && morph_keys.insert(key.clone()) {
+                    morph_total = morph_total.saturating_add(base.saturating_mul(key.2.len()));
+                    if morph_total > MAX_MORPH_DISPLACEMENTS {
+                        return Err(format!(
+                            "the scene's morph targets need more than {MAX_MORPH_DISPLACEMENTS} weighted vertex displacements (the limit)"
+                        ));
+                    }
+                }
+            }
+        }
+        weight_sets.push(weights);
     }
 
-    // Count before reading: a small file may instance a large mesh many times.
-    let mut total = 0usize;
-    for (node, _) in &instances {
-        for prim in node.mesh().into_iter().flat_map(|m| m.primitives().collect::<Vec<_>>()) {
-            let n = match (prim.indices(), prim.get(&gltf::Semantic::Positions)) {
-                (Some(ix), _) => ix.count(),
-                (None, Some(pos)) => pos.count(),
-                (None, None) => 0,
-            };
-            total = total.saturating_add(triangle_count(prim.mode(), n));
-        }
-        if total > MAX_TRIANGLES {
-            return Err(format!("the scene instantiates more than {MAX_TRIANGLES} triangles (the limit)"));
-        }
-    }
-
-    // Read each primitive once (in local space), instance it per node.
-    let mut cache: std::collections::HashMap<(usize, usize), Option<TriangleMesh>> = Default::default();
+    // Read each (primitive, morph weights) once (in local space), instance it per node.
+    let mut cache: std::collections::HashMap<PrimitiveKey, Option<TriangleMesh>> = Default::default();
     let mut out = TriangleMesh::default();
-    for (node, world) in &instances {
+    for (node, w, world) in &instances {
         let Some(mesh) = node.mesh() else { continue };
         for prim in mesh.primitives() {
-            let key = (mesh.index(), prim.index());
+            let key = primitive_key(mesh.index(), prim.index(), &weight_sets[*w]);
             let part = match cache.entry(key) {
                 std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
                 std::collections::hash_map::Entry::Vacant(e) => {
                     let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
-                    e.insert(read_primitive(root, &prim, buffers, smooth, quantized, &what, warnings)?)
+                    let morph = e.key().2.iter().map(|&(t, w)| (t, f32::from_bits(w))).collect::<Vec<_>>();
+                    e.insert(read_primitive(root, &prim, buffers, smooth, quantized, &morph, &what, warnings)?)
                 }
             };
             let Some(part) = part else { continue };
@@ -368,14 +466,159 @@ fn build(
     Ok(out)
 }
 
-/// Reads one primitive in its local space: positions, triangulated indices and, with `smooth`, the
-/// file's normals. `None` for a primitive that is not a surface (skipped with a warning).
+/// A primitive (mesh, primitive) with the morph targets of non-zero weight (index, weight bits).
+type PrimitiveKey = (usize, usize, Vec<(usize, u32)>);
+
+fn primitive_key(mesh: usize, prim: usize, weights: &[f32]) -> PrimitiveKey {
+    let nonzero = weights.iter().enumerate().filter(|(_, w)| **w != 0.0).map(|(t, w)| (t, w.to_bits())).collect();
+    (mesh, prim, nonzero)
+}
+
+/// Triangles one instance of `mesh` makes (from the accessors' counts; nothing is read).
+fn mesh_triangle_count(mesh: &gltf::Mesh) -> usize {
+    let mut total = 0usize;
+    for prim in mesh.primitives() {
+        let n = match (prim.indices(), prim.get(&gltf::Semantic::Positions)) {
+            (Some(ix), _) => ix.count(),
+            (None, Some(pos)) => pos.count(),
+            (None, None) => 0,
+        };
+        total = total.saturating_add(triangle_count(prim.mode(), n));
+    }
+    total
+}
+
+/// The morph weights of `node`'s instance of `mesh` (glTF 2.0 §3.7.2.2): the node's `weights` if
+/// present, else the mesh's, else zeros; one per morph target, which every primitive of the mesh
+/// has the same number of.
+fn morph_weights(root: &json::Root, node: usize, mesh: usize) -> Result<Vec<f32>, String> {
+    let m = &root.meshes[mesh];
+    let count = |p: &json::mesh::Primitive| p.targets.as_ref().map_or(0, Vec::len);
+    let targets = m.primitives.first().map_or(0, count);
+    if let Some((p, prim)) = m.primitives.iter().enumerate().find(|(_, p)| count(p) != targets) {
+        return Err(format!(
+            "mesh {mesh}: primitive {p} has {} morph targets and primitive 0 has {targets} (all primitives must have the same number)",
+            count(prim)
+        ));
+    }
+    let check = |w: &Vec<f32>, owner: String| -> Result<(), String> {
+        if w.len() != targets {
+            return Err(format!("{owner}: {} morph weights for {targets} morph targets", w.len()));
+        }
+        if w.iter().any(|x| !x.is_finite()) {
+            return Err(format!("{owner} has a non-finite morph weight"));
+        }
+        Ok(())
+    };
+    if let Some(w) = &m.weights {
+        check(w, format!("mesh {mesh}"))?;
+    }
+    if let Some(w) = &root.nodes[node].weights {
+        check(w, format!("node {node} (mesh {mesh})"))?;
+    }
+    Ok(root.nodes[node].weights.clone().or_else(|| m.weights.clone()).unwrap_or_else(|| vec![0.0; targets]))
+}
+
+/// The local transforms of `node`'s `EXT_mesh_gpu_instancing` instances (applied before the node's
+/// world transform), or `None` without the extension.
+fn gpu_instances(
+    root: &json::Root,
+    node: usize,
+    buffers: &[Vec<u8>],
+    quantized: bool,
+) -> Result<Option<Vec<Mat4>>, String> {
+    let Some(ext) = root.nodes[node].extensions.as_ref().and_then(|e| e.others.get(GPU_INSTANCING)) else {
+        return Ok(None);
+    };
+    let what = format!("node {node}: {GPU_INSTANCING}");
+    let attrs = ext.get("attributes").and_then(|a| a.as_object()).ok_or_else(|| format!("{what} has no attributes"))?;
+    let accessor = |name: &str| -> Result<Option<usize>, String> {
+        attrs.get(name).map_or(Ok(None), |v| {
+            v.as_u64()
+                .and_then(|i| usize::try_from(i).ok())
+                .filter(|&i| i < root.accessors.len())
+                .map(Some)
+                .ok_or_else(|| format!("{what}: {name} is not the index of an accessor"))
+        })
+    };
+    let (t, r, s) = (accessor("TRANSLATION")?, accessor("ROTATION")?, accessor("SCALE")?);
+    let counts: Vec<u64> = [t, r, s].into_iter().flatten().map(|i| root.accessors[i].count.0).collect();
+    let Some(&count) = counts.first() else {
+        return Err(format!("{what} has none of TRANSLATION, ROTATION, SCALE"));
+    };
+    if counts.iter().any(|&c| c != count) {
+        return Err(format!("{what}: TRANSLATION, ROTATION and SCALE have different counts {counts:?}"));
+    }
+    let count = count as usize;
+    let vec3 = |i: Option<usize>, name: &str, default: DVec3| -> Result<Vec<DVec3>, String> {
+        match i {
+            Some(i) => read_vec3(root, i, buffers, Attribute::Instance, quantized, &format!("{name} of {what}")),
+            None => Ok(vec![default; count]),
+        }
+    };
+    let translation = vec3(t, "TRANSLATION", DVec3::ZERO)?;
+    let scale = vec3(s, "SCALE", DVec3::ONE)?;
+    let rotation = match r {
+        Some(i) => read_rotations(root, i, buffers, &format!("ROTATION of {what}"))?,
+        None => vec![glam::DQuat::IDENTITY; count],
+    };
+    let mut out = Vec::with_capacity(count);
+    for k in 0..count {
+        let q = rotation[k];
+        let len = q.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return Err(format!("{what}: instance {k} has a rotation quaternion of length {len}"));
+        }
+        let m = glam::DMat4::from_scale_rotation_translation(scale[k], q / len, translation[k]);
+        out.push(m.as_mat4());
+    }
+    Ok(Some(out))
+}
+
+/// Reads an `EXT_mesh_gpu_instancing` ROTATION accessor: VEC4 quaternions (x, y, z, w), float or
+/// normalized signed byte/short.
+fn read_rotations(
+    root: &json::Root,
+    index: usize,
+    buffers: &[Vec<u8>],
+    role: &str,
+) -> Result<Vec<glam::DQuat>, String> {
+    let acc = &root.accessors[index];
+    let (ct, ty) = accessor_kind(acc, index)?;
+    if ty != Type::Vec4 {
+        return Err(format!("accessor {index} ({role}) has type {ty:?}; VEC4 is required"));
+    }
+    let ok = match ct {
+        ComponentType::F32 => !acc.normalized,
+        ComponentType::I8 | ComponentType::I16 => acc.normalized,
+        _ => false,
+    };
+    if !ok {
+        let t = if acc.normalized { "normalized " } else { "" };
+        return Err(format!(
+            "accessor {index} ({role}) has component type {t}{}; float or normalized signed byte/short is required",
+            type_name(ct)
+        ));
+    }
+    let flat = read_components(root, index, buffers, role)?;
+    let decode = |v: f64| decode_normalized(v, ct, acc.normalized);
+    Ok(flat
+        .chunks_exact(4)
+        .map(|c| glam::DQuat::from_xyzw(decode(c[0]), decode(c[1]), decode(c[2]), decode(c[3])))
+        .collect())
+}
+
+/// Reads one primitive in its local space: positions (morphed by `morph`, the targets of non-zero
+/// weight), triangulated indices and, with `smooth`, the file's normals (morphed likewise). `None`
+/// for a primitive that is not a surface (skipped with a warning).
+#[allow(clippy::too_many_arguments)]
 fn read_primitive(
     root: &json::Root,
     prim: &gltf::Primitive,
     buffers: &[Vec<u8>],
     smooth: bool,
     quantized: bool,
+    morph: &[(usize, f32)],
     what: &str,
     warnings: &mut Vec<String>,
 ) -> Result<Option<TriangleMesh>, String> {
@@ -389,8 +632,39 @@ fn read_primitive(
         return Ok(None);
     };
     let pos_role = format!("POSITION of {what}");
-    let positions = read_vec3(root, pos.index(), buffers, Attribute::Position, quantized, &pos_role)?;
+    let mut positions = read_vec3(root, pos.index(), buffers, Attribute::Position, quantized, &pos_role)?;
     let n = positions.len();
+    // Every target is checked (type, count); only those of non-zero weight are read.
+    let targets: Vec<gltf::mesh::MorphTarget> = prim.morph_targets().collect();
+    for (t, target) in targets.iter().enumerate() {
+        for (acc, attr, name) in [
+            (target.positions(), Attribute::TargetPosition, "POSITION"),
+            (target.normals(), Attribute::TargetNormal, "NORMAL"),
+        ] {
+            let Some(acc) = acc else { continue };
+            let role = format!("{name} of {what} morph target {t}");
+            check_vec3(root, acc.index(), attr, quantized, &role)?;
+            if acc.count() != n {
+                return Err(format!("accessor {} ({role}) has {} elements for {n} vertices", acc.index(), acc.count()));
+            }
+        }
+    }
+    let displace = |base: &mut [DVec3], attr: Attribute| -> Result<(), String> {
+        for &(t, w) in morph {
+            let (acc, name) = match attr {
+                Attribute::TargetPosition => (targets[t].positions(), "POSITION"),
+                _ => (targets[t].normals(), "NORMAL"),
+            };
+            let Some(acc) = acc else { continue };
+            let role = format!("{name} of {what} morph target {t}");
+            let d = read_vec3(root, acc.index(), buffers, attr, quantized, &role)?;
+            for (b, d) in base.iter_mut().zip(d) {
+                *b += f64::from(w) * d;
+            }
+        }
+        Ok(())
+    };
+    displace(&mut positions, Attribute::TargetPosition)?;
     let indices: Vec<u32> = match prim.indices() {
         Some(ix) => read_indices(root, ix.index(), buffers, &format!("indices of {what}"))?,
         None => (0..n as u32).collect(),
@@ -405,14 +679,14 @@ fn read_primitive(
     let mut normals = Vec::new();
     if smooth && let Some(nacc) = prim.get(&gltf::Semantic::Normals) {
         let role = format!("NORMAL of {what}");
-        normals = read_vec3(root, nacc.index(), buffers, Attribute::Normal, quantized, &role)?
-            .into_iter()
-            .map(Vec3::normalize_or_zero)
-            .collect();
-        if normals.len() != n {
-            return Err(format!("{what}: {} normals for {n} positions", normals.len()));
+        let mut file = read_vec3(root, nacc.index(), buffers, Attribute::Normal, quantized, &role)?;
+        if file.len() != n {
+            return Err(format!("{what}: {} normals for {n} positions", file.len()));
         }
+        displace(&mut file, Attribute::TargetNormal)?;
+        normals = file.into_iter().map(|v| v.as_vec3().normalize_or_zero()).collect();
     }
+    let positions = positions.into_iter().map(DVec3::as_vec3).collect();
     Ok(Some(compact(TriangleMesh { positions, normals, triangles })))
 }
 
@@ -457,6 +731,12 @@ fn triangulate(mode: Mode, ix: &[u32]) -> Vec<[u32; 3]> {
 enum Attribute {
     Position,
     Normal,
+    /// A morph target's POSITION displacement.
+    TargetPosition,
+    /// A morph target's NORMAL displacement.
+    TargetNormal,
+    /// An `EXT_mesh_gpu_instancing` TRANSLATION or SCALE.
+    Instance,
 }
 
 fn type_name(c: ComponentType) -> &'static str {
@@ -486,15 +766,9 @@ fn accessor_kind(acc: &json::Accessor, index: usize) -> Result<(ComponentType, T
     }
 }
 
-/// Reads a VEC3 position or normal accessor, decoding normalized integers (KHR_mesh_quantization).
-fn read_vec3(
-    root: &json::Root,
-    index: usize,
-    buffers: &[Vec<u8>],
-    attr: Attribute,
-    quantized: bool,
-    role: &str,
-) -> Result<Vec<Vec3>, String> {
+/// Checks that accessor `index` may hold `attr`: VEC3, float, or an integer type that
+/// `KHR_mesh_quantization` lists for it (when the file declares the extension).
+fn check_vec3(root: &json::Root, index: usize, attr: Attribute, quantized: bool, role: &str) -> Result<(), String> {
     let acc = &root.accessors[index];
     let (ct, ty) = accessor_kind(acc, index)?;
     if ty != Type::Vec3 {
@@ -502,10 +776,13 @@ fn read_vec3(
     }
     let normalized = acc.normalized;
     let allowed_with_ext = match attr {
-        Attribute::Position => {
+        Attribute::Position | Attribute::Instance => {
             matches!(ct, ComponentType::I8 | ComponentType::U8 | ComponentType::I16 | ComponentType::U16)
         }
-        Attribute::Normal => normalized && matches!(ct, ComponentType::I8 | ComponentType::I16),
+        Attribute::TargetPosition => matches!(ct, ComponentType::I8 | ComponentType::I16),
+        Attribute::Normal | Attribute::TargetNormal => {
+            normalized && matches!(ct, ComponentType::I8 | ComponentType::I16)
+        }
     };
     if ct == ComponentType::F32 {
         if normalized {
@@ -523,21 +800,41 @@ fn read_vec3(
             type_name(ct)
         ));
     }
+    Ok(())
+}
+
+/// A component as a float: normalized integers decoded as glTF 2.0 §3.11 defines (c/127 clamped
+/// to −1, c/255, …), others as they are.
+fn decode_normalized(v: f64, ct: ComponentType, normalized: bool) -> f64 {
+    if !normalized {
+        return v;
+    }
+    match ct {
+        ComponentType::I8 => (v / 127.0).max(-1.0),
+        ComponentType::U8 => v / 255.0,
+        ComponentType::I16 => (v / 32767.0).max(-1.0),
+        ComponentType::U16 => v / 65535.0,
+        _ => v,
+    }
+}
+
+/// Reads a VEC3 accessor of `attr` ([`check_vec3`]), decoding normalized integers
+/// (KHR_mesh_quantization), as exact f64s of the stored values.
+fn read_vec3(
+    root: &json::Root,
+    index: usize,
+    buffers: &[Vec<u8>],
+    attr: Attribute,
+    quantized: bool,
+    role: &str,
+) -> Result<Vec<DVec3>, String> {
+    check_vec3(root, index, attr, quantized, role)?;
+    let acc = &root.accessors[index];
+    let (ct, _) = accessor_kind(acc, index)?;
     let flat = read_components(root, index, buffers, role)?;
-    let decode = |v: f64| -> f32 {
-        if !normalized {
-            return v as f32;
-        }
-        // glTF 2.0 §3.11 "Animations"/KHR_mesh_quantization: normalized integer to float.
-        (match ct {
-            ComponentType::I8 => (v / 127.0).max(-1.0),
-            ComponentType::U8 => v / 255.0,
-            ComponentType::I16 => (v / 32767.0).max(-1.0),
-            ComponentType::U16 => v / 65535.0,
-            _ => v,
-        }) as f32
-    };
-    Ok(flat.chunks_exact(3).map(|c| Vec3::new(decode(c[0]), decode(c[1]), decode(c[2]))).collect())
+    // Rounded to f32 as the stored value is (a float, or the f32 a normalized integer decodes to).
+    let decode = |v: f64| decode_normalized(v, ct, acc.normalized) as f32 as f64;
+    Ok(flat.chunks_exact(3).map(|c| DVec3::new(decode(c[0]), decode(c[1]), decode(c[2]))).collect())
 }
 
 /// Reads an index accessor: SCALAR, unsigned byte/short/int, not normalized (glTF 2.0 §3.7.2.1).
@@ -691,6 +988,7 @@ fn append(out: &mut TriangleMesh, part: TriangleMesh) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec3;
 
     fn temp_dir() -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("reflect-geom-gltf-{}", std::process::id()));
@@ -981,6 +1279,20 @@ mod tests {
         assert_eq!(m.triangles.len(), 1);
         assert!((m.face_normal_area(0) - Vec3::Z).length() < 1e-6);
         assert!(w.len() == 1 && w[0].contains("mesh 0 primitive 1") && w[0].contains("Lines"), "{w:?}");
+        // The lines as a mesh of their own on a second node (no triangles to instance): still read,
+        // and warned about.
+        let json2 = json
+            .replace(
+                r#""scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}]"#,
+                r#""scenes": [{"nodes": [0, 1]}], "nodes": [{"mesh": 0}, {"mesh": 1}]"#,
+            )
+            .replace(
+                r#"{"attributes": {"POSITION": 0}}, {"attributes": {"POSITION": 0}, "mode": 1}]}]"#,
+                r#"{"attributes": {"POSITION": 0}}]}, {"primitives": [{"attributes": {"POSITION": 0}, "mode": 1}]}]"#,
+            );
+        assert_ne!(json2, json);
+        let (_, w) = load_gltf_with_warnings(&gltf_file("sparse_lines_mesh.gltf", &json2, &buf), false).expect("lines");
+        assert!(w.len() == 1 && w[0].contains("mesh 1 primitive 0") && w[0].contains("Lines"), "{w:?}");
     }
 
     #[test]
@@ -1020,6 +1332,24 @@ mod tests {
     }
 
     #[test]
+    fn node_visibility_hides_a_subtree() {
+        // Node 0 (the parent of node 1) hidden: only node 2's untransformed tetrahedron remains.
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
+        let json = tetra_json(Some(&uri), 3)
+            .replace(r#""scenes": [{"nodes": [0]}]"#, r#""scenes": [{"nodes": [0, 2]}]"#)
+            .replace(
+                r#""children": [1]}"#,
+                r#""children": [1], "extensions": {"KHR_node_visibility": {"visible": false}}}"#,
+            )
+            .replacen("{\n", "{\n  \"extensionsUsed\": [\"KHR_node_visibility\"], \"extensionsRequired\": [\"KHR_node_visibility\"],\n", 1);
+        let p = temp_dir().join("hidden.gltf");
+        std::fs::write(&p, json).expect("write");
+        let (m, _) = load_gltf_with_warnings(&p, false).expect("visibility");
+        assert_eq!(m.triangles.len(), 4);
+        assert!((m.signed_volume() - 1.0 / 6.0).abs() < 1e-9 && m.positions.contains(&Vec3::ZERO));
+    }
+
+    #[test]
     fn zero_scale_node_is_hidden_not_an_error() {
         let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
         let json = tetra_json(Some(&uri), 3)
@@ -1041,5 +1371,338 @@ mod tests {
         std::fs::write(&p, json).expect("write");
         let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
         assert!(e.contains("more than 16777216 triangles"), "{e}");
+    }
+
+    /// One triangle (0,0,0), (1,0,0), (0,1,0) with normals +z and two morph targets: target 0
+    /// moves every vertex by +z and turns the normals by +x; target 1 (a sparse accessor without a
+    /// buffer view) moves vertex 2 by +x. `NODES` and `WEIGHTS` are replaced by the test.
+    const MORPH_JSON: &str = r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1]}], "nodes": NODES,
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1},
+            "targets": [{"POSITION": 2, "NORMAL": 4}, {"POSITION": 3}]}] WEIGHTS}], BUFFERS,
+        "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 72, "byteLength": 36}, {"buffer": 0, "byteOffset": 108, "byteLength": 1},
+            {"buffer": 0, "byteOffset": 112, "byteLength": 12}, {"buffer": 0, "byteOffset": 124, "byteLength": 36}],
+        "accessors": [
+          {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+          {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+          {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,1], "max": [0,0,1]},
+          {"componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,0,0],
+            "sparse": {"count": 1, "indices": {"bufferView": 3, "componentType": 5121}, "values": {"bufferView": 4}}},
+          {"bufferView": 5, "componentType": 5126, "count": 3, "type": "VEC3"}]}"#;
+
+    fn morph_buffer() -> Vec<u8> {
+        let mut b = bytes(&[0f32, 0., 0., 1., 0., 0., 0., 1., 0.], f32::to_le_bytes);
+        b.extend(bytes(&[0f32, 0., 1., 0., 0., 1., 0., 0., 1.], f32::to_le_bytes));
+        b.extend(bytes(&[0f32, 0., 1., 0., 0., 1., 0., 0., 1.], f32::to_le_bytes));
+        b.extend_from_slice(&[2, 0, 0, 0]);
+        b.extend(bytes(&[1f32, 0., 0.], f32::to_le_bytes));
+        b.extend(bytes(&[1f32, 0., 0., 1., 0., 0., 1., 0., 0.], f32::to_le_bytes));
+        b
+    }
+
+    fn morph_file(name: &str, nodes: &str, weights: &str) -> std::path::PathBuf {
+        gltf_file(name, &MORPH_JSON.replace("NODES", nodes).replace("WEIGHTS", weights), &morph_buffer())
+    }
+
+    #[test]
+    fn morph_targets_follow_node_then_mesh_weights() {
+        // Node 0 takes the mesh's weights (0.5, 0.25); node 1 overrides them with (1, 0).
+        let nodes = r#"[{"mesh": 0}, {"mesh": 0, "weights": [1, 0], "translation": [10, 0, 0]}]"#;
+        for smooth in [false, true] {
+            let p = morph_file("morph.gltf", nodes, r#", "weights": [0.5, 0.25]"#);
+            let (m, w) = load_gltf_with_warnings(&p, smooth).expect("morph");
+            assert!(w.is_empty(), "{w:?}");
+            let want = [
+                Vec3::new(0.0, 0.0, 0.5),
+                Vec3::new(1.0, 0.0, 0.5),
+                Vec3::new(0.25, 1.0, 0.5),
+                Vec3::new(10.0, 0.0, 1.0),
+                Vec3::new(11.0, 0.0, 1.0),
+                Vec3::new(10.0, 1.0, 1.0),
+            ];
+            assert_eq!(m.positions, want);
+            if smooth {
+                // The file's normal plus the weighted NORMAL displacements, normalized.
+                let n0 = Vec3::new(0.5, 0.0, 1.0).normalize();
+                let n1 = Vec3::new(1.0, 0.0, 1.0).normalize();
+                for (k, n) in m.normals.iter().enumerate() {
+                    let want = if k < 3 { n0 } else { n1 };
+                    assert!((*n - want).length() < 1e-6, "normal {k}: {n}");
+                }
+            }
+        }
+        // No weights anywhere: weight 0, the base shape.
+        let (m, _) = load_gltf_with_warnings(&morph_file("morph_none.gltf", r#"[{"mesh": 0}, {}]"#, ""), true)
+            .expect("no weights");
+        assert_eq!(m.positions, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
+        assert!(m.normals.iter().all(|n| *n == Vec3::Z));
+    }
+
+    #[test]
+    fn morph_normals_are_recomputed_where_the_file_has_none() {
+        // Without NORMAL the smooth normals come from the morphed triangle: target 1 (its sparse
+        // value set to +z here) lifts vertex 2 to (0, 1, 1), which tilts the triangle's normal from
+        // +z to (0, −1, 1)/√2.
+        let json = MORPH_JSON
+            .replace(r#", "NORMAL": 1}"#, "}")
+            .replace("NODES", r#"[{"mesh": 0, "weights": [0, 1]}, {}]"#)
+            .replace("WEIGHTS", "");
+        let mut buf = morph_buffer();
+        buf[112..124].copy_from_slice(&bytes(&[0f32, 0., 1.], f32::to_le_bytes));
+        let (m, _) = load_gltf_with_warnings(&gltf_file("morph_nonormal.gltf", &json, &buf), true)
+            .expect("morph without normals");
+        assert_eq!(m.positions, vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 1.0)]);
+        let want = Vec3::new(0.0, -1.0, 1.0).normalize();
+        assert!(m.normals.iter().all(|n| (*n - want).length() < 1e-6), "{:?}", m.normals);
+    }
+
+    #[test]
+    fn morph_inconsistencies_are_refused_naming_mesh_or_node() {
+        let cases = [
+            (
+                "w_mesh.gltf",
+                r#"[{"mesh": 0}, {}]"#,
+                r#", "weights": [1]"#,
+                "mesh 0: 1 morph weights for 2 morph targets",
+            ),
+            (
+                "w_node.gltf",
+                r#"[{"mesh": 0, "weights": [1, 0, 0]}, {}]"#,
+                "",
+                "node 0 (mesh 0): 3 morph weights for 2 morph targets",
+            ),
+            (
+                "w_inf.gltf",
+                r#"[{"mesh": 0, "weights": [1e39, 0]}, {}]"#,
+                "",
+                "node 0 (mesh 0) has a non-finite morph weight",
+            ),
+        ];
+        for (name, nodes, weights, want) in cases {
+            let e = load_gltf_with_warnings(&morph_file(name, nodes, weights), false).unwrap_err().to_string();
+            assert!(e.contains(name) && e.contains(want) && !e.contains('\n'), "{name}: {e}");
+        }
+        // A target accessor with another count than the base positions.
+        let json = MORPH_JSON
+            .replace(
+                r#""bufferView": 5, "componentType": 5126, "count": 3"#,
+                r#""bufferView": 5, "componentType": 5126, "count": 2"#,
+            )
+            .replace("NODES", r#"[{"mesh": 0}, {}]"#)
+            .replace("WEIGHTS", "");
+        let e =
+            load_gltf_with_warnings(&gltf_file("w_count.gltf", &json, &morph_buffer()), false).unwrap_err().to_string();
+        assert!(
+            e.contains("accessor 4 (NORMAL of mesh 0 primitive 0 morph target 0) has 2 elements for 3 vertices"),
+            "{e}"
+        );
+        // Primitives with different numbers of targets.
+        let json = MORPH_JSON
+            .replace(r#"{"POSITION": 3}]}]"#, r#"{"POSITION": 3}]}, {"attributes": {"POSITION": 0}}]"#)
+            .replace("NODES", r#"[{"mesh": 0}, {}]"#)
+            .replace("WEIGHTS", "");
+        let e =
+            load_gltf_with_warnings(&gltf_file("w_prims.gltf", &json, &morph_buffer()), false).unwrap_err().to_string();
+        assert!(e.contains("mesh 0: primitive 1 has 0 morph targets and primitive 0 has 2"), "{e}");
+    }
+
+    #[test]
+    fn required_extensions_are_refused_unless_known() {
+        let with_ext = |name: &str, used: &str, required: &str| {
+            let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
+            let json = tetra_json(Some(&uri), 3).replacen(
+                "{\n",
+                &format!("{{\n  \"extensionsUsed\": {used}, \"extensionsRequired\": {required},\n"),
+                1,
+            );
+            let p = temp_dir().join(name);
+            std::fs::write(&p, json).expect("write");
+            load_gltf_with_warnings(&p, true)
+        };
+        let e =
+            with_ext("req_unknown.gltf", r#"["KHR_foo_geometry"]"#, r#"["KHR_foo_geometry"]"#).unwrap_err().to_string();
+        assert!(e.contains("req_unknown.gltf") && e.contains("requires the extension KHR_foo_geometry"), "{e}");
+        let e = with_ext("req_draco.gltf", r#"["KHR_draco_mesh_compression"]"#, r#"["KHR_draco_mesh_compression"]"#)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("KHR_draco_mesh_compression") && e.contains("compressed"), "{e}");
+        // Material and texture extensions do not change the geometry; optional ones are ignored.
+        let ok = r#"["KHR_materials_emissive_strength", "KHR_texture_transform", "KHR_texture_basisu"]"#;
+        let (m, _) = with_ext("req_materials.gltf", ok, ok).expect("material extensions");
+        check_tetra(&m, true);
+        let (m, _) = with_ext("used_unknown.gltf", r#"["KHR_foo_geometry"]"#, "[]").expect("optional extension");
+        check_tetra(&m, true);
+    }
+
+    #[test]
+    fn draco_primitive_without_fallback_is_refused() {
+        // KHR_draco_mesh_compression only used: the primitive's uncompressed fallback is read, and
+        // an accessor without it (no data) is refused.
+        let json = r#"{"asset": {"version": "2.0"}, "extensionsUsed": ["KHR_draco_mesh_compression"], "scene": 0,
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}], BUFFERS,
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0},
+                "extensions": {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}}}]}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": BV "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}]}"#;
+        let buf = bytes(&[0f32, 0., 0., 1., 0., 0., 0., 1., 0.], f32::to_le_bytes);
+        let e = load_gltf_with_warnings(
+            &gltf_file("draco_only.gltf", &json.replace("\"bufferView\": BV", ""), &buf),
+            false,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("draco_only.gltf") && e.contains("accessors[0].bufferView: Missing data"), "{e}");
+        let (m, _) = load_gltf_with_warnings(&gltf_file("draco_fallback.gltf", &json.replace("BV", "0,"), &buf), false)
+            .expect("fallback");
+        assert_eq!(m.triangles.len(), 1);
+    }
+
+    #[test]
+    fn skinned_meshes_are_refused_naming_node_and_skin() {
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&tetra_buffer()));
+        let json = tetra_json(Some(&uri), 3)
+            .replace(r#"{"translation": [1, 0, 0], "mesh": 0}"#, r#"{"translation": [1, 0, 0], "mesh": 0, "skin": 0}"#)
+            .replace(r#""meshes""#, r#""skins": [{"joints": [0]}], "meshes""#);
+        let p = temp_dir().join("skinned.gltf");
+        std::fs::write(&p, json).expect("write");
+        let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+        assert!(e.contains("skinned.gltf") && e.contains("node 1 uses skin 0"), "{e}");
+    }
+
+    /// The triangle of [`MORPH_JSON`] on a node at (0, 0, 5) with three `EXT_mesh_gpu_instancing`
+    /// instances: translations (0,0,0), (2,0,0), (0,2,0); the second turned a quarter about +z
+    /// (ROTATION as normalized i16), the third scaled by 2.
+    fn instancing_json(rotation_count: u32) -> String {
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "extensionsUsed": ["EXT_mesh_gpu_instancing"], "scene": 0,
+            "scenes": [{{"nodes": [0]}}], BUFFERS,
+            "nodes": [{{"mesh": 0, "translation": [0, 0, 5],
+                "extensions": {{"EXT_mesh_gpu_instancing": {{"attributes": {{"TRANSLATION": 1, "ROTATION": 2, "SCALE": 3}}}}}}}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+            "bufferViews": [{{"buffer": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 36}},
+                {{"buffer": 0, "byteOffset": 72, "byteLength": 24}}, {{"buffer": 0, "byteOffset": 96, "byteLength": 36}}],
+            "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+              {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"}},
+              {{"bufferView": 2, "componentType": 5122, "normalized": true, "count": {rotation_count}, "type": "VEC4"}},
+              {{"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3"}}]}}"#
+        )
+    }
+
+    fn instancing_buffer() -> Vec<u8> {
+        let mut b = bytes(&[0f32, 0., 0., 1., 0., 0., 0., 1., 0.], f32::to_le_bytes);
+        b.extend(bytes(&[0f32, 0., 0., 2., 0., 0., 0., 2., 0.], f32::to_le_bytes));
+        // (x, y, z, w): identity, a quarter turn about +z (sin 45°, cos 45° as i16), identity.
+        let h = (std::f64::consts::FRAC_1_SQRT_2 * 32767.0).round() as i16;
+        b.extend(bytes(&[0i16, 0, 0, 32767, 0, 0, h, h, 0, 0, 0, 32767], i16::to_le_bytes));
+        b.extend(bytes(&[1f32, 1., 1., 1., 1., 1., 2., 2., 2.], f32::to_le_bytes));
+        b
+    }
+
+    #[test]
+    fn gpu_instancing_places_every_instance() {
+        let p = gltf_file("instancing.gltf", &instancing_json(3), &instancing_buffer());
+        let (m, w) = load_gltf_with_warnings(&p, false).expect("instancing");
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(m.triangles.len(), 3);
+        let want = [
+            [0.0, 0.0, 5.0],
+            [1.0, 0.0, 5.0],
+            [0.0, 1.0, 5.0],
+            [2.0, 0.0, 5.0],
+            [2.0, 1.0, 5.0],
+            [1.0, 0.0, 5.0],
+            [0.0, 2.0, 5.0],
+            [2.0, 2.0, 5.0],
+            [0.0, 4.0, 5.0],
+        ];
+        for (k, (p, w)) in m.positions.iter().zip(want).enumerate() {
+            assert!((*p - Vec3::from(w)).length() < 1e-5, "vertex {k}: {p} vs {w:?}");
+        }
+        // Attribute counts that disagree are refused, naming the node.
+        let p = gltf_file("instancing_counts.gltf", &instancing_json(2), &instancing_buffer());
+        let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+        assert!(e.contains("node 0: EXT_mesh_gpu_instancing") && e.contains("different counts"), "{e}");
+    }
+
+    #[test]
+    fn gpu_instances_count_against_the_triangle_limit() {
+        // The tetrahedron (4 triangles) instanced 2^22 + 1 times (TRANSLATION as u8 VEC3, zeros):
+        // refused by the count before any mesh is read.
+        let n = (1usize << 22) + 1;
+        let mut buf = tetra_buffer();
+        buf.resize(120 + 3 * n, 0);
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&buf));
+        let json = tetra_json(Some(&uri), 3)
+            .replace(r#""byteLength": 120"#, &format!(r#""byteLength": {}"#, buf.len()))
+            .replace(
+                r#"{"translation": [1, 0, 0], "mesh": 0}"#,
+                r#"{"translation": [1, 0, 0], "mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 3}}}}"#,
+            )
+            .replace(
+                r#"{"buffer": 0, "byteOffset": 96, "byteLength": 24}"#,
+                &format!(r#"{{"buffer": 0, "byteOffset": 96, "byteLength": 24}}, {{"buffer": 0, "byteOffset": 120, "byteLength": {}}}"#, 3 * n),
+            )
+            .replace(
+                r#""max": [3], "min": [0]}"#,
+                &format!(r#""max": [3], "min": [0]}}, {{"bufferView": 2, "componentType": 5121, "count": {n}, "type": "VEC3"}}"#),
+            )
+            .replacen("{\n", "{\n  \"extensionsUsed\": [\"EXT_mesh_gpu_instancing\", \"KHR_mesh_quantization\"],\n", 1);
+        let p = temp_dir().join("instancing_cap.gltf");
+        std::fs::write(&p, json).expect("write");
+        let e = load_gltf_with_warnings(&p, false).unwrap_err().to_string();
+        assert!(e.contains("more than 16777216 triangles"), "{e}");
+    }
+
+    #[test]
+    fn morph_work_is_capped_before_reading() {
+        // 2^20 vertices (a view-less sparse accessor) and 65 targets of weight 1: 65 · 2^20 > 2^26
+        // weighted displacements, refused by the counts before any vertex is read.
+        let n = 1 << 20;
+        let targets = vec![r#"{"POSITION": 0}"#; 65].join(", ");
+        let weights = vec!["1"; 65].join(", ");
+        let json = format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}], BUFFERS,
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "targets": [{targets}]}}], "weights": [{weights}]}}],
+            "bufferViews": [{{"buffer": 0, "byteLength": 4}}, {{"buffer": 0, "byteOffset": 4, "byteLength": 12}}],
+            "accessors": [{{"componentType": 5126, "count": {n}, "type": "VEC3", "min": [0,0,0], "max": [1,0,0],
+              "sparse": {{"count": 1, "indices": {{"bufferView": 0, "componentType": 5125}}, "values": {{"bufferView": 1}}}}}}]}}"#
+        );
+        let mut buf = bytes(&[1u32], u32::to_le_bytes);
+        buf.extend(bytes(&[1f32, 0., 0.], f32::to_le_bytes));
+        let e = load_gltf_with_warnings(&gltf_file("morph_cap.gltf", &json, &buf), false).unwrap_err().to_string();
+        assert!(e.contains("more than 67108864 weighted vertex displacements"), "{e}");
+    }
+
+    #[test]
+    fn quantized_morph_targets() {
+        // Target 0's POSITION as normalized i8 (KHR_mesh_quantization): 127 decodes to 1, so weight
+        // 1 lifts the triangle by +z as the float target does.
+        let json = MORPH_JSON
+            .replace(r#""targets": [{"POSITION": 2,"#, r#""targets": [{"POSITION": 5,"#)
+            .replace(
+                r#"{"buffer": 0, "byteOffset": 124, "byteLength": 36}]"#,
+                r#"{"buffer": 0, "byteOffset": 124, "byteLength": 36}, {"buffer": 0, "byteOffset": 160, "byteLength": 12, "byteStride": 4}]"#,
+            )
+            .replace(
+                r#"{"bufferView": 5, "componentType": 5126, "count": 3, "type": "VEC3"}]"#,
+                r#"{"bufferView": 5, "componentType": 5126, "count": 3, "type": "VEC3"},
+                   {"bufferView": 6, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"}]"#,
+            )
+            .replace("NODES", r#"[{"mesh": 0, "weights": [1, 0]}, {}]"#)
+            .replace("WEIGHTS", "");
+        let mut buf = morph_buffer();
+        buf.extend_from_slice(&[0, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0]);
+        let ext = r#"{"extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"], "#;
+        let p = gltf_file("morph_quantized.gltf", &json.replacen('{', ext, 1), &buf);
+        let (m, _) = load_gltf_with_warnings(&p, false).expect("quantized target");
+        assert_eq!(m.positions, vec![Vec3::Z, Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)]);
+        // Without the extension: refused naming the target's accessor and the extension.
+        let e = load_gltf_with_warnings(&gltf_file("morph_quantized_noext.gltf", &json, &buf), false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("accessor 5 (POSITION of mesh 0 primitive 0 morph target 0)") && e.contains(QUANTIZATION),
+            "{e}"
+        );
     }
 }
