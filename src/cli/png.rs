@@ -8,6 +8,7 @@
 //! the EV used is printed either way. The PNG is written to a temporary file and renamed.
 
 use super::Error;
+use super::outputs::{Files, Format};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -53,12 +54,7 @@ fn layer_pixels(img: &analysis::image::Image, layer: &str) -> Result<Vec<[f32; 3
 
 pub fn run(a: PngArgs) -> Result<ExitCode, Error> {
     let out = a.out.clone().unwrap_or_else(|| a.image.with_extension("png"));
-    if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("png")) != Some(true) {
-        return Err(Error::file(&out, "output file must end in .png"));
-    }
-    if out == a.image {
-        return Err(Error::file(&out, "output would overwrite the input"));
-    }
+    Files::new().input("the image", &a.image).output("--out", &out, Format::Png).check()?;
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }

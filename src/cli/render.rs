@@ -6,6 +6,7 @@
 //! noise summary of the object's pixels (`renderer::noise`).
 
 use super::Error;
+use super::outputs::{Files, Format};
 use renderer::render::{RenderOptions, render};
 use renderer::scene::{Scene, SceneFile, build::DEFAULT_SCENE};
 use std::path::{Path, PathBuf};
@@ -129,11 +130,32 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
     }
 }
 
+/// The scene file and the files it reads (environment maps, meshes), for the check of the outputs;
+/// a scene that cannot be read or parsed adds only itself (loading it then says why).
+pub fn scene_inputs(scene: Option<&Path>) -> Files {
+    let Some(p) = scene else { return Files::new() };
+    let files = Files::new().input("the scene", p);
+    let Some(d) = std::fs::read_to_string(p).ok().and_then(|t| SceneFile::parse(&t).ok()) else { return files };
+    let base = p.parent().map(Path::to_path_buf).unwrap_or_default();
+    let read = renderer::shard::referenced_files(&d).into_iter().map(|f| base.join(f));
+    files.inputs("the scene's file", read)
+}
+
+/// The outputs of `reflect render` (`--out`, `--png`, `--checkpoint`) against each other and its
+/// inputs (see [`super::outputs`]).
+fn check_files(a: &RenderArgs, out: &Path) -> Result<(), Error> {
+    let mut files = scene_inputs(a.scene.as_deref()).output("--out", out, Format::Exr);
+    if let Some(p) = &a.png {
+        files = files.output("--png", p, Format::Png);
+    }
+    if let Some(p) = &a.checkpoint {
+        files = files.output("--checkpoint", p, Format::Exr);
+    }
+    files.check()
+}
+
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let t_start = std::time::Instant::now();
-    // On the render's pool: decoding the map and building its sampling tables use `--threads` too.
-    let mut scene = with_threads(a.threads, || load_scene(&a))??;
-    let t_load = t_start.elapsed();
     let stem = a
         .scene
         .as_ref()
@@ -141,9 +163,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "default".into());
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.exr")));
-    if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
-        return Err(Error::file(&out, "output file must end in .exr"));
-    }
+    check_files(&a, &out)?;
+    // On the render's pool: decoding the map and building its sampling tables use `--threads` too.
+    let mut scene = with_threads(a.threads, || load_scene(&a))??;
+    let t_load = t_start.elapsed();
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
