@@ -60,6 +60,16 @@ pub fn run(a: PngArgs) -> Result<ExitCode, Error> {
     }
     let img = analysis::image::read_image(&a.image)?;
     let px = layer_pixels(&img, a.layer.as_deref().unwrap_or("")).map_err(|m| Error::file(&a.image, m))?;
+    if px.iter().flatten().any(|v| !v.is_finite()) {
+        // Only an error layer may hold +inf (the reader refuses it elsewhere): no estimate to show.
+        return Err(Error::file(
+            &a.image,
+            format!(
+                "layer {:?} is +inf (no error estimate: fewer than 2 samples per pixel); there is nothing to show",
+                a.layer.as_deref().unwrap_or("")
+            ),
+        ));
+    }
     let (ev, how) = match a.exposure {
         Some(ev) => (ev, "set by --exposure"),
         None => {

@@ -258,7 +258,8 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                         passes,
                         stopped_by: p.stop.name().to_string(),
                         target_reached: a.target_rel_error.map(|_| p.stop == super::passes::Stop::Target),
-                        rel_error_p95: Some(p.rel_error).filter(|e| e.is_finite()),
+                        rel_error_p95: p.rel_error.ok(),
+                        rel_error_unknown: p.rel_error.err().map(|w| w.why().to_string()),
                     });
                 }
                 (state.finish(), stats)
@@ -310,8 +311,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         save_seconds: t_save.as_secs_f64(),
         total_seconds: t_start.elapsed().as_secs_f64(),
         peak_rss_mb: peak_rss_mb(),
-        // One sample per pixel has no spread: its stderr is 0, which is no error estimate, not a
-        // zero error (issue 9: flag where the error cannot be estimated, never print 0 %).
+        // One sample per pixel has no spread: no error estimate (the stderr layer is +inf).
         noise: if scene.settings.spp >= 2 { renderer::noise::summarize(&film) } else { None },
         unreliable_pixels: film.unreliable_count(),
         progressive: progressive_report,
@@ -386,9 +386,12 @@ pub struct ProgressiveReport {
     /// Whether the target was reached (null without `--target-rel-error`).
     pub target_reached: Option<bool>,
     /// The error reached, as the target measures it: the 95th percentile over the object's pixels of the
-    /// worst channel's stderr / value, flagged pixels (`stderr_flag.Y` = 1) counting as infinite; 0 when
-    /// no object pixel is > 0, null when infinite (more than 5 % of the object's pixels flagged).
+    /// worst channel's stderr / value, flagged pixels (`stderr_flag.Y` = 1) counting as infinite; null
+    /// where there is no estimate (`rel_error_unknown` says why).
     pub rel_error_p95: Option<f64>,
+    /// Why `rel_error_p95` is null: one sample per pixel (no spread), no object pixel > 0, or more
+    /// than 5 % of the object's pixels flagged; null when there is an estimate.
+    pub rel_error_unknown: Option<String>,
 }
 
 /// The peak resident set size of this process in MB (10⁶ bytes), from `VmHWM` in
@@ -442,7 +445,7 @@ impl std::fmt::Display for RenderReport {
             Some(n) => writeln!(f, "{n}")?,
             None if self.spp < 2 => writeln!(
                 f,
-                "noise: no error estimate at 1 spp (one sample per pixel has no spread, so the stderr layer is 0; \
+                "noise: no error estimate at 1 spp (one sample per pixel has no spread, the stderr layer is +inf, unknown; \
                  render at 2 spp or more for error bars)"
             )?,
             None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)")?,
