@@ -209,3 +209,28 @@ fn merged_one_spp_shards_have_an_estimate() {
     assert!(img.channel("stderr.R").unwrap().iter().all(|v| *v == f32::INFINITY), "1 spp merged: +inf");
     assert!(img.stderr_layer().unwrap().is_none());
 }
+
+/// +inf is read only where it means "no estimate": in an error layer (`stderr.*`, `stderr_own.*`),
+/// which then counts as absent; +inf in radiance, and NaN or −inf in an error layer, stay refused.
+#[test]
+fn plus_inf_is_read_only_in_error_layers() {
+    use analysis::image::{Image, read_image, write_exr};
+    let dir = temp_dir("no-estimate-reader");
+    let write = |name: &str, bad: (&str, f32)| {
+        let mut img = Image { width: 2, height: 1, ..Default::default() };
+        for c in ["R", "G", "B", "stderr.R", "stderr.G", "stderr.B"] {
+            img.channels.insert(c.to_string(), vec![0.5, 0.25]);
+        }
+        img.channels.get_mut(bad.0).unwrap()[1] = bad.1;
+        let p = dir.join(name);
+        write_exr(&p, &img).unwrap();
+        p
+    };
+    let img = read_image(write("unknown.exr", ("stderr.G", f32::INFINITY))).unwrap();
+    assert!(img.stderr_layer().unwrap().is_none(), "a layer holding +inf is no error bar");
+    assert!(read_image(write("ok.exr", ("stderr.G", 0.0))).unwrap().stderr_layer().unwrap().is_some());
+    for (name, bad) in [("r.exr", ("R", f32::INFINITY)), ("nan.exr", ("stderr.B", f32::NAN)), ("neg.exr", ("stderr.R", f32::NEG_INFINITY))] {
+        let e = read_image(write(name, bad)).unwrap_err().to_string();
+        assert!(e.contains(name) && e.contains(bad.0), "{e}");
+    }
+}

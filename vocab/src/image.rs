@@ -265,7 +265,7 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
     }
     for (name, data) in &img.channels {
         let unknown_allowed = name.starts_with("stderr.") || name.starts_with("stderr_own.");
-        if let Some(i) = data.iter().position(|v| !v.is_finite() && !(unknown_allowed && *v == f32::INFINITY)) {
+        if let Some(i) = data.iter().position(|v| !(v.is_finite() || (unknown_allowed && *v == f32::INFINITY))) {
             return Err(Error::file(
                 path,
                 format!(
