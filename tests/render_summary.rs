@@ -229,7 +229,11 @@ fn plus_inf_is_read_only_in_error_layers() {
     let img = read_image(write("unknown.exr", ("stderr.G", f32::INFINITY))).unwrap();
     assert!(img.stderr_layer().unwrap().is_none(), "a layer holding +inf is no error bar");
     assert!(read_image(write("ok.exr", ("stderr.G", 0.0))).unwrap().stderr_layer().unwrap().is_some());
-    for (name, bad) in [("r.exr", ("R", f32::INFINITY)), ("nan.exr", ("stderr.B", f32::NAN)), ("neg.exr", ("stderr.R", f32::NEG_INFINITY))] {
+    for (name, bad) in [
+        ("r.exr", ("R", f32::INFINITY)),
+        ("nan.exr", ("stderr.B", f32::NAN)),
+        ("neg.exr", ("stderr.R", f32::NEG_INFINITY)),
+    ] {
         let e = read_image(write(name, bad)).unwrap_err().to_string();
         assert!(e.contains(name) && e.contains(bad.0), "{e}");
     }
