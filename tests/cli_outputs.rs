@@ -260,3 +260,147 @@ fn same_seed_same_file_bytes_from_two_processes() {
     assert!(a == b, "two renders of one seed differ in their bytes ({} vs {} bytes)", a.len(), b.len());
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// Every file under `dir` (symlinks as their targets' names, not followed) with its bytes.
+fn snapshot(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
+    let mut m = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            let meta = std::fs::symlink_metadata(&p).unwrap();
+            if meta.file_type().is_symlink() {
+                m.insert(p.clone(), std::fs::read_link(&p).unwrap().to_string_lossy().as_bytes().to_vec());
+            } else if meta.is_dir() {
+                m.insert(p.clone(), b"<dir>".to_vec());
+                stack.push(p);
+            } else {
+                m.insert(p.clone(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    m
+}
+
+/// Runs the binary in `dir`: exit 2, one `error:` line naming every string of `names`, and no file
+/// under `dir` written, removed or changed.
+fn refused_in(dir: &Path, args: &[&str], names: &[&str]) {
+    let before = snapshot(dir);
+    let out = Command::new(env!("CARGO_BIN_EXE_reflect")).args(args).current_dir(dir).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {:?}, stderr {err}", out.status);
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{args:?}: one line expected, got {err}");
+    assert!(lines[0].starts_with("error: "), "{args:?}: {err}");
+    for n in names {
+        assert!(lines[0].contains(n), "{args:?}: the error should name {n}: {err}");
+    }
+    assert!(out.stdout.is_empty(), "{args:?}: stdout {:?}", String::from_utf8_lossy(&out.stdout));
+    assert!(snapshot(dir) == before, "{args:?}: files under {} changed", dir.display());
+}
+
+/// The case scene of `output-collisions`, copied into `dir` with its environment map copied beside it
+/// (`env.exr`), so that the scene would render if the command were not refused.
+fn case_scene(dir: &Path) -> (String, String) {
+    let case = root().join("../shared/cases/output-collisions/s.toml");
+    let text = std::fs::read_to_string(&case).unwrap_or_else(|e| panic!("{}: {e}", case.display()));
+    assert!(text.contains("../../data/sky_latlong.exr"), "the case scene changed: {text}");
+    std::fs::copy(root().join("../shared/data/sky_latlong.exr"), dir.join("env.exr")).unwrap();
+    std::fs::write(dir.join("s.toml"), text.replace("../../data/sky_latlong.exr", "env.exr")).unwrap();
+    (dir.join("s.toml").display().to_string(), dir.join("env.exr").display().to_string())
+}
+
+/// The three commands of the `output-collisions` case: each refused before any work, one line
+/// naming both paths (or the extension), and nothing written over (the scene stays a scene, no
+/// `out/` folder appears for the built-in scene's default output).
+#[test]
+fn output_collisions_case_commands_are_refused() {
+    let d = temp_dir("outputs-case");
+    let (s, _) = case_scene(&d);
+    let same = d.join("same.exr").display().to_string();
+    refused_in(&d, &["render", &s, "--checkpoint", &same, "--out", &same], &[&same, "--checkpoint", "--out"]);
+    // The same file named two ways: `./same.exr` beside `same.exr`, with the file already there.
+    std::fs::write(d.join("same.exr"), b"an earlier image").unwrap();
+    refused_in(&d, &["render", &s, "--checkpoint", "./same.exr", "--out", "same.exr"], &["./same.exr", "same.exr"]);
+    let img = d.join("img.exr").display().to_string();
+    refused_in(&d, &["render", &s, "--out", &img, "--png", &img], &[&img, "--png", ".png"]);
+    refused_in(&d, &["render", "--png", &s], &[&s, "--png", ".png", ".toml"]);
+    refused_in(&d, &["render", "--png", "s.toml"], &["s.toml", ".png"]);
+}
+
+/// Every other command and output flag of the CLI against an input (by symlink, hard link, `./`
+/// and `..` spellings) or another output. Commands without an output file (`analyze`, `sh project`,
+/// `sh transfer`, `invert brdf`, `invert factor`) write only to stdout.
+#[test]
+fn no_command_writes_over_an_input_or_another_output() {
+    let d = temp_dir("outputs-all");
+    let (s, env) = case_scene(&d);
+    let p = |n: &str| d.join(n).display().to_string();
+    #[cfg(unix)]
+    {
+        // An .exr / .png name that is the scene file (the extension check alone would pass).
+        std::os::unix::fs::symlink(d.join("s.toml"), d.join("scene-link.exr")).unwrap();
+        std::os::unix::fs::symlink(d.join("s.toml"), d.join("scene-link.png")).unwrap();
+        let (l_exr, l_png) = (p("scene-link.exr"), p("scene-link.png"));
+        refused_in(&d, &["render", &s, "--out", &l_exr], &[&l_exr, &s, "--out"]);
+        refused_in(&d, &["render", &s, "--png", &l_png, "--out", &p("o.exr")], &[&l_png, &s, "--png"]);
+        refused_in(&d, &["render", &s, "--checkpoint", &l_exr, "--out", &p("o.exr")], &[&l_exr, &s]);
+        refused_in(&d, &["slurm", "render", &s, "--tasks", "1", "--out", &l_exr, "--dry-run"], &[&l_exr, &s]);
+        let sub = d.join("sub");
+        std::fs::create_dir_all(&sub).unwrap();
+        let inv = [&p("img.exr"), "--lmax", "2", "--output"];
+        std::fs::write(d.join("img.exr"), b"not read").unwrap();
+        let args = [&["invert", "lighting", "--scene", &s][..], &inv, &[&l_exr]].concat();
+        refused_in(&d, &args, &[&l_exr, &s, "--output"]);
+    }
+    // The scene's environment map is an input too: as --out, --checkpoint, a shard's --out.
+    refused_in(&d, &["render", &s, "--out", &env], &[&env, "--out"]);
+    refused_in(&d, &["render", &s, "--checkpoint", &env, "--out", &p("o.exr")], &[&env, "--checkpoint"]);
+    refused_in(&d, &["render", &s, "--shard", "0/2", "--out", "env.exr"], &["env.exr"]);
+    refused_in(&d, &["slurm", "render", &s, "--tasks", "1", "--out", "./env.exr", "--dry-run"], &["./env.exr"]);
+    // Two outputs that do not exist yet, spelled differently.
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    refused_in(&d, &["render", &s, "--out", "o.exr", "--checkpoint", "sub/../o.exr"], &["o.exr", "sub/../o.exr"]);
+    // merge: a part as --out (same spelling, `./`, a hard link); a wrong extension.
+    std::fs::write(d.join("part0.exr"), b"a part").unwrap();
+    std::fs::write(d.join("part1.exr"), b"another part").unwrap();
+    std::fs::hard_link(d.join("part1.exr"), d.join("merged.exr")).unwrap();
+    let (p0, p1, m) = (p("part0.exr"), p("part1.exr"), p("merged.exr"));
+    refused_in(&d, &["merge", &p0, &p1, "--out", &p1], &[&p1, "--out"]);
+    refused_in(&d, &["merge", "part0.exr", "part1.exr", "--out", "./part0.exr"], &["./part0.exr", "part0.exr"]);
+    refused_in(&d, &["merge", &p0, &p1, "--out", &m], &[&m, &p1]);
+    refused_in(&d, &["merge", &p0, &p1, "--partial", "--out", &p("m.png")], &["m.png", ".exr"]);
+    // png: the image as --out (through `..`), a wrong extension.
+    refused_in(&d, &["png", &p0, "--out", &p("m.exr")], &["m.exr", ".png"]);
+    refused_in(&d, &["png", "part0.exr", "--out", "part0.exr"], &["part0.exr", ".png"]);
+    std::fs::hard_link(d.join("part0.exr"), d.join("part0-link.png")).unwrap();
+    refused_in(&d, &["png", "part0.exr", "--out", "sub/../part0-link.png"], &["sub/../part0-link.png", "part0.exr"]);
+    // invert lighting / separate: --output onto an image, or without .exr.
+    refused_in(&d, &["invert", "lighting", &p0, "--lmax", "2", "--output", &p0], &[&p0, "--output"]);
+    refused_in(&d, &["invert", "lighting", &p0, "--lmax", "2", "--output", &p("l.hdr")], &["l.hdr", ".exr"]);
+    refused_in(&d, &["invert", "separate", &p0, &p1, "--output", "./part1.exr"], &["./part1.exr", "part1.exr"]);
+    refused_in(&d, &["invert", "separate", &p0, &p1, "--output", &p("sep.png")], &["sep.png", ".exr"]);
+    // verify: the second run's JSON onto the report's own JSON, or not .json.
+    let data = root().join("../shared/data").display().to_string();
+    let rep = p("rep");
+    let json = p("rep/report.json");
+    let v = ["verify", "--quick", "--data", &data, "--out", &rep, "--then-wrong-prediction"];
+    refused_in(&d, &[&v[..], &[&json]].concat(), &[&json, "--then-wrong-prediction"]);
+    refused_in(&d, &[&v[..], &[&p("wrong.txt")]].concat(), &["wrong.txt", ".json"]);
+    // The checks pass ordinary distinct files (no false refusal): a real render with all three outputs.
+    let (code, err) = reflect(&[
+        "render",
+        &s,
+        "--spp",
+        "2",
+        "--quiet",
+        "--out",
+        &p("ok.exr"),
+        "--png",
+        &p("ok.png"),
+        "--checkpoint",
+        &p("ok-ck.exr"),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(d.join("ok.exr").exists() && d.join("ok.png").exists() && !d.join("ok-ck.exr").exists());
+}

@@ -149,6 +149,7 @@ fn render_schema() {
         ".progressive.stopped_by: string",
         ".progressive.target_reached: bool",
         ".progressive.rel_error_p95: number",
+        ".progressive.rel_error_unknown: null",
     ]);
     assert_schema(&doc, &want);
     // Passes of 1, 1, 2, 4, …, 32 spp: 7 to reach the cap of 64, never the target of 1e-9. (At 16²,

@@ -21,7 +21,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _reflect
+from . import _args, _reflect
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
 
@@ -62,10 +62,22 @@ def render(
     ``[render]`` table as the CLI's ``--spp``, ``--seed``, ``--size WxH`` (here ``(width,
     height)``), ``--threads`` and ``--sampler`` do; the image does not depend on ``threads``.
 
+    Integers must be ``int`` (or NumPy integers): a float (even ``3.0``), a bool, a negative or
+    too large value raises ``ValueError`` naming the keyword, as does any other bad argument.
+
     The GIL is released while rendering; Ctrl-C stops the render and raises ``KeyboardInterrupt``.
     """
     from ._scene import _source
 
+    spp = _args.optional_integer("spp", spp, 0, _args.U32_MAX)
+    seed = _args.optional_integer("seed", seed)
+    if size is not None:
+        if isinstance(size, (str, bytes)) or not hasattr(size, "__len__") or len(size) != 2:
+            raise ValueError(f"size= must be a pair (width, height), got {size!r}")
+        size = (_args.integer("size", size[0], 1, _args.U32_MAX), _args.integer("size", size[1], 1, _args.U32_MAX))
+    threads = _args.optional_integer("threads", threads, 1, 2**31 - 1)
+    sampler = _args.optional_string("sampler", sampler)
+    progress = _args.boolean("progress", progress)
     kind, value, base = _source(scene)
     return _reflect.render(
         kind,
@@ -73,7 +85,7 @@ def render(
         base,
         spp=spp,
         seed=seed,
-        size=None if size is None else (int(size[0]), int(size[1])),
+        size=size,
         threads=threads,
         sampler=sampler,
         progress=progress,
@@ -210,7 +222,12 @@ def verify(
     """
     from ._commands import _arrays
 
+    quick = _args.boolean("quick", quick)
+    seed = _args.optional_integer("seed", seed)
+    threads = _args.optional_integer("threads", threads, 1, 2**31 - 1)
     names = [checks] if isinstance(checks, str) else None if checks is None else list(checks)
+    if names is not None and not all(isinstance(n, str) for n in names):
+        raise ValueError(f"checks= must be a check name or a list of names, got {checks!r}")
     return _arrays(_reflect.verify(
         quick,
         names,

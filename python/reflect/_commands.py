@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import keyword as keyword_module
 import math
+import numbers
 import os
 import re
 import tempfile
@@ -28,7 +29,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _reflect
+from . import _args, _reflect
 from ._reflect import RenderResult
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -40,13 +41,14 @@ _PER_IMAGE_SCALARS = {"extent"}
 _PAIRS = {"size", "nodes", "print_nodes"}
 
 
-def _number(v: Any) -> str:
-    if isinstance(v, bool):
-        raise TypeError("a number is needed, not a bool")
-    if isinstance(v, (int, np.integer)):
+def _number(name: str, v: Any) -> str:
+    """A number of keyword ``name`` as the command line writes it; an int stays an int (the command
+    refuses a float where it needs an integer, naming the flag, which :func:`_keywords` turns into
+    the keyword). Bools, NaN, ±inf and non-numbers are refused here, naming the keyword."""
+    if isinstance(v, (numbers.Integral, np.integer)) and not isinstance(v, (bool, np.bool_)):
         return str(int(v))
     # repr of a float is the shortest string that reads back as the same double (Rust parses it exactly).
-    return repr(float(v))
+    return repr(_args.real(name.rstrip("_"), v))
 
 
 def _flag_values(name: str, v: Any) -> List[str]:
@@ -54,17 +56,17 @@ def _flag_values(name: str, v: Any) -> List[str]:
     if isinstance(v, (str, os.PathLike)):
         return [os.fspath(v)]
     if name in _PAIRS and isinstance(v, (tuple, list)) and len(v) == 2:
-        return [f"{_number(v[0])}x{_number(v[1])}"]
+        return [f"{_number(name, v[0])}x{_number(name, v[1])}"]
     a = np.asarray(v) if isinstance(v, (list, tuple, np.ndarray)) else None
     if a is None:
-        return [_number(v)]
+        return [_number(name, v)]
     if a.ndim == 1 and name in _PER_IMAGE_SCALARS:
-        return [_number(x) for x in a]
+        return [_number(name, x) for x in a]
     if a.ndim == 1:
-        return [",".join(_number(x) for x in a)]  # a vector or an RGB triple: x,y,z
+        return [",".join(_number(name, x) for x in a)]  # a vector or an RGB triple: x,y,z
     if a.ndim == 2:
-        return [",".join(_number(x) for x in row) for row in a]  # one vector per image
-    raise ValueError(f"{name}: cannot be written as a command-line value (shape {a.shape})")
+        return [",".join(_number(name, x) for x in row) for row in a]  # one vector per image
+    raise ValueError(f"{name.rstrip('_')}=: cannot be written as a command-line value (shape {a.shape})")
 
 
 def _flags(options: Dict[str, Any]) -> List[str]:

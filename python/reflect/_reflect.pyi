@@ -23,7 +23,8 @@ class RenderResult:
         """Linear RGB radiance, the mean of each pixel's samples: (H, W, 3) float32."""
     @property
     def stderr(self) -> npt.NDArray[np.float32]:
-        """Standard error of each pixel mean, √(s²/n): (H, W, 3) float32 (conservative for Sobol)."""
+        """Standard error of each pixel mean, √(s²/n): (H, W, 3) float32 (conservative for Sobol);
+        +inf at 1 spp, where one sample has no spread (no estimate, never 0)."""
     @property
     def normal(self) -> npt.NDArray[np.float32]:
         """World-space normal of the first hit, averaged and renormalized; 0 on a miss: (H, W, 3) float32."""

@@ -12,7 +12,7 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from . import _reflect
+from . import _args, _reflect
 
 __all__ = ["evaluate", "index", "lm", "project", "rotate", "rotation_xyz_deg", "transfer"]
 
@@ -21,6 +21,8 @@ ArrayLike = Union[np.ndarray, Sequence]
 
 def index(l: int, m: int) -> int:  # noqa: E741  (the paper's symbol)
     """Flat index k = l(l+1) + m of Y_lm."""
+    l = _args.integer("l", l)  # noqa: E741
+    m = _args.integer("m", m, -(2**62), 2**62)
     if not -l <= m <= l:
         raise ValueError(f"m = {m} is outside -l..l for l = {l}")
     return l * (l + 1) + m
@@ -28,8 +30,7 @@ def index(l: int, m: int) -> int:  # noqa: E741  (the paper's symbol)
 
 def lm(k: int) -> tuple:
     """(l, m) of flat index k."""
-    if k < 0:
-        raise ValueError(f"index {k} is negative")
+    k = _args.integer("k", k)
     l = int(np.floor(np.sqrt(k)))  # noqa: E741
     return l, k - l * (l + 1)
 
@@ -47,11 +48,15 @@ def project(
     with (``reflect sh project``). lmax ≤ 200.
     """
     if isinstance(env, (str, os.PathLike)):
-        return _reflect.sh_project_file(os.fspath(env), mapping, int(lmax))
+        return _reflect.sh_project_file(os.fspath(env), _args.optional_string("mapping", mapping), _lmax(lmax))
     a = np.ascontiguousarray(env, dtype=np.float32)
     if a.ndim != 3:
         raise ValueError(f"environment array must have shape (H, W, 3), got {a.shape}")
-    return _reflect.sh_project_array(a, mapping, int(lmax))
+    return _reflect.sh_project_array(a, _args.optional_string("mapping", mapping), _lmax(lmax))
+
+
+def _lmax(lmax: object) -> int:
+    return _args.integer("lmax", lmax, 0, 200)
 
 
 def _rgb(coeffs: ArrayLike) -> tuple:
@@ -93,7 +98,9 @@ def transfer(
     ``sigma`` in radians (eq. 50 by numerical integration; at exitance angle ``theta_o_deg``
     the q = 0 coefficient of eq. 49). As ``reflect sh transfer --json``'s ``lambda_rho``.
     """
-    f, _approx = _reflect.sh_transfer(brdf, int(lmax), s, sigma, theta_o_deg)
+    s, sigma = _args.optional_real("s", s), _args.optional_real("sigma", sigma)
+    theta_o_deg = _args.optional_real("theta_o_deg", theta_o_deg)
+    f, _approx = _reflect.sh_transfer(_args.string("brdf", brdf), _lmax(lmax), s, sigma, theta_o_deg)
     return f
 
 

@@ -161,7 +161,7 @@ pub struct RenderResult {
     /// Linear RGB radiance, float32 (H, W, 3), row 0 at the top.
     #[pyo3(get)]
     rgb: Py<PyArray3<f32>>,
-    /// Standard error of each pixel mean, float32 (H, W, 3).
+    /// Standard error of each pixel mean, float32 (H, W, 3); +inf at 1 spp (no estimate).
     #[pyo3(get)]
     stderr: Py<PyArray3<f32>>,
     /// World-space normal of the first hit (0 on a miss), float32 (H, W, 3).

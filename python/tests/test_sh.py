@@ -80,7 +80,7 @@ def test_rotate():
 @pytest.mark.parametrize(
     "call, match",
     [
-        (lambda: sh.project(np.ones((4, 8, 3)), lmax=500), "--lmax 500 is above the supported maximum"),
+        (lambda: sh.project(np.ones((4, 8, 3)), lmax=500), r"lmax= must be an integer in 0\.\.=200, got 500"),
         (lambda: sh.project(np.ones((4, 8, 3)), "cubemap", lmax=2), 'unknown mapping "cubemap"'),
         (lambda: sh.project(np.ones((4, 7, 3)), lmax=2), "cannot infer the mapping"),
         (lambda: sh.project(np.ones((4, 8)), lmax=2), r"shape \(H, W, 3\)"),

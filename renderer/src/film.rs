@@ -57,6 +57,10 @@
 //! is bounded by the same rule, σ_p = max(σ_own,p, √(Σ_q σ_own,q² / |W|)): the window's variance has
 //! |W| (n − 1) degrees of freedom (27 at 4 spp). Measured in tests/stderr_coverage.rs.
 //!
+//! **One batch: no estimate.** A pixel with fewer than two batches (a render at 1 spp) has no
+//! variance estimate: its `stderr` and `stderr_own` are +inf (unknown), not 0. Readers of the layer
+//! treat it as absent (`vocab::image::Image::stderr_layer`) and the noise summary as no estimate.
+//!
 //! **Two layers.** `stderr` ([`Pixel::stderr`]) is the error bar: what renders write, and what every
 //! error bar, k·σ tolerance and χ² of the analyses uses. `stderr_own` ([`Pixel::stderr_own`]) is the
 //! pixel's own value, whose square is unbiased for the variance of the pixel mean: a sum of noise
@@ -251,7 +255,9 @@ impl Fold {
         let nf = n.max(1) as f64;
         let k = self.batches;
         let bsize = (1u64 << batch_log2) as f64;
-        let se = |c: usize| if k > 1.0 { (self.m2[c] / (k - 1.0) / k).sqrt() / bsize } else { 0.0 };
+        // Fewer than two batches have no spread to estimate a variance from: the error is unknown,
+        // written as +inf (never 0, which would claim an exact pixel).
+        let se = |c: usize| if k > 1.0 { (self.m2[c] / (k - 1.0) / k).sqrt() / bsize } else { f64::INFINITY };
         let a = &self.all;
         let nl = (a[NORMAL].powi(2) + a[NORMAL + 1].powi(2) + a[NORMAL + 2].powi(2)).sqrt();
         let normal =
@@ -799,6 +805,16 @@ mod tests {
         assert_eq!(p.stderr[2], 0.0, "a constant channel has exactly zero error");
         assert!((p.mask - 0.6).abs() < 1e-6);
         assert_eq!(p.normal, [0.0, 0.0, 1.0]);
+    }
+
+    /// One sample has no spread: the error is unknown (+inf), never the 0 of an exact pixel, in the
+    /// error bar and the pixel's own value alike; two equal samples are an exact 0.
+    #[test]
+    fn one_sample_has_no_error_estimate() {
+        let p = partial(&[2.0], 0, 1).finish().pixels[0];
+        assert_eq!((p.stderr, p.stderr_own), ([f32::INFINITY; 3], [f32::INFINITY; 3]));
+        let p = partial(&[2.0, 2.0], 0, 2).finish().pixels[0];
+        assert_eq!(p.stderr[0], 0.0);
     }
 
     #[test]

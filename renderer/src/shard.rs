@@ -10,7 +10,7 @@
 
 use crate::Result;
 use crate::film::{Block, NSTAT, Partial, Stats, canonical_blocks};
-use crate::scene::Scene;
+use crate::scene::{Scene, SceneFile};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::Path;
@@ -47,10 +47,7 @@ pub fn scene_fingerprint(scene: &Scene) -> String {
     h.update(b"reflect scene v1\n");
     h.update(toml::to_string(&d).unwrap_or_default().as_bytes());
     let base = scene.path.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_default();
-    let value = toml::Value::try_from(&d).unwrap_or(toml::Value::Boolean(false));
-    let mut files = Vec::new();
-    collect_files(&value, &mut files);
-    for f in files {
+    for f in referenced_files(&d) {
         h.update(b"\nfile ");
         h.update(f.as_bytes());
         h.update(b"\n");
@@ -60,6 +57,15 @@ pub fn scene_fingerprint(scene: &Scene) -> String {
         }
     }
     h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The files a scene description reads (every `file` key: environment maps, meshes), as written
+/// in it (relative to the scene file's folder).
+pub fn referenced_files(d: &SceneFile) -> Vec<String> {
+    let value = toml::Value::try_from(d).unwrap_or(toml::Value::Boolean(false));
+    let mut files = Vec::new();
+    collect_files(&value, &mut files);
+    files
 }
 
 fn collect_files(v: &toml::Value, out: &mut Vec<String>) {

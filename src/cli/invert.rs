@@ -22,6 +22,7 @@
 use super::Error;
 use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
 use super::header::{Camera, Description, lighting_of, load};
+use super::outputs::{Files, Format};
 use super::pixels::PixelNoise;
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
@@ -317,6 +318,10 @@ pub struct InvertLightingReport {
 
 /// `reflect invert lighting` as a library call: the report, or an error naming the file and problem.
 pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, Error> {
+    if let Some(out) = &a.output {
+        let files = Files::new().inputs("the image", &a.images).inputs("the scene", &a.view.image.scene);
+        files.output("--output", out, Format::Exr).check()?;
+    }
     let rule = match a.lambda_rule {
         LambdaRule::Gcv => Rule::Gcv,
         LambdaRule::Discrepancy => Rule::Discrepancy,

@@ -5,6 +5,7 @@
 //! line naming the file).
 
 use super::Error;
+use super::outputs::{Files, Format};
 use renderer::film::Partial;
 use renderer::shard::{PartialFile, PartialHeader, read_partial, write_partial};
 use std::path::PathBuf;
@@ -27,9 +28,7 @@ pub struct MergeArgs {
 }
 
 pub fn run(a: MergeArgs) -> Result<ExitCode, Error> {
-    if a.out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
-        return Err(Error::file(&a.out, "output file must end in .exr"));
-    }
+    Files::new().inputs("part", &a.parts).output("--out", &a.out, Format::Exr).check()?;
     let mut files: Vec<(PathBuf, PartialFile)> = Vec::with_capacity(a.parts.len());
     for p in &a.parts {
         let f = read_partial(p)?;

@@ -7,6 +7,7 @@ pub mod flags;
 pub mod header;
 pub mod invert;
 pub mod merge;
+pub mod outputs;
 pub mod passes;
 pub mod pixels;
 pub mod png;

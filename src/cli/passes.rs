@@ -60,8 +60,31 @@ impl Stop {
 #[derive(Clone, Debug)]
 pub struct Progressive {
     pub stop: Stop,
-    /// The target's summary ([`p95_rel_error`]) of the final state.
-    pub rel_error: f64,
+    /// The target's summary ([`p95_rel_error`]) of the final state, or why there is none.
+    pub rel_error: Result<f64, NoEstimate>,
+}
+
+/// Why a render has no relative-error estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoEstimate {
+    /// One sample per pixel: no spread to estimate a variance from.
+    OneSample,
+    /// No object pixel has a value > 0: no relative error is defined.
+    NoObject,
+    /// Over 5 % of the object's pixels are flagged (`stderr_flag.Y` = 1): the 95th percentile is
+    /// unbounded.
+    Flagged,
+}
+
+impl NoEstimate {
+    /// The reason, in words, for the text and `progressive.rel_error_unknown`.
+    pub fn why(self) -> &'static str {
+        match self {
+            NoEstimate::OneSample => "one sample per pixel has no spread to estimate an error from",
+            NoEstimate::NoObject => "no object pixel has a value > 0",
+            NoEstimate::Flagged => "over 5 % of the object's pixels have stderr_flag.Y = 1 (infinite error bars)",
+        }
+    }
 }
 
 /// How a pass loop ended.
@@ -79,24 +102,31 @@ fn pow2_floor(x: u64) -> u64 {
 }
 
 /// Relative-error summary used by `--target-rel-error`: the 95th percentile over the object's pixels
-/// of the worst channel's stderr / value (`renderer::noise`), flagged pixels counting as infinite
-/// (so it is +inf when more than 5 % of them are flagged); 0 when no object pixel has a value > 0.
-pub fn p95_rel_error(state: &Partial) -> f64 {
+/// of the worst channel's stderr / value (`renderer::noise`), flagged pixels counting as infinite.
+/// No estimate (never 0) below two samples per pixel, when no object pixel has a value > 0, and when
+/// more than 5 % of them are flagged.
+pub fn p95_rel_error(state: &Partial) -> Result<f64, NoEstimate> {
+    if state.end.saturating_sub(state.start) < 2 {
+        return Err(NoEstimate::OneSample);
+    }
     let mut s = state.clone();
     s.spp = s.end as u32;
     let mut film = s.finish();
     for p in film.pixels.iter_mut().filter(|p| p.unreliable) {
         p.stderr = [f32::INFINITY; 3];
     }
-    renderer::noise::summarize(&film).map_or(0.0, |n| n.p95)
+    match renderer::noise::summarize(&film) {
+        None => Err(NoEstimate::NoObject),
+        Some(n) if n.p95.is_finite() => Ok(n.p95),
+        Some(_) => Err(NoEstimate::Flagged),
+    }
 }
 
-/// A relative error as a percentage, or "infinite" with the reason (see [`p95_rel_error`]).
-pub fn percent(e: f64) -> String {
-    if e.is_finite() {
-        format!("{:.4} %", 100.0 * e)
-    } else {
-        "infinite (over 5 % of the object's pixels have stderr_flag.Y = 1)".into()
+/// A relative error as a percentage, or "no estimate" with the reason (see [`p95_rel_error`]).
+pub fn percent(e: Result<f64, NoEstimate>) -> String {
+    match e {
+        Ok(e) => format!("{:.4} %", 100.0 * e),
+        Err(why) => format!("unknown: {}", why.why()),
     }
 }
 
@@ -167,7 +197,7 @@ pub fn run_passes(
     let mut rate: Option<f64> = None;
     let mut stop = Stop::SppCap;
     // The target's summary of the state after the last pass, as (spp, value): computed once per pass.
-    let mut error_at: Option<(u64, f64)> = None;
+    let mut error_at: Option<(u64, Result<f64, NoEstimate>)> = None;
     let mut error_now = |state: &Partial| match error_at {
         Some((end, e)) if end == state.end => e,
         _ => {
@@ -182,7 +212,7 @@ pub fn run_passes(
         // from MIN_TARGET_SPP on (also after the last pass, so a cap that meets the target says so).
         if let Some(x) = a.target_rel_error
             && cur >= MIN_TARGET_SPP
-            && error_now(&state) <= x
+            && error_now(&state).is_ok_and(|e| e <= x)
         {
             stop = Stop::Target;
             break;

@@ -8,6 +8,7 @@
 //! the EV used is printed either way. The PNG is written to a temporary file and renamed.
 
 use super::Error;
+use super::outputs::{Files, Format};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -53,17 +54,22 @@ fn layer_pixels(img: &analysis::image::Image, layer: &str) -> Result<Vec<[f32; 3
 
 pub fn run(a: PngArgs) -> Result<ExitCode, Error> {
     let out = a.out.clone().unwrap_or_else(|| a.image.with_extension("png"));
-    if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("png")) != Some(true) {
-        return Err(Error::file(&out, "output file must end in .png"));
-    }
-    if out == a.image {
-        return Err(Error::file(&out, "output would overwrite the input"));
-    }
+    Files::new().input("the image", &a.image).output("--out", &out, Format::Png).check()?;
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
     let img = analysis::image::read_image(&a.image)?;
     let px = layer_pixels(&img, a.layer.as_deref().unwrap_or("")).map_err(|m| Error::file(&a.image, m))?;
+    if px.iter().flatten().any(|v| !v.is_finite()) {
+        // Only an error layer may hold +inf (the reader refuses it elsewhere): no estimate to show.
+        return Err(Error::file(
+            &a.image,
+            format!(
+                "layer {:?} is +inf (no error estimate: fewer than 2 samples per pixel); there is nothing to show",
+                a.layer.as_deref().unwrap_or("")
+            ),
+        ));
+    }
     let (ev, how) = match a.exposure {
         Some(ev) => (ev, "set by --exposure"),
         None => {

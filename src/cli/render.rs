@@ -6,6 +6,7 @@
 //! noise summary of the object's pixels (`renderer::noise`).
 
 use super::Error;
+use super::outputs::{Files, Format};
 use renderer::render::{RenderOptions, render};
 use renderer::scene::{Scene, SceneFile, build::DEFAULT_SCENE};
 use std::path::{Path, PathBuf};
@@ -129,11 +130,32 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
     }
 }
 
+/// The scene file and the files it reads (environment maps, meshes), for the check of the outputs;
+/// a scene that cannot be read or parsed adds only itself (loading it then says why).
+pub fn scene_inputs(scene: Option<&Path>) -> Files {
+    let Some(p) = scene else { return Files::new() };
+    let files = Files::new().input("the scene", p);
+    let Some(d) = std::fs::read_to_string(p).ok().and_then(|t| SceneFile::parse(&t).ok()) else { return files };
+    let base = p.parent().map(Path::to_path_buf).unwrap_or_default();
+    let read = renderer::shard::referenced_files(&d).into_iter().map(|f| base.join(f));
+    files.inputs("the scene's file", read)
+}
+
+/// The outputs of `reflect render` (`--out`, `--png`, `--checkpoint`) against each other and its
+/// inputs (see [`super::outputs`]).
+fn check_files(a: &RenderArgs, out: &Path) -> Result<(), Error> {
+    let mut files = scene_inputs(a.scene.as_deref()).output("--out", out, Format::Exr);
+    if let Some(p) = &a.png {
+        files = files.output("--png", p, Format::Png);
+    }
+    if let Some(p) = &a.checkpoint {
+        files = files.output("--checkpoint", p, Format::Exr);
+    }
+    files.check()
+}
+
 pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let t_start = std::time::Instant::now();
-    // On the render's pool: decoding the map and building its sampling tables use `--threads` too.
-    let mut scene = with_threads(a.threads, || load_scene(&a))??;
-    let t_load = t_start.elapsed();
     let stem = a
         .scene
         .as_ref()
@@ -141,9 +163,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "default".into());
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.exr")));
-    if out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
-        return Err(Error::file(&out, "output file must end in .exr"));
-    }
+    check_files(&a, &out)?;
+    // On the render's pool: decoding the map and building its sampling tables use `--threads` too.
+    let mut scene = with_threads(a.threads, || load_scene(&a))??;
+    let t_load = t_start.elapsed();
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
@@ -235,7 +258,8 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                         passes,
                         stopped_by: p.stop.name().to_string(),
                         target_reached: a.target_rel_error.map(|_| p.stop == super::passes::Stop::Target),
-                        rel_error_p95: Some(p.rel_error).filter(|e| e.is_finite()),
+                        rel_error_p95: p.rel_error.ok(),
+                        rel_error_unknown: p.rel_error.err().map(|w| w.why().to_string()),
                     });
                 }
                 (state.finish(), stats)
@@ -287,8 +311,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         save_seconds: t_save.as_secs_f64(),
         total_seconds: t_start.elapsed().as_secs_f64(),
         peak_rss_mb: peak_rss_mb(),
-        // One sample per pixel has no spread: its stderr is 0, which is no error estimate, not a
-        // zero error (issue 9: flag where the error cannot be estimated, never print 0 %).
+        // One sample per pixel has no spread: no error estimate (the stderr layer is +inf).
         noise: if scene.settings.spp >= 2 { renderer::noise::summarize(&film) } else { None },
         unreliable_pixels: film.unreliable_count(),
         progressive: progressive_report,
@@ -363,9 +386,12 @@ pub struct ProgressiveReport {
     /// Whether the target was reached (null without `--target-rel-error`).
     pub target_reached: Option<bool>,
     /// The error reached, as the target measures it: the 95th percentile over the object's pixels of the
-    /// worst channel's stderr / value, flagged pixels (`stderr_flag.Y` = 1) counting as infinite; 0 when
-    /// no object pixel is > 0, null when infinite (more than 5 % of the object's pixels flagged).
+    /// worst channel's stderr / value, flagged pixels (`stderr_flag.Y` = 1) counting as infinite; null
+    /// where there is no estimate (`rel_error_unknown` says why).
     pub rel_error_p95: Option<f64>,
+    /// Why `rel_error_p95` is null: one sample per pixel (no spread), no object pixel > 0, or more
+    /// than 5 % of the object's pixels flagged; null when there is an estimate.
+    pub rel_error_unknown: Option<String>,
 }
 
 /// The peak resident set size of this process in MB (10⁶ bytes), from `VmHWM` in
@@ -419,7 +445,7 @@ impl std::fmt::Display for RenderReport {
             Some(n) => writeln!(f, "{n}")?,
             None if self.spp < 2 => writeln!(
                 f,
-                "noise: no error estimate at 1 spp (one sample per pixel has no spread, so the stderr layer is 0; \
+                "noise: no error estimate at 1 spp (one sample per pixel has no spread, the stderr layer is +inf, unknown; \
                  render at 2 spp or more for error bars)"
             )?,
             None => writeln!(f, "noise: no object pixel with a value > 0 (nothing hit, or a black object)")?,

@@ -36,6 +36,7 @@
 use super::Error;
 use super::args::{Channel, ImageArgs};
 use super::header::Camera;
+use super::outputs::{Files, Format};
 use analysis::image::{Image, RgbImage, write_exr};
 use analysis::inverse::separation::{
     LOW, ResidualFit, Samples, Separated, Separation, best_split, fit_residuals, nine_term_residual, probe_samples,
@@ -223,6 +224,10 @@ struct ChannelResult {
 }
 
 fn validate(a: &SeparateArgs) -> Result<Vec<usize>, Error> {
+    if let Some(out) = &a.output {
+        let files = Files::new().inputs("the image", &a.images).inputs("the scene", &a.view.scene);
+        files.output("--output", out, Format::Exr).check()?;
+    }
     if a.images.len() < 2 {
         return Err(Error::new("separation needs the diffuse view (θ_o = 0) and at least one specular view (θ_o > 0)"));
     }

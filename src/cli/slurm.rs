@@ -6,6 +6,7 @@
 //! the output, which must be on a file system every node sees.
 
 use super::Error;
+use super::outputs::Format;
 use super::render::{RenderArgs, load_scene, parse_threads};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -124,6 +125,7 @@ fn sbatch(args: &[String], script: &Path) -> Result<String, Error> {
 
 pub fn run(c: SlurmCommand) -> Result<ExitCode, Error> {
     let SlurmCommand::Render(a) = c;
+    super::render::scene_inputs(Some(&a.scene)).output("--out", &a.out, Format::Exr).check()?;
     // Refuse a bad scene here, not in N failed tasks.
     let ra = RenderArgs { scene: Some(a.scene.clone()), spp: a.spp, seed: a.seed, quiet: true, ..Default::default() };
     let scene = load_scene(&ra)?;
@@ -132,9 +134,6 @@ pub fn run(c: SlurmCommand) -> Result<ExitCode, Error> {
             "--tasks must be between 1 and the spp ({}), got {}",
             scene.settings.spp, a.tasks
         )));
-    }
-    if a.out.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
-        return Err(Error::file(&a.out, "output file must end in .exr"));
     }
     let out = abs(&a.out)?;
     let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "render".into());

@@ -9,6 +9,7 @@
 //! `crate::verify::data`).
 
 use super::Error;
+use super::outputs::{Files, Format};
 use crate::verify::{self, CHECKS, Ctx, report};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -78,6 +79,15 @@ pub fn run(a: VerifyArgs) -> Result<ExitCode, Error> {
     };
     // Before any output: a missing probe is bad input (exit 2, one line naming every place looked at).
     let data = verify::data::resolve(a.data.as_deref()).map_err(Error::new)?;
+    let mut files = Files::new()
+        .input("the probe", data.join(verify::data::GRACE_FILE))
+        .output("the report (--out)", a.out.join("report.md"), Format::Markdown)
+        .output("the report (--out)", a.out.join("report.html"), Format::Html)
+        .output("the report (--out)", a.out.join("report.json"), Format::Json);
+    if let Some(f) = &a.then_wrong_prediction {
+        files = files.output("--then-wrong-prediction", f, Format::Json);
+    }
+    files.check()?;
     std::fs::create_dir_all(&a.out)
         .map_err(|e| Error::file(&a.out, format!("cannot create the report folder: {e}")))?;
     let ctx = Ctx {

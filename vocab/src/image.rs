@@ -2,7 +2,9 @@
 //! and Radiance RGBE `.hdr`. Used for environment maps (docs/src/conventions.md §2) and for renders to analyse
 //! (docs/src/conventions.md §5). Every failure becomes an [`Error`] naming the file.
 //!
-//! NaN or infinite values are rejected here, once, so no analysis or light ever sees them.
+//! NaN or infinite values are rejected here, once, so no analysis or light ever sees them; the one
+//! exception is +inf in an error layer (`stderr.*`, `stderr_own.*`): a pixel with no error estimate
+//! (fewer than two samples), which [`Image::stderr_layer`] turns into no layer.
 
 use crate::error::{Error, Result};
 use std::collections::BTreeMap;
@@ -75,9 +77,15 @@ impl Image {
     /// file). 0 is allowed here: it is an exact pixel (a deterministic render, e.g. a pixel-centre
     /// `normal-probe` under a directional source, has σ = 0 everywhere), and propagated errors are
     /// then 0. Consumers that *weight* by 1/σ² or invert a covariance built from σ use
-    /// [`Image::stderr_layer_for_weights`]. `Ok(None)` when the image has no such layer.
+    /// [`Image::stderr_layer_for_weights`]. `Ok(None)` when the image has no such layer, and when
+    /// the layer holds +inf anywhere: a pixel of fewer than two samples has no error estimate (a
+    /// render at 1 spp writes +inf), and such a layer is no error bar, so consumers take σ from the
+    /// residuals as for an image without the layer (and say so).
     pub fn stderr_layer(&self) -> Result<Option<RgbImage>> {
         let Some(layer) = self.rgb_layer("stderr.") else { return Ok(None) };
+        if layer.pixels.iter().flatten().any(|v| *v == f32::INFINITY) {
+            return Ok(None);
+        }
         for (ch, name) in ["R", "G", "B"].iter().enumerate() {
             if let Some(i) = layer.pixels.iter().position(|p| !(p[ch].is_finite() && p[ch] >= 0.0)) {
                 return Err(Error::new(format!(
@@ -256,7 +264,8 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
         return Err(Error::file(path, "image has no pixels"));
     }
     for (name, data) in &img.channels {
-        if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+        let unknown_allowed = name.starts_with("stderr.") || name.starts_with("stderr_own.");
+        if let Some(i) = data.iter().position(|v| !(v.is_finite() || (unknown_allowed && *v == f32::INFINITY))) {
             return Err(Error::file(
                 path,
                 format!(
