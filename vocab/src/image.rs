@@ -298,8 +298,8 @@ pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
 }
 
 /// Reads the RGB radiance of the layer `layer` of an `.exr` or `.hdr` file: a channel prefix
-/// (`ViewLayer.Combined`) or the name of a part of a multi-part file (each part is a layer, see
-/// [`read_exr_bytes`]); `None` takes the plain `R, G, B` (or `Y`), else the only radiance layer
+/// (`ViewLayer.Combined`) or the name of a part of a multi-part file (each part is a layer, README
+/// "Images"); `None` takes the plain `R, G, B` (or `Y`), else the only radiance layer
 /// ([`Image::select_layer`], whose note goes to stderr).
 pub fn read_rgb_layer(path: impl AsRef<Path>, layer: Option<&str>) -> Result<RgbImage> {
     let path = path.as_ref();
