@@ -147,3 +147,120 @@ fn multi_part_exr_names_the_part_it_uses() {
     let l00 = doc["coefficients"][0][0].as_f64().unwrap();
     assert!((l00 - (4.0 * std::f64::consts::PI).sqrt()).abs() < 1e-12, "{l00}");
 }
+
+#[test]
+fn exr_primaries_and_compressible_cases_give_the_right_values() {
+    let f = cases().join("exr-primaries/red_ap0.exr");
+    let (code, out, err) =
+        reflect_out(&["sh", "project", f.to_str().unwrap(), "--mapping", "latlong", "--lmax", "1", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let c: Vec<[f64; 3]> = serde_json::from_value(doc["coefficients"].clone()).unwrap();
+    assert_eq!(format!("{:.4} {:.4} {:.4}", c[0][0], c[0][1], c[0][2]), "8.9391 -0.9801 -0.0545");
+    // The user is told: one note naming the file, the attribute and the conversion.
+    let notes: Vec<&str> = err.lines().filter(|l| l.starts_with("note:")).collect();
+    assert_eq!(notes.len(), 1, "{err}");
+    assert!(notes[0].contains("red_ap0.exr") && notes[0].contains("chromaticities") && notes[0].contains("Bradford"));
+    for name in ["studio_2k_ZIP", "studio_2k_PIZ"] {
+        let c = project(&cases().join(format!("exr-compressible/{name}.exr")), 0);
+        assert_eq!(format!("{:.5} {:.5} {:.5}", c[0][0], c[0][1], c[0][2]), "8.05804 8.05804 8.05804", "{name}");
+    }
+}
+
+/// A 4 × 2 lat-long multi-part file: an AOV `diffuse` of value 1 first, the beauty `rgba` of value 2.
+fn aov_first(dir: &Path) -> std::path::PathBuf {
+    use exr::prelude::*;
+    let part = |name: &str, v: f32| {
+        let ch: Vec<AnyChannel<FlatSamples>> =
+            ["R", "G", "B"].iter().map(|c| AnyChannel::new(Text::from(*c), FlatSamples::F32(vec![v; 8]))).collect();
+        Layer::new(
+            (4, 2),
+            LayerAttributes::named(name),
+            Encoding::UNCOMPRESSED,
+            AnyChannels::sort(ch.into_iter().collect()),
+        )
+    };
+    let f = dir.join("aov_first.exr");
+    Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions((4, 2))),
+        vec![part("diffuse", 1.0), part("rgba", 2.0)],
+    )
+    .write()
+    .to_file(&f)
+    .unwrap();
+    f
+}
+
+/// Every command that reads a map chooses its part: `sh project` and `png` take the beauty by
+/// default and a part by `--layer`; an unknown part is refused with the list of layers.
+#[test]
+fn multi_part_commands_take_the_beauty_or_the_part_asked() {
+    let d = temp_dir("multipart-choose");
+    let f = aov_first(&d);
+    let fs = f.to_str().unwrap();
+    let l00 = |extra: &[&str]| {
+        let mut args = vec!["sh", "project", fs, "--lmax", "0", "--json"];
+        args.extend(extra);
+        let (code, out, err) = reflect_out(&args);
+        assert_eq!(code, 0, "{err}");
+        let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
+        doc["coefficients"][0][0].as_f64().unwrap() / (4.0 * std::f64::consts::PI).sqrt()
+    };
+    assert!((l00(&[]) - 2.0).abs() < 1e-12);
+    assert!((l00(&["--layer", "diffuse"]) - 1.0).abs() < 1e-12);
+    assert!((l00(&["--layer", "rgba"]) - 2.0).abs() < 1e-12);
+    assert_refused(&["sh", "project", fs, "--lmax", "0", "--layer", "specular"], "'diffuse'");
+    // png: the beauty at EV 0 is 2/(1+2) → sRGB 0.667 (213), the AOV 1/2 → 188.
+    for (layer, want) in [(None, 213u8), (Some("diffuse"), 188)] {
+        let png = d.join(format!("{}.png", layer.unwrap_or("beauty")));
+        let mut args = vec!["png", fs, "--exposure", "0", "--out", png.to_str().unwrap()];
+        if let Some(l) = layer {
+            args.extend(["--layer", l]);
+        }
+        let (code, _, err) = reflect_out(&args);
+        assert_eq!(code, 0, "{err}");
+        let px = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(px.get_pixel(0, 0).0, [want; 3], "{layer:?}");
+    }
+}
+
+/// The scene's envmap `layer` key chooses the part that lights the render: the beauty (2) lights
+/// exactly twice as bright as the AOV (1), bit for bit (the sampler's distribution is the same and
+/// × 2 is exact), and an unknown layer is refused before any output.
+#[test]
+fn scene_envmap_layer_key_chooses_the_part() {
+    let d = temp_dir("multipart-scene");
+    aov_first(&d);
+    let render = |layer: &str| {
+        let toml = format!(
+            "[render]\nwidth = 8\nheight = 4\nspp = 4\nseed = 3\nmax_depth = 1\n[camera]\ntype = \"normal-probe\"\n\
+             [lighting]\ntype = \"envmap\"\nfile = \"aov_first.exr\"\nmapping = \"latlong\"\n{layer}\n\
+             [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {{ type = \"lambert\", albedo = 0.5 }}\n"
+        );
+        let name = if layer.is_empty() { "default".to_string() } else { layer.replace(['"', ' ', '='], "") };
+        let scene = d.join(format!("{name}.toml"));
+        std::fs::write(&scene, toml).unwrap();
+        let out = d.join(format!("{name}.exr"));
+        (reflect_out(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]), out)
+    };
+    let pixels = |layer: &str| {
+        let ((code, _, err), out) = render(layer);
+        assert_eq!(code, 0, "{layer}: {err}");
+        analysis::image::read_rgb(&out).unwrap().pixels
+    };
+    let (beauty, named, aov) = (pixels(""), pixels("layer = \"rgba\""), pixels("layer = \"diffuse\""));
+    assert!(aov.iter().all(|p| p[0] > 0.0));
+    for ((b, n), a) in beauty.iter().zip(&named).zip(&aov) {
+        assert_eq!(b, n);
+        assert_eq!(*b, a.map(|v| 2.0 * v));
+    }
+    let ((code, out, err), exr) = render("layer = \"specular\"");
+    assert_eq!(code, 2, "{err}");
+    assert!(out.is_empty() && !exr.exists());
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(
+        lines[0].contains("aov_first.exr") && lines[0].contains("'specular'") && lines[0].contains("'diffuse'"),
+        "{err}"
+    );
+}

@@ -356,11 +356,20 @@ fn mutator_is_deterministic() {
 
 // ---------------------------------------------------------------- images (.hdr, .exr)
 
-/// Decoded bytes an image file of `len` bytes may cost: the reader's own cap on claimed samples
-/// (analysis::image, 2048 × the file with a 1 MiB floor, times the decoder's copy and ours) plus
-/// the default budget.
-fn image_budget(len: usize) -> usize {
-    (4 << 20) + 64 * len + 3 * (len * 2048).max(1 << 20)
+/// Bytes a Radiance file may cost: its pixels (allocated once a first scanline decoded, at most
+/// 2048 × the file with a 1 MiB floor, times the decoder's copy and ours) plus the default budget.
+fn hdr_budget(input: &[u8]) -> usize {
+    (4 << 20) + 64 * input.len() + 3 * (input.len() * 2048).max(1 << 20)
+}
+
+/// Bytes an OpenEXR file may cost: 3 × the decoded samples its headers claim (the reader's own
+/// count, `vocab::image::exr_claimed_bytes`, which it refuses above `EXR_MAX_DECODED_BYTES`; a
+/// file whose headers do not parse claims nothing) plus the default budget. So a file may allocate
+/// what it declares and no more, whatever its compression ratio.
+fn exr_budget(input: &[u8]) -> usize {
+    let claim = analysis::image::exr_claimed_bytes(input).unwrap_or(0);
+    let claim = if claim > analysis::image::EXR_MAX_DECODED_BYTES { 0 } else { claim as usize };
+    (4 << 20) + 64 * input.len() + 3 * claim
 }
 
 /// Small Radiance files: flat, adaptive run-length and old run-length scanlines, every orientation
@@ -383,6 +392,12 @@ fn hdr_seeds() -> Vec<Vec<u8>> {
         }
     }
     out.push(f);
+    // Declared primaries: ACES AP0 (converted), Rec. 709 (kept as stored).
+    for prims in ["0.7347 0.2653 0 1 0.0001 -0.077 0.32168 0.33767", "0.64 0.33 0.3 0.6 0.15 0.06 0.3127 0.329"] {
+        let mut f = format!("#?RADIANCE\nPRIMARIES={prims}\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 3\n").into_bytes();
+        (0..6).for_each(|i| f.extend(px(i)));
+        out.push(f);
+    }
     // Old run-length encoding.
     let mut f = b"#?RGBE\n\n-Y 2 +X 300\n".to_vec();
     for _ in 0..2 {
@@ -398,6 +413,9 @@ const HDR_DICT: &[&[u8]] = &[
     b"FORMAT=32-bit_rle_xyze\n",
     b"EXPOSURE=",
     b"COLORCORR=",
+    b"PRIMARIES=",
+    b" 0.3127 0.329",
+    b" -0.077",
     b"\n\n",
     b"-Y ",
     b"+Y ",
@@ -418,7 +436,7 @@ fn fuzz_hdr() {
     seeds.extend(hdr_seeds());
     let dir = work_dir("hdr");
     let path = dir.join("input.hdr");
-    let cfg = FuzzConfig { seed: 41, alloc_budget: image_budget, ..FuzzConfig::new("hdr") };
+    let cfg = FuzzConfig { seed: 41, alloc_budget: hdr_budget, ..FuzzConfig::new("hdr") };
     fuzz::run(&cfg, &seeds, HDR_DICT, move |bytes| {
         std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
         match analysis::image::read_image(&path) {
@@ -497,6 +515,33 @@ fn exr_seeds(dir: &Path) -> Vec<Vec<u8>> {
         ),
     );
     push(Image::from_layers(ImageAttributes::new(IntegerBounds::new((0, 0), (8, 6))), vec![z, a]));
+    // An AOV part before the beauty part, and a part whose channels already carry its name.
+    let aov = Layer::new((4, 3), LayerAttributes::named("diffuse"), Encoding::SMALL_LOSSLESS, chans(4, 3, true));
+    let beauty = Layer::new((4, 3), LayerAttributes::named("rgba"), Encoding::UNCOMPRESSED, chans(4, 3, false));
+    let named = Layer::new(
+        (4, 3),
+        LayerAttributes::named("spec"),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(
+            vec![AnyChannel::new(Text::from("spec.Y"), FlatSamples::F32(vec![0.5; 12]))].into_iter().collect(),
+        ),
+    );
+    push(Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((4, 3))), vec![aov, beauty, named]));
+    // Declared chromaticities: ACES AP0 (converted) and Rec. 709 (kept as stored).
+    for c in [
+        [0.7347, 0.2653, 0.0, 1.0, 0.0001, -0.077, 0.32168, 0.33767],
+        [0.64, 0.33, 0.3, 0.6, 0.15, 0.06, 0.3127, 0.329],
+    ] {
+        let layer = Layer::new((6, 5), LayerAttributes::default(), Encoding::UNCOMPRESSED, chans(6, 5, true));
+        let mut attrs = ImageAttributes::new(IntegerBounds::from_dimensions((6, 5)));
+        attrs.chromaticities = Some(exr::meta::attribute::Chromaticities {
+            red: Vec2(c[0], c[1]),
+            green: Vec2(c[2], c[3]),
+            blue: Vec2(c[4], c[5]),
+            white: Vec2(c[6], c[7]),
+        });
+        push(Image::from_layers(attrs, vec![layer]));
+    }
     // A mip-mapped tiled file.
     let lv = |w: usize, h: usize| FlatSamples::F32(vec![1.5; w * h]);
     let levels = Levels::Mip {
@@ -517,6 +562,10 @@ const EXR_DICT: &[&[u8]] = &[
     b"dataWindow\0box2i\0",
     b"displayWindow\0box2i\0",
     b"compression\0compression\0",
+    b"compression\0compression\0\x01\0\0\0\x0c",
+    b"chromaticities\0chromaticities\0",
+    b"\x00\x00\x80\x3f",
+    b"rgba\0",
     b"channels\0chlist\0",
     b"tiles\0tiledesc\0",
     b"type\0string\0",
@@ -535,7 +584,7 @@ fn fuzz_exr() {
     let mut seeds = read_seeds(&seed_files(&cases(), &[".exr"], 64 << 10));
     seeds.extend(exr_seeds(&dir));
     let path = dir.join("input.exr");
-    let cfg = FuzzConfig { seed: 51, alloc_budget: image_budget, ..FuzzConfig::new("exr") };
+    let cfg = FuzzConfig { seed: 51, alloc_budget: exr_budget, ..FuzzConfig::new("exr") };
     fuzz::run(&cfg, &seeds, EXR_DICT, move |bytes| {
         std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
         match analysis::image::read_image(&path) {

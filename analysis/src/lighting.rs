@@ -8,7 +8,7 @@
 //! the renderer's). Only the `[lighting]` table of a scene file is read.
 
 use crate::error::{Error, Result};
-use crate::image::read_rgb;
+use crate::image::read_rgb_layer;
 use crate::projection::{Mapping, project_envmap};
 use crate::sh::{Rotation, ShBasis, num_coefficients, rotate_coefficients};
 use std::path::{Path, PathBuf};
@@ -17,10 +17,24 @@ use vocab::scene::{Color, LightingSection, decimal, decimal3};
 /// A distant lighting environment.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Lighting {
-    Uniform { radiance: [f64; 3] },
-    Directional { direction: [f64; 3], irradiance: [f64; 3] },
-    Sh { coefficients: Vec<[f64; 3]> },
-    Envmap { file: PathBuf, mapping: Option<Mapping>, scale: f64, rotate_deg: [f64; 3] },
+    Uniform {
+        radiance: [f64; 3],
+    },
+    Directional {
+        direction: [f64; 3],
+        irradiance: [f64; 3],
+    },
+    Sh {
+        coefficients: Vec<[f64; 3]>,
+    },
+    /// `layer`: the map's layer or part (`vocab::image::read_rgb_layer`).
+    Envmap {
+        file: PathBuf,
+        mapping: Option<Mapping>,
+        scale: f64,
+        rotate_deg: [f64; 3],
+        layer: Option<String>,
+    },
 }
 
 impl Lighting {
@@ -59,12 +73,18 @@ impl Lighting {
                 }
                 Lighting::Sh { coefficients }
             }
-            LightingSection::Envmap { file, mapping, scale, rotate_deg } => {
+            LightingSection::Envmap { file, mapping, scale, rotate_deg, layer } => {
                 let file = match base {
                     Some(b) if Path::new(file).is_relative() => b.join(file),
                     _ => PathBuf::from(file),
                 };
-                Lighting::Envmap { file, mapping: *mapping, scale: decimal(*scale), rotate_deg: decimal3(*rotate_deg) }
+                Lighting::Envmap {
+                    file,
+                    mapping: *mapping,
+                    scale: decimal(*scale),
+                    rotate_deg: decimal3(*rotate_deg),
+                    layer: layer.clone(),
+                }
             }
             LightingSection::Axial { .. } => {
                 return Err(Error::new("lighting type 'axial' is not supported by the analysis"));
@@ -95,7 +115,7 @@ impl Lighting {
 
     /// An environment map file used directly as lighting.
     pub fn from_envmap_file(path: &Path, mapping: Option<Mapping>) -> Lighting {
-        Lighting::Envmap { file: path.to_path_buf(), mapping, scale: 1.0, rotate_deg: [0.0; 3] }
+        Lighting::Envmap { file: path.to_path_buf(), mapping, scale: 1.0, rotate_deg: [0.0; 3], layer: None }
     }
 
     /// L_lm, RGB, l ≤ lmax.
@@ -113,8 +133,8 @@ impl Lighting {
                 y.iter().map(|y| [irradiance[0] * y, irradiance[1] * y, irradiance[2] * y]).collect()
             }
             Lighting::Sh { coefficients } => (0..n).map(|k| coefficients.get(k).copied().unwrap_or([0.0; 3])).collect(),
-            Lighting::Envmap { file, mapping, scale, rotate_deg } => {
-                let img = read_rgb(file)?;
+            Lighting::Envmap { file, mapping, scale, rotate_deg, layer } => {
+                let img = read_rgb_layer(file, layer.as_deref())?;
                 let mapping = match mapping {
                     Some(m) => *m,
                     None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(file))?,

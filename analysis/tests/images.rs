@@ -389,3 +389,242 @@ fn env_coarse_maps_give_the_exact_coefficients() {
     // Printed to 4 decimals in the README of the case.
     assert_eq!(format!("{:.4} {:.4}", l[0][0], l[index(1, 0)][0]), "1.7725 1.5350");
 }
+
+// ---------------------------------------------------------------- colour: chromaticities, PRIMARIES
+
+/// ACES AP0 (SMPTE ST 2065-1): primaries and its ~D60 white.
+const AP0: [[f32; 2]; 4] = [[0.7347, 0.2653], [0.0, 1.0], [0.0001, -0.0770], [0.32168, 0.33767]];
+const REC709: [[f32; 2]; 4] = [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06], [0.3127, 0.3290]];
+
+/// A 4 × 2 single-part EXR with the given channels (values from [`expected`]) and chromaticities.
+fn exr_with_chromaticities(name: &str, chans: &[(&str, bool)], chroma: Option<[[f32; 2]; 4]>) -> PathBuf {
+    let l = layer(None, (4, 2), (0, 0), chans, Encoding::UNCOMPRESSED);
+    let mut im = ExrImage::from_layer(l);
+    im.attributes.chromaticities = chroma.map(|c| exr::meta::attribute::Chromaticities {
+        red: exr::math::Vec2(c[0][0], c[0][1]),
+        green: exr::math::Vec2(c[1][0], c[1][1]),
+        blue: exr::math::Vec2(c[2][0], c[2][1]),
+        white: exr::math::Vec2(c[3][0], c[3][1]),
+    });
+    let f = tmp(name);
+    im.write().to_file(&f).unwrap();
+    f
+}
+
+/// `exr-primaries`: pure AP0 red becomes, in linear Rec. 709 with a Bradford adaptation from the
+/// AP0 white to D65, the first column of the ACES AP0 → Rec. 709 matrix; the case README's L00.
+#[test]
+fn exr_primaries_case_is_converted_to_rec709_with_bradford() {
+    let img = read_rgb(format!("{CASES}/exr-primaries/red_ap0.exr")).unwrap();
+    let l = project_envmap(&img, Mapping::LatLong, 1).unwrap();
+    let got = format!("{:.4} {:.4} {:.4}", l[0][0], l[0][1], l[0][2]);
+    assert_eq!(got, "8.9391 -0.9801 -0.0545");
+}
+
+/// Chromaticities equal to Rec. 709 (as stored in f32, and off by less than the tolerance 1e-3)
+/// leave every sample bit-identical to the same file without the attribute.
+#[test]
+fn rec709_chromaticities_read_bit_identical() {
+    let chans = [("R", true), ("G", false), ("B", true)];
+    let plain = read_image(exr_with_chromaticities("c_none.exr", &chans, None)).unwrap();
+    let near = REC709.map(|p| [p[0] + 4e-4, p[1] - 4e-4]);
+    for (i, c) in [REC709, near].into_iter().enumerate() {
+        let img = read_image(exr_with_chromaticities(&format!("c_709_{i}.exr"), &chans, Some(c))).unwrap();
+        for (name, v) in &plain.channels {
+            let w = &img.channels[name];
+            assert!(v.iter().zip(w).all(|(a, b)| a.to_bits() == b.to_bits()), "{i}: channel {name}");
+        }
+    }
+}
+
+/// Declared AP0 converts every radiance layer (plain and prefixed R, G, B) by the AP0 → Rec. 709
+/// matrix; a luminance-only image is achromatic and stays as stored; degenerate chromaticities
+/// are refused naming the attribute.
+#[test]
+fn declared_primaries_convert_radiance_layers_and_degenerate_ones_are_refused() {
+    // The ACES reference AP0 → Rec. 709 (Bradford) matrix, 4 decimals.
+    let m = [[2.5217, -1.1341, -0.3876], [-0.2765, 1.3727, -0.0962], [-0.0154, -0.1530, 1.1684]];
+    let chans =
+        [("R", false), ("G", false), ("B", false), ("diffuse.R", false), ("diffuse.G", false), ("diffuse.B", false)];
+    let img = read_image(exr_with_chromaticities("c_ap0.exr", &chans, Some(AP0))).unwrap();
+    for (prefix, k0) in [("", 0usize), ("diffuse.", 3)] {
+        let src: Vec<Vec<f32>> = (0..3).map(|k| expected((4, 2), k0 + k)).collect();
+        for (row, ch) in ["R", "G", "B"].iter().enumerate() {
+            let got = img.channel(&format!("{prefix}{ch}")).unwrap();
+            for i in 0..8 {
+                let want: f64 = (0..3).map(|k| m[row][k] * src[k][i] as f64).sum();
+                let scale: f64 = (0..3).map(|k| src[k][i] as f64).sum::<f64>() + 1.0;
+                assert!((got[i] as f64 - want).abs() < 2e-4 * scale, "{prefix}{ch}[{i}]: {} vs {want}", got[i]);
+            }
+        }
+    }
+    let y = read_image(exr_with_chromaticities("c_y.exr", &[("Y", true)], Some(AP0))).unwrap();
+    let want = expected((4, 2), 0);
+    assert!(y.channel("Y").unwrap().iter().zip(&want).all(|(a, b)| (a - b).abs() <= 1e-3 * b.abs()));
+    let line = [[0.2, 0.2], [0.4, 0.4], [0.6, 0.6], [0.3127, 0.329]];
+    let f = exr_with_chromaticities("c_line.exr", &[("R", false), ("G", false), ("B", false)], Some(line));
+    let e = read_image(&f).unwrap_err().to_string();
+    assert!(e.contains("c_line.exr") && e.contains("chromaticities") && e.contains("one line"), "{e}");
+}
+
+/// A Radiance file's `PRIMARIES=` line is honoured like the EXR attribute; Rec. 709 primaries
+/// leave the pixels as stored; a malformed line is refused naming it.
+#[test]
+fn hdr_primaries_line_is_honoured() {
+    let write = |name: &str, header: &str| {
+        let mut f = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n{header}\n-Y 1 +X 2\n").into_bytes();
+        f.extend(rgbe([1.0, 0.0, 0.0]));
+        f.extend(rgbe([0.5, 0.25, 0.125]));
+        let p = tmp(name);
+        std::fs::write(&p, f).unwrap();
+        p
+    };
+    let plain = read_image(write("p_none.hdr", "")).unwrap();
+    let ap0 = read_rgb(write("p_ap0.hdr", "PRIMARIES=0.7347 0.2653 0 1 0.0001 -0.077 0.32168 0.33767\n")).unwrap();
+    let want = [2.5217, -0.2765, -0.0154];
+    for c in 0..3 {
+        assert!((ap0.pixels[0][c] as f64 - want[c]).abs() < 2e-4, "{:?}", ap0.pixels[0]);
+    }
+    let rec = read_image(write("p_709.hdr", "PRIMARIES=0.640 0.330 0.300 0.600 0.150 0.060 0.3127 0.3290\n")).unwrap();
+    for (name, v) in &plain.channels {
+        assert!(v.iter().zip(&rec.channels[name]).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}");
+    }
+    let e = read_image(write("p_bad.hdr", "PRIMARIES=0.64 0.33 0.3\n")).unwrap_err().to_string();
+    assert!(e.contains("p_bad.hdr") && e.contains("PRIMARIES"), "{e}");
+}
+
+// ---------------------------------------------------------------- compression and its guard
+
+/// `exr-compressible`: a flat 2048 × 1024 half map ZIP-compressed over 2000:1 and its PIZ copy
+/// both read, as OpenEXR reads them (L00 = 8.05804 in every channel).
+#[test]
+fn exr_compressible_cases_read() {
+    for name in ["studio_2k_ZIP", "studio_2k_PIZ"] {
+        let img = read_rgb(format!("{CASES}/exr-compressible/{name}.exr")).unwrap();
+        let l = project_envmap(&img, Mapping::LatLong, 0).unwrap();
+        for c in 0..3 {
+            assert_eq!(format!("{:.5}", l[0][c]), "8.05804", "{name} channel {c}");
+        }
+    }
+}
+
+/// A small file whose headers claim more decoded samples than the absolute budget (a 16384²
+/// display window: 1 GiB of f32 for one channel, plus the data) is refused from the headers, at once.
+#[test]
+fn exr_claim_above_the_decoded_budget_is_refused_at_once() {
+    let l = layer(None, (1, 1), (0, 0), &[("Y", true)], Encoding::UNCOMPRESSED);
+    let mut im = ExrImage::from_layer(l);
+    im.attributes.display_window = exr::meta::attribute::IntegerBounds::from_dimensions((16384, 16384));
+    let f = tmp("claim.exr");
+    im.write().to_file(&f).unwrap();
+    assert!(std::fs::metadata(&f).unwrap().len() < 1000);
+    let t = std::time::Instant::now();
+    // Not `unwrap_err`: an accepted image would be printed whole (a gigabyte of Debug text).
+    let e = match read_image(&f) {
+        Ok(img) => panic!("a {}×{} image was read", img.width, img.height),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("claim.exr") && e.contains("limit") && e.contains("16384×16384"), "{e}");
+    assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
+}
+
+/// The `compression` byte of the first header of an uncompressed file set to `value`.
+fn with_compression(name: &str, value: u8, parts: usize) -> PathBuf {
+    let ls: Vec<_> = (0..parts)
+        .map(|i| {
+            let n = ["rgba", "diffuse"][i];
+            layer(Some(n), (4, 2), (0, 0), &[("R", false), ("G", false), ("B", false)], Encoding::UNCOMPRESSED)
+        })
+        .collect();
+    let f = tmp(name);
+    ExrImage::from_layers(
+        exr::meta::header::ImageAttributes::new(exr::meta::attribute::IntegerBounds::from_dimensions((4, 2))),
+        ls,
+    )
+    .write()
+    .to_file(&f)
+    .unwrap();
+    let mut bytes = std::fs::read(&f).unwrap();
+    let key = b"compression\0compression\0\x01\0\0\0";
+    let mut at: Vec<usize> = bytes.windows(key.len()).enumerate().filter(|(_, w)| w == key).map(|(i, _)| i).collect();
+    assert_eq!(at.len(), parts, "{name}");
+    let i = at.pop().unwrap() + key.len();
+    assert_eq!(bytes[i], 0);
+    bytes[i] = value;
+    std::fs::write(&f, bytes).unwrap();
+    f
+}
+
+/// HTJ2K (OpenEXR 3.4) and ZSTD files are refused as an unsupported compression named, not as corrupt.
+#[test]
+fn htj2k_and_zstd_are_refused_by_name() {
+    for (value, parts, method) in
+        [(10u8, 1usize, "HTJ2K256"), (11, 1, "HTJ2K32"), (12, 2, "ZSTD"), (40, 1, "unknown compression 40")]
+    {
+        let f = with_compression(&format!("comp{value}.exr"), value, parts);
+        let e = read_image(&f).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("comp{value}.exr")) && e.contains("unsupported compression") && e.contains(method),
+            "{e}"
+        );
+        assert!(!e.contains("corrupt"), "{e}");
+        if parts == 2 {
+            assert!(e.contains("part 1"), "{e}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------- multi-part: the beauty and layers
+
+/// A multi-part file of 4 × 2 RGB parts, part k filled with the value k + 1.
+fn parts_file(name: &str, names: &[&str]) -> PathBuf {
+    let ls: Vec<_> = names
+        .iter()
+        .enumerate()
+        .map(|(k, n)| {
+            let v = (k + 1) as f32;
+            let list: Vec<AnyChannel<FlatSamples>> =
+                ["R", "G", "B"].iter().map(|c| AnyChannel::new(Text::from(*c), FlatSamples::F32(vec![v; 8]))).collect();
+            Layer::new(
+                (4, 2),
+                LayerAttributes::named(*n),
+                Encoding::UNCOMPRESSED,
+                AnyChannels::sort(list.into_iter().collect()),
+            )
+        })
+        .collect();
+    let f = tmp(name);
+    ExrImage::from_layers(
+        exr::meta::header::ImageAttributes::new(exr::meta::attribute::IntegerBounds::from_dimensions((4, 2))),
+        ls,
+    )
+    .write()
+    .to_file(&f)
+    .unwrap();
+    f
+}
+
+/// An AOV part first and the beauty second: the beauty is the image whatever its usual name, and
+/// every part can be chosen by name (the beauty also by its own name).
+#[test]
+fn multi_part_reads_the_beauty_not_the_first_aov() {
+    use analysis::image::read_rgb_layer;
+    for beauty in ["rgba", "RGBA", "beauty", "combined", "rgb"] {
+        let f = parts_file(&format!("aov_first_{beauty}.exr"), &["diffuse", beauty, "specular"]);
+        assert_eq!(read_rgb(&f).unwrap().pixels[3], [2.0; 3], "{beauty}");
+        assert_eq!(read_rgb_layer(&f, Some("diffuse")).unwrap().pixels[3], [1.0; 3], "{beauty}");
+        assert_eq!(read_rgb_layer(&f, Some("specular")).unwrap().pixels[3], [3.0; 3], "{beauty}");
+        assert_eq!(read_rgb_layer(&f, Some(beauty)).unwrap().pixels[3], [2.0; 3], "{beauty}");
+        let e = read_rgb_layer(&f, Some("albedo")).unwrap_err().to_string();
+        assert!(e.contains("'albedo'") && e.contains("'diffuse'") && e.contains("'specular'"), "{e}");
+        // Every part is a layer of the image: `diffuse.R` beside the beauty's `R`.
+        let img = read_image(&f).unwrap();
+        assert_eq!(img.channel("diffuse.G").unwrap()[0], 1.0);
+        assert_eq!(img.channel("G").unwrap()[0], 2.0);
+    }
+    // No part named as a beauty: the choice is the user's, and the error lists the parts.
+    let f = parts_file("aovs_only.exr", &["diffuse", "specular"]);
+    let e = read_rgb(&f).unwrap_err().to_string();
+    assert!(e.contains("aovs_only.exr") && e.contains("'diffuse', 'specular'") && e.contains("--layer"), "{e}");
+    assert_eq!(read_rgb_layer(&f, Some("specular")).unwrap().pixels[0], [2.0; 3]);
+}

@@ -17,7 +17,7 @@
 
 use super::Error;
 use super::args::{BrdfFlags, CameraFlags, ViewArgs};
-use analysis::image::{Image, read_image};
+use analysis::image::{Image, read_image_notes};
 use analysis::lighting::Lighting;
 use analysis::projection::{Mapping, OrthoCamera, Sphere};
 use analysis::transfer::{BrdfTransfer, TransferModel};
@@ -234,8 +234,9 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
     }
     let mut images = Vec::with_capacity(paths.len());
     for p in paths {
-        let (img, note) = read_image(p)?.select_layer(view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;
-        if let Some(n) = note {
+        let (img, file_notes) = read_image_notes(p)?;
+        let (img, note) = img.select_layer(view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;
+        for n in file_notes.iter().chain(&note) {
             notes.push(format!("note: {}: {n}", p.display()));
         }
         images.push(img);
@@ -848,11 +849,12 @@ const LIGHTING_AGREE_LMAX: usize = 4;
 /// file or with its mapping left to inference; a different or rotated map differs far more).
 fn same_lighting(a: &Lighting, b: &Lighting) -> Result<bool, analysis::Error> {
     let canonical = |l: &Lighting| match l {
-        Lighting::Envmap { file, mapping, scale, rotate_deg } => Lighting::Envmap {
+        Lighting::Envmap { file, mapping, scale, rotate_deg, layer } => Lighting::Envmap {
             file: std::fs::canonicalize(file).unwrap_or_else(|_| file.clone()),
             mapping: *mapping,
             scale: *scale,
             rotate_deg: *rotate_deg,
+            layer: layer.clone(),
         },
         other => other.clone(),
     };
@@ -872,8 +874,11 @@ fn lighting_text(l: &Lighting) -> String {
             format!("directional lighting from {} of irradiance {}", v3(*direction), v3(*irradiance))
         }
         Lighting::Sh { coefficients } => format!("SH lighting with {} coefficients", coefficients.len()),
-        Lighting::Envmap { file, scale, rotate_deg, .. } => {
+        Lighting::Envmap { file, scale, rotate_deg, layer, .. } => {
             let mut t = format!("the environment map {}", file.display());
+            if let Some(l) = layer {
+                t.push_str(&format!(" (layer '{l}')"));
+            }
             if *scale != 1.0 {
                 t.push_str(&format!(" scaled by {}", num(*scale)));
             }

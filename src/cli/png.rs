@@ -20,8 +20,8 @@ pub struct PngArgs {
     /// luminance → 0.18].
     #[arg(long, allow_hyphen_values = true)]
     pub exposure: Option<f64>,
-    /// Layer to show: "" for R, G, B (default), or a prefix such as "stderr", "normal", "mask" (its R/G/B,
-    /// X/Y/Z or Y channels).
+    /// Layer to show: "" for the radiance (default: R, G, B, else the only radiance layer), or a prefix such
+    /// as "stderr", "normal", "mask" or a part of a multi-part EXR (its R/G/B, X/Y/Z or Y channels).
     #[arg(long)]
     pub layer: Option<String>,
     /// Output PNG [default: IMAGE with the extension .png].
@@ -58,17 +58,28 @@ pub fn run(a: PngArgs) -> Result<ExitCode, Error> {
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
-    let img = analysis::image::read_image(&a.image)?;
-    let px = layer_pixels(&img, a.layer.as_deref().unwrap_or("")).map_err(|m| Error::file(&a.image, m))?;
+    let (mut img, mut notes) = analysis::image::read_image_notes(&a.image)?;
+    let mut layer = a.layer.clone().unwrap_or_default();
+    if layer.is_empty() || analysis::image::BEAUTY_PART_NAMES.contains(&layer.to_ascii_lowercase().as_str()) {
+        // The radiance: the beauty, else the only radiance layer (several: the error lists them).
+        let (chosen, note) = img
+            .select_layer(Some(&layer).filter(|l| !l.is_empty()).map(|l| l.as_str()))
+            .map_err(|e| e.in_file(&a.image))?;
+        (img, layer) = (chosen, String::new());
+        notes.extend(note);
+    }
+    let px = layer_pixels(&img, &layer).map_err(|m| Error::file(&a.image, m))?;
     if px.iter().flatten().any(|v| !v.is_finite()) {
         // Only an error layer may hold +inf (the reader refuses it elsewhere): no estimate to show.
         return Err(Error::file(
             &a.image,
             format!(
-                "layer {:?} is +inf (no error estimate: fewer than 2 samples per pixel); there is nothing to show",
-                a.layer.as_deref().unwrap_or("")
+                "layer {layer:?} is +inf (no error estimate: fewer than 2 samples per pixel); there is nothing to show"
             ),
         ));
+    }
+    for n in notes {
+        eprintln!("note: {}: {n}", a.image.display());
     }
     let (ev, how) = match a.exposure {
         Some(ev) => (ev, "set by --exposure"),

@@ -1,6 +1,6 @@
 //! `reflect sh …`: spherical-harmonic tools.
 //!
-//! - `reflect sh project ENV [--mapping latlong|angular] --lmax L [--json]`: L_lm of an environment
+//! - `reflect sh project ENV [--mapping latlong|angular] [--layer NAME] --lmax L [--json]`: L_lm of an environment
 //!   map (`.exr` or `.hdr`). Without `--mapping` the mapping is inferred from the aspect ratio
 //!   (W = H → angular, W = 2H → lat-long; anything else is an error). Each Y_lm is integrated
 //!   exactly over each pixel's footprint, for the piecewise-constant map the renderer lights with
@@ -12,7 +12,7 @@
 //! `--json` prints one JSON document (docs/src/conventions.md §7) to stdout; otherwise a table.
 use super::Error;
 use super::args::BrdfFlags;
-use analysis::image::read_rgb;
+use analysis::image::read_rgb_layer;
 use analysis::projection::{Mapping, project_envmap};
 use analysis::sh::lm;
 use serde::Serialize;
@@ -42,6 +42,10 @@ pub struct ProjectArgs {
     /// Highest SH order.
     #[arg(long)]
     pub lmax: usize,
+    /// The layer of the map to project: a channel prefix (e.g. ViewLayer.Combined) or a part of a
+    /// multi-part EXR (e.g. diffuse); default: the beauty (plain R, G, B), else the only radiance layer.
+    #[arg(long)]
+    pub layer: Option<String>,
     /// Print one JSON document to stdout.
     #[arg(long)]
     pub json: bool,
@@ -85,7 +89,7 @@ fn project(a: ProjectArgs) -> Result<ExitCode, Error> {
     // Flags are checked before the file is read: a bad flag is named whatever the file holds.
     let given = a.mapping;
     refuse_render(&a.env)?;
-    let img = read_rgb(&a.env)?;
+    let img = read_rgb_layer(&a.env, a.layer.as_deref())?;
     let mapping = match given {
         Some(m) => m,
         None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&a.env))?,

@@ -171,6 +171,7 @@ impl Spec {
             mapping: Some(Mapping::Angular),
             scale: f(scale),
             rotate_deg: f3(rotate_deg),
+            layer: None,
         };
         let lighting = match &self.lighting {
             Lighting::Sh(c) => LightingSection::Sh { coefficients: c.iter().map(|&v| grey3(v)).collect() },

@@ -246,9 +246,9 @@ pub struct FuzzConfig {
     pub iterations: usize,
     /// Wall-clock bound per input.
     pub time_limit: Duration,
-    /// Peak allocation (bytes above the level before the input) an input of a given length may
-    /// cause.
-    pub alloc_budget: fn(usize) -> usize,
+    /// Peak allocation (bytes above the level before the input) an input may cause (a function of
+    /// the input, so an image's budget can follow what its headers claim).
+    pub alloc_budget: fn(&[u8]) -> usize,
     /// Mutator seed (overridden by `REFLECT_FUZZ_SEED`).
     pub seed: u64,
 }
@@ -260,7 +260,7 @@ impl FuzzConfig {
             name,
             iterations: 2000,
             time_limit: Duration::from_secs(10),
-            alloc_budget: |len| (4 << 20) + 64 * len,
+            alloc_budget: |input| (4 << 20) + 64 * input.len(),
             seed: 1,
         }
     }
@@ -325,7 +325,7 @@ where
     for k in 0..seeds.len() + iterations {
         let input =
             if k < seeds.len() { seeds[k].clone() } else { mutator.mutate(&seeds[k % seeds.len()], seeds, dict) };
-        let budget = (cfg.alloc_budget)(input.len());
+        let budget = (cfg.alloc_budget)(&input);
         let (tx, rx) = mpsc::channel();
         let t = Arc::clone(&target);
         let data = input.clone();

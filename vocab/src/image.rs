@@ -189,9 +189,17 @@ impl Image {
         let chosen = match layer {
             Some(l) => {
                 let l = l.trim_end_matches('.');
+                // The beauty part of a multi-part file gives the plain channels: its usual names
+                // (`rgba`, `beauty`, …) choose them.
+                let beauty_alias = BEAUTY_PART_NAMES.contains(&l.to_ascii_lowercase().as_str());
+                let l = if beauty_alias && !layers.iter().any(|x| x == l) && layers.iter().any(|x| x.is_empty()) {
+                    ""
+                } else {
+                    l
+                };
                 if !layers.iter().any(|x| x == l) {
                     return Err(Error::new(format!(
-                        "--layer {l}: no radiance layer of that name (radiance layers: {})",
+                        "layer '{l}': no radiance layer or part of that name (radiance layers: {})",
                         list()
                     )));
                 }
@@ -202,7 +210,7 @@ impl Image {
             None if layers.is_empty() => return Ok((self, None)),
             None => {
                 return Err(Error::new(format!(
-                    "{} radiance layers ({}): choose one with --layer",
+                    "{} radiance layers ({}): choose one with --layer (a scene's envmap lighting: layer = \"...\")",
                     layers.len(),
                     list()
                 )));
@@ -242,18 +250,30 @@ impl Image {
     }
 }
 
-/// Reads an `.exr` or `.hdr` file (chosen by its first bytes, not its name) with all its channels.
+/// Reads an `.exr` or `.hdr` file (chosen by its first bytes, not its name) with all its channels;
+/// its notes (the part taken, a colour conversion) go to stderr.
 pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
     let path = path.as_ref();
+    let (img, notes) = read_image_notes(path)?;
+    print_notes(path, &notes);
+    Ok(img)
+}
+
+fn print_notes(path: &Path, notes: &[String]) {
+    // Human text goes to stderr (CONVENTIONS §7): the user learns which part lit the scene and
+    // what was done to its colours.
+    for n in notes {
+        eprintln!("note: {}: {n}", path.display());
+    }
+}
+
+/// [`read_image`] with its notes returned rather than printed (without the `note: FILE: ` prefix),
+/// so that a caller that may still refuse the file prints nothing but its error.
+pub fn read_image_notes(path: impl AsRef<Path>) -> Result<(Image, Vec<String>)> {
+    let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::file(path, format!("cannot read file: {e}")))?;
-    let img = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        read_exr_bytes(&bytes).map(|(img, note)| {
-            if let Some(n) = note {
-                // Human text goes to stderr (docs/src/conventions.md §7): the user learns which part lit the scene.
-                eprintln!("note: {}: {n}", path.display());
-            }
-            img
-        })
+    let (img, notes) = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        read_exr_bytes(&bytes)
     } else if bytes.starts_with(b"#?") {
         read_hdr_bytes(&bytes)
     } else {
@@ -277,14 +297,27 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
             ));
         }
     }
-    Ok(img)
+    Ok((img, notes))
 }
 
-/// Reads the RGB radiance of an `.exr` or `.hdr` file (see [`read_image`]).
+/// Reads the RGB radiance of an `.exr` or `.hdr` file (see [`read_image`]): its beauty, or the only
+/// radiance layer ([`read_rgb_layer`] with no layer).
 pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
+    read_rgb_layer(path, None)
+}
+
+/// Reads the RGB radiance of the layer `layer` of an `.exr` or `.hdr` file: a channel prefix
+/// (`ViewLayer.Combined`) or the name of a part of a multi-part file (each part is a layer, README
+/// "Images"); `None` takes the plain `R, G, B` (or `Y`), else the only radiance layer
+/// ([`Image::select_layer`], whose note goes to stderr).
+pub fn read_rgb_layer(path: impl AsRef<Path>, layer: Option<&str>) -> Result<RgbImage> {
     let path = path.as_ref();
-    let img = read_image(path)?;
-    img.rgb().ok_or_else(|| Error::file(path, "image has no R, G, B (or Y) channels"))
+    let (img, mut notes) = read_image_notes(path)?;
+    let (img, note) = img.select_layer(layer).map_err(|e| e.in_file(path))?;
+    let rgb = img.rgb().ok_or_else(|| Error::file(path, "image has no R, G, B (or Y) channels"))?;
+    notes.extend(note);
+    print_notes(path, &notes);
+    Ok(rgb)
 }
 
 /// Reads a Radiance RGBE picture (the `.hdr` / `.pic` format of Ward's Radiance, as written by
@@ -293,7 +326,9 @@ pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
 /// - header lines up to a blank line: `FORMAT=32-bit_rle_rgbe` (the XYZ variant is refused),
 ///   `EXPOSURE=e` and `COLORCORR=r g b` (each may appear many times: a stored value was multiplied
 ///   by all of them, so radiance = stored ÷ the product of every EXPOSURE and every COLORCORR, per
-///   channel), other variables and comments ignored;
+///   channel), `PRIMARIES=rx ry gx gy bx by wx wy` (pixels converted to the working colour space,
+///   [`crate::colour`], unless they are Rec. 709; without the line the pixels are taken as Rec. 709,
+///   as every HDR tool writes them), other variables and comments ignored;
 /// - the resolution string in any of its eight orientations (`-Y H +X W` is the usual top-down,
 ///   left-to-right one; `+Y`/`-X` flip, `±X W ±Y H` stores columns), turned into row 0 at the top;
 /// - scanlines flat, in the old repeat-pixel run-length encoding, or in the adaptive per-channel
@@ -304,7 +339,7 @@ pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
 /// bytes that follow the header: the most compact encoding (the adaptive run-length one) needs
 /// at least 12 bytes per scanline (4 for W = 1, 8 for W ≤ 256; see below), so a short file claiming
 /// a huge image is refused at once, and the pixels are allocated only once a first scanline decoded.
-pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
+pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<(Image, Vec<String>)> {
     let bad = |m: String| Error::new(format!("corrupt Radiance .hdr: {m}"));
     let mut pos = 0usize;
     let mut line = || -> Option<&[u8]> {
@@ -321,6 +356,7 @@ pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
         return Err(bad("no #? magic line".into()));
     }
     let mut scale = [1.0f64; 3];
+    let mut primaries = None;
     let mut lines = 1usize;
     loop {
         let l = line().ok_or_else(|| bad("the header has no end (blank line)".into()))?;
@@ -349,6 +385,23 @@ pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
                 return Err(bad(format!("COLORCORR={} must be three finite numbers > 0", v.trim())));
             }
             (0..3).for_each(|i| scale[i] *= c[i]);
+        } else if let Some(v) = text.strip_prefix("PRIMARIES=") {
+            let c: Vec<f64> = v.split_whitespace().map(|t| t.parse().unwrap_or(f64::NAN)).collect();
+            if c.len() != 8 || c.iter().any(|x| !x.is_finite()) {
+                return Err(bad(format!(
+                    "PRIMARIES={} must be eight finite numbers (x y of red, green, blue, white)",
+                    v.trim()
+                )));
+            }
+            primaries = Some((
+                v.trim().to_string(),
+                crate::colour::Chromaticities {
+                    red: [c[0], c[1]],
+                    green: [c[2], c[3]],
+                    blue: [c[4], c[5]],
+                    white: [c[6], c[7]],
+                },
+            ));
         }
     }
     let res = line().ok_or_else(|| bad("no resolution string after the header".into()))?;
@@ -416,7 +469,15 @@ pub(crate) fn read_hdr_bytes(bytes: &[u8]) -> Result<Image> {
     for (i, name) in ["R", "G", "B"].iter().enumerate() {
         channels.insert(name.to_string(), rgb.iter().map(|p| p[i]).collect());
     }
-    Ok(Image { width: w, height: h, channels, attributes: BTreeMap::new(), matrices: BTreeMap::new() })
+    drop(rgb);
+    let mut notes = Vec::new();
+    if let Some((line, chroma)) = primaries {
+        let names = ["R".to_string()];
+        let note = to_working_space(&mut channels, &names, &chroma)
+            .map_err(|m| Error::new(format!("header line PRIMARIES={line}: {m}")))?;
+        notes.extend(note);
+    }
+    Ok((Image { width: w, height: h, channels, attributes: BTreeMap::new(), matrices: BTreeMap::new() }, notes))
 }
 
 /// One scanline of `scan.len()` RGBE pixels from `data[*p..]`, in any of the three encodings.
@@ -493,86 +554,204 @@ fn read_scanline(data: &[u8], p: &mut usize, scan: &mut [[u8; 4]]) -> std::resul
     }
 }
 
-/// Decoded sample bytes (4 per sample) a file of `n` bytes may claim: deflate (ZIP/PXR24)
-/// compresses at most ~1032:1 and OpenEXR's RLE 64:1, so 2048 × the file (with a 1 MiB floor for
-/// tiny files) admits real images and refuses a small file that claims a huge one before its
-/// pixels are allocated.
-pub const EXR_MAX_EXPANSION: usize = 2048;
+/// The most bytes of decoded samples the headers of an OpenEXR file may claim: the decoder's
+/// buffers (2 bytes per half sample, 4 per float or uint, every part's data window) plus the f32
+/// copies this reader makes on the display window. This bounds memory and time whatever the
+/// compression ratio (flat maps compress far beyond 1000:1) and admits an 8192 × 4096 RGBA map in
+/// half or float.
+pub const EXR_MAX_DECODED_BYTES: u64 = 1 << 30;
 
-fn exr_decoded_limit(file_bytes: usize) -> u128 {
-    (file_bytes as u128 * EXR_MAX_EXPANSION as u128).max(1 << 20)
+/// Compression values of the OpenEXR specification that the decoder does not implement, by the
+/// byte of the `compression` attribute.
+fn unsupported_compression_name(value: u8) -> Option<String> {
+    match value {
+        0..=9 => None,
+        10 => Some("HTJ2K256 (compression 10, OpenEXR 3.4)".into()),
+        11 => Some("HTJ2K32 (compression 11, OpenEXR 3.4)".into()),
+        12 => Some("ZSTD (compression 12)".into()),
+        v => Some(format!("unknown compression {v}")),
+    }
 }
 
-/// Reads an OpenEXR file: scanline or tiled, any compression, half/float/uint samples, the full
-/// resolution of a mip- or rip-mapped file.
+/// Walks the raw header attributes (`name\0type\0size value`, each header ended by an empty name)
+/// and refuses a `compression` the decoder does not implement, naming it, before the exr crate
+/// parses the header (it fails on values it does not know with a message that names no method).
+/// Anything malformed is left to the crate's own parser.
+fn check_exr_compression(bytes: &[u8]) -> Result<()> {
+    let Some(version) = bytes.get(4..8) else { return Ok(()) };
+    let multi_part = version[1] & 0x10 != 0;
+    let mut p = 8usize;
+    let mut part = 0usize;
+    let cstr = |p: usize| -> Option<(&[u8], usize)> {
+        let rest = bytes.get(p..)?;
+        let end = rest.iter().take(256).position(|&b| b == 0)?;
+        Some((&rest[..end], p + end + 1))
+    };
+    loop {
+        let Some((name, q)) = cstr(p) else { return Ok(()) };
+        if name.is_empty() {
+            part += 1;
+            if !multi_part || bytes.get(q) == Some(&0) {
+                return Ok(());
+            }
+            p = q;
+            continue;
+        }
+        let Some((ty, q)) = cstr(q) else { return Ok(()) };
+        let Some(size) = bytes.get(q..q + 4).map(|s| i32::from_le_bytes([s[0], s[1], s[2], s[3]])) else {
+            return Ok(());
+        };
+        let Ok(size) = usize::try_from(size) else { return Ok(()) };
+        let Some(value) = bytes.get(q + 4..(q + 4).saturating_add(size)) else { return Ok(()) };
+        if name == b"compression"
+            && ty == b"compression"
+            && let [v] = value
+            && let Some(method) = unsupported_compression_name(*v)
+        {
+            let which = if multi_part { format!("part {part} uses ") } else { String::new() };
+            return Err(Error::new(format!(
+                "unsupported compression: {which}{method}, which this reader cannot decode (it reads none, RLE, ZIPS, ZIP, PIZ, PXR24, B44, B44A, DWAA, DWAB)"
+            )));
+        }
+        p = q + 4 + size;
+    }
+}
+
+/// Bytes of decoded samples the headers of an OpenEXR file claim (see [`EXR_MAX_DECODED_BYTES`]):
+/// `None` when the headers cannot be read. For tests and tools that bound a reader's memory.
+pub fn exr_claimed_bytes(bytes: &[u8]) -> Option<u64> {
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false).ok()?;
+    Some(claimed_bytes(&meta.headers))
+}
+
+fn claimed_bytes(headers: &[exr::meta::header::Header]) -> u64 {
+    use exr::meta::attribute::SampleType;
+    let Some(first) = headers.first() else { return 0 };
+    let display = first.shared_attributes.display_window.size;
+    let display_px = display.x() as u64 * display.y() as u64;
+    let mut total = 0u64;
+    for hd in headers {
+        let px = hd.layer_size.x() as u64 * hd.layer_size.y() as u64;
+        let same_window = hd.layer_size == display
+            && hd.own_attributes.layer_position == first.shared_attributes.display_window.position;
+        for c in &hd.channels.list {
+            let (native, copy) = match c.sample_type {
+                SampleType::F16 => (2, true),
+                SampleType::F32 => (4, !same_window),
+                SampleType::U32 => (4, true),
+            };
+            total = total.saturating_add(px.saturating_mul(native));
+            if copy {
+                total = total.saturating_add(display_px.saturating_mul(4));
+            }
+        }
+    }
+    total
+}
+
+/// Part names (case-insensitive) that compositors and renderers give the main image of a multi-part
+/// file (Nuke's `rgba`, a `beauty` or `combined` pass). The first part so named (an unnamed part
+/// too) is read as the plain `R, G, B` channels.
+pub const BEAUTY_PART_NAMES: &[&str] = &["", "rgba", "rgb", "beauty", "combined", "main", "default"];
+
+/// Reads an OpenEXR file: scanline or tiled, any compression the `exr` crate decodes, half/float/uint
+/// samples, the full resolution of a mip- or rip-mapped file.
 ///
 /// - The **display window is the image** (OpenEXR's definition): pixels of the display window that
 ///   lie outside the data window are 0, data-window pixels outside the display window are dropped.
-/// - A **multi-part** file: the part used is the first with R, G, B (or Y) channels; the returned
-///   note says which (the caller prints it). If no part has them, the error names each part's channels.
+/// - A **multi-part** file becomes one image with layers, as OpenEXR's single-part layer naming
+///   writes them: the beauty part (the first named as in [`BEAUTY_PART_NAMES`], or unnamed) gives the
+///   plain channels, every other part's channels are prefixed with its name (`diffuse.R`), unless
+///   they already carry it. A layer is then chosen by [`Image::select_layer`]. The returned notes
+///   say which part is the image; with no part holding R, G, B (or Y) the error names each part's channels.
+/// - **Colour**: a part whose `chromaticities` differ from Rec. 709 has its radiance layers converted
+///   to the working space ([`crate::colour`]), with a note; chromaticities that define no RGB space
+///   are refused, naming the attribute.
 /// - Sizes are checked from the headers before any pixel is decoded ([`MAX_IMAGE_SIDE`] per side,
-///   and at most [`exr_decoded_limit`] decoded bytes for the whole file). Deep parts are refused.
-pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
+///   and at most [`EXR_MAX_DECODED_BYTES`] decoded bytes for the whole file); a compression the
+///   decoder lacks (HTJ2K, ZSTD) is refused by name. Deep parts are refused.
+pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Vec<String>)> {
     use exr::prelude::{AttributeValue, FlatSamples, ReadChannels, ReadLayers};
     let corrupt = |e: exr::error::Error| Error::new(format!("corrupt OpenEXR file: {e}"));
+    check_exr_compression(bytes)?;
     let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false).map_err(corrupt)?;
-    let part_name = |i: usize| match &meta.headers[i].own_attributes.layer_name {
+    let part_label = |i: usize| match &meta.headers[i].own_attributes.layer_name {
         Some(n) => format!("part {i} ('{n}')"),
         None => format!("part {i}"),
     };
     let has = |i: usize, c: &str| meta.headers[i].channels.list.iter().any(|d| d.name.to_string() == c);
     let has_rgb = |i: usize| (has(i, "R") && has(i, "G") && has(i, "B")) || has(i, "Y");
-    let mut decoded = 0u128;
     for (i, hd) in meta.headers.iter().enumerate() {
         if hd.deep {
-            return Err(Error::new(format!("{} holds deep data, which is not supported", part_name(i))));
+            return Err(Error::new(format!("{} holds deep data, which is not supported", part_label(i))));
         }
         let (w, h) = (hd.layer_size.x(), hd.layer_size.y());
-        check_size(w, h).map_err(|e| Error::new(format!("{}: data window: {e}", part_name(i))))?;
+        check_size(w, h).map_err(|e| Error::new(format!("{}: data window: {e}", part_label(i))))?;
         for c in &hd.channels.list {
             if c.sampling.x() != 1 || c.sampling.y() != 1 {
                 return Err(Error::new(format!(
                     "{}: channel {} is subsampled ({}×{}), which is not supported",
-                    part_name(i),
+                    part_label(i),
                     c.name,
                     c.sampling.x(),
                     c.sampling.y()
                 )));
             }
-            decoded += (w * h) as u128 * 4;
         }
     }
     let display =
         meta.headers.first().ok_or_else(|| Error::new("OpenEXR file has no parts"))?.shared_attributes.display_window;
     let (dw, dh) = (display.size.x(), display.size.y());
     check_size(dw, dh).map_err(|e| Error::new(format!("display window: {e}")))?;
-    decoded += (dw * dh) as u128 * 4 * 3;
-    if decoded > exr_decoded_limit(bytes.len()) {
+    let claimed = claimed_bytes(&meta.headers);
+    if claimed > EXR_MAX_DECODED_BYTES {
         return Err(Error::new(format!(
-            "the headers claim {decoded} bytes of samples, more than a {}-byte file can hold",
-            bytes.len()
+            "the headers claim {claimed} bytes of decoded samples ({dw}×{dh} display window), more than the reader's limit of {EXR_MAX_DECODED_BYTES} (1 GiB)"
         )));
     }
-    let chosen = match (0..meta.headers.len()).find(|&i| has_rgb(i)) {
-        Some(i) => i,
-        None if meta.headers.len() == 1 => 0,
-        None => {
-            let parts: Vec<String> = (0..meta.headers.len())
-                .map(|i| {
-                    let names: Vec<String> = meta.headers[i].channels.list.iter().map(|c| c.name.to_string()).collect();
-                    format!("{} has {}", part_name(i), names.join(", "))
-                })
-                .collect();
-            return Err(Error::new(format!("no part has R, G, B (or Y) channels: {}", parts.join("; "))));
-        }
+    let parts = meta.headers.len();
+    if parts > 1 && !(0..parts).any(has_rgb) {
+        let list: Vec<String> = (0..parts)
+            .map(|i| {
+                let names: Vec<String> = meta.headers[i].channels.list.iter().map(|c| c.name.to_string()).collect();
+                format!("{} has {}", part_label(i), names.join(", "))
+            })
+            .collect();
+        return Err(Error::new(format!("no part has R, G, B (or Y) channels: {}", list.join("; "))));
+    }
+    // The channel prefix of each part: "" for the beauty part (the only part of a single-part file).
+    let name_of =
+        |i: usize| meta.headers[i].own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
+    let beauty = if parts == 1 {
+        Some(0)
+    } else {
+        (0..parts).find(|&i| BEAUTY_PART_NAMES.contains(&name_of(i).to_ascii_lowercase().as_str()))
     };
-    let note = (meta.headers.len() > 1).then(|| {
-        format!(
-            "multi-part OpenEXR: using {} of {}, the first with R, G, B (or Y)",
-            part_name(chosen),
-            meta.headers.len()
-        )
-    });
+    let prefixes: Vec<String> =
+        (0..parts).map(|i| if Some(i) == beauty { String::new() } else { name_of(i) }).collect();
+    if let Some(i) = (0..parts).find(|&i| Some(i) != beauty && prefixes[i].is_empty()) {
+        return Err(Error::new(format!(
+            "{} has no name, and neither does another part: parts must be named",
+            part_label(i)
+        )));
+    }
+    let mut notes = Vec::new();
+    if parts > 1 {
+        let others: Vec<String> =
+            (0..parts).filter(|&i| Some(i) != beauty).map(|i| format!("'{}'", prefixes[i])).collect();
+        notes.push(match beauty {
+            Some(b) if has_rgb(b) => format!(
+                "multi-part OpenEXR: {} of {parts} is the image (R, G, B); the other parts are layers {} (choose one with --layer or the lighting's layer key)",
+                part_label(b),
+                others.join(", ")
+            ),
+            _ => format!(
+                "multi-part OpenEXR with no beauty part (named {}): its parts are layers {}",
+                BEAUTY_PART_NAMES[1..].join(", "),
+                others.join(", ")
+            ),
+        });
+    }
     // Decoded by the exr crate's own pieces rather than its `from_buffered`, whose parallel reader
     // builds a pool of one thread per CPU whatever `--threads` says: here the blocks decompress on
     // a pool of the caller's rayon thread count (on this thread alone when that is 1).
@@ -606,79 +785,150 @@ pub(crate) fn read_exr_bytes(bytes: &[u8]) -> Result<(Image, Option<String>)> {
     } else {
         sequential(chunks, &mut layers).map_err(corrupt)?;
     }
-    let layer = layers
-        .into_layers()
-        .into_iter()
-        .nth(chosen)
-        .ok_or_else(|| Error::new(format!("{} could not be read", part_name(chosen))))?;
-    let (lw, lh) = (layer.size.width(), layer.size.height());
-    // Offset of the data window in the display window (both in absolute pixel coordinates).
-    let ox = layer.attributes.layer_position.x() as i64 - display.position.x() as i64;
-    let oy = layer.attributes.layer_position.y() as i64 - display.position.y() as i64;
-    let same_window = ox == 0 && oy == 0 && lw == dw && lh == dh;
-    let mut channels = BTreeMap::new();
-    for ch in layer.channel_data.list {
-        if ch.sample_data.len() != lw * lh {
-            return Err(Error::new(format!(
-                "channel {} has {} samples for a {lw}×{lh} data window",
-                ch.name,
-                ch.sample_data.len()
-            )));
-        }
-        let name = ch.name.to_string();
-        let data = match ch.sample_data {
-            // The usual case: no copy.
-            FlatSamples::F32(v) if same_window => v,
-            samples => {
-                let get = |i: usize| -> f32 {
-                    match &samples {
-                        FlatSamples::F16(v) => v[i].to_f32(),
-                        FlatSamples::F32(v) => v[i],
-                        FlatSamples::U32(v) => v[i] as f32,
-                    }
-                };
-                let mut data = vec![0.0f32; dw * dh];
-                for (r, row) in data.chunks_exact_mut(dw).enumerate() {
-                    let sy = r as i64 - oy;
-                    if sy < 0 || sy >= lh as i64 {
-                        continue;
-                    }
-                    for (c, v) in row.iter_mut().enumerate() {
-                        let sx = c as i64 - ox;
-                        if sx >= 0 && sx < lw as i64 {
-                            *v = get(sy as usize * lw + sx as usize);
+    let decoded = layers.into_layers();
+    if decoded.len() != parts {
+        return Err(Error::new(format!("{parts} parts in the header, {} decoded", decoded.len())));
+    }
+    let mut channels: BTreeMap<String, Vec<f32>> = BTreeMap::new();
+    let (mut attributes, mut matrices) = (BTreeMap::new(), BTreeMap::new());
+    // The beauty part last, so its attributes win over another part's of the same name.
+    let mut order: Vec<usize> = (0..parts).filter(|&i| Some(i) != beauty).collect();
+    order.extend(beauty);
+    let mut decoded: Vec<Option<_>> = decoded.into_iter().map(Some).collect();
+    for &i in &order {
+        let layer = decoded[i].take().expect("each part once");
+        let prefix = &prefixes[i];
+        let (lw, lh) = (layer.size.width(), layer.size.height());
+        // Offset of the data window in the display window (both in absolute pixel coordinates).
+        let ox = layer.attributes.layer_position.x() as i64 - display.position.x() as i64;
+        let oy = layer.attributes.layer_position.y() as i64 - display.position.y() as i64;
+        let same_window = ox == 0 && oy == 0 && lw == dw && lh == dh;
+        let mut names = Vec::new();
+        for ch in layer.channel_data.list {
+            if ch.sample_data.len() != lw * lh {
+                return Err(Error::new(format!(
+                    "channel {} has {} samples for a {lw}×{lh} data window",
+                    ch.name,
+                    ch.sample_data.len()
+                )));
+            }
+            let own = ch.name.to_string();
+            let name = if prefix.is_empty() || own.starts_with(&format!("{prefix}.")) {
+                own
+            } else {
+                format!("{prefix}.{own}")
+            };
+            if channels.contains_key(&name) {
+                return Err(Error::new(format!(
+                    "{} gives the channel {name}, which another part gives too (rename a part to read it)",
+                    part_label(i)
+                )));
+            }
+            let data = match ch.sample_data {
+                // The usual case: no copy.
+                FlatSamples::F32(v) if same_window => v,
+                samples => {
+                    let get = |i: usize| -> f32 {
+                        match &samples {
+                            FlatSamples::F16(v) => v[i].to_f32(),
+                            FlatSamples::F32(v) => v[i],
+                            FlatSamples::U32(v) => v[i] as f32,
+                        }
+                    };
+                    let mut data = vec![0.0f32; dw * dh];
+                    for (r, row) in data.chunks_exact_mut(dw).enumerate() {
+                        let sy = r as i64 - oy;
+                        if sy < 0 || sy >= lh as i64 {
+                            continue;
+                        }
+                        for (c, v) in row.iter_mut().enumerate() {
+                            let sx = c as i64 - ox;
+                            if sx >= 0 && sx < lw as i64 {
+                                *v = get(sy as usize * lw + sx as usize);
+                            }
                         }
                     }
+                    data
                 }
-                data
+            };
+            names.push(name.clone());
+            channels.insert(name, data);
+        }
+        if let Some(c) = meta.headers[i].shared_attributes.chromaticities {
+            let v = |p: exr::math::Vec2<f32>| [p.x() as f64, p.y() as f64];
+            let chroma =
+                crate::colour::Chromaticities { red: v(c.red), green: v(c.green), blue: v(c.blue), white: v(c.white) };
+            let note = to_working_space(&mut channels, &names, &chroma).map_err(|m| {
+                Error::new(format!("{}: attribute chromaticities ({}): {m}", part_label(i), chroma.describe()))
+            })?;
+            if let Some(n) = note {
+                notes.push(if parts > 1 { format!("{}: {n}", part_label(i)) } else { n });
             }
-        };
-        channels.insert(name, data);
-    }
-    let (mut attributes, mut matrices) = (BTreeMap::new(), BTreeMap::new());
-    let others = image_other.iter().chain(layer.attributes.other.iter());
-    for (k, v) in others {
-        match v {
-            AttributeValue::Text(t) => {
-                attributes.insert(k.to_string(), t.to_string());
+        }
+        let others = image_other.iter().chain(layer.attributes.other.iter());
+        for (k, v) in others {
+            match v {
+                AttributeValue::Text(t) => {
+                    attributes.insert(k.to_string(), t.to_string());
+                }
+                AttributeValue::Matrix4x4(m) => {
+                    matrices.insert(k.to_string(), *m);
+                }
+                _ => {}
             }
-            AttributeValue::Matrix4x4(m) => {
-                matrices.insert(k.to_string(), *m);
+        }
+        // The standard attributes (reserved names, so the exr crate keeps them out of `other`).
+        let standard = [
+            ("worldToCamera", layer.attributes.world_to_camera),
+            ("worldToNDC", layer.attributes.world_to_normalized_device),
+        ];
+        for (k, m) in standard {
+            if let Some(m) = m {
+                matrices.insert(k.to_string(), m);
             }
-            _ => {}
         }
     }
-    // The standard attributes (reserved names, so the exr crate keeps them out of `other`).
-    let standard = [
-        ("worldToCamera", layer.attributes.world_to_camera),
-        ("worldToNDC", layer.attributes.world_to_normalized_device),
-    ];
-    for (k, m) in standard {
-        if let Some(m) = m {
-            matrices.insert(k.to_string(), m);
+    Ok((Image { width: dw, height: dh, channels, attributes, matrices }, notes))
+}
+
+/// Converts the radiance layers (R, G, B triples of layers not named as auxiliary outputs,
+/// [`NON_RADIANCE`]) among `names` from the primaries `chroma` to the working space. Returns the
+/// note to print, `None` when `chroma` is Rec. 709 (nothing changes); an error when it defines no
+/// RGB space. A luminance-only (`Y`) layer is achromatic: it needs no conversion.
+fn to_working_space(
+    channels: &mut BTreeMap<String, Vec<f32>>,
+    names: &[String],
+    chroma: &crate::colour::Chromaticities,
+) -> std::result::Result<Option<String>, String> {
+    let Some(m) = chroma.to_working()? else { return Ok(None) };
+    let mut converted = Vec::new();
+    for name in names {
+        let Some(prefix) = name.strip_suffix('R') else { continue };
+        let layer = prefix.trim_end_matches('.').rsplit('.').next().unwrap_or("").to_ascii_lowercase();
+        if !prefix.is_empty() && (!prefix.ends_with('.') || NON_RADIANCE.contains(&layer.as_str())) {
+            continue;
         }
+        let (g, b) = (format!("{prefix}G"), format!("{prefix}B"));
+        if !(channels.contains_key(&g) && channels.contains_key(&b)) {
+            continue;
+        }
+        let mut r = channels.remove(name).expect("listed");
+        let mut gv = channels.remove(&g).expect("checked");
+        let mut bv = channels.remove(&b).expect("checked");
+        crate::colour::convert_rgb(&m, &mut r, &mut gv, &mut bv);
+        channels.insert(name.clone(), r);
+        channels.insert(g, gv);
+        channels.insert(b, bv);
+        converted.push(if prefix.is_empty() { "R, G, B".to_string() } else { format!("{prefix}R/G/B") });
     }
-    Ok((Image { width: dw, height: dh, channels, attributes, matrices }, note))
+    if converted.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(format!(
+        "chromaticities {} converted to the working colour space (linear Rec. 709 primaries, D65 white; Bradford adaptation) in {}",
+        chroma.describe(),
+        converted.join("; ")
+    )))
 }
 
 /// Images larger than this many pixels per side are refused as absurd rather than allocated.

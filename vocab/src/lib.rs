@@ -16,6 +16,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod closed;
+pub mod colour;
 pub mod error;
 pub mod exr_order;
 pub mod header;

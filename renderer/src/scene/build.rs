@@ -269,7 +269,7 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
             let c: Vec<Rgb> = coefficients.iter().map(|&v| Rgb::from(v)).collect();
             Light::Sh(light::ShLight::new(c).map_err(|e| lerr(e.message))?)
         }
-        LightingSection::Envmap { file, mapping, scale, rotate_deg } => {
+        LightingSection::Envmap { file, mapping, scale, rotate_deg, layer } => {
             let p = resolve(base, file);
             *file = p.to_string_lossy().into_owned();
             if !(*scale >= 0.0 && scale.is_finite()) {
@@ -278,7 +278,10 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
             if rotate_deg.iter().any(|v| !v.is_finite()) {
                 return Err(lerr("rotate_deg must be finite".into()));
             }
-            let img = vocab::image::read_rgb(&p)?;
+            if layer.as_deref().is_some_and(|l| l.trim().is_empty() || l.contains(char::is_control)) {
+                return Err(lerr(format!("layer {layer:?} must name a layer or part (omit it for the beauty)")));
+            }
+            let img = vocab::image::read_rgb_layer(&p, layer.as_deref())?;
             // An absent mapping is inferred from the aspect ratio, as the analysis does, and written
             // into the description (and so the header).
             let m = match *mapping {
