@@ -689,7 +689,7 @@ fn per_image_and_repeated_flags() {
     assert_ne!(right, swapped);
     assert_eq!(doc["pixels_used"].as_u64(), Some(right), "pixels used (swapped flags would give {swapped})");
 
-    // Not given at all, --to is 0,0,0 and --up 0,0,1 (world +z) for every image, as README and --help
+    // Not given at all, --to is 0,0,0 and --up 0,0,1 (world +z) for every image, as the guide and --help
     // say; given for some images only, they are refused like --from (below). A view whose radiance
     // varies by row tells a rotated up from the default; a shifted target moves the sphere.
     let grad = {

@@ -260,15 +260,7 @@ fn user_facing_text_cites_only_what_a_user_can_see() {
             {
                 bad.push(at.clone());
             }
-            // `guide "SECTION"` (a section name may continue on the next line: checked as a prefix).
-            for pat in ["README \"", "guide \"", "guide \\\""] {
-                for (i, _) in line.match_indices(pat) {
-                    let cited = line[i + pat.len()..].split(['"', '\\']).next().unwrap_or("");
-                    if !headings.iter().any(|h| h.trim_matches('`').starts_with(cited) || h.starts_with(cited)) {
-                        bad.push(format!("{at} (no heading of the README or the guide starts with \"{cited}\")"));
-                    }
-                }
-            }
+            cited_sections_exist(&at, line, &headings, &mut bad);
         }
     }
     // The crates' sources (comments included) cite the guide, never a file outside the repository.
@@ -286,14 +278,30 @@ fn user_facing_text_cites_only_what_a_user_can_see() {
             {
                 let text = std::fs::read_to_string(&p).unwrap();
                 for (n, line) in text.lines().enumerate() {
+                    let at = format!("{}:{}: {line}", p.display(), n + 1);
                     if line.contains("CONVENTIONS") {
-                        bad.push(format!("{}:{}: {line}", p.display(), n + 1));
+                        bad.push(at.clone());
                     }
+                    cited_sections_exist(&at, line, &headings, &mut bad);
                 }
             }
         }
     }
     assert!(bad.is_empty(), "references a user cannot see:\n{}", bad.join("\n"));
+}
+
+/// Every `guide "SECTION"` (or `README "SECTION"`) in `line` names a heading of the README or the
+/// guide (a section name may continue on the next line: checked as a prefix); one entry in `bad` per
+/// citation that does not.
+fn cited_sections_exist(at: &str, line: &str, headings: &[String], bad: &mut Vec<String>) {
+    for pat in ["README \"", "guide \"", "guide \\\""] {
+        for (i, _) in line.match_indices(pat) {
+            let cited = line[i + pat.len()..].split(['"', '\\']).next().unwrap_or("");
+            if !headings.iter().any(|h| h.trim_matches('`').starts_with(cited) || h.starts_with(cited)) {
+                bad.push(format!("{at} (no heading of the README or the guide starts with \"{cited}\")"));
+            }
+        }
+    }
 }
 
 /// Every relative link of the README and the guide resolves: the file exists, and an anchor into a

@@ -311,18 +311,18 @@ fn mirror_sphere_lighting_from_a_headerless_image() {
     assert!(compared >= 27, "l ≤ 2 at least must be recovered from one view: {compared} compared");
 }
 
-/// The example that README's worked example runs, included as is so that this test runs its code.
+/// The example that the guide's worked example runs, included as is so that this test runs its code.
 #[allow(dead_code)]
 #[path = "../examples/foreign_render.rs"]
 mod foreign_render;
 
-/// README's worked example end to end: `examples/foreign_render.rs` at its defaults (256², 4 × 4
+/// the guide's worked example end to end: `examples/foreign_render.rs` at its defaults (256², 4 × 4
 /// sub-pixels of 2 spp per pixel, seed 1; ~3 s) writes the Lambert 0.8 sphere in other renderers'
 /// conventions (pbrt-v4 matrices with the mirrored axis, a Blender-style RGBA layer beside a depth
-/// AOV, Mitsuba's default Gaussian splatting), and `analyze` as README runs it recovers the filter
+/// AOV, Mitsuba's default Gaussian splatting), and `analyze` as the guide runs it recovers the filter
 /// 0.8·(1, 2/3, 1/4) within 4 of the printed bars (9 comparisons) with the correlation measured from
 /// the residuals near the kernel's (ρ(1,0) = 0.367, F = 3.134; measured 0.359 and 3.075 on this
-/// seed, README). Able to fail: without the inflation (F = 1) the bars shrink by 1.75 and the
+/// seed, the guide). Able to fail: without the inflation (F = 1) the bars shrink by 1.75 and the
 /// measured F check fails; a wrong camera recovery fails the silhouette check (exit 2).
 #[test]
 fn readme_worked_example_from_the_example_script() {
@@ -424,7 +424,7 @@ fn probe_file(
 /// mix, as `--albedo`/`--s` against its BRDF and the camera flags against its camera); the "no
 /// reflect:camera" hint names the flags of the command it comes from; a numeric flag outside its
 /// domain is one line naming the flag and the range; `--lighting` unlike the header's is said in
-/// the lighting source (README's rule: the lighting is what the image is compared with). No render:
+/// the lighting source (the guide's rule: the lighting is what the image is compared with). No render:
 /// tiny synthetic images, so this costs well under a second.
 #[test]
 fn flags_against_headers_and_their_domains() {

@@ -2,7 +2,7 @@
 //! document: `render`, `sh project`, `sh transfer` and `verify`. These documents are the typed
 //! report structs (`RenderReport`, `ProjectReport`, `TransferReport`, `verify::report::Report`)
 //! serialized; a renamed, removed, added or retyped field fails here and must be a deliberate
-//! change of this list (and of the README / the Python package that read them).
+//! change of this list (and of the guide / the Python package that read them).
 
 mod common;
 

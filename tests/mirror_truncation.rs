@@ -24,7 +24,7 @@
 //! l ≤ 8 or the l ≤ 16 fit) gives median |z| 0.00 and fails the width bound. Without the layer the
 //! previous estimator (residual σ of the l ≤ 8 fit, l ≤ 10 truncation) passes here (80 / 98 / 100 %:
 //! at 256² the residual σ alone is wide); on the 512² Mitsuba 3 render of the same kind of scene it
-//! gave 52 / 63 / 73 % in red (README), which this test cannot load.
+//! gave 52 / 63 / 73 % in red (the guide), which this test cannot load.
 
 mod common;
 use analysis::image::{Image, read_image, write_exr};

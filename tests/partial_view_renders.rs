@@ -159,7 +159,7 @@ fn phong_views_invert_brdf_uses_the_pixel_fit_and_flags_a_wrong_lighting_or_came
     // fail: measured robust χ²/ν 13 / 30 / 187, misfit 62 / 60 / 70 % (analyze, l_max 12). Flagged
     // by both commands. (The same edit on the Lambert render is not detectable: robust χ²/ν 0.5,
     // misfit 0 — Lambert's irradiance is smooth enough that the radial warp of the normals is
-    // absorbed; stated in README.)
+    // absorbed; stated in the guide.)
     let mut img = read_image(&front).unwrap();
     img.channels.retain(|name, _| !name.starts_with("normal."));
     let mut v: Value = serde_json::from_str(&img.attributes["reflect:camera"]).unwrap();

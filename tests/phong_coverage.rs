@@ -229,7 +229,7 @@ fn phong_lighting_error_bars_cover_over_4_seeds() {
     assert!(light[1][0].orders_recovered > light[0][0].orders_recovered, "{}", light[1][0].line("two views"));
 }
 
-/// The full measurement stated in README: 20 seeds, lighting and filter, one and two views.
+/// The full measurement stated in the guide: 20 seeds, lighting and filter, one and two views.
 #[test]
 #[ignore = "the coverage measurement: 20 seeds, about 5 minutes; run with --ignored --nocapture"]
 fn phong_coverage_over_20_seeds() {

@@ -1,4 +1,4 @@
-//! The README's main flow: `reflect render SCENE --out DIR/x.exr`, then `reflect analyze DIR/x.exr`
+//! The guide's main flow: `reflect render SCENE --out DIR/x.exr`, then `reflect analyze DIR/x.exr`
 //! with nothing else, from another working directory. The header names the lighting file the render
 //! used; that name must still find it (it was the scene-relative path joined to the render's working
 //! directory, which `analyze` then looked for next to the EXR: "cannot read file").
@@ -9,7 +9,7 @@ mod common;
 fn a_render_is_analysed_from_its_header_alone_from_any_directory() {
     let dir = common::temp_dir("render-then-analyze");
     let out = dir.join("sub").join("l.exr");
-    // Render from the checkout's root with the scene path relative to it (as README does).
+    // Render from the checkout's root with the scene path relative to it (as the guide does).
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_reflect"))
         .current_dir(common::root())
         .args(["render", "scenes/lambert-grace.toml", "--size", "48x48", "--spp", "8", "--out"])

@@ -153,16 +153,21 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     if described.object_count > 1 {
         warnings.push(format!("the scene has {} objects; analysing the first sphere", described.object_count));
     }
-    // A stderr layer that is 0 everywhere (one sample per pixel) carries no error estimate: the
-    // projections take σ from the residuals instead (analysis::projection::stderr_estimate).
+    // A stderr layer without an error estimate (+inf where a pixel has fewer than two samples, as a
+    // 1-spp render writes; or 0 everywhere, as older files and other renderers may write) carries no
+    // error bar: the projections take σ from the residuals instead (analysis::projection::stderr_estimate).
     for (path, image) in a.images.iter().zip(&images) {
-        if image.stderr_layer().is_ok_and(|s| s.is_some())
-            && analysis::projection::stderr_estimate(image).is_ok_and(|s| s.is_none())
-        {
+        let unknown = ["stderr.R", "stderr.G", "stderr.B"]
+            .iter()
+            .any(|c| image.channel(c).is_some_and(|v| v.iter().any(|x| x.is_infinite())));
+        let zero = image.stderr_layer().is_ok_and(|s| s.is_some())
+            && analysis::projection::stderr_estimate(image).is_ok_and(|s| s.is_none());
+        if unknown || zero {
             warnings.push(format!(
-                "{}: the stderr layer is 0 at every pixel (one sample per pixel, e.g. a 1-spp render, has no spread \
-                 to estimate an error from): σ is estimated from the residuals of the fits instead",
-                path.display()
+                "{}: the stderr layer holds no error estimate ({}; one sample per pixel, e.g. a 1-spp render, has no \
+                 spread to estimate an error from): σ is estimated from the residuals of the fits instead",
+                path.display(),
+                if unknown { "+inf: fewer than 2 samples" } else { "0 at every pixel" }
             ));
         }
     }

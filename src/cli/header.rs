@@ -728,7 +728,7 @@ pub fn lighting_of(
         };
         // Unlike the camera, sphere and BRDF (the image's description, where a contradiction is an
         // error), the lighting is what the image is compared with: `--lighting` replaces the
-        // sidecar's or header's by rule (guide "Images from other renderers"), to test whether a
+        // sidecar's or header's by rule (guide "Analysing another renderer's images"), to test whether a
         // lighting describes the image. It never does so silently: a different lighting is named
         // with the one it replaces in the report's lighting source.
         // A described lighting the analysis cannot read (axial, a missing map) is replaced as well.

@@ -260,7 +260,7 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image> {
 }
 
 fn print_notes(path: &Path, notes: &[String]) {
-    // Human text goes to stderr (CONVENTIONS §7): the user learns which part lit the scene and
+    // Human text goes to stderr (docs/src/conventions.md §7): the user learns which part lit the scene and
     // what was done to its colours.
     for n in notes {
         eprintln!("note: {}: {n}", path.display());
@@ -307,8 +307,8 @@ pub fn read_rgb(path: impl AsRef<Path>) -> Result<RgbImage> {
 }
 
 /// Reads the RGB radiance of the layer `layer` of an `.exr` or `.hdr` file: a channel prefix
-/// (`ViewLayer.Combined`) or the name of a part of a multi-part file (each part is a layer, README
-/// "Images"); `None` takes the plain `R, G, B` (or `Y`), else the only radiance layer
+/// (`ViewLayer.Combined`) or the name of a part of a multi-part file (each part is a layer, guide
+/// "Bad input"); `None` takes the plain `R, G, B` (or `Y`), else the only radiance layer
 /// ([`Image::select_layer`], whose note goes to stderr).
 pub fn read_rgb_layer(path: impl AsRef<Path>, layer: Option<&str>) -> Result<RgbImage> {
     let path = path.as_ref();

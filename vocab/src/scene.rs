@@ -129,7 +129,7 @@ pub enum LightingSection {
         #[serde(default)]
         rotate_deg: [f32; 3],
         /// The layer of the map to light with: a channel prefix (`ViewLayer.Combined`) or the name of
-        /// a part of a multi-part OpenEXR file (README "Images"). Absent: the beauty (plain `R, G, B`),
+        /// a part of a multi-part OpenEXR file (guide "Bad input"). Absent: the beauty (plain `R, G, B`),
         /// else the only radiance layer.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         layer: Option<String>,
