@@ -369,3 +369,26 @@ fn objects_beyond_the_reach_limit_are_refused() {
     let e = build_err(&mesh);
     assert!(e.contains("objects[0]") && e.contains("mesh") && e.contains("limit is 1e10"), "{e}");
 }
+
+/// An environment map's `layer` key must name a layer or part: empty, blank or control characters are
+/// refused naming the key, before the file is read; an unknown name is refused with the file's layers.
+#[test]
+fn envmap_layer_key_must_name_a_layer() {
+    let map = root().join("../shared/data/grace_latlong.exr");
+    assert!(map.exists(), "missing data: {} (the tests need ../shared beside the checkout)", map.display());
+    let scene = |layer: &str| {
+        format!(
+            "[camera]\ntype = \"orthographic\"\nfrom = [3.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nextent = 1.1\n\n\
+             [lighting]\ntype = \"envmap\"\nfile = {:?}\nlayer = {layer}\n\n[[objects]]\nshape = \"sphere\"\n\
+             brdf = {{ type = \"lambert\", albedo = 0.5 }}\n",
+            map.to_str().unwrap()
+        )
+    };
+    for bad in ["\"\"", "\"  \"", "\"a\\u0007b\""] {
+        let e = build_err(&scene(bad));
+        assert!(e.contains("layer") && e.contains("must name a layer or part"), "{bad}: {e}");
+    }
+    let e = build_err(&scene("\"diffuse\""));
+    assert!(e.contains("diffuse"), "{e}");
+    assert!(build(&scene("\"rgba\"")).is_ok(), "a beauty name selects the beauty");
+}

@@ -367,7 +367,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
                     let ch = Channel::from_film(
                         &render_spec(
                             ctx,
-                            &spec(Lighting::Directional { direction: *d, irradiance: 1.0 }, 1, seed + 97 * j as u64),
+                            &spec(Lighting::Directional { direction: *d, irradiance: 1.0 }, 2, seed + 97 * j as u64),
                         )?,
                         0,
                     );
@@ -410,7 +410,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             let nine = super::texture_ambiguity::nine_term_image(&b, w, h);
             pictures.push(Picture::new(
                 "positive_bound_directional",
-                format!("{label}: Lambertian sphere under one directional source (normal probe, 1 spp, exact)"),
+                format!("{label}: Lambertian sphere under one directional source (normal probe, 2 spp, exact)"),
                 "l ≤ 2 (9-term) part of the analytic image max(n·s, 0)/π; the difference is the energy above l = 2, \
                  not noise, so z saturates wherever it is non-zero",
                 (w, h),

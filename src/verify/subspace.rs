@@ -623,7 +623,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
         shape: Shape::Sphere,
         brdf: lambert.clone(),
     };
-    let probe_renders = render_all(ctx, &lights, &probe, (1, ctx.spp(64, 128)))?;
+    let probe_renders = render_all(ctx, &lights, &probe, (2, ctx.spp(64, 128)))?;
     // The icosphere mesh through an orthographic camera.
     std::fs::create_dir_all(&ctx.out).map_err(|e| format!("{}: {e}", ctx.out.display()))?;
     let obj = ctx.out.join("icosphere4.obj");

@@ -251,7 +251,7 @@ pub fn run(ctx: &Ctx) -> Result<Check, String> {
             let (lighting, spp, channel) = match light {
                 Light1::Sh(c) => (Lighting::Sh(c.clone()), ctx.spp(64, 128), 0),
                 Light1::Grace => (Lighting::Grace(1.0), ctx.spp(64, 128), grace::CHANNEL),
-                Light1::Directional => (Lighting::Directional { direction: SOURCE, irradiance: 1.0 }, 1, 0),
+                Light1::Directional => (Lighting::Directional { direction: SOURCE, irradiance: 1.0 }, 2, 0),
             };
             let spec = Spec {
                 width: w as u32,
