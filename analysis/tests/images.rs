@@ -528,22 +528,9 @@ fn exr_claim_above_the_decoded_budget_is_refused_at_once() {
     assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
 }
 
-/// The `compression` byte of the first header of an uncompressed file set to `value`.
+/// An uncompressed file of `parts` parts whose last header's `compression` byte is set to `value`.
 fn with_compression(name: &str, value: u8, parts: usize) -> PathBuf {
-    let ls: Vec<_> = (0..parts)
-        .map(|i| {
-            let n = ["rgba", "diffuse"][i];
-            layer(Some(n), (4, 2), (0, 0), &[("R", false), ("G", false), ("B", false)], Encoding::UNCOMPRESSED)
-        })
-        .collect();
-    let f = tmp(name);
-    ExrImage::from_layers(
-        exr::meta::header::ImageAttributes::new(exr::meta::attribute::IntegerBounds::from_dimensions((4, 2))),
-        ls,
-    )
-    .write()
-    .to_file(&f)
-    .unwrap();
+    let f = parts_file(name, &["rgba", "diffuse"][..parts]);
     let mut bytes = std::fs::read(&f).unwrap();
     let key = b"compression\0compression\0\x01\0\0\0";
     let mut at: Vec<usize> = bytes.windows(key.len()).enumerate().filter(|(_, w)| w == key).map(|(i, _)| i).collect();

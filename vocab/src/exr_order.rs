@@ -69,6 +69,27 @@ fn attribute_name(bytes: &[u8], (s, _): (usize, usize)) -> &[u8] {
     &b[..b.iter().position(|&c| c == 0).unwrap_or(0)]
 }
 
+/// One raw header attribute: (part, name, type, value bytes).
+pub(crate) type RawAttribute<'a> = (usize, &'a [u8], &'a [u8], &'a [u8]);
+
+/// Every attribute of every header of the OpenEXR file in `bytes` as (part, name, type, value),
+/// or `None` when the bytes are not a header layout this module understands (then the `exr`
+/// crate's own parser has the last word).
+pub(crate) fn raw_attributes(bytes: &[u8]) -> Option<Vec<RawAttribute<'_>>> {
+    let headers = header_spans(bytes)?;
+    let mut out = Vec::new();
+    for (part, (_, _, spans)) in headers.iter().enumerate() {
+        for &(s, e) in spans {
+            let name = attribute_name(bytes, (s, e));
+            let type_at = s + name.len() + 1;
+            let kind = attribute_name(bytes, (type_at, e));
+            // The value follows the type's NUL and the 4-byte size (header_spans checked the layout).
+            out.push((part, name, kind, &bytes[type_at + kind.len() + 1 + 4..e]));
+        }
+    }
+    Some(out)
+}
+
 /// Sorts the attributes of every header of the OpenEXR file in `bytes` by name (byte order), in
 /// place. Returns `None`, leaving `bytes` untouched, when the bytes are not a header layout this
 /// function understands (then they are written as they are: a permuted header is still a valid

@@ -573,38 +573,15 @@ fn unsupported_compression_name(value: u8) -> Option<String> {
     }
 }
 
-/// Walks the raw header attributes (`name\0type\0size value`, each header ended by an empty name)
-/// and refuses a `compression` the decoder does not implement, naming it, before the exr crate
-/// parses the header (it fails on values it does not know with a message that names no method).
-/// Anything malformed is left to the crate's own parser.
+/// Refuses a `compression` the decoder does not implement, naming it, from the raw header
+/// attributes ([`crate::exr_order`] walks them) before the exr crate parses the header (it fails on
+/// values it does not know with a message that names no method). Headers that module cannot walk are
+/// left to the crate's own parser.
 fn check_exr_compression(bytes: &[u8]) -> Result<()> {
-    let Some(version) = bytes.get(4..8) else { return Ok(()) };
-    let multi_part = version[1] & 0x10 != 0;
-    let mut p = 8usize;
-    let mut part = 0usize;
-    let cstr = |p: usize| -> Option<(&[u8], usize)> {
-        let rest = bytes.get(p..)?;
-        let end = rest.iter().take(256).position(|&b| b == 0)?;
-        Some((&rest[..end], p + end + 1))
-    };
-    loop {
-        let Some((name, q)) = cstr(p) else { return Ok(()) };
-        if name.is_empty() {
-            part += 1;
-            if !multi_part || bytes.get(q) == Some(&0) {
-                return Ok(());
-            }
-            p = q;
-            continue;
-        }
-        let Some((ty, q)) = cstr(q) else { return Ok(()) };
-        let Some(size) = bytes.get(q..q + 4).map(|s| i32::from_le_bytes([s[0], s[1], s[2], s[3]])) else {
-            return Ok(());
-        };
-        let Ok(size) = usize::try_from(size) else { return Ok(()) };
-        let Some(value) = bytes.get(q + 4..(q + 4).saturating_add(size)) else { return Ok(()) };
+    let multi_part = bytes.get(5).is_some_and(|v| v & 0x10 != 0);
+    for (part, name, kind, value) in crate::exr_order::raw_attributes(bytes).unwrap_or_default() {
         if name == b"compression"
-            && ty == b"compression"
+            && kind == b"compression"
             && let [v] = value
             && let Some(method) = unsupported_compression_name(*v)
         {
@@ -613,8 +590,8 @@ fn check_exr_compression(bytes: &[u8]) -> Result<()> {
                 "unsupported compression: {which}{method}, which this reader cannot decode (it reads none, RLE, ZIPS, ZIP, PIZ, PXR24, B44, B44A, DWAA, DWAB)"
             )));
         }
-        p = q + 4 + size;
     }
+    Ok(())
 }
 
 /// Bytes of decoded samples the headers of an OpenEXR file claim (see [`EXR_MAX_DECODED_BYTES`]):

@@ -692,14 +692,7 @@ fn ploc_degenerates(aabbs: &[Aabb]) -> bool {
         cb.extend(b.center());
     }
     let scale = Vec3A::splat(((1u32 << 21) - 1) as f32) / cb.diagonal().max(Vec3A::splat(f32::MIN_POSITIVE));
-    let spread = |v: u32| {
-        let mut x = v as u64 & 0x1f_ffff;
-        x = (x | x << 32) & 0x001f_0000_0000_ffff;
-        x = (x | x << 16) & 0x001f_0000_ff00_00ff;
-        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-        (x | x << 2) & 0x1249_2492_4924_9249
-    };
+    let spread = obvhs::ploc::morton::split_by_3_u64;
     let mut keyed: Vec<(u64, u32)> = aabbs
         .iter()
         .enumerate()
