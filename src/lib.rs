@@ -2,5 +2,6 @@
 //! ([`verify`]), so that the binary (`src/main.rs`), the integration tests and the Python package run one
 //! implementation. The rendering and SH mathematics live in the `renderer` and `analysis` crates.
 
+pub mod bench;
 pub mod cli;
 pub mod verify;

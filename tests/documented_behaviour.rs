@@ -291,3 +291,33 @@ fn verify_exits_1_when_a_check_fails() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("FAIL"), "{err}");
 }
+
+/// Guide, reference/scene-files.md "Where files are found": a scene file copied away from the data
+/// finds its map by name in `REFLECT_DATA`, and without it the error names the path looked at.
+/// Planted error: ignoring `REFLECT_DATA` fails the first render.
+#[test]
+fn a_copied_scene_finds_its_map_through_reflect_data() {
+    let dir = temp_dir("doc-reflect-data");
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    write_map(&data.join("my_map.exr"), 32, 16, 0.0);
+    let scene = write(&dir, "s.toml", &scene_text("../../elsewhere/my_map.exr", Some("latlong"), 8, 4, ""));
+    let out = dir.join("o.exr");
+    let run = |env: Option<&Path>| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_reflect"));
+        c.args(["render", &scene, "--out", &s(&out), "--quiet"]);
+        match env {
+            Some(d) => c.env("REFLECT_DATA", d),
+            None => c.env_remove("REFLECT_DATA"),
+        };
+        let o = c.output().unwrap();
+        (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (code, err) = run(None);
+    assert_eq!((code, err.lines().count()), (2, 1), "{err}");
+    assert!(err.contains("my_map.exr") && !out.exists(), "{err}");
+    let (code, err) = run(Some(&data));
+    assert_eq!(code, 0, "{err}");
+    let header = vocab::image::header_attributes(&out).unwrap();
+    assert!(header["reflect:lighting"].contains(&s(&data.join("my_map.exr"))), "{}", header["reflect:lighting"]);
+}

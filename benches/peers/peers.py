@@ -41,12 +41,10 @@ import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
-SCENES = {
-    # name: (map, object kind, bsdf)
-    "lambert-grace": ("grace_latlong.exr", "sphere", "diffuse"),
-    "beckmann-grace": ("grace_latlong.exr", "sphere", "beckmann"),
-    "mesh-sky": ("sky_latlong.exr", "icosphere", "diffuse"),
-}
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import mitsuba_worker  # noqa: E402  (the scene translation, one place for this script and `reflect bench`)
+
+SCENES = mitsuba_worker.SCENES
 SIZE = 512
 
 INSTALL = """The peer benchmark needs Mitsuba 3 (and numpy) in Python:
@@ -119,87 +117,10 @@ def mitsuba_peak_mb(name, spp, threads, tmp):
     return float(m.group(1))
 
 
-def icosphere(n, np):
-    """Unit icosphere with 20·4ⁿ triangles (the same surface as reflect's geometry::icosphere)."""
-    phi = (1.0 + 5.0 ** 0.5) / 2.0
-    v = np.array([[-1, phi, 0], [1, phi, 0], [-1, -phi, 0], [1, -phi, 0], [0, -1, phi], [0, 1, phi],
-                  [0, -1, -phi], [0, 1, -phi], [phi, 0, -1], [phi, 0, 1], [-phi, 0, -1], [-phi, 0, 1]], float)
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
-    f = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
-                  [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
-                  [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]], np.int64)
-    for _ in range(n):
-        nv = len(v)
-        e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-        e.sort(axis=1)
-        key = e[:, 0] * nv + e[:, 1]
-        uniq, inv = np.unique(key, return_inverse=True)
-        a, b = uniq // nv, uniq % nv
-        mid = v[a] + v[b]
-        mid /= np.linalg.norm(mid, axis=1, keepdims=True)
-        v = np.concatenate([v, mid])
-        m = (nv + inv).reshape(3, -1)
-        m01, m12, m20 = m[0], m[1], m[2]
-        f = np.concatenate([np.stack([f[:, 0], m01, m20], 1), np.stack([f[:, 1], m12, m01], 1),
-                            np.stack([f[:, 2], m20, m12], 1), np.stack([m01, m12, m20], 1)])
-    return v.astype(np.float32), f.astype(np.int32)
-
-
-def write_ply(path, v, f, np):
-    """Binary PLY with vertex normals = positions (smooth unit sphere)."""
-    with open(path, "wb") as fh:
-        fh.write((f"ply\nformat binary_little_endian 1.0\nelement vertex {len(v)}\n"
-                  "property float x\nproperty float y\nproperty float z\n"
-                  "property float nx\nproperty float ny\nproperty float nz\n"
-                  f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n").encode())
-        fh.write(np.concatenate([v, v], 1).astype("<f4").tobytes())
-        rec = np.zeros(len(f), dtype=[("n", "u1"), ("i", "<i4", 3)])
-        rec["n"], rec["i"] = 3, f
-        fh.write(rec.tobytes())
-
-
-def corner_aligned(img, np):
-    """Mitsuba's envmap rows are corner-aligned; a (2H+1)-row bitmap whose row m holds our
-    bilinear value at v = m/(2H) makes it look up exactly our function."""
-    h = img.shape[0]
-    out = np.empty((2 * h + 1,) + img.shape[1:], np.float32)
-    out[1::2] = img
-    out[2:-1:2] = 0.5 * (img[:-1] + img[1:])
-    out[0], out[-1] = img[0], img[-1]
-    return out
-
-
 def mitsuba_scene(mi, np, name, spp, tmp):
-    map_file, shape, bsdf = SCENES[name]
-    T = mi.ScalarTransform4f
-    img = np.array(mi.Bitmap(os.path.join(data_dir(), map_file)), dtype=np.float32)[:, :, :3]
-    bsdfs = {
-        "diffuse": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.8}},
-        "beckmann": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.2, "material": "none",
-                     "specular_reflectance": {"type": "rgb", "value": 1.0}, "sample_visible": True},
-    }
-    d = 5.0 / (1.0 + 0.09) ** 0.5
-    scene = {
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": 2},
-        "sensor": {
-            "type": "orthographic",
-            "to_world": T().look_at(origin=[d, 0, 0.3 * d], target=[0, 0, 0], up=[0, 0, 1]) @ T().scale([1.05, 1.05, 1]),
-            "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE, "rfilter": {"type": "box"},
-                     "pixel_format": "rgb", "component_format": "float32"},
-            "sampler": {"type": "independent", "sample_count": spp},
-        },
-        "emitter": {"type": "envmap", "bitmap": mi.Bitmap(corner_aligned(img, np)),
-                    "to_world": T([[0, 0, -1, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1]])},
-    }
-    if shape == "sphere":
-        scene["object"] = {"type": "sphere", "center": [0, 0, 0], "radius": 1.0, "bsdf": bsdfs[bsdf]}
-    else:
-        ply = os.path.join(tmp, "icosphere8.ply")
-        if not os.path.exists(ply):
-            write_ply(ply, *icosphere(8, np), np)
-        scene["object"] = {"type": "ply", "filename": ply, "face_normals": False, "bsdf": bsdfs[bsdf]}
-    return mi.load_dict(scene)
+    """The Mitsuba scene of a benchmark scene: the translation lives in mitsuba_worker.py (shared with
+    `reflect bench`)."""
+    return mitsuba_worker.mitsuba_scene(mi, np, name, SIZE, spp, "independent", data_dir(), tmp)
 
 
 def read_rgb(mi, np, path):

@@ -2,6 +2,7 @@
 
 pub mod analyze;
 pub mod args;
+pub mod bench;
 pub mod factor;
 pub mod flags;
 pub mod header;
@@ -50,6 +51,8 @@ pub enum Command {
     Slurm(slurm::SlurmCommand),
     /// Tone-mapped sRGB PNG preview of an image (not an analysis input).
     Png(png::PngArgs),
+    /// Benchmark: time to a target error on the paper's scenes, per phase, beside peers if installed.
+    Bench(bench::BenchArgs),
 }
 
 pub fn run(cli: Cli) -> Result<ExitCode, Error> {
@@ -62,6 +65,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Png(a) => png::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Slurm(c) => slurm::run(c),
+        Command::Bench(a) => bench::run(a),
     }
 }
 

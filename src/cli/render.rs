@@ -82,6 +82,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 /// Parses a scene file (or the default scene) and applies command-line overrides.
 pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
+    let t0 = std::time::Instant::now();
     let (text, base, path) = match &a.scene {
         Some(p) => {
             let text =
@@ -94,6 +95,7 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
         Some(p) => Error::file(p, m),
         None => Error::new(m),
     })?;
+    let parse_seconds = t0.elapsed().as_secs_f64();
     if let Some(s) = a.spp {
         file.render.spp = s;
     }
@@ -112,6 +114,7 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
         None => e,
     })?;
     scene.path = path;
+    scene.timings.parse_seconds = parse_seconds;
     Ok(scene)
 }
 
@@ -307,6 +310,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         rays: stats.rays,
         rays_per_sec: stats.rays_per_sec(),
         load_seconds: t_load.as_secs_f64(),
+        load_phases: scene.timings,
         render_seconds: stats.wall.as_secs_f64(),
         save_seconds: t_save.as_secs_f64(),
         total_seconds: t_start.elapsed().as_secs_f64(),
@@ -352,6 +356,8 @@ pub struct RenderReport {
     pub rays_per_sec: f64,
     /// Scene, meshes and environment tables, seconds.
     pub load_seconds: f64,
+    /// The load's phases: parse, meshes, BVH build, map reading, lighting tables, seconds.
+    pub load_phases: renderer::scene::BuildTimings,
     /// The render loop, seconds (the time the rates divide by).
     pub render_seconds: f64,
     /// Writing the EXR (and PNG), seconds.

@@ -11,6 +11,7 @@ use crate::math::{Rgb, Vec3, rotation_xyz_deg};
 use crate::sampling::SamplerKind;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Largest accepted image side and samples per pixel: beyond these a request is taken as a typo.
 pub const MAX_RESOLUTION: u32 = 16384;
@@ -41,6 +42,25 @@ pub struct Scene {
     pub description: SceneFile,
     /// Where the scene came from (None for the built-in default).
     pub path: Option<PathBuf>,
+    /// How long each phase of loading took (what `reflect render --json` reports as `phases` and
+    /// `reflect bench` compares).
+    pub timings: BuildTimings,
+}
+
+/// Wall time of each phase of [`Scene::load`] / [`Scene::build`], seconds. They do not overlap;
+/// their sum is the load time minus small glue (camera, BRDF tables).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BuildTimings {
+    /// Reading and parsing the scene file (0 for [`Scene::build`] from a parsed description).
+    pub parse_seconds: f64,
+    /// Reading mesh files (OBJ, glTF) or generating icospheres, and transforming them.
+    pub meshes_seconds: f64,
+    /// Building the bounding-volume hierarchy over every shape (obvhs).
+    pub bvh_seconds: f64,
+    /// Reading the environment map's image file (decoding, colour conversion).
+    pub lighting_read_seconds: f64,
+    /// The environment map's sampling tables (row and column CDFs) and other lighting setup.
+    pub lighting_tables_seconds: f64,
 }
 
 /// The built-in default scene: a sphere under a built-in sky.
@@ -49,12 +69,15 @@ pub const DEFAULT_SCENE: &str = include_str!("default.toml");
 impl Scene {
     /// Loads and builds a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
+        let t0 = Instant::now();
         let text =
             std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
         let file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
+        let parse_seconds = t0.elapsed().as_secs_f64();
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::build(file, &base).map_err(|e| e.in_file(path)).map(|mut s| {
             s.path = Some(path.to_path_buf());
+            s.timings.parse_seconds = parse_seconds;
             s
         })
     }
@@ -89,6 +112,8 @@ impl Scene {
             sampler: r.sampler,
         };
 
+        let mut timings = BuildTimings::default();
+        let t_meshes = Instant::now();
         // Objects.
         let mut shapes = Vec::with_capacity(file.objects.len());
         let mut brdfs = Vec::with_capacity(file.objects.len());
@@ -159,6 +184,7 @@ impl Scene {
             });
         }
 
+        timings.meshes_seconds = t_meshes.elapsed().as_secs_f64();
         // Camera.
         let (w, h) = (settings.width, settings.height);
         let first_sphere = match shapes.first() {
@@ -168,9 +194,11 @@ impl Scene {
         let camera = build_camera(&file.camera, first_sphere, w, h).map_err(|m| Error::new(format!("camera: {m}")))?;
 
         // Lighting.
-        let light = build_light(&mut file.lighting, base)?;
+        let light = build_light(&mut file.lighting, base, &mut timings)?;
+        let t_bvh = Instant::now();
         let geometry = SceneGeometry::new(shapes);
-        Ok(Scene { settings, camera, light, geometry, brdfs, textures, description: file, path: None })
+        timings.bvh_seconds = t_bvh.elapsed().as_secs_f64();
+        Ok(Scene { settings, camera, light, geometry, brdfs, textures, description: file, path: None, timings })
     }
 }
 
@@ -208,9 +236,26 @@ fn build_camera(
 /// (`reflect:lighting`, `reflect:objects`), which `analyze` and `invert` read from any directory, so
 /// a path relative to the directory the render ran in would name the wrong file (or none). The
 /// canonical path when the file exists; else the absolute, un-normalised one (the loader then names it).
+/// The environment variable naming the data folder, searched for a relative data file that is not
+/// where the scene file says (docs/src/reference/scene-files.md, "Where files are found").
+pub const DATA_ENV: &str = "REFLECT_DATA";
+
+/// A data file named in a scene: an absolute path as given; a relative one against the scene file's
+/// folder, and when nothing is there, by its file name in the folder [`DATA_ENV`] names (so a scene
+/// file copied elsewhere still finds `../../shared/data/grace_latlong.exr`). A file found nowhere
+/// keeps the first path, which the reader's error then names.
 fn resolve(base: &Path, f: &str) -> PathBuf {
     let p = Path::new(f);
-    let joined = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
+    let mut joined = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
+    if !p.is_absolute()
+        && !joined.exists()
+        && let (Some(dir), Some(name)) = (std::env::var_os(DATA_ENV).filter(|d| !d.is_empty()), p.file_name())
+    {
+        let candidate = Path::new(&dir).join(name);
+        if candidate.is_file() {
+            joined = candidate;
+        }
+    }
     joined.canonicalize().or_else(|_| std::path::absolute(&joined)).unwrap_or(joined)
 }
 
@@ -228,9 +273,10 @@ pub(crate) fn color(c: super::file::Color, what: &str) -> std::result::Result<Rg
     }
 }
 
-fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
+fn build_light(l: &mut LightingSection, base: &Path, timings: &mut BuildTimings) -> Result<Light> {
+    let t = Instant::now();
     let lerr = |m: String| Error::new(format!("lighting: {m}"));
-    Ok(match l {
+    let light = match l {
         LightingSection::Uniform { radiance } => {
             Light::Uniform(light::Uniform::new(color(*radiance, "radiance").map_err(lerr)?))
         }
@@ -282,6 +328,8 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
                 return Err(lerr(format!("layer {layer:?} must name a layer or part (omit it for the beauty)")));
             }
             let img = vocab::image::read_rgb_layer(&p, layer.as_deref())?;
+            timings.lighting_read_seconds = t.elapsed().as_secs_f64();
+            let t = Instant::now();
             // An absent mapping is inferred from the aspect ratio, as the analysis does, and written
             // into the description (and so the header).
             let m = match *mapping {
@@ -289,9 +337,15 @@ fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
                 None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(&p))?,
             };
             *mapping = Some(m);
-            Light::Envmap(light::Envmap::new(img, m, *scale, rotation_xyz_deg(*rotate_deg)).map_err(|e| e.in_file(&p))?)
+            let env = light::Envmap::new(img, m, *scale, rotation_xyz_deg(*rotate_deg)).map_err(|e| e.in_file(&p))?;
+            timings.lighting_tables_seconds = t.elapsed().as_secs_f64();
+            Light::Envmap(env)
         }
-    })
+    };
+    if timings.lighting_read_seconds == 0.0 {
+        timings.lighting_tables_seconds = t.elapsed().as_secs_f64();
+    }
+    Ok(light)
 }
 
 #[cfg(test)]

@@ -5,5 +5,5 @@ pub mod build;
 /// The scene-file types, defined in `vocab` (docs/src/conventions.md §6).
 pub use vocab::scene as file;
 
-pub use build::{RenderSettings, Scene};
+pub use build::{BuildTimings, RenderSettings, Scene};
 pub use file::SceneFile;
