@@ -168,15 +168,17 @@ fn error_bars_cover_for_every_sampler_and_brdf() {
                     );
                 }
                 if sampler == "sobol" {
-                    let own: Vec<Film> = parts
-                        .iter()
-                        .map(|p| Partial { replicates: 1, ..p.clone() }.finish())
-                        .collect();
+                    let own: Vec<Film> =
+                        parts.iter().map(|p| Partial { replicates: 1, ..p.clone() }.finish()).collect();
                     let mut planted = Counts::default();
                     planted.add(&own, truth, 1.0);
                     println!("  (Sobol, samples' own σ: {})", planted.row(spp - 1));
                     if spp >= 256 {
-                        assert!(!planted.honest(spp - 1, alpha), "{name}: Sobol's sample σ passes: {}", planted.row(spp - 1));
+                        assert!(
+                            !planted.honest(spp - 1, alpha),
+                            "{name}: Sobol's sample σ passes: {}",
+                            planted.row(spp - 1)
+                        );
                     }
                 }
             }
@@ -218,14 +220,21 @@ fn target_rel_error_is_the_error_the_user_gets() {
                 count += 1.0;
                 s2 += (s[0] as f64).powi(2);
             }
-            assert!((e2_seed / count).sqrt() <= target, "{sampler} seed {seed}: RMS error {}", (e2_seed / count).sqrt());
+            assert!(
+                (e2_seed / count).sqrt() <= target,
+                "{sampler} seed {seed}: RMS error {}",
+                (e2_seed / count).sqrt()
+            );
             e2 += e2_seed;
             n += count;
         }
         let ratio = (e2 / s2).sqrt();
         let sd = (2.0 / n).sqrt() / 2.0 * (1.0 + 2.0 / 15.0f64).sqrt();
-        println!("{sampler}: RMS real error {:.4} %, RMS printed {:.4} %, ratio {ratio:.3} ± {sd:.3}",
-            100.0 * (e2 / n).sqrt(), 100.0 * (s2 / n).sqrt());
+        println!(
+            "{sampler}: RMS real error {:.4} %, RMS printed {:.4} %, ratio {ratio:.3} ± {sd:.3}",
+            100.0 * (e2 / n).sqrt(),
+            100.0 * (s2 / n).sqrt()
+        );
         assert!((ratio - 1.0).abs() <= 4.0 * sd, "{sampler}: real / printed error {ratio:.3} (σ {sd:.3})");
     }
     let _ = std::fs::remove_dir_all(dir);

@@ -21,7 +21,28 @@
 //! (1979) so that a constant pixel has exactly zero error and there is no cancellation; `stderr =
 //! √(M2 / (K (K−1))) / B` over the K full batches (the batch-means estimator; samples of a final
 //! partial batch count in the mean only). Renders use B = 1 ([`batch_log2`]), which is the sample
-//! standard error of the mean.
+//! standard error of the mean: the error bar of the independent sampler.
+//!
+//! **Replicates (the Sobol sampler).** The points of one Owen-scrambled Sobol sequence are not
+//! independent, and the sample standard error overstated their mean's error (1.35× at 16 spp, 4.55×
+//! at 4096 on a Lambert sphere). The Sobol sampler therefore draws [`REPLICATES`] = R independent
+//! scrambles, sample i in replicate i mod R (`crate::sampling::sampler`), and each block also carries
+//! the sum of every replicate's samples (joined by addition in the same tree, so the same bits for
+//! any partition). An aligned block of at least R samples holds equally many samples of every
+//! replicate; over the canonical blocks of `[0, spp)` of that size (the q = ⌊spp / R⌋ full rounds),
+//! the replicate means m_r are independent and identically distributed, and
+//!
+//! stderr = √(Σ_r (m_r − m)² / (R (R − 1))), m = Σ_r m_r / R,
+//!
+//! is unbiased in square for the variance of their mean, with R − 1 degrees of freedom ([`Partial::replicates`]
+//! = R). Samples past the last full round count in the pixel value only (as a partial batch does).
+//! Below one round (spp < R) every sample is in its own replicate, so the samples are independent and
+//! the error is their sample standard error. **Where renders may split:** anywhere, for the bits (the
+//! tree is the same); progressive and checkpointed passes are whole rounds from R spp on
+//! (`src/cli/passes.rs`), so that a pass's image uses all its samples for its error bar.
+//!
+//! The reliability flag below reads the samples' own M2 (batches of one sample) for either sampler,
+//! so its meaning does not depend on the sampler.
 //!
 //! Under a heavy-tailed estimator (a sun-like texel that light sampling misses in fewer than one
 //! sample in a hundred), no error bar computed from a pixel's own samples can be trusted when the
@@ -418,7 +439,6 @@ impl PixelAccumulator {
         // batch). A function, not a closure, which LLVM may leave out of line and compiled for the
         // baseline (see `render::render_tile`).
         #[inline(always)]
-        #[allow(clippy::too_many_arguments)]
         fn pair(
             radiance: &[Rgb; 8],
             normal: &[Vec3; 8],
@@ -856,8 +876,7 @@ mod tests {
                 cuts.push(0);
                 cuts.push(spp);
                 cuts.sort();
-                let mut parts: Vec<Partial> =
-                    cuts.windows(2).map(|c| partial_r(&xs, c[0], c[1], bl, reps)).collect();
+                let mut parts: Vec<Partial> = cuts.windows(2).map(|c| partial_r(&xs, c[0], c[1], bl, reps)).collect();
                 // Shuffle.
                 for i in (1..parts.len()).rev() {
                     parts.swap(i, rng.next_u64() as usize % (i + 1));
@@ -1053,7 +1072,8 @@ mod tests {
         assert_eq!(a.stderr_own, b.stderr_own);
         // Values stratified within each replicate (replicate k's points alternate about k's mean):
         // the samples spread widely, the replicate means do not.
-        let xs: Vec<f32> = (0..64 * r).map(|i| (i % r) as f32 * 0.01 + if (i / r) % 2 == 0 { 5.0 } else { -5.0 }).collect();
+        let xs: Vec<f32> =
+            (0..64 * r).map(|i| (i % r) as f32 * 0.01 + if (i / r) % 2 == 0 { 5.0 } else { -5.0 }).collect();
         let p = partial_r(&xs, 0, xs.len(), 0, REPLICATES).finish_own().pixels[0];
         let own = partial_b(&xs, 0, xs.len(), 0).finish_own().pixels[0];
         assert!(p.stderr_own[0] < 0.1 * own.stderr_own[0], "{} vs {}", p.stderr_own[0], own.stderr_own[0]);

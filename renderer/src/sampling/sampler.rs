@@ -36,7 +36,7 @@ const KEYS: usize = 16;
 pub const REPLICATES: u32 = 16;
 
 /// Mixed into the pixel key to derive a replicate's key (keeps them apart from the draws' keys).
-const REPLICATE_SALT: u64 = 0x5EED_0F_5C_4A_3B_1E00;
+const REPLICATE_SALT: u64 = 0x5EED_0F5C_4A3B_1E00;
 
 #[derive(Clone, Debug)]
 pub struct Sampler {
@@ -378,7 +378,12 @@ impl Sampler {
     /// The current sample's position (see [`SampleCursor`]).
     #[inline(always)]
     pub fn cursor(&self) -> SampleCursor {
-        SampleCursor { replicate: self.replicate, index: self.index, index_reversed: self.index_reversed, dim: self.dim }
+        SampleCursor {
+            replicate: self.replicate,
+            index: self.index,
+            index_reversed: self.index_reversed,
+            dim: self.dim,
+        }
     }
 
     /// Continues the sample of `c`, taken by [`Sampler::cursor`] since the last `start` at another
@@ -708,9 +713,10 @@ mod tests {
     fn sobol_prefix_is_a_net() {
         let mut s = Sampler::new(SamplerKind::Sobol, 3);
         let n = 256usize;
-        for (r, shape) in [0, REPLICATES - 1].into_iter().flat_map(|r| {
-            [(1usize, 256usize), (16, 16), (256, 1), (4, 64)].map(|sh| (r, sh))
-        }) {
+        for (r, shape) in [0, REPLICATES - 1]
+            .into_iter()
+            .flat_map(|r| [(1usize, 256usize), (16, 16), (256, 1), (4, 64)].map(|sh| (r, sh)))
+        {
             let mut seen = vec![0u32; n];
             for i in 0..n as u32 {
                 s.start(5, r + REPLICATES * i);
