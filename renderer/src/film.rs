@@ -1073,7 +1073,7 @@ mod tests {
         // Values stratified within each replicate (replicate k's points alternate about k's mean):
         // the samples spread widely, the replicate means do not.
         let xs: Vec<f32> =
-            (0..64 * r).map(|i| (i % r) as f32 * 0.01 + if (i / r) % 2 == 0 { 5.0 } else { -5.0 }).collect();
+            (0..64 * r).map(|i| (i % r) as f32 * 0.01 + if (i / r).is_multiple_of(2) { 5.0 } else { -5.0 }).collect();
         let p = partial_r(&xs, 0, xs.len(), 0, REPLICATES).finish_own().pixels[0];
         let own = partial_b(&xs, 0, xs.len(), 0).finish_own().pixels[0];
         assert!(p.stderr_own[0] < 0.1 * own.stderr_own[0], "{} vs {}", p.stderr_own[0], own.stderr_own[0]);
