@@ -1,11 +1,13 @@
 //! How well the `stderr` layer predicts the real error of a pixel, per sampler.
 //!
-//! `stderr` is the iid formula √(s²/n) from the pixel's own samples. For the independent sampler that
-//! is the standard error of the mean; for Owen-scrambled Sobol points the samples of one pixel are
-//! not independent (they are stratified), the mean's variance is smaller than s²/n, and the formula
-//! overstates the error. This renders a scene with N seeds (different seeds are independent
-//! scrambles, i.e. randomized-QMC replicates), measures each pixel's seed-to-seed standard deviation
-//! of its mean (the real error), and compares it with the printed stderr (rms over the seeds).
+//! For the independent sampler `stderr` is the iid formula √(s²/n) from the pixel's own samples, the
+//! standard error of the mean. Owen-scrambled Sobol points of one sequence are not independent (they
+//! are stratified: the mean's variance is smaller than s²/n, and that formula overstated the error
+//! 1.35–4.55×), so the Sobol sampler draws 16 independently scrambled replicates and `stderr` is the
+//! spread of their means (`renderer::film`). This renders a scene with N seeds, measures each
+//! pixel's seed-to-seed standard deviation of its mean (the real error), and compares it with the
+//! printed stderr (rms over the seeds); the last column compares the samplers' real errors at equal
+//! spp.
 //!
 //! ```sh
 //! cargo run --release --example stderr_calibration -- SCENE.toml [SEEDS [SIZE [SPP,SPP,…]]]

@@ -87,25 +87,6 @@ fn white_furnace_lambert_and_mirror() {
 #[test]
 fn energy_conservation_of_every_brdf() {
     use std::f64::consts::PI;
-    // ∫ over the upper hemisphere of n = +z of f(ω_i) dω_i for ω_o at θ_o in the xz-plane: midpoint
-    // rule in (θ, φ) with exact cell solid angles; θ = π/2 is a cell edge, so the horizon cut is exact.
-    // Error O(h²·w⁻²) for a lobe of width w: < 1e-5 at 1500 × 3000 cells for w ≥ 0.1 (halving h moves
-    // the results by < 3e-6).
-    let albedo = |theta_o: f64, f: &dyn Fn([f64; 3], [f64; 3]) -> f64| {
-        let wo = [theta_o.sin(), 0.0, theta_o.cos()];
-        let (nt, np) = (1500, 3000);
-        let mut sum = 0.0;
-        for i in 0..nt {
-            let (t0, t1) = (0.5 * PI * i as f64 / nt as f64, 0.5 * PI * (i + 1) as f64 / nt as f64);
-            let t = 0.5 * (t0 + t1);
-            let dw = (t0.cos() - t1.cos()) * 2.0 * PI / np as f64;
-            for j in 0..np {
-                let p = 2.0 * PI * (j as f64 + 0.5) / np as f64;
-                sum += f([t.sin() * p.cos(), t.sin() * p.sin(), t.cos()], wo) * dw;
-            }
-        }
-        sum
-    };
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     // ρ̂ of eq. 40 (Phong, k_s = 1): (s+1)/(2π) max(R·ω_i, 0)^s, R = 2(n·ω_o)n − ω_o.
     let phong = |s: f64| {
@@ -120,36 +101,6 @@ fn energy_conservation_of_every_brdf() {
             let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
             let th = (h[2] / dot(h, h).sqrt()).clamp(-1.0, 1.0).acos();
             (-(th / sigma).powi(2)).exp() / (4.0 * PI * sigma * sigma * wo[2])
-        }
-    };
-    // Oracle of `microfacet` with F = 1 (docs/src/conventions.md §4): ρ̂ = D G / (4 cos θ_o), D of
-    // Beckmann or GGX, Smith's Λ in closed form, and G height-correlated 1/(1 + Λ_o + Λ_i) or, for the
-    // check that the renders can tell them apart, separable 1/((1 + Λ_o)(1 + Λ_i)).
-    let microfacet = |ggx: bool, alpha: f64, height_correlated: bool| {
-        move |wi: [f64; 3], wo: [f64; 3]| {
-            let lambda = |c: f64| {
-                let s = (1.0 - c * c).max(0.0).sqrt();
-                if s == 0.0 {
-                    0.0
-                } else if ggx {
-                    0.5 * ((1.0 + alpha * alpha * s * s / (c * c)).sqrt() - 1.0)
-                } else {
-                    let a = c / (alpha * s);
-                    -0.5 * analysis::special::erfc(a) + (-a * a).exp() / (2.0 * a * PI.sqrt())
-                }
-            };
-            let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
-            let ch = h[2] / dot(h, h).sqrt();
-            let c2 = ch * ch;
-            let d = if ggx {
-                let t = (alpha * alpha - 1.0) * c2 + 1.0;
-                alpha * alpha / (PI * t * t)
-            } else {
-                (-(1.0 - c2) / (c2 * alpha * alpha)).exp() / (PI * alpha * alpha * c2 * c2)
-            };
-            let (lo, li) = (lambda(wo[2]), lambda(wi[2]));
-            let g = if height_correlated { 1.0 / (1.0 + lo + li) } else { 1.0 / ((1.0 + lo) * (1.0 + li)) };
-            d * g / (4.0 * wo[2])
         }
     };
     let exact = |b: &str, theta_o: f64| -> Option<f64> {

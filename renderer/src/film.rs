@@ -21,7 +21,28 @@
 //! (1979) so that a constant pixel has exactly zero error and there is no cancellation; `stderr =
 //! √(M2 / (K (K−1))) / B` over the K full batches (the batch-means estimator; samples of a final
 //! partial batch count in the mean only). Renders use B = 1 ([`batch_log2`]), which is the sample
-//! standard error of the mean.
+//! standard error of the mean: the error bar of the independent sampler.
+//!
+//! **Replicates (the Sobol sampler).** The points of one Owen-scrambled Sobol sequence are not
+//! independent, and the sample standard error overstated their mean's error (1.35× at 16 spp, 4.55×
+//! at 4096 on a Lambert sphere). The Sobol sampler therefore draws [`REPLICATES`] = R independent
+//! scrambles, sample i in replicate i mod R (`crate::sampling::sampler`), and each block also carries
+//! the sum of every replicate's samples (joined by addition in the same tree, so the same bits for
+//! any partition). An aligned block of at least R samples holds equally many samples of every
+//! replicate; over the canonical blocks of `[0, spp)` of that size (the q = ⌊spp / R⌋ full rounds),
+//! the replicate means m_r are independent and identically distributed, and
+//!
+//! stderr = √(Σ_r (m_r − m)² / (R (R − 1))), m = Σ_r m_r / R,
+//!
+//! is unbiased in square for the variance of their mean, with R − 1 degrees of freedom ([`Partial::replicates`]
+//! = R). Samples past the last full round count in the pixel value only (as a partial batch does).
+//! Below one round (spp < R) every sample is in its own replicate, so the samples are independent and
+//! the error is their sample standard error. **Where renders may split:** anywhere, for the bits (the
+//! tree is the same); progressive and checkpointed passes are whole rounds from R spp on
+//! (`src/cli/passes.rs`), so that a pass's image uses all its samples for its error bar.
+//!
+//! The reliability flag below reads the samples' own M2 (batches of one sample) for either sampler,
+//! so its meaning does not depend on the sampler.
 //!
 //! Under a heavy-tailed estimator (a sun-like texel that light sampling misses in fewer than one
 //! sample in a hundred), no error bar computed from a pixel's own samples can be trusted when the
@@ -77,16 +98,22 @@
 //! bits whatever the thread count or shard partition.
 
 use crate::math::{Rgb, Vec3};
+use crate::sampling::sampler::REPLICATES;
 
-/// Number of f64 statistics per block: Σ rgb, M2 of batch sums (rgb), Σ normal over hits, hits, and
-/// the largest and smallest batch sum per channel (for the reliability flag).
-pub const NSTAT: usize = 16;
+/// Number of f64 statistics per block: Σ rgb, M2 of batch sums (rgb), Σ normal over hits, hits, the
+/// largest and smallest batch sum per channel (for the reliability flag), and Σ rgb of each of the
+/// [`REPLICATES`] replicates (replicate r, channel c at `REP + 3 r + c`; zero for a sampler without
+/// replicates).
+pub const NSTAT: usize = 16 + 3 * REPLICATES as usize;
 const SUM: usize = 0;
 const M2: usize = 3;
 const NORMAL: usize = 6;
 const HITS: usize = 9;
 const MAXB: usize = 10;
 const MINB: usize = 13;
+const REP: usize = 16;
+// `PixelAccumulator::add_8`'s aligned octets hold 8 consecutive replicates.
+const _: () = assert!(REPLICATES.is_multiple_of(8) && REPLICATES as f64 >= UNRELIABLE_MIN_BATCHES);
 
 /// A pixel is flagged unreliable when, in some channel, one batch sum alone accounts for more than
 /// this share of the batch sums' squared deviations M2 (with at least [`UNRELIABLE_MIN_BATCHES`]
@@ -154,17 +181,31 @@ pub fn canonical_blocks(a: u64, b: u64) -> Vec<Block> {
 
 /// The statistics of one block of one pixel. Plain data: combined only by [`Stats::join`] (siblings)
 /// and the final left-to-right fold of [`Partial::finish`], both fixed functions of their inputs.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stats(pub [f64; NSTAT]);
 
+impl Default for Stats {
+    fn default() -> Self {
+        Stats([0.0; NSTAT])
+    }
+}
+
 impl Stats {
-    /// The statistics of one sample.
-    #[inline]
-    pub fn sample(radiance: Rgb, normal: Vec3, hit: bool, batch_log2: u32) -> Stats {
+    /// The statistics of one sample; `replicate` is its replicate (sample index mod
+    /// [`REPLICATES`]), or `None` for a sampler without replicates.
+    #[inline(always)]
+    pub fn sample(radiance: Rgb, normal: Vec3, hit: bool, batch_log2: u32, replicate: Option<usize>) -> Stats {
         let mut s = [0.0; NSTAT];
         s[SUM] = radiance.x as f64;
         s[SUM + 1] = radiance.y as f64;
         s[SUM + 2] = radiance.z as f64;
+        if let Some(r) = replicate {
+            // + 0.0: a −0.0 sample becomes +0.0, as any sum with the other replicates' zeros does,
+            // so that the sums are the same bits however the block was put together.
+            for c in 0..3 {
+                s[REP + 3 * r + c] = s[SUM + c] + 0.0;
+            }
+        }
         if hit {
             s[NORMAL] = normal.x as f64;
             s[NORMAL + 1] = normal.y as f64;
@@ -190,6 +231,9 @@ impl Stats {
             s[NORMAL + i] = a[NORMAL + i] + b[NORMAL + i];
         }
         s[HITS] = a[HITS] + b[HITS];
+        for i in REP..NSTAT {
+            s[i] = a[i] + b[i];
+        }
         if log2 + 1 == batch_log2 {
             // The parent is one batch.
             for i in 0..3 {
@@ -211,7 +255,7 @@ impl Stats {
 }
 
 /// The left-to-right fold of a canonical decomposition of `[0, n)` (block sizes decreasing).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct Fold {
     all: [f64; NSTAT],
     /// Σ rgb over the full batches only, and their number.
@@ -220,6 +264,25 @@ struct Fold {
     m2: [f64; 3],
     maxb: [f64; 3],
     minb: [f64; 3],
+    /// Σ rgb per replicate over the blocks of at least [`REPLICATES`] samples (the full rounds, which
+    /// hold the same number of samples of every replicate), and the number of those samples.
+    rep: [f64; 3 * REPLICATES as usize],
+    rounds_samples: u64,
+}
+
+impl Default for Fold {
+    fn default() -> Self {
+        Fold {
+            all: [0.0; NSTAT],
+            batch_sum: [0.0; 3],
+            batches: 0.0,
+            m2: [0.0; 3],
+            maxb: [0.0; 3],
+            minb: [0.0; 3],
+            rep: [0.0; 3 * REPLICATES as usize],
+            rounds_samples: 0,
+        }
+    }
 }
 
 impl Fold {
@@ -230,6 +293,12 @@ impl Fold {
             self.all[NORMAL + i] += b[NORMAL + i];
         }
         self.all[HITS] += b[HITS];
+        if block.size() >= REPLICATES as u64 {
+            for (acc, x) in self.rep.iter_mut().zip(&b[REP..]) {
+                *acc += x;
+            }
+            self.rounds_samples += block.size();
+        }
         if block.log2 >= batch_log2 {
             let kr = (1u64 << (block.log2 - batch_log2)) as f64;
             if self.batches == 0.0 {
@@ -251,13 +320,24 @@ impl Fold {
         }
     }
 
-    fn finish(&self, n: u64, batch_log2: u32) -> Pixel {
+    fn finish(&self, n: u64, batch_log2: u32, replicates: u32) -> Pixel {
         let nf = n.max(1) as f64;
         let k = self.batches;
         let bsize = (1u64 << batch_log2) as f64;
         // Fewer than two batches have no spread to estimate a variance from: the error is unknown,
         // written as +inf (never 0, which would claim an exact pixel).
-        let se = |c: usize| if k > 1.0 { (self.m2[c] / (k - 1.0) / k).sqrt() / bsize } else { f64::INFINITY };
+        let batch_se = |c: usize| if k > 1.0 { (self.m2[c] / (k - 1.0) / k).sqrt() / bsize } else { f64::INFINITY };
+        // The replicate estimator (module docs): from the R replicate means of the full rounds.
+        let rounds = self.rounds_samples / REPLICATES as u64;
+        let replicate_se = |c: usize| {
+            let r = REPLICATES as usize;
+            let q = rounds as f64;
+            let means: [f64; REPLICATES as usize] = std::array::from_fn(|i| self.rep[3 * i + c] / q);
+            let mean = means.iter().sum::<f64>() / r as f64;
+            let ss: f64 = means.iter().map(|m| (m - mean) * (m - mean)).sum();
+            (ss / (r * (r - 1)) as f64).sqrt()
+        };
+        let se = |c: usize| if replicates > 1 && rounds >= 1 { replicate_se(c) } else { batch_se(c) };
         let a = &self.all;
         let nl = (a[NORMAL].powi(2) + a[NORMAL + 1].powi(2) + a[NORMAL + 2].powi(2)).sqrt();
         let normal =
@@ -289,6 +369,8 @@ impl Fold {
 #[derive(Clone, Debug)]
 pub struct PixelAccumulator {
     batch_log2: u32,
+    /// Whether the samples' replicate sums are kept (a sampler with replicates).
+    replicated: bool,
     next: u64,
     /// Number of blocks on the stack: `blocks[..len]`, `stats[..len]`.
     len: usize,
@@ -301,10 +383,13 @@ pub struct PixelAccumulator {
 const ACC_STACK: usize = 128;
 
 impl PixelAccumulator {
-    /// An accumulator for samples `start, start + 1, …`, with batches of `2^batch_log2` samples.
-    pub fn new(start: u64, batch_log2: u32) -> Self {
+    /// An accumulator for samples `start, start + 1, …`, with batches of `2^batch_log2` samples and,
+    /// if `replicates` > 1 (it must then be [`REPLICATES`]), the sums of each replicate.
+    pub fn new(start: u64, batch_log2: u32, replicates: u32) -> Self {
+        assert!(replicates == 1 || replicates == REPLICATES, "{replicates} replicates");
         PixelAccumulator {
             batch_log2,
+            replicated: replicates > 1,
             next: start,
             len: 0,
             blocks: [Block { start: 0, log2: 0 }; ACC_STACK],
@@ -323,10 +408,16 @@ impl PixelAccumulator {
     /// Adds the next sample. (Always inlined: see `render::render_tile`'s instruction-set versions.)
     #[inline(always)]
     pub fn add(&mut self, radiance: Rgb, normal: Vec3, hit: bool) {
-        let s = Stats::sample(radiance, normal, hit, self.batch_log2);
+        let s = Stats::sample(radiance, normal, hit, self.batch_log2, self.replicate_of(self.next));
         let block = Block { start: self.next, log2: 0 };
         self.next += 1;
         self.push(block, s);
+    }
+
+    /// The replicate of sample `i`, if replicate sums are kept.
+    #[inline(always)]
+    fn replicate_of(&self, i: u64) -> Option<usize> {
+        self.replicated.then_some((i % REPLICATES as u64) as usize)
     }
 
     /// Adds the next 8 samples (`radiance[k]`, `normal[k]`, `hit[k]` in sample order): the same
@@ -348,18 +439,27 @@ impl PixelAccumulator {
         // batch). A function, not a closure, which LLVM may leave out of line and compiled for the
         // baseline (see `render::render_tile`).
         #[inline(always)]
-        fn pair(radiance: &[Rgb; 8], normal: &[Vec3; 8], hit: &[bool; 8], k: usize, b: u32) -> Stats {
+        fn pair(
+            radiance: &[Rgb; 8],
+            normal: &[Vec3; 8],
+            hit: &[bool; 8],
+            k: usize,
+            b: u32,
+            rep: Option<usize>,
+        ) -> Stats {
             let (l, r) = (2 * k, 2 * k + 1);
-            Stats::sample(radiance[l], normal[l], hit[l], b).join(
-                &Stats::sample(radiance[r], normal[r], hit[r], b),
+            Stats::sample(radiance[l], normal[l], hit[l], b, rep.map(|x| x + l)).join(
+                &Stats::sample(radiance[r], normal[r], hit[r], b, rep.map(|x| x + r)),
                 0,
                 b,
             )
         }
-        let p0 = pair(radiance, normal, hit, 0, b);
-        let p1 = pair(radiance, normal, hit, 1, b);
-        let p2 = pair(radiance, normal, hit, 2, b);
-        let p3 = pair(radiance, normal, hit, 3, b);
+        // The octet is aligned and 8 divides REPLICATES: its replicates are rep, rep + 1, …, rep + 7.
+        let rep = self.replicate_of(self.next);
+        let p0 = pair(radiance, normal, hit, 0, b, rep);
+        let p1 = pair(radiance, normal, hit, 1, b, rep);
+        let p2 = pair(radiance, normal, hit, 2, b, rep);
+        let p3 = pair(radiance, normal, hit, 3, b, rep);
         let octet = p0.join(&p1, 1, b).join(&p2.join(&p3, 1, b), 2, b);
         let block = Block { start: self.next, log2: 3 };
         self.next += 8;
@@ -452,6 +552,9 @@ pub struct Partial {
     pub spp: u32,
     /// log2 of the batch size of the standard error (see [`batch_log2`]).
     pub batch_log2: u32,
+    /// The sampler's number of replicates: [`REPLICATES`] (the replicate estimator of the standard
+    /// error) or 1 (the batch-means estimator; module docs).
+    pub replicates: u32,
     pub start: u64,
     pub end: u64,
     pub blocks: Vec<Block>,
@@ -483,8 +586,8 @@ impl std::fmt::Display for MergeError {
 
 impl Partial {
     /// An empty range at `start` (the identity of [`Partial::merge`] for ranges starting there).
-    pub fn empty(width: u32, height: u32, spp: u32, batch_log2: u32, start: u64) -> Self {
-        Partial { width, height, spp, batch_log2, start, end: start, blocks: Vec::new(), stats: Vec::new() }
+    pub fn empty(width: u32, height: u32, spp: u32, batch_log2: u32, replicates: u32, start: u64) -> Self {
+        Partial { width, height, spp, batch_log2, replicates, start, end: start, blocks: Vec::new(), stats: Vec::new() }
     }
 
     pub fn pixel_count(&self) -> usize {
@@ -508,19 +611,21 @@ impl Partial {
         if parts.is_empty() {
             return Err(MergeError::Mismatch("nothing to merge".into()));
         }
-        let (w, h, spp, bl) = (parts[0].width, parts[0].height, parts[0].spp, parts[0].batch_log2);
+        let (w, h, spp, bl, reps) =
+            (parts[0].width, parts[0].height, parts[0].spp, parts[0].batch_log2, parts[0].replicates);
         for p in &parts {
-            if (p.width, p.height, p.spp, p.batch_log2) != (w, h, spp, bl) {
+            if (p.width, p.height, p.spp, p.batch_log2, p.replicates) != (w, h, spp, bl, reps) {
                 return Err(MergeError::Mismatch(format!(
-                    "{}×{} at {} spp (batches of 2^{}), expected {w}×{h} at {spp} spp (batches of 2^{bl})",
-                    p.width, p.height, p.spp, p.batch_log2
+                    "{}×{} at {} spp (batches of 2^{}, {} replicates), expected {w}×{h} at {spp} spp (batches of \
+                     2^{bl}, {reps} replicates)",
+                    p.width, p.height, p.spp, p.batch_log2, p.replicates
                 )));
             }
         }
         let first_start = parts.iter().map(|p| p.start).min().unwrap_or(0);
         parts.retain(|p| p.end > p.start);
         if parts.is_empty() {
-            return Ok(Partial::empty(w, h, spp, bl, first_start));
+            return Ok(Partial::empty(w, h, spp, bl, reps, first_start));
         }
         parts.sort_by_key(|p| (p.start, p.end));
         for pair in parts.windows(2) {
@@ -559,7 +664,7 @@ impl Partial {
             debug_assert!(stack.iter().map(|(b, _)| *b).eq(blocks.iter().copied()));
             stats.extend(stack.iter().map(|(_, s)| *s));
         }
-        Ok(Partial { width: w, height: h, spp, batch_log2: bl, start, end, blocks, stats })
+        Ok(Partial { width: w, height: h, spp, batch_log2: bl, replicates: reps, start, end, blocks, stats })
     }
 
     /// The image of a complete render (what `reflect render` and `merge` write): per pixel, the
@@ -602,7 +707,7 @@ impl Partial {
             for (b, s) in self.blocks.iter().zip(self.pixel(px)) {
                 f.push(s, b, bl);
             }
-            *out = f.finish(self.spp as u64, bl);
+            *out = f.finish(self.spp as u64, bl, self.replicates);
         }
         film
     }
@@ -657,11 +762,11 @@ mod tests {
     #[test]
     fn add_8_is_eight_adds() {
         let mut rng = crate::sampling::chi2::TestRng::new(5);
-        for batch_log2 in [0u32, 2, 3, 5] {
+        for (batch_log2, reps) in [(0u32, 1u32), (2, 1), (3, 1), (5, 1), (0, REPLICATES), (3, REPLICATES)] {
             for start in [0u64, 3, 8, 40, 1 << 20, (1 << 20) + 5] {
                 for n in [8u64, 16, 24, 61, 200] {
-                    let mut one = PixelAccumulator::new(start, batch_log2);
-                    let mut eight = PixelAccumulator::new(start, batch_log2);
+                    let mut one = PixelAccumulator::new(start, batch_log2, reps);
+                    let mut eight = PixelAccumulator::new(start, batch_log2, reps);
                     let mut done = 0;
                     while done < n {
                         let m = (n - done).min(8);
@@ -669,7 +774,9 @@ mod tests {
                         let mut nl = [Vec3::ZERO; 8];
                         let mut h = [false; 8];
                         for k in 0..8 {
-                            r[k] = Rgb::new(rng.next_f32(), rng.next_f32() * 10.0, rng.next_f32().powi(8));
+                            // Some −0.0 samples: the replicate sums keep the same bits either way.
+                            let z = if rng.next_f32() < 0.2 { -0.0 } else { rng.next_f32() };
+                            r[k] = Rgb::new(z, rng.next_f32() * 10.0, rng.next_f32().powi(8));
                             nl[k] = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                             h[k] = rng.next_f32() < 0.7;
                         }
@@ -687,14 +794,14 @@ mod tests {
                     }
                     let a: Vec<_> = one.blocks().map(|(b, s)| (b, s.0.map(f64::to_bits))).collect();
                     let b: Vec<_> = eight.blocks().map(|(b, s)| (b, s.0.map(f64::to_bits))).collect();
-                    assert_eq!(a, b, "batch_log2 {batch_log2}, start {start}, {n} samples");
+                    assert_eq!(a, b, "batch_log2 {batch_log2}, {reps} replicates, start {start}, {n} samples");
                 }
             }
         }
     }
 
-    fn acc_range(xs: &[f32], a: usize, b: usize, bl: u32) -> Vec<(Block, Stats)> {
-        let mut acc = PixelAccumulator::new(a as u64, bl);
+    fn acc_range(xs: &[f32], a: usize, b: usize, bl: u32, reps: u32) -> Vec<(Block, Stats)> {
+        let mut acc = PixelAccumulator::new(a as u64, bl, reps);
         for &x in &xs[a..b] {
             acc.add(Rgb::new(x, 2.0 * x, 0.5), Vec3::Z, x > 2.0);
         }
@@ -706,13 +813,18 @@ mod tests {
     }
 
     fn partial_b(xs: &[f32], a: usize, b: usize, bl: u32) -> Partial {
+        partial_r(xs, a, b, bl, 1)
+    }
+
+    fn partial_r(xs: &[f32], a: usize, b: usize, bl: u32, reps: u32) -> Partial {
         let spp = xs.len() as u32;
-        let v = acc_range(xs, a, b, bl);
+        let v = acc_range(xs, a, b, bl, reps);
         Partial {
             width: 1,
             height: 1,
             spp,
             batch_log2: bl,
+            replicates: reps,
             start: a as u64,
             end: b as u64,
             blocks: v.iter().map(|x| x.0).collect(),
@@ -743,7 +855,7 @@ mod tests {
     fn accumulator_produces_the_canonical_blocks() {
         let xs: Vec<f32> = (0..77).map(|i| (i as f32 * 0.37).sin().abs() * 3.0).collect();
         for (a, b) in [(0, 77), (3, 50), (13, 14), (16, 64)] {
-            let got: Vec<Block> = acc_range(&xs, a, b, 0).iter().map(|x| x.0).collect();
+            let got: Vec<Block> = acc_range(&xs, a, b, 0, 1).iter().map(|x| x.0).collect();
             assert_eq!(got, canonical_blocks(a as u64, b as u64));
         }
     }
@@ -755,14 +867,16 @@ mod tests {
         for spp in [1usize, 7, 64, 100, 257, 1000] {
             let xs: Vec<f32> = (0..spp).map(|_| rng.next_f32().powi(3) * 10.0).collect();
             let bl = (spp as u32 / 32).max(1).ilog2();
-            let single = partial_b(&xs, 0, spp, bl).finish();
+            // With and without replicate sums (any partition: the split need not be at rounds).
+            let reps = if spp % 2 == 0 { REPLICATES } else { 1 };
+            let single = partial_r(&xs, 0, spp, bl, reps).finish();
             for _ in 0..20 {
                 let mut cuts: Vec<usize> =
                     (0..rng.next_u64() % 6).map(|_| (rng.next_u64() as usize) % (spp + 1)).collect();
                 cuts.push(0);
                 cuts.push(spp);
                 cuts.sort();
-                let mut parts: Vec<Partial> = cuts.windows(2).map(|c| partial_b(&xs, c[0], c[1], bl)).collect();
+                let mut parts: Vec<Partial> = cuts.windows(2).map(|c| partial_r(&xs, c[0], c[1], bl, reps)).collect();
                 // Shuffle.
                 for i in (1..parts.len()).rev() {
                     parts.swap(i, rng.next_u64() as usize % (i + 1));
@@ -927,5 +1041,41 @@ mod tests {
         let m = bs.iter().sum::<f64>() / 8.0;
         let se = (bs.iter().map(|b| (b - m).powi(2)).sum::<f64>() / 7.0 / 8.0).sqrt();
         assert!((p.stderr[0] as f64 - se).abs() < 1e-6 * se.max(1e-9));
+    }
+
+    /// With replicates, the error is the spread of the R replicate means of the full rounds
+    /// (sample i in replicate i mod R), √(Σ_r (m_r − m)² / (R (R − 1))), the mean of every sample
+    /// (a tail shorter than a round counts in the mean only); below one round it is the sample
+    /// standard error; a constant pixel has exactly zero error.
+    #[test]
+    fn replicate_estimator_matches_the_two_pass_formula() {
+        let mut rng = crate::sampling::chi2::TestRng::new(12);
+        let r = REPLICATES as usize;
+        for spp in [r, 4 * r, 4 * r + 5, 100 * r] {
+            let xs: Vec<f32> = (0..spp).map(|_| rng.next_f32().powi(2) * 3.0).collect();
+            let p = partial_r(&xs, 0, spp, 0, REPLICATES).finish_own().pixels[0];
+            let q = spp / r;
+            let means: Vec<f64> =
+                (0..r).map(|k| (0..q).map(|j| xs[j * r + k] as f64).sum::<f64>() / q as f64).collect();
+            let m = means.iter().sum::<f64>() / r as f64;
+            let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (r * (r - 1)) as f64).sqrt();
+            assert!((p.stderr_own[0] as f64 - se).abs() < 1e-6 * se, "{spp}: {} vs {se}", p.stderr_own[0]);
+            assert!((p.stderr_own[1] as f64 - 2.0 * se).abs() < 2e-6 * se);
+            assert_eq!(p.stderr_own[2], 0.0, "a constant channel has exactly zero error");
+            let mean = xs.iter().map(|&x| x as f64).sum::<f64>() / spp as f64;
+            assert!((p.rgb[0] as f64 - mean).abs() < 1e-6);
+        }
+        // Below one round: the sample standard error (each sample its own replicate).
+        let xs = [1.0f32, 2.0, 4.0, 8.0, 3.0];
+        let a = partial_r(&xs, 0, 5, 0, REPLICATES).finish_own().pixels[0];
+        let b = partial_b(&xs, 0, 5, 0).finish_own().pixels[0];
+        assert_eq!(a.stderr_own, b.stderr_own);
+        // Values stratified within each replicate (replicate k's points alternate about k's mean):
+        // the samples spread widely, the replicate means do not.
+        let xs: Vec<f32> =
+            (0..64 * r).map(|i| (i % r) as f32 * 0.01 + if (i / r).is_multiple_of(2) { 5.0 } else { -5.0 }).collect();
+        let p = partial_r(&xs, 0, xs.len(), 0, REPLICATES).finish_own().pixels[0];
+        let own = partial_b(&xs, 0, xs.len(), 0).finish_own().pixels[0];
+        assert!(p.stderr_own[0] < 0.1 * own.stderr_own[0], "{} vs {}", p.stderr_own[0], own.stderr_own[0]);
     }
 }

@@ -155,7 +155,17 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
         return (None, rstats);
     }
     (
-        Some(Partial { width: w, height: h, spp: s.spp, batch_log2: batch_log2(s.spp), start, end, blocks, stats }),
+        Some(Partial {
+            width: w,
+            height: h,
+            spp: s.spp,
+            batch_log2: batch_log2(s.spp),
+            replicates: Sampler::replicates(s.sampler),
+            start,
+            end,
+            blocks,
+            stats,
+        }),
         rstats,
     )
 }
@@ -222,7 +232,7 @@ fn render_tile_body(
     let jitter = scene.camera.jitters();
     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize * 2);
     let mut rays = 0u64;
-    let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
+    let mut acc = PixelAccumulator::new(start, batch_log2(s.spp), Sampler::replicates(s.sampler));
     for row in y0..y1 {
         for col in x0..x1 {
             let pixel_id = row as u64 * s.width as u64 + col as u64;
@@ -277,7 +287,7 @@ mod tests {
         let jitter = scene.camera.jitters();
         let mut out = Vec::new();
         let mut rays = 0u64;
-        let mut acc = PixelAccumulator::new(start, batch_log2(s.spp));
+        let mut acc = PixelAccumulator::new(start, batch_log2(s.spp), Sampler::replicates(s.sampler));
         for row in y0..y1 {
             for col in x0..x1 {
                 let pixel_id = row as u64 * s.width as u64 + col as u64;

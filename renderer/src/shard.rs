@@ -5,7 +5,8 @@
 //! two 32-bit unsigned channels of its IEEE-754 bits (`sJJ.KK.hi`, `sJJ.KK.lo` for block JJ, statistic
 //! KK; OpenEXR has no 64-bit sample type). The header carries the usual `reflect:*` attributes of the
 //! scene (so a merge writes the same header as a single render) and `reflect:partial`, a JSON object:
-//! `{"version", "scene", "seed", "spp", "start", "end", "width", "height", "batch_log2", "blocks"}`
+//! `{"version", "scene", "seed", "spp", "start", "end", "width", "height", "batch_log2", "replicates",
+//! "blocks"}`
 //! where `scene` is the [`scene_fingerprint`] and `blocks` the `[start, log2]` pairs of the range.
 
 use crate::Result;
@@ -17,7 +18,8 @@ use std::path::Path;
 
 /// The header attribute holding a [`PartialHeader`] as JSON.
 pub const PARTIAL_ATTRIBUTE: &str = "reflect:partial";
-const VERSION: u32 = 1;
+/// 2: the replicate sums of the Sobol sampler's replicates (`replicates`, statistics 16 and on).
+const VERSION: u32 = 2;
 
 /// What a partial render file says about itself.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -32,6 +34,8 @@ pub struct PartialHeader {
     pub width: u32,
     pub height: u32,
     pub batch_log2: u32,
+    /// The sampler's number of replicates ([`Partial::replicates`]).
+    pub replicates: u32,
     pub blocks: Vec<(u64, u32)>,
 }
 
@@ -95,6 +99,7 @@ pub fn partial_header(scene: &Scene, p: &Partial) -> PartialHeader {
         width: p.width,
         height: p.height,
         batch_log2: p.batch_log2,
+        replicates: p.replicates,
         blocks: p.blocks.iter().map(|b| (b.start, b.log2)).collect(),
     }
 }
@@ -185,6 +190,13 @@ pub fn read_partial(path: &Path) -> Result<PartialFile> {
     if header.start > header.end || header.end > header.spp as u64 || header.batch_log2 > 31 {
         return Err(bad(format!("bad sample range [{}, {}) of {} spp", header.start, header.end, header.spp)));
     }
+    if header.replicates != 1 && header.replicates != crate::sampling::sampler::REPLICATES {
+        return Err(bad(format!(
+            "{} replicates (this reflect has 1 or {})",
+            header.replicates,
+            crate::sampling::sampler::REPLICATES
+        )));
+    }
     let blocks: Vec<Block> = header.blocks.iter().map(|&(start, log2)| Block { start, log2 }).collect();
     if blocks != canonical_blocks(header.start, header.end) {
         return Err(bad("its blocks are not the canonical blocks of its sample range".into()));
@@ -226,6 +238,7 @@ pub fn read_partial(path: &Path) -> Result<PartialFile> {
         height: header.height,
         spp: header.spp,
         batch_log2: header.batch_log2,
+        replicates: header.replicates,
         start: header.start,
         end: header.end,
         blocks,

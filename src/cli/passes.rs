@@ -7,6 +7,7 @@ use super::Error;
 use super::render::{RenderArgs, with_threads};
 use renderer::film::{Partial, batch_log2};
 use renderer::render::{RenderOptions, RenderStats, render_range};
+use renderer::sampling::Sampler;
 use renderer::scene::Scene;
 use renderer::shard::{PartialHeader, partial_header, read_partial, scene_fingerprint, write_partial};
 use std::path::Path;
@@ -156,10 +157,11 @@ pub fn run_passes(
 ) -> Result<Outcome, Error> {
     let s = &scene.settings;
     let bl = batch_log2(s.spp);
+    let replicates = Sampler::replicates(s.sampler);
     let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
     let every = Duration::from_secs_f64(a.checkpoint_every.unwrap_or(60.0));
     let t0 = Instant::now();
-    let mut state = Partial::empty(s.width, s.height, s.spp, bl, range.0);
+    let mut state = Partial::empty(s.width, s.height, s.spp, bl, replicates, range.0);
     let want = PartialHeader { end: range.1, ..partial_header(scene, &state) };
     let fingerprint = want.scene.clone();
     debug_assert_eq!(fingerprint, scene_fingerprint(scene));
@@ -224,6 +226,10 @@ pub fn run_passes(
         // the checkpoint interval (and fit the time limit), doubling the spp for a target error.
         let mut size = range.1 - cur;
         let budget = |secs: f64| rate.map_or(1, |r| (r * secs).max(1.0) as u64);
+        // A Sobol render's error bar comes from its replicates' means over full rounds of R samples
+        // (renderer::film): from a round boundary on, passes are whole rounds.
+        let round = replicates as u64;
+        let round = if cur >= round && cur.is_multiple_of(round) { round } else { 1 };
         if a.checkpoint.is_some() {
             size = size.min(budget(every.as_secs_f64()));
         }
@@ -232,7 +238,7 @@ pub fn run_passes(
         }
         if let Some(limit) = a.time_limit {
             let left = limit - t0.elapsed().as_secs_f64();
-            if cur > 0 && (left <= 0.0 || budget(left) == 0 || rate.is_some_and(|r| r * left < 1.0)) {
+            if cur > 0 && (left <= 0.0 || budget(left) < round || rate.is_some_and(|r| r * left < round as f64)) {
                 stop = Stop::TimeLimit;
                 break;
             }
@@ -247,6 +253,7 @@ pub fn run_passes(
         if cur > 0 {
             size = size.min(1 << cur.trailing_zeros());
         }
+        let size = size.max(round);
         let end = (cur + size).min(range.1);
         let (part, st) = with_threads(a.threads, || render_range(scene, &opts, cur, end))?;
         let Some(part) = part else {

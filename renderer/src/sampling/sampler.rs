@@ -3,11 +3,16 @@
 //! (docs/src/conventions.md §5).
 //!
 //! - `Independent`: a 64-bit hash of the four counters.
-//! - `Sobol`: padded Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based Owen
-//!   Scrambling"). Each pair of dimensions uses the first two Sobol dimensions, Owen-scrambled
-//!   with its own hash-derived seed, and the sample index is itself shuffled per pixel and per
-//!   dimension pair so that pairs are decorrelated. Any power-of-two prefix of a pixel's samples is a
-//!   (0, m, 2)-net in every pair of dimensions.
+//! - `Sobol`: [`REPLICATES`] independent replicates of padded Owen-scrambled Sobol points (Burley
+//!   2020, "Practical Hash-based Owen Scrambling"), interleaved: sample i of a pixel is point
+//!   j = ⌊i / R⌋ of replicate r = i mod R. Each replicate has its own scrambles (its keys are hashed
+//!   from the pixel's and r), so the R replicate means of a pixel are independent and their spread is
+//!   an unbiased estimate of the error of the pixel mean (randomised QMC, Owen 1997; the film's
+//!   replicate estimator, `crate::film`). Within a replicate, each pair of dimensions uses the first
+//!   two Sobol dimensions, Owen-scrambled with its own hash-derived seed, and the point index j is
+//!   itself shuffled per pixel, replicate and dimension pair so that pairs are decorrelated. Any
+//!   power-of-two prefix of a replicate's points is a (0, m, 2)-net in every pair of dimensions, and
+//!   any prefix of R·k samples of a pixel holds k points of every replicate.
 
 use crate::math::Vec2;
 
@@ -18,11 +23,29 @@ pub use vocab::Sampler as SamplerKind;
 /// depth k draws 5k + 2 dimensions: the camera's 2, then 2 + 1 + 2 per vertex).
 const KEYS: usize = 16;
 
+/// R, the number of independent replicates (independent scrambles) of the Sobol sampler: sample i
+/// of a pixel belongs to replicate i mod R (docs/src/conventions.md §5).
+///
+/// The error bar of a pixel is the spread of its R replicate means, an estimate with R − 1 degrees
+/// of freedom: with R = 16, σ̂ is within ≈ 18 % (1/√(2(R−1))) of σ, z = (x − μ)/σ̂ follows Student's t
+/// with 15 degrees of freedom (|z| < 3 for 99.1 % of pixels rather than the normal 99.73 %), and a
+/// render reaches the film's 16 batches for the reliability flag at the same spp as the independent
+/// sampler. A larger R would tighten σ̂ but leave fewer points in each replicate, and a replicate's
+/// points are where the QMC gain comes from (at n spp each replicate is a net of n / R points; the
+/// variance cost against one sequence of n points is measured in the guide, "Error bars").
+pub const REPLICATES: u32 = 16;
+
+/// Mixed into the pixel key to derive a replicate's key (keeps them apart from the draws' keys).
+const REPLICATE_SALT: u64 = 0x5EED_0F5C_4A3B_1E00;
+
 #[derive(Clone, Debug)]
 pub struct Sampler {
     kind: SamplerKind,
     seed: u64,
     pixel_key: u64,
+    /// The replicate of the current sample (always 0 for `Independent`).
+    replicate: u32,
+    /// The point index within the replicate (the sample index for `Independent`).
     index: u32,
     /// `index.reverse_bits()`: every Sobol draw of the sample Owen-scrambles the index from its
     /// reversed bits, and x86 has no bit-reversal instruction (~16 instructions each), so it is
@@ -31,14 +54,17 @@ pub struct Sampler {
     dim: u32,
     /// The pixel of the last `start`: the cached keys below belong to it.
     pixel: Option<u64>,
-    /// Bit d set: `keys_1d[d]` (resp. `keys_2d[d]`) holds the key of a 1D (2D) draw at dimension d.
-    /// The keys depend on (seed, pixel, dimension) only, so the samples of a pixel share them; this
-    /// is a memo and changes no number.
-    have_1d: u32,
-    have_2d: u32,
-    keys_1d: [u64; KEYS],
+    /// Bit r set: `replicate_keys[r]` holds replicate r's key of the current pixel.
+    have_replicate: u32,
+    replicate_keys: [u64; REPLICATES as usize],
+    /// Bit d of `have_1d[r]` set: `keys_1d[r][d]` (resp. `keys_2d[r][d]`) holds the key of a 1D (2D)
+    /// draw at dimension d of replicate r. The keys depend on (seed, pixel, replicate, dimension)
+    /// only, so the samples of a replicate of a pixel share them; this is a memo and changes no number.
+    have_1d: [u32; REPLICATES as usize],
+    have_2d: [u32; REPLICATES as usize],
+    keys_1d: [[u64; KEYS]; REPLICATES as usize],
     /// (key, mix64(key)) of a 2D draw.
-    keys_2d: [(u64, u64); KEYS],
+    keys_2d: [[(u64, u64); KEYS]; REPLICATES as usize],
     /// Bit d set: `pre_2d[d]` holds this sample's 2D draw at dimension d, drawn ahead with the other
     /// samples of its batch ([`Sampler::draw_ahead`], [`Sampler::use_ahead`]); cleared by `start`.
     have_pre: u32,
@@ -171,14 +197,17 @@ impl Sampler {
             kind,
             seed,
             pixel_key: 0,
+            replicate: 0,
             index: 0,
             index_reversed: 0,
             dim: 0,
             pixel: None,
-            have_1d: 0,
-            have_2d: 0,
-            keys_1d: [0; KEYS],
-            keys_2d: [(0, 0); KEYS],
+            have_replicate: 0,
+            replicate_keys: [0; REPLICATES as usize],
+            have_1d: [0; REPLICATES as usize],
+            have_2d: [0; REPLICATES as usize],
+            keys_1d: [[0; KEYS]; REPLICATES as usize],
+            keys_2d: [[(0, 0); KEYS]; REPLICATES as usize],
             have_pre: 0,
             pre_2d: [Vec2::ZERO; PRE_DIMS],
         }
@@ -188,6 +217,24 @@ impl Sampler {
         self.kind
     }
 
+    /// The replicate of sample `index` of a pixel (0 for `Independent`) and the point index within it.
+    #[inline(always)]
+    pub fn replicate_of(kind: SamplerKind, index: u32) -> (u32, u32) {
+        match kind {
+            SamplerKind::Independent => (0, index),
+            SamplerKind::Sobol => (index % REPLICATES, index / REPLICATES),
+        }
+    }
+
+    /// The number of independent replicates whose means give a pixel's error bar: [`REPLICATES`]
+    /// for `Sobol`, 1 for `Independent` (its samples are independent: the film's sample estimator).
+    pub fn replicates(kind: SamplerKind) -> u32 {
+        match kind {
+            SamplerKind::Independent => 1,
+            SamplerKind::Sobol => REPLICATES,
+        }
+    }
+
     /// Positions the sampler at sample `index` of pixel `pixel` (any unique pixel id, e.g.
     /// row·width + column), dimension 0.
     #[inline]
@@ -195,42 +242,60 @@ impl Sampler {
         if self.pixel != Some(pixel) {
             self.pixel = Some(pixel);
             self.pixel_key = hash2(self.seed, pixel);
-            self.have_1d = 0;
-            self.have_2d = 0;
+            self.have_replicate = 0;
+            self.have_1d = [0; REPLICATES as usize];
+            self.have_2d = [0; REPLICATES as usize];
         }
-        self.index = index;
-        self.index_reversed = index.reverse_bits();
+        let (r, j) = Self::replicate_of(self.kind, index);
+        self.replicate = r;
+        self.index = j;
+        self.index_reversed = j.reverse_bits();
         self.dim = 0;
         self.have_pre = 0;
     }
 
-    /// The key of a 1D draw at dimension `d` of the current pixel (memoized below `KEYS`).
+    /// Replicate r's key of the current pixel: the pixel's key itself for `Independent` (whose
+    /// numbers are those of a hash of the sample index), a hash of it and r for `Sobol`.
     #[inline(always)]
-    fn key_1d(&mut self, d: u32) -> u64 {
-        let i = d as usize;
-        if i < KEYS && self.have_1d & (1 << d) != 0 {
-            return self.keys_1d[i];
+    fn replicate_key(&mut self, r: u32) -> u64 {
+        if self.kind == SamplerKind::Independent {
+            return self.pixel_key;
         }
-        let key = hash2(self.pixel_key, d as u64);
+        if self.have_replicate & (1 << r) == 0 {
+            self.replicate_keys[r as usize] = hash2(self.pixel_key, REPLICATE_SALT ^ r as u64);
+            self.have_replicate |= 1 << r;
+        }
+        self.replicate_keys[r as usize]
+    }
+
+    /// The key of a 1D draw at dimension `d` of replicate `r` of the current pixel (memoized below `KEYS`).
+    #[inline(always)]
+    fn key_1d(&mut self, r: u32, d: u32) -> u64 {
+        let (i, ri) = (d as usize, r as usize);
+        if i < KEYS && self.have_1d[ri] & (1 << d) != 0 {
+            return self.keys_1d[ri][i];
+        }
+        let key = hash2(self.replicate_key(r), d as u64);
         if i < KEYS {
-            self.keys_1d[i] = key;
-            self.have_1d |= 1 << d;
+            self.keys_1d[ri][i] = key;
+            self.have_1d[ri] |= 1 << d;
         }
         key
     }
 
-    /// (key, mix64(key)) of a 2D draw at dimension `d` of the current pixel (memoized below `KEYS`).
+    /// (key, mix64(key)) of a 2D draw at dimension `d` of replicate `r` of the current pixel
+    /// (memoized below `KEYS`).
     #[inline(always)]
-    fn key_2d(&mut self, d: u32) -> (u64, u64) {
-        let i = d as usize;
-        if i < KEYS && self.have_2d & (1 << d) != 0 {
-            return self.keys_2d[i];
+    fn key_2d(&mut self, r: u32, d: u32) -> (u64, u64) {
+        let (i, ri) = (d as usize, r as usize);
+        if i < KEYS && self.have_2d[ri] & (1 << d) != 0 {
+            return self.keys_2d[ri][i];
         }
-        let key = hash2(self.pixel_key, d as u64 | (1 << 40));
+        let key = hash2(self.replicate_key(r), d as u64 | (1 << 40));
         let k = (key, mix64(key));
         if i < KEYS {
-            self.keys_2d[i] = k;
-            self.have_2d |= 1 << d;
+            self.keys_2d[ri][i] = k;
+            self.have_2d[ri] |= 1 << d;
         }
         k
     }
@@ -239,7 +304,7 @@ impl Sampler {
     pub fn next_1d(&mut self) -> f32 {
         let d = self.dim;
         self.dim += 1;
-        let key = self.key_1d(d);
+        let key = self.key_1d(self.replicate, d);
         match self.kind {
             SamplerKind::Independent => to_unit_f32((hash2(key, self.index as u64) >> 32) as u32),
             SamplerKind::Sobol => {
@@ -269,7 +334,7 @@ impl Sampler {
         if (d as usize) < PRE_DIMS && self.have_pre & (1 << d) != 0 {
             return self.pre_2d[d as usize];
         }
-        let (key, k2) = self.key_2d(d);
+        let (key, k2) = self.key_2d(self.replicate, d);
         match self.kind {
             SamplerKind::Independent => {
                 let h = hash2(key, self.index as u64);
@@ -303,6 +368,7 @@ pub const LANES: usize = 8;
 /// memoized scrambling keys and each lane draws exactly the numbers it would alone.
 #[derive(Clone, Copy, Debug)]
 pub struct SampleCursor {
+    replicate: u32,
     index: u32,
     index_reversed: u32,
     dim: u32,
@@ -312,7 +378,12 @@ impl Sampler {
     /// The current sample's position (see [`SampleCursor`]).
     #[inline(always)]
     pub fn cursor(&self) -> SampleCursor {
-        SampleCursor { index: self.index, index_reversed: self.index_reversed, dim: self.dim }
+        SampleCursor {
+            replicate: self.replicate,
+            index: self.index,
+            index_reversed: self.index_reversed,
+            dim: self.dim,
+        }
     }
 
     /// Continues the sample of `c`, taken by [`Sampler::cursor`] since the last `start` at another
@@ -321,6 +392,7 @@ impl Sampler {
     /// again where reached (the same bits) unless `use_ahead` gives them back.
     #[inline(always)]
     pub fn resume(&mut self, c: &SampleCursor) {
+        self.replicate = c.replicate;
         self.index = c.index;
         self.index_reversed = c.index_reversed;
         self.dim = c.dim;
@@ -332,34 +404,41 @@ impl Sampler {
     /// The next 2D draw of `LANES` samples of the current pixel at once, in structure-of-arrays
     /// form `[x; LANES], [y; LANES]`: lane k is the draw [`Sampler::next_2d`] gives after
     /// `start(pixel, index[k])` at the current dimension (the same bits; a test compares them).
-    /// `index_reversed[k]` is `index[k].reverse_bits()`. The lanes share the pixel's scrambling
-    /// keys, so what remains per lane is integer arithmetic (Laine–Karras hashes, four table reads,
-    /// a bit reversal) written as lane loops that the x86-64-v3 copy of the tile loop can run in
-    /// AVX2 registers. Advances the dimension by 2, like `next_2d`.
+    /// The lanes' scrambling keys are their replicates' keys of the pixel (memoized), so what remains
+    /// per lane is integer arithmetic (Laine–Karras hashes, four table reads, a bit reversal) written
+    /// as lane loops that the x86-64-v3 copy of the tile loop can run in AVX2 registers. Advances the
+    /// dimension by 2, like `next_2d`.
     #[inline(always)]
-    pub fn next_2d_lanes(&mut self, index_reversed: &[u32; LANES]) -> ([f32; LANES], [f32; LANES]) {
+    pub fn next_2d_lanes(&mut self, index: &[u32; LANES]) -> ([f32; LANES], [f32; LANES]) {
         let d = self.dim;
         self.dim += 2;
-        let (key, k2) = self.key_2d(d);
         let mut xs = [0.0; LANES];
         let mut ys = [0.0; LANES];
         match self.kind {
             SamplerKind::Independent => {
+                let (key, _) = self.key_2d(0, d);
                 for k in 0..LANES {
-                    let h = hash2(key, index_reversed[k].reverse_bits() as u64);
+                    let h = hash2(key, index[k] as u64);
                     xs[k] = to_unit_f32(h as u32);
                     ys[k] = to_unit_f32((h >> 32) as u32);
                 }
             }
             SamplerKind::Sobol => {
+                let mut keys = [(0u64, 0u64); LANES];
+                let mut reversed = [0u32; LANES];
+                for k in 0..LANES {
+                    let (r, j) = Self::replicate_of(self.kind, index[k]);
+                    keys[k] = self.key_2d(r, d);
+                    reversed[k] = j.reverse_bits();
+                }
                 let mut both = [0u64; LANES];
                 for k in 0..LANES {
-                    both[k] = index_and_sobol1(lk_permutation(index_reversed[k], key as u32));
+                    both[k] = index_and_sobol1(lk_permutation(reversed[k], keys[k].0 as u32));
                 }
                 for k in 0..LANES {
                     let (i, s1) = ((both[k] >> 32) as u32, both[k] as u32);
-                    let x = lk_permutation(i, (key >> 32) as u32) as u64;
-                    let y = lk_permutation(s1, k2 as u32) as u64;
+                    let x = lk_permutation(i, (keys[k].0 >> 32) as u32) as u64;
+                    let y = lk_permutation(s1, keys[k].1 as u32) as u64;
                     let r = (x << 32 | y).reverse_bits();
                     xs[k] = to_unit_f32(r as u32);
                     ys[k] = to_unit_f32((r >> 32) as u32);
@@ -377,14 +456,10 @@ impl Sampler {
         // Loops, not closures: a closure is a function of its own, compiled for the baseline even
         // when it is called from the x86-64-v3 copy of the tile loop, and LLVM left these out of line.
         self.start(pixel, index[0]);
-        let mut reversed = [0u32; LANES];
-        for k in 0..LANES {
-            reversed[k] = index[k].reverse_bits();
-        }
         let mut ahead = [[[0.0; LANES]; 2]; 3];
         for (j, &d) in AHEAD_DIMS.iter().enumerate() {
             self.dim = d;
-            let (x, y) = self.next_2d_lanes(&reversed);
+            let (x, y) = self.next_2d_lanes(index);
             ahead[j] = [x, y];
         }
         ahead
@@ -438,7 +513,7 @@ mod tests {
             let mut acc = 0.0;
             s.start(1, 0);
             for b in 0..(1u32 << 16) {
-                let r: [u32; LANES] = std::array::from_fn(|k| (b * LANES as u32 + k as u32).reverse_bits());
+                let r: [u32; LANES] = std::array::from_fn(|k| b * LANES as u32 + k as u32);
                 s.dim = 2;
                 let (xs, _) = s.next_2d_lanes(&r);
                 acc += xs.iter().sum::<f32>();
@@ -514,7 +589,7 @@ mod tests {
                     batch.start(pixel, 0);
                     for d in [0u32, 2, 5, 30] {
                         batch.dim = d;
-                        let (xs, ys) = batch.next_2d_lanes(&index.map(u32::reverse_bits));
+                        let (xs, ys) = batch.next_2d_lanes(&index);
                         for k in 0..LANES {
                             one.start(pixel, index[k]);
                             one.dim = d;
@@ -541,8 +616,9 @@ mod tests {
                 for d in [0u32, 2, 4, 40] {
                     s.dim = d;
                     let got = s.next_2d();
-                    let key = hash2(hash2(11, pixel), d as u64 | (1 << 40));
-                    let i = owen_scramble(index, key as u32);
+                    let rkey = hash2(hash2(11, pixel), REPLICATE_SALT ^ (index % REPLICATES) as u64);
+                    let key = hash2(rkey, d as u64 | (1 << 40));
+                    let i = owen_scramble(index / REPLICATES, key as u32);
                     let want = Vec2::new(
                         to_unit_f32(owen_scramble_reversed(i, (key >> 32) as u32)),
                         to_unit_f32(owen_scramble_reversed(sobol1_reversed(i), mix64(key) as u32)),
@@ -564,8 +640,9 @@ mod tests {
                 for d in [0u32, 1, 4, 40] {
                     s.dim = d;
                     let got = s.next_1d();
-                    let key = hash2(hash2(11, pixel), d as u64);
-                    let i = owen_scramble(index, key as u32);
+                    let rkey = hash2(hash2(11, pixel), REPLICATE_SALT ^ (index % REPLICATES) as u64);
+                    let key = hash2(rkey, d as u64);
+                    let i = owen_scramble(index / REPLICATES, key as u32);
                     let want = to_unit_f32(owen_scramble_reversed(i, (key >> 32) as u32));
                     assert_eq!(got.to_bits(), want.to_bits());
                 }
@@ -629,23 +706,27 @@ mod tests {
         }
     }
 
-    /// A power-of-two prefix of Owen-scrambled Sobol points is a (0,m,2)-net: every elementary
-    /// interval of area 1/N holds exactly one point.
+    /// A power-of-two prefix of a replicate's Owen-scrambled Sobol points is a (0,m,2)-net: every
+    /// elementary interval of area 1/N holds exactly one point (replicates 0 and R − 1; the points
+    /// of replicate r are the samples r, r + R, r + 2R, …).
     #[test]
     fn sobol_prefix_is_a_net() {
         let mut s = Sampler::new(SamplerKind::Sobol, 3);
         let n = 256usize;
-        for shape in [(1usize, 256usize), (16, 16), (256, 1), (4, 64)] {
+        for (r, shape) in [0, REPLICATES - 1]
+            .into_iter()
+            .flat_map(|r| [(1usize, 256usize), (16, 16), (256, 1), (4, 64)].map(|sh| (r, sh)))
+        {
             let mut seen = vec![0u32; n];
             for i in 0..n as u32 {
-                s.start(5, i);
+                s.start(5, r + REPLICATES * i);
                 let _ = s.next_1d();
                 let p = s.next_2d();
                 let cx = (p.x * shape.0 as f32) as usize;
                 let cy = (p.y * shape.1 as f32) as usize;
                 seen[cy * shape.0 + cx] += 1;
             }
-            assert!(seen.iter().all(|&c| c == 1), "shape {shape:?}: {seen:?}");
+            assert!(seen.iter().all(|&c| c == 1), "replicate {r}, shape {shape:?}: {seen:?}");
         }
     }
 
