@@ -106,14 +106,16 @@ fn merge_refuses_parts_rendered_before_and_after_a_map_changed() {
 }
 
 /// Guide, reference/output-images.md and how-to/error-bars.md: renders write `stderr_own` beside
-/// `stderr`; the written error bar is never below the pixel's own one, and a pixel with no flag
-/// near it, at 16 spp or more, keeps its own σ bit for bit. Planted error: the `stderr_own.R`
+/// `stderr`; with the independent sampler the written error bar is never below the pixel's own
+/// one, and a pixel with no flag near it, at 16 spp or more, keeps its own σ bit for bit. Planted error: the `stderr_own.R`
 /// written 1.5× too large.
 #[test]
 fn stderr_own_is_written_and_equals_stderr_away_from_flags() {
     let dir = temp_dir("doc-stderr-own");
     write_map(&dir.join("map.exr"), 32, 16, 0.0);
-    let scene = write(&dir, "s.toml", &scene_text("map.exr", Some("latlong"), 16, 32, ""));
+    // The independent sampler: there the written bar is the pixel's own σ (Sobol's is the spread of
+    // its replicates, see the guide's "Error bars").
+    let scene = write(&dir, "s.toml", &scene_text("map.exr", Some("latlong"), 16, 32, "sampler = \"independent\""));
     let out = dir.join("o.exr");
     let (code, err) = reflect(&["render", &scene, "--out", &s(&out), "--quiet"]);
     assert_eq!(code, 0, "{err}");
