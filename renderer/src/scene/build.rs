@@ -228,7 +228,9 @@ pub(crate) fn color(c: super::file::Color, what: &str) -> std::result::Result<Rg
     }
 }
 
-fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
+/// Builds the light of a `[lighting]` table (docs/src/conventions.md §6), data files relative to `base`;
+/// errors name the key (`lighting: …`) or the data file.
+pub fn build_light(l: &mut LightingSection, base: &Path) -> Result<Light> {
     let lerr = |m: String| Error::new(format!("lighting: {m}"));
     Ok(match l {
         LightingSection::Uniform { radiance } => {
