@@ -48,7 +48,21 @@ fn continued_renders_equal_the_single_render_bit_for_bit() {
     ok(&["render", s(&scene), "--spp", "7", "--seed", "5", "--out", s(&a), "--state", s(&a_state), "-q"]);
     let (b, b_state) = (dir.join("b.exr"), dir.join("b.state.exr"));
     let cont = |from: &Path, spp: &str, out: &Path, state: &Path| {
-        ok(&["render", s(&scene), "--seed", "5", "--continue", s(from), "--spp", spp, "--out", s(out), "--state", s(state), "-q"])
+        ok(&[
+            "render",
+            s(&scene),
+            "--seed",
+            "5",
+            "--continue",
+            s(from),
+            "--spp",
+            spp,
+            "--out",
+            s(out),
+            "--state",
+            s(state),
+            "-q",
+        ])
     };
     cont(&a_state, "20", &b, &b_state);
     let (c, c_state) = (dir.join("c.exr"), dir.join("c.state.exr"));
@@ -111,12 +125,33 @@ fn states_that_cannot_be_continued_are_refused() {
         assert!(!out.exists(), "{all:?} wrote {}", out.display());
     }
     // Another scene (here another image size, which is in the fingerprint).
-    let (code, err) = common::reflect(&["render", s(&other), "--continue", s(&state), "--spp", "20", "--seed", "5", "--out", s(&out)]);
+    let (code, err) = common::reflect(&[
+        "render",
+        s(&other),
+        "--continue",
+        s(&state),
+        "--spp",
+        "20",
+        "--seed",
+        "5",
+        "--out",
+        s(&out),
+    ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("a different scene") && err.trim().lines().count() == 1, "{err}");
     // The state as its own output: refused before anything is read or written.
-    let (code, err) =
-        common::reflect(&["render", s(&scene), "--continue", s(&state), "--spp", "20", "--seed", "5", "--out", s(&state)]);
+    let (code, err) = common::reflect(&[
+        "render",
+        s(&scene),
+        "--continue",
+        s(&state),
+        "--spp",
+        "20",
+        "--seed",
+        "5",
+        "--out",
+        s(&state),
+    ]);
     assert_eq!(code, 2, "{err}");
     let after: Vec<Vec<u8>> = [&img, &state].iter().map(|p| std::fs::read(p).unwrap()).collect();
     assert!(before == after, "a refused --continue changed its input");

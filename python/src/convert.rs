@@ -9,7 +9,8 @@ use pyo3::prelude::*;
 /// built-in `ValueError` if the package's module cannot be imported (the native module used alone).
 pub fn our_error(class: &str, message: String) -> PyErr {
     Python::attach(|py| {
-        let made = py.import("reflect._errors").and_then(|m| m.getattr(class)).and_then(|t| t.call1((message.clone(),)));
+        let made =
+            py.import("reflect._errors").and_then(|m| m.getattr(class)).and_then(|t| t.call1((message.clone(),)));
         match made {
             Ok(e) => PyErr::from_value(e),
             Err(_) => PyValueError::new_err(message),

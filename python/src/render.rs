@@ -2,13 +2,13 @@
 //! exactly as `reflect render` renders them (same parsing, same overrides, same render loop, same
 //! EXR), with the GIL released and Ctrl-C honoured while the render runs.
 
+use crate::convert::input_error;
 use crate::convert::{IntoPy, to_python};
 use analysis::Error;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use renderer::film::{Film, Pixel};
-use crate::convert::input_error;
 use renderer::progressive::{
     Checkpoint, DEFAULT_CHECKPOINT_EVERY, Event, Finished, MIN_TARGET_SPP, NoEstimate, Outcome, ProgressiveError,
     ProgressiveOptions, Stop, render_progressive,

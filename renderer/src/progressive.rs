@@ -162,7 +162,9 @@ pub enum Outcome {
     Done(Finished),
     /// Stopped through [`ProgressiveOptions::cancel`]: the state after the last finished pass (saved to
     /// the checkpoint, if there is one).
-    Cancelled { state: Partial },
+    Cancelled {
+        state: Partial,
+    },
 }
 
 /// What the state of a checkpoint or a continued render differs in.
@@ -369,7 +371,8 @@ pub fn render_progressive(
         Some(p) => p.clone(),
         None => Partial::empty(s.width, s.height, s.spp, bl, range.0),
     };
-    let want = PartialHeader { end: range.1, ..partial_header(scene, &Partial::empty(s.width, s.height, s.spp, bl, range.0)) };
+    let want =
+        PartialHeader { end: range.1, ..partial_header(scene, &Partial::empty(s.width, s.height, s.spp, bl, range.0)) };
     if let Some(ck) = &opts.checkpoint
         && ck.path.exists()
     {
@@ -594,11 +597,8 @@ mod tests {
     fn cancelling_returns_the_state_of_the_last_finished_pass() {
         let s = scene(64, 1);
         let cancel = Arc::new(AtomicBool::new(false));
-        let opts = ProgressiveOptions {
-            target_rel_error: Some(1e-9),
-            cancel: Some(cancel.clone()),
-            ..Default::default()
-        };
+        let opts =
+            ProgressiveOptions { target_rel_error: Some(1e-9), cancel: Some(cancel.clone()), ..Default::default() };
         // Cancelled from the progress callback after the third pass (samples [0, 4)).
         let mut seen = 0;
         let out = render_progressive(&s, &opts, &mut |e| {

@@ -48,11 +48,16 @@ pub fn cli_error(e: ProgressiveError) -> Error {
         ),
         ProgressiveError::ContinueMismatch { path, mismatch } => Error::file(
             &path,
-            format!("--continue: is the state of a render of {}; continue it with its own scene and seed", mismatch.what()),
+            format!(
+                "--continue: is the state of a render of {}; continue it with its own scene and seed",
+                mismatch.what()
+            ),
         ),
         ProgressiveError::ContinueBeyond { path, have, want } => Error::file(
             &path,
-            format!("--continue: holds {have} samples per pixel, more than --spp {want}; ask for more samples than it has"),
+            format!(
+                "--continue: holds {have} samples per pixel, more than --spp {want}; ask for more samples than it has"
+            ),
         ),
         ProgressiveError::ContinueNotFromZero { path, start, end } => Error::file(
             &path,
@@ -62,7 +67,9 @@ pub fn cli_error(e: ProgressiveError) -> Error {
             ),
         ),
         ProgressiveError::File(e) => e,
-        ProgressiveError::Threads { threads, message } => Error::new(format!("cannot start {threads} threads: {message}")),
+        ProgressiveError::Threads { threads, message } => {
+            Error::new(format!("cannot start {threads} threads: {message}"))
+        }
         ProgressiveError::Merge(m) => Error::new(format!("internal: {m}")),
     }
 }

@@ -180,9 +180,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         ));
     }
     if a.shard.is_some() && (a.continue_from.is_some() || a.state.is_some()) {
-        return Err(Error::new(
-            "--shard writes a partial render (itself a state): it takes no --continue or --state",
-        ));
+        return Err(Error::new("--shard writes a partial render (itself a state): it takes no --continue or --state"));
     }
     for (name, v) in [
         ("--target-rel-error", a.target_rel_error),
@@ -209,11 +207,8 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     }
     let range = a.shard.map_or((0, s.spp as u64), |(i, n)| renderer::progressive::shard_range(i, n, s.spp));
     let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
-    let plain = a.shard.is_none()
-        && a.checkpoint.is_none()
-        && !progressive
-        && a.continue_from.is_none()
-        && a.state.is_none();
+    let plain =
+        a.shard.is_none() && a.checkpoint.is_none() && !progressive && a.continue_from.is_none() && a.state.is_none();
     let mut progressive_report = None;
     let mut final_state = None;
     let (film, stats) = if plain {
