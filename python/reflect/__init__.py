@@ -8,10 +8,14 @@ theory of reflection, with NumPy arrays in and out.
 - :func:`analyze`, :mod:`reflect.invert`, :func:`verify`: the CLI's ``--json`` documents as
   dicts, with numeric lists as NumPy arrays.
 
+- :mod:`reflect.brdf` and :mod:`reflect.light`: the renderer's BRDFs and lights as objects with
+  ``eval``, ``sample`` and ``pdf`` over NumPy batches.
+
 Conventions (frame, SH basis, image layers, scene files) are those of the project's guide,
 ``docs/src/conventions.md`` (sections "Spherical harmonics: the terms the commands print", "Output
-images", "Scene files" of the guide give the details). Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the
-CLI's one-line message, its flags named as this API's keywords (``--from`` → ``from_=``).
+images", "Scene files" of the guide give the details). Bad input raises :class:`reflect.InputError` (a ``ValueError``; :class:`reflect.MissingFileError`, a
+``FileNotFoundError``, for a missing file), all subclasses of :class:`reflect.Error`, with a one-line
+message naming this API's keywords.
 """
 
 from __future__ import annotations
@@ -22,13 +26,20 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _args, _reflect
+from ._errors import Error, FileError, InputError, MissingFileError
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
 
 ImageLike = Union[str, "os.PathLike[str]", RenderResult, np.ndarray]
 
 __all__ = [
+    "Error",
+    "FileError",
     "Image",
+    "InputError",
+    "MissingFileError",
+    "brdf",
+    "light",
     "analyze",
     "invert",
     "RenderResult",
@@ -53,6 +64,10 @@ def render(
     threads: Optional[int] = None,
     sampler: Optional[str] = None,
     progress: bool = False,
+    target_rel_error: Optional[float] = None,
+    time_limit: Optional[float] = None,
+    checkpoint: Union[None, str, "os.PathLike[str]"] = None,
+    checkpoint_every: Optional[float] = None,
 ) -> RenderResult:
     """Renders a scene and returns its image layers as NumPy arrays.
 
@@ -65,7 +80,21 @@ def render(
     Integers must be ``int`` (or NumPy integers): a float (even ``3.0``), a bool, a negative or
     too large value raises ``ValueError`` naming the keyword, as does any other bad argument.
 
-    The GIL is released while rendering; Ctrl-C stops the render and raises ``KeyboardInterrupt``.
+    Rendering in passes (the renderer's progressive loop, the one ``reflect render`` runs):
+    ``target_rel_error`` (e.g. 0.01) stops once the 95th percentile over the object's pixels of the
+    worst channel's relative standard error is at most it (checked from 16 spp on; ``spp`` is then the
+    most samples to take); ``time_limit`` (seconds of rendering) stops after the last pass that fits;
+    ``checkpoint`` (an ``.exr`` path) resumes from that file if it exists and saves the state there every
+    ``checkpoint_every`` seconds (default 60) and on Ctrl-C. The image is bit-identical to a plain
+    render of the samples reached. The result's :attr:`RenderResult.spp` is the spp reached and its
+    ``stats`` say how it went: ``passes``, ``stopped_by`` ("target", "time-limit" or "spp-cap"),
+    ``rel_error_p95`` (None with ``rel_error_unknown`` saying why when there is no estimate).
+    ``progress=True`` draws the tile bar and one line per pass on stderr.
+
+    Nothing is written to disk (no temporary files) unless ``checkpoint`` is given.
+
+    The GIL is released while rendering; Ctrl-C stops the render within one tile and raises
+    ``KeyboardInterrupt``. Bad arguments raise :class:`InputError` (a ``ValueError``) naming the keyword.
     """
     from ._scene import _source
 
@@ -78,6 +107,14 @@ def render(
     threads = _args.optional_integer("threads", threads, 1, 2**31 - 1)
     sampler = _args.optional_string("sampler", sampler)
     progress = _args.boolean("progress", progress)
+    target_rel_error = _positive("target_rel_error", target_rel_error)
+    time_limit = _positive("time_limit", time_limit)
+    checkpoint_every = _positive("checkpoint_every", checkpoint_every)
+    if checkpoint_every is not None and checkpoint is None:
+        raise InputError("checkpoint_every= needs checkpoint=")
+    ck = None if checkpoint is None else os.fspath(checkpoint)
+    if ck is not None and not ck.lower().endswith(".exr"):
+        raise InputError(f"checkpoint= must name an .exr file, got {ck!r}")
     kind, value, base = _source(scene)
     return _reflect.render(
         kind,
@@ -89,7 +126,18 @@ def render(
         threads=threads,
         sampler=sampler,
         progress=progress,
+        target_rel_error=target_rel_error,
+        time_limit=time_limit,
+        checkpoint=ck,
+        checkpoint_every=checkpoint_every,
     )
+
+
+def _positive(name: str, v: Any) -> Optional[float]:
+    x = _args.optional_real(name, v)
+    if x is not None and x <= 0:
+        raise InputError(f"{name}= must be a positive number, got {x}")
+    return x
 
 
 def read_image(path: Union[str, "os.PathLike[str]"]) -> Image:
@@ -238,4 +286,4 @@ def verify(
     ))
 
 
-from . import invert, sh  # noqa: E402  (after render: sh imports nothing from here but keeps the order readable)
+from . import brdf, invert, light, sh  # noqa: E402  (after render: sh imports nothing from here but keeps the order readable)

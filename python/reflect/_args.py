@@ -1,6 +1,6 @@
 """Checks of keyword arguments, the one place each is turned into the type the core takes.
 
-Every bad argument raises ``ValueError`` naming the keyword (``spp=``): a negative or too large
+Every bad argument raises ``reflect.InputError`` (a ``ValueError``) naming the keyword (``spp=``): a negative or too large
 integer, a float where an integer is needed (``3.0`` too, as ``range`` refuses it: no silent
 truncation), a bool where a number is needed, NaN or ±inf, or a value of the wrong type.
 """
@@ -14,6 +14,8 @@ from typing import Any, Optional
 
 import numpy as np
 
+from ._errors import InputError
+
 U32_MAX = 2**32 - 1
 U64_MAX = 2**64 - 1
 
@@ -25,10 +27,10 @@ def _shown(v: Any) -> str:
 def integer(name: str, v: Any, lo: int = 0, hi: int = U64_MAX) -> int:
     """``v`` as an int in ``lo..=hi``: an ``int`` or NumPy integer, not a bool or a float."""
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Integral, np.integer)):
-        raise ValueError(f"{name}= must be an integer, got {_shown(v)}")
+        raise InputError(f"{name}= must be an integer, got {_shown(v)}")
     i = operator.index(v)
     if not lo <= i <= hi:
-        raise ValueError(f"{name}= must be an integer in {lo}..={hi}, got {i}")
+        raise InputError(f"{name}= must be an integer in {lo}..={hi}, got {i}")
     return i
 
 
@@ -39,10 +41,10 @@ def optional_integer(name: str, v: Any, lo: int = 0, hi: int = U64_MAX) -> Optio
 def real(name: str, v: Any) -> float:
     """``v`` as a finite float: an int or float (NumPy's too), not a bool, NaN or ±inf."""
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Real, np.integer, np.floating)):
-        raise ValueError(f"{name}= must be a number, got {_shown(v)}")
+        raise InputError(f"{name}= must be a number, got {_shown(v)}")
     x = float(v)
     if not math.isfinite(x):
-        raise ValueError(f"{name}= must be a finite number, got {x}")
+        raise InputError(f"{name}= must be a finite number, got {x}")
     return x
 
 
@@ -53,13 +55,13 @@ def optional_real(name: str, v: Any) -> Optional[float]:
 def boolean(name: str, v: Any) -> bool:
     """``v`` as a bool: ``True``/``False`` (NumPy's too), not 0/1 or a string."""
     if not isinstance(v, (bool, np.bool_)):
-        raise ValueError(f"{name}= must be True or False, got {_shown(v)}")
+        raise InputError(f"{name}= must be True or False, got {_shown(v)}")
     return bool(v)
 
 
 def string(name: str, v: Any) -> str:
     if not isinstance(v, str):
-        raise ValueError(f"{name}= must be a string, got {_shown(v)}")
+        raise InputError(f"{name}= must be a string, got {_shown(v)}")
     return v
 
 

@@ -4,8 +4,8 @@ The public API is the package ``reflect`` (``reflect/__init__.py``, ``reflect/sh
 shapes arguments and calls these functions. Conventions: the project's guide in ``docs/``
 (sections "Frames and directions", "Environment maps and `rotate_deg`", "Spherical harmonics: the terms the
 commands print", "BRDFs", "Output images", "Scene files", "Command line"). Every function
-raises ``ValueError`` with the CLI's one-line message on bad input, ``FileNotFoundError`` when a
-named input file does not exist.
+raises ``reflect.InputError`` (a ``ValueError``) with a one-line message on bad input,
+``reflect.MissingFileError`` (a ``FileNotFoundError``) when a named input file does not exist.
 """
 
 from typing import Any, Dict, List, Optional, Tuple
@@ -40,6 +40,18 @@ class RenderResult:
     def stats(self) -> Dict[str, Any]:
         """``wall_seconds``, ``samples``, ``rays``, ``threads``, ``samples_per_sec``, ``rays_per_sec``,
         and the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``."""
+    @property
+    def spp(self) -> int:
+        """Samples per pixel of the image: the spp reached by a render to a target error or time limit."""
+    @property
+    def seed(self) -> int:
+        """The render's seed."""
+    @property
+    def sampler(self) -> str:
+        """The sampler: ``"sobol"`` or ``"independent"``."""
+    @property
+    def seconds(self) -> float:
+        """The render loop's wall time, seconds (scene loading not included)."""
     def save(self, path: str) -> None:
         """Writes the OpenEXR file ``reflect render`` writes (32-bit float R, G, B, normal.X/Y/Z,
         mask.Y, stderr.R/G/B, stderr_flag.Y, the scene in the header), atomically. ``path`` must end in ``.exr``."""
@@ -54,10 +66,46 @@ def render(
     threads: Optional[int] = None,
     sampler: Optional[str] = None,
     progress: bool = False,
+    target_rel_error: Optional[float] = None,
+    time_limit: Optional[float] = None,
+    checkpoint: Optional[str] = None,
+    checkpoint_every: Optional[float] = None,
 ) -> RenderResult:
-    """Renders a scene: ``kind`` "path" (``value`` a file), "toml" (TOML text) or "dict" (the scene
-    tables); relative data paths from ``base`` (default: the file's folder, else the current
-    directory). The GIL is released; SIGINT cancels the render and raises KeyboardInterrupt."""
+    """Renders a scene through the renderer's progressive loop (``renderer::progressive``): ``kind``
+    "path" (``value`` a file), "toml" (TOML text) or "dict" (the scene tables); relative data paths
+    from ``base`` (default: the file's folder, else the current directory). ``target_rel_error``
+    (relative, > 0), ``time_limit`` (seconds), ``checkpoint`` (a partial-render ``.exr`` file resumed
+    from and saved to every ``checkpoint_every`` seconds, removed when the render completes). The GIL is
+    released; SIGINT cancels the render (saving the checkpoint) and raises KeyboardInterrupt."""
+
+class NativeBrdf:
+    """A BRDF built from a scene file's ``brdf`` table (``reflect.brdf`` wraps it). Local shading frame
+    (normal +z), ω_i and ω_o pointing away from the surface; C-contiguous float32 arrays."""
+
+    def __init__(self, table: Dict[str, Any]) -> None: ...
+    def eval(self, wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        """ρ̂ = BRDF · cos θ_i per row of (N, 3) ``wi`` and ``wo``: (N, 3) float32, sr⁻¹."""
+    def pdf(self, wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        """Solid-angle density of ``sample`` drawing ``wi`` given ``wo``: (N,) float32, sr⁻¹."""
+    def sample(
+        self, wo: npt.NDArray[np.float32], u: npt.NDArray[np.float32], u_lobe: npt.NDArray[np.float32]
+    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
+        """(wi (N, 3), weight = ρ̂/pdf (N, 3), pdf (N,), delta (N,)) for ``wo`` (N, 3), ``u`` (N, 2),
+        ``u_lobe`` (N,); zeros where nothing is drawn."""
+
+class NativeLight:
+    """A distant light built from a scene file's ``[lighting]`` table (``reflect.light`` wraps it).
+    World-frame directions toward the light; C-contiguous float32 arrays."""
+
+    def __init__(self, table: Dict[str, Any], base: str) -> None: ...
+    def eval(self, direction: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        """Radiance L(ω) from each of (N, 3) directions: (N, 3) float32."""
+    def pdf(self, direction: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+        """Solid-angle density of ``sample`` drawing each direction: (N,) float32, sr⁻¹."""
+    def sample(
+        self, u: npt.NDArray[np.float32]
+    ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
+        """(direction (N, 3), value = L/pdf (N, 3), pdf (N,), delta (N,)) for ``u`` (N, 2)."""
 
 def load_scene(kind: str, value: Any, base: Optional[str] = None) -> Tuple[Dict[str, Any], str, Optional[str]]:
     """Checks a scene with the scene-file types and returns (tables as given, base folder, file)."""

@@ -1,15 +1,33 @@
 //! Errors and values across the boundary.
 
 use analysis::Error;
-use pyo3::exceptions::{PyFileNotFoundError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-/// The CLI's one-line message as a Python exception: `FileNotFoundError` when the error names a
-/// file that does not exist (the only kind of bad input that has a more precise built-in class),
-/// else `ValueError`.
+/// An exception of the package's own (`reflect._errors`: `InputError` ⊂ `ValueError`, `FileError` ⊂
+/// `OSError`, `MissingFileError` ⊂ `FileNotFoundError`, all ⊂ `reflect.Error`) with `message`; the
+/// built-in `ValueError` if the package's module cannot be imported (the native module used alone).
+pub fn our_error(class: &str, message: String) -> PyErr {
+    Python::attach(|py| {
+        let made =
+            py.import("reflect._errors").and_then(|m| m.getattr(class)).and_then(|t| t.call1((message.clone(),)));
+        match made {
+            Ok(e) => PyErr::from_value(e),
+            Err(_) => PyValueError::new_err(message),
+        }
+    })
+}
+
+/// `reflect.InputError` (a `ValueError`) with `message`: a bad argument, named by its keyword.
+pub fn input_error(message: impl Into<String>) -> PyErr {
+    our_error("InputError", message.into())
+}
+
+/// The one-line message as a Python exception: `reflect.MissingFileError` (a `FileNotFoundError`) when
+/// the error names a file that does not exist, else `reflect.InputError` (a `ValueError`).
 pub fn py_err(e: Error) -> PyErr {
     let missing = e.path.as_ref().is_some_and(|p| !p.as_os_str().is_empty() && !p.exists());
-    if missing { PyFileNotFoundError::new_err(e.to_string()) } else { PyValueError::new_err(e.to_string()) }
+    if missing { our_error("MissingFileError", e.to_string()) } else { our_error("InputError", e.to_string()) }
 }
 
 /// `Result<T, analysis::Error>` → `PyResult<T>`.

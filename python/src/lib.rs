@@ -6,12 +6,14 @@
 //! public API, with argument handling and documentation, is the Python package beside this crate
 //! (`python/reflect/`); its stub `reflect/_reflect.pyi` documents this module.
 //!
-//! Errors: every [`analysis::Error`] becomes `ValueError` with the CLI's one-line message, or
-//! `FileNotFoundError` when the file it names does not exist. A panic in a render thread becomes
+//! Errors: every [`analysis::Error`] becomes the package's `reflect.InputError` (a `ValueError`) with
+//! its one-line message, or `reflect.MissingFileError` (a `FileNotFoundError`) when the file it names
+//! does not exist (`reflect/_errors.py`). A panic in a render thread becomes
 //! `RuntimeError`; nothing unwinds into Python.
 
 mod commands;
 mod convert;
+mod objects;
 mod render;
 mod sh;
 mod verify;
@@ -23,6 +25,8 @@ use pyo3::prelude::*;
 fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<render::RenderResult>()?;
+    m.add_class::<objects::NativeBrdf>()?;
+    m.add_class::<objects::NativeLight>()?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(sh::sh_project_file, m)?)?;

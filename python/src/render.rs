@@ -2,18 +2,23 @@
 //! exactly as `reflect render` renders them (same parsing, same overrides, same render loop, same
 //! EXR), with the GIL released and Ctrl-C honoured while the render runs.
 
+use crate::convert::input_error;
 use crate::convert::{IntoPy, to_python};
 use analysis::Error;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use renderer::film::{Film, Pixel};
-use renderer::render::{RenderOptions, RenderStats};
+use renderer::progressive::{
+    Checkpoint, DEFAULT_CHECKPOINT_EVERY, Event, Finished, MIN_TARGET_SPP, NoEstimate, Outcome, ProgressiveError,
+    ProgressiveOptions, Stop, render_progressive,
+};
+use renderer::render::RenderStats;
 use renderer::scene::{Scene, SceneFile};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 /// A scene description with where its relative paths are resolved from.
 struct Source {
@@ -47,10 +52,10 @@ fn source(kind: &str, value: &Bound<'_, PyAny>, base: Option<PathBuf>) -> PyResu
         "dict" => {
             // The same serde types as the TOML file: unknown keys are errors here too.
             let file: SceneFile = pythonize::depythonize(value)
-                .map_err(|e| PyValueError::new_err(format!("scene dict: {}", e.to_string().replace('\n', " "))))?;
+                .map_err(|e| input_error(format!("scene dict: {}", e.to_string().replace('\n', " "))))?;
             Ok(Source { file, base: base.unwrap_or_else(cwd), path: None })
         }
-        other => Err(PyValueError::new_err(format!("unknown scene kind '{other}'"))),
+        other => Err(input_error(format!("unknown scene kind '{other}'"))),
     }
 }
 
@@ -75,7 +80,7 @@ pub fn load_scene<'py>(
                 None => value.extract::<String>()?,
             };
             let t: toml::Table =
-                toml::from_str(&text).map_err(|e| PyValueError::new_err(format!("scene TOML: {}", e.message())))?;
+                toml::from_str(&text).map_err(|e| input_error(format!("scene TOML: {}", e.message())))?;
             to_python(py, &t)?
         }
     };
@@ -98,7 +103,7 @@ fn apply_overrides(
     }
     if let Some(s) = sampler {
         // The closed set's own parse (vocab): the message lists the names, as a scene file's does.
-        file.render.sampler = s.parse().map_err(|e: Error| PyValueError::new_err(format!("render.sampler: {e}")))?;
+        file.render.sampler = s.parse().map_err(|e: Error| input_error(format!("render.sampler: {e}")))?;
     }
     if let Some((w, h)) = size {
         file.render.width = w;
@@ -107,26 +112,112 @@ fn apply_overrides(
     Ok(())
 }
 
-/// Renders on another thread while this one, without the GIL, waits for it; Ctrl-C
-/// (KeyboardInterrupt) sets the cancel flag and the render stops at its next tile
-/// ([`crate::convert::interruptibly`]).
-fn render_interruptibly(
-    py: Python<'_>,
-    scene: &Scene,
-    threads: Option<usize>,
-    progress: bool,
-) -> PyResult<(Film, RenderStats)> {
-    let cancel = Arc::new(AtomicBool::new(false));
-    let opts = RenderOptions { progress, cancel: Some(cancel.clone()) };
-    crate::convert::interruptibly(py, &cancel, || {
-        reflect::cli::render::with_threads(threads, || renderer::render::render(scene, &opts))
-    })?
-    .py()
+/// A progressive-render error in this API's terms (its keywords: `target_rel_error=`, `checkpoint=`).
+fn progressive_error(e: ProgressiveError) -> PyErr {
+    match e {
+        ProgressiveError::InvalidOption { name: "threads", .. } => input_error("threads= must be at least 1"),
+        ProgressiveError::InvalidOption { name, value } => {
+            input_error(format!("{name}= must be a positive number, got {value}"))
+        }
+        ProgressiveError::CheckpointMismatch { path, mismatch } => input_error(format!(
+            "{}: is a checkpoint of {}; remove it or pass another checkpoint=",
+            path.display(),
+            mismatch.what()
+        )),
+        ProgressiveError::File(e) => crate::convert::py_err(e),
+        ProgressiveError::Threads { .. } => crate::convert::our_error("Error", e.to_string()),
+        other => input_error(other.to_string()),
+    }
 }
 
-/// `render(kind, value, base, spp, seed, size, threads, sampler, progress)`: see `reflect.render`.
+/// The options of `reflect.render` beyond the scene's `[render]` table.
+pub struct Passes {
+    pub threads: Option<usize>,
+    pub progress: bool,
+    pub target_rel_error: Option<f64>,
+    pub time_limit: Option<f64>,
+    pub checkpoint: Option<PathBuf>,
+    pub checkpoint_every: Option<f64>,
+}
+
+/// How a render in passes went, for the result's metadata.
+struct Run {
+    film: Film,
+    stats: RenderStats,
+    passes: u32,
+    stop: Stop,
+    rel_error: Option<Result<f64, NoEstimate>>,
+}
+
+/// Renders through `renderer::progressive` on another thread while this one, without the GIL, waits
+/// for it; Ctrl-C (KeyboardInterrupt) sets the cancel flag and the render stops at its next tile
+/// ([`crate::convert::interruptibly`]); with a checkpoint, the last finished pass is saved to it.
+/// A render to a target error or a time limit is labelled with the spp it reached (`scene` is updated).
+fn render_passes(py: Python<'_>, scene: &mut Scene, p: &Passes) -> PyResult<Run> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let progressive = p.target_rel_error.is_some() || p.time_limit.is_some();
+    let opts = ProgressiveOptions {
+        range: None,
+        target_rel_error: p.target_rel_error,
+        time_limit: p.time_limit.map(|t| Duration::from_secs_f64(t.max(0.0))),
+        checkpoint: p.checkpoint.as_ref().map(|path| Checkpoint {
+            path: path.clone(),
+            every: p.checkpoint_every.map_or(DEFAULT_CHECKPOINT_EVERY, |t| Duration::from_secs_f64(t.max(0.0))),
+            attributes: renderer::output::header_attributes(scene),
+        }),
+        initial: None,
+        threads: p.threads,
+        progress_bar: p.progress,
+        estimate_each_pass: p.progress && progressive,
+        cancel: Some(cancel.clone()),
+    };
+    let progress = p.progress;
+    let target = p.target_rel_error;
+    let shared: &Scene = scene;
+    let outcome = crate::convert::interruptibly(py, &cancel, || {
+        render_progressive(shared, &opts, &mut |e| {
+            if !progress {
+                return;
+            }
+            match e {
+                Event::Resumed { path, at, .. } => eprintln!("resuming from {} at sample {at}", path.display()),
+                Event::Pass(r) if progressive => {
+                    let err = match r.rel_error {
+                        Some(Ok(e)) => format!("95th-percentile relative stderr {:.4} %", 100.0 * e),
+                        Some(Err(why)) => format!("no error estimate: {why}"),
+                        None => format!("error checked from {MIN_TARGET_SPP} spp on"),
+                    };
+                    let target = target.map(|x| format!(" (target {:.4} %)", 100.0 * x)).unwrap_or_default();
+                    eprintln!("pass {}: {} of at most {} spp, {err}{target}", r.pass, r.end, r.cap);
+                }
+                Event::Pass(_) => {}
+            }
+        })
+    })?
+    .map_err(progressive_error)?;
+    match outcome {
+        Outcome::Cancelled { .. } => Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("render cancelled")),
+        Outcome::Done(Finished { mut state, stats, passes, stop, rel_error }) => {
+            if let Some(ck) = &p.checkpoint {
+                // The render is complete: the checkpoint has served (as `reflect render` removes it).
+                let _ = std::fs::remove_file(ck);
+            }
+            if progressive {
+                let n = state.end as u32;
+                state.spp = n;
+                scene.settings.spp = n;
+                scene.description.render.spp = n;
+            }
+            Ok(Run { film: state.finish(), stats, passes, stop, rel_error })
+        }
+    }
+}
+
+/// `render(kind, value, base, spp, seed, size, threads, sampler, progress, target_rel_error, time_limit,
+/// checkpoint, checkpoint_every)`: see `reflect.render`.
 #[pyfunction]
-#[pyo3(signature = (kind, value, base=None, spp=None, seed=None, size=None, threads=None, sampler=None, progress=false))]
+#[pyo3(signature = (kind, value, base=None, spp=None, seed=None, size=None, threads=None, sampler=None, progress=false,
+    target_rel_error=None, time_limit=None, checkpoint=None, checkpoint_every=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     py: Python<'_>,
@@ -139,6 +230,10 @@ pub fn render(
     threads: Option<usize>,
     sampler: Option<String>,
     progress: bool,
+    target_rel_error: Option<f64>,
+    time_limit: Option<f64>,
+    checkpoint: Option<PathBuf>,
+    checkpoint_every: Option<f64>,
 ) -> PyResult<RenderResult> {
     let Source { mut file, base, path } = source(kind, value, base)?;
     apply_overrides(&mut file, spp, seed, size, sampler.as_deref())?;
@@ -151,8 +246,17 @@ pub fn render(
         })
         .py()?;
     scene.path = path;
-    let (film, stats) = render_interruptibly(py, &scene, threads, progress)?;
-    RenderResult::new(py, &scene, film, &stats)
+    let passes = Passes { threads, progress, target_rel_error, time_limit, checkpoint, checkpoint_every };
+    let run = render_passes(py, &mut scene, &passes)?;
+    let result = RenderResult::new(py, &scene, run.film, &run.stats)?;
+    let d = result.stats.bind(py);
+    d.set_item("passes", run.passes)?;
+    d.set_item("stopped_by", run.stop.name())?;
+    d.set_item("target_rel_error", target_rel_error)?;
+    d.set_item("time_limit", time_limit)?;
+    d.set_item("rel_error_p95", run.rel_error.and_then(|e| e.ok()))?;
+    d.set_item("rel_error_unknown", run.rel_error.and_then(|e| e.err()).map(|w| w.why()))?;
+    Ok(result)
 }
 
 /// A finished render: the AOVs of guide "Output images" as NumPy arrays, and the film to save.
@@ -179,6 +283,10 @@ pub struct RenderResult {
     stats: Py<PyDict>,
     film: Film,
     attributes: Vec<(String, String)>,
+    spp: u32,
+    seed: u64,
+    sampler: String,
+    seconds: f64,
 }
 
 fn layer<'py, const N: usize>(
@@ -217,7 +325,20 @@ impl RenderResult {
         d.set_item("max_depth", s.max_depth)?;
         d.set_item("sampler", scene.description.render.sampler.name())?;
         let attributes = renderer::output::header_attributes(scene);
-        Ok(RenderResult { rgb, stderr, normal, mask, stderr_flag, stats: d.unbind(), film, attributes })
+        Ok(RenderResult {
+            rgb,
+            stderr,
+            normal,
+            mask,
+            stderr_flag,
+            stats: d.unbind(),
+            film,
+            attributes,
+            spp: s.spp,
+            seed: s.seed,
+            sampler: scene.description.render.sampler.name().to_string(),
+            seconds: stats.wall.as_secs_f64(),
+        })
     }
 }
 
@@ -227,10 +348,34 @@ impl RenderResult {
     /// and the scene in the header, atomically.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         if path.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("exr")) != Some(true) {
-            return Err(PyValueError::new_err(Error::file(&path, "output file must end in .exr").to_string()));
+            return Err(input_error(Error::file(&path, "output file must end in .exr").to_string()));
         }
         py.detach(|| renderer::output::write_exr(&path, &self.film, &self.attributes))
-            .map_err(|e| PyValueError::new_err(e.to_string()))
+            .map_err(|e| crate::convert::our_error("FileError", e.to_string()))
+    }
+
+    /// Samples per pixel of the image (with `target_rel_error=` / `time_limit=`: the spp reached).
+    #[getter]
+    fn spp(&self) -> u32 {
+        self.spp
+    }
+
+    /// The seed of the render.
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The sampler's name ("sobol", "independent").
+    #[getter]
+    fn sampler(&self) -> &str {
+        &self.sampler
+    }
+
+    /// The render loop's time, seconds (loading the scene not included).
+    #[getter]
+    fn seconds(&self) -> f64 {
+        self.seconds
     }
 
     fn __repr__(&self) -> String {

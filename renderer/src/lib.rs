@@ -9,7 +9,8 @@
 //! - [`light`]: distant lights (uniform, directional, axial, SH, environment map), each with
 //!   `eval`, `sample` and `pdf`.
 //! - [`geometry`]: spheres and triangle meshes (OBJ, glTF) in one BVH.
-//! - [`camera`], [`film`], [`integrator`], [`scene`], [`render`]: from a scene file to an image.
+//! - [`camera`], [`film`], [`integrator`], [`scene`], [`render`]: from a scene file to an image;
+//!   [`progressive`]: renders in passes (target error, time limit, checkpoints, shards, continuation).
 
 pub mod brdf;
 pub mod camera;
@@ -21,6 +22,7 @@ pub mod math;
 pub mod memory;
 pub mod noise;
 pub mod output;
+pub mod progressive;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -7,6 +7,7 @@
 
 use super::Error;
 use super::outputs::{Files, Format};
+use renderer::progressive::{Finished, NoEstimate, Outcome, Stop};
 use renderer::render::{RenderOptions, render};
 use renderer::scene::{Scene, SceneFile, build::DEFAULT_SCENE};
 use std::path::{Path, PathBuf};
@@ -64,6 +65,13 @@ pub struct RenderArgs {
     /// Stop after the last pass that fits in SECS seconds of rendering (spp is then the most to take).
     #[arg(long)]
     pub time_limit: Option<f64>,
+    /// Continue the render whose state FILE holds (written by --state, a --checkpoint file, or a
+    /// --shard 0/N part) to --spp samples: the bits of rendering them all at once. FILE is only read.
+    #[arg(long = "continue", value_name = "FILE")]
+    pub continue_from: Option<PathBuf>,
+    /// Also write the render's state (per-block sums, a partial render) to FILE, for a later --continue.
+    #[arg(long, value_name = "FILE")]
+    pub state: Option<PathBuf>,
 }
 
 /// `--threads N`: at least 1, refused while parsing the arguments (before any work or output).
@@ -120,17 +128,7 @@ pub fn load_scene(a: &RenderArgs) -> Result<Scene, Error> {
 
 /// Runs `f` on a rayon pool of `threads` workers (all cores when None).
 pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T, Error> {
-    match threads {
-        None => Ok(f()),
-        Some(0) => Err(Error::new("--threads must be at least 1")),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
-            Ok(pool.install(f))
-        }
-    }
+    renderer::progressive::on_threads(threads, f).map_err(super::passes::cli_error)
 }
 
 /// The scene file and the files it reads (environment maps, meshes), for the check of the outputs;
@@ -153,6 +151,12 @@ fn check_files(a: &RenderArgs, out: &Path) -> Result<(), Error> {
     }
     if let Some(p) = &a.checkpoint {
         files = files.output("--checkpoint", p, Format::Exr);
+    }
+    if let Some(p) = &a.continue_from {
+        files = files.input("--continue", p);
+    }
+    if let Some(p) = &a.state {
+        files = files.output("--state", p, Format::Exr);
     }
     files.check()
 }
@@ -178,6 +182,9 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             "--shard renders a partial render: it takes no --target-rel-error, --time-limit or --png",
         ));
     }
+    if a.shard.is_some() && (a.continue_from.is_some() || a.state.is_some()) {
+        return Err(Error::new("--shard writes a partial render (itself a state): it takes no --continue or --state"));
+    }
     for (name, v) in [
         ("--target-rel-error", a.target_rel_error),
         ("--time-limit", a.time_limit),
@@ -187,6 +194,8 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             return Err(Error::new(format!("{name} must be a positive number, got {v}")));
         }
     }
+    // The state to continue, checked against the scene before anything is rendered or printed.
+    let initial = a.continue_from.as_ref().map(|p| super::passes::read_continue(p, &scene)).transpose()?;
     let s = scene.settings.clone();
     if !a.quiet {
         eprintln!(
@@ -199,25 +208,32 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let range = a.shard.map_or((0, s.spp as u64), |(i, n)| super::passes::shard_range(i, n, s.spp));
+    let range = a.shard.map_or((0, s.spp as u64), |(i, n)| renderer::progressive::shard_range(i, n, s.spp));
     let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
-    let plain = a.shard.is_none() && a.checkpoint.is_none() && !progressive;
+    let plain =
+        a.shard.is_none() && a.checkpoint.is_none() && !progressive && a.continue_from.is_none() && a.state.is_none();
     let mut progressive_report = None;
+    let mut final_state = None;
     let (film, stats) = if plain {
         let opts = RenderOptions { progress: !a.quiet, ..Default::default() };
         with_threads(a.threads, || render(&scene, &opts))?
     } else {
+        if let (Some(p), Some(st)) = (&a.continue_from, &initial)
+            && !a.quiet
+        {
+            eprintln!("continuing {} from sample {} to {}", p.display(), st.end, s.spp);
+        }
         let attrs = renderer::output::header_attributes(&scene);
-        match super::passes::run_passes(&scene, &a, range, &attrs)? {
-            super::passes::Outcome::Interrupted { spp_done } => {
+        match super::passes::run_passes(&scene, &a, range, initial, &attrs)? {
+            Outcome::Cancelled { state } => {
                 let ck = a.checkpoint.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
                 eprintln!(
-                    "interrupted: {ck} holds samples [{}, {spp_done}) of [{}, {}); run the same command to resume",
-                    range.0, range.0, range.1
+                    "interrupted: {ck} holds samples [{}, {}) of [{}, {}); run the same command to resume",
+                    range.0, state.end, range.0, range.1
                 );
                 return Ok(ExitCode::from(130));
             }
-            super::passes::Outcome::Done { mut state, stats, passes, progressive: prog } => {
+            Outcome::Done(Finished { mut state, stats, passes, stop, rel_error }) => {
                 if a.shard.is_some() {
                     let header = renderer::shard::partial_header(&scene, &state);
                     renderer::shard::write_partial(&out, &state, &header, &attrs)?;
@@ -235,18 +251,19 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                     }
                     return Ok(ExitCode::SUCCESS);
                 }
-                if let Some(p) = prog {
+                if progressive {
                     // The image is a plain render of the samples taken: spp = what was reached.
                     let n = state.end as u32;
                     state.spp = n;
                     scene.settings.spp = n;
                     scene.description.render.spp = n;
-                    let e = super::passes::percent(p.rel_error);
-                    let note = match (p.stop, a.target_rel_error, a.time_limit) {
-                        (super::passes::Stop::Target, Some(x), _) => {
+                    let rel_error = rel_error.unwrap_or(Err(NoEstimate::OneSample));
+                    let e = super::passes::percent(rel_error);
+                    let note = match (stop, a.target_rel_error, a.time_limit) {
+                        (Stop::Target, Some(x), _) => {
                             format!("reached: 95th-percentile relative stderr {e} ≤ {:.4} %", 100.0 * x)
                         }
-                        (super::passes::Stop::TimeLimit, _, Some(t)) => {
+                        (Stop::TimeLimit, _, Some(t)) => {
                             format!("time limit of {t} s reached; 95th-percentile relative stderr {e}")
                         }
                         _ => format!("all {} spp rendered; 95th-percentile relative stderr {e}", s.spp),
@@ -259,13 +276,15 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                         time_limit_seconds: a.time_limit,
                         spp_cap: s.spp,
                         passes,
-                        stopped_by: p.stop.name().to_string(),
-                        target_reached: a.target_rel_error.map(|_| p.stop == super::passes::Stop::Target),
-                        rel_error_p95: p.rel_error.ok(),
-                        rel_error_unknown: p.rel_error.err().map(|w| w.why().to_string()),
+                        stopped_by: stop.name().to_string(),
+                        target_reached: a.target_rel_error.map(|_| stop == Stop::Target),
+                        rel_error_p95: rel_error.ok(),
+                        rel_error_unknown: rel_error.err().map(|w| w.why().to_string()),
                     });
                 }
-                (state.finish(), stats)
+                let film = state.finish();
+                final_state = Some(state);
+                (film, stats)
             }
         }
     };
@@ -279,6 +298,12 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
         renderer::output::auto_exposure(&px, Some(&mask))
     });
     let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
+    if let (Some(p), Some(state)) = (&a.state, &final_state) {
+        // Written (atomically) before the image is moved into place: a state that cannot be written
+        // leaves no image behind.
+        let header = renderer::shard::partial_header(&scene, state);
+        renderer::shard::write_partial(p, state, &header, &renderer::output::header_attributes(&scene))?;
+    }
     exr.commit()?;
     if let Some(ck) = &a.checkpoint {
         // The final image is in place: the checkpoint has served.
@@ -289,6 +314,9 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     {
         let _ = std::fs::remove_file(&out);
         return Err(e);
+    }
+    if let Some(p) = a.state.as_ref().filter(|_| !a.quiet) {
+        eprintln!("wrote {} (the render's state, for --continue)", p.display());
     }
     let t_save = t_save.elapsed();
     let report = RenderReport {

@@ -273,7 +273,9 @@ pub(crate) fn color(c: super::file::Color, what: &str) -> std::result::Result<Rg
     }
 }
 
-fn build_light(l: &mut LightingSection, base: &Path, timings: &mut BuildTimings) -> Result<Light> {
+/// Builds the light of a `[lighting]` table (docs/src/conventions.md §6), data files relative to `base`;
+/// errors name the key (`lighting: …`) or the data file. `timings` gets the map's read and table times.
+pub fn build_light(l: &mut LightingSection, base: &Path, timings: &mut BuildTimings) -> Result<Light> {
     let t = Instant::now();
     let lerr = |m: String| Error::new(format!("lighting: {m}"));
     let light = match l {
