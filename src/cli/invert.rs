@@ -97,6 +97,9 @@ pub struct BrdfArgs {
     /// The parametric model fitted.
     #[arg(long, value_enum)]
     pub model: FitModel,
+    /// The normal distribution of --model microfacet.
+    #[arg(long, value_enum, default_value_t)]
+    pub distribution: vocab::Distribution,
     /// The camera and sphere of images whose header does not say them.
     #[command(flatten)]
     pub view: ViewArgs,
@@ -522,6 +525,7 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     let model = match a.model {
         FitModel::Phong => Model::Phong,
         FitModel::TorranceSparrow => Model::TorranceSparrow { theta_o: p.theta_o },
+        FitModel::Microfacet => Model::Microfacet { distribution: a.distribution, theta_o: p.theta_o },
     };
     let (dlo, dhi) = model.default_range();
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
@@ -883,6 +887,7 @@ mod tests {
             lighting: None,
             mapping: None,
             model: FitModel::Phong,
+            distribution: vocab::Distribution::Beckmann,
             view: ViewArgs::default(),
             lmax,
             min: None,
