@@ -383,8 +383,8 @@ fn background(img: &Image) -> Option<[f32; 3]> {
 }
 
 /// A background that is nearly uniform and dark next to the image: the border's per-channel median
-/// and a tolerance 4 × the border's largest deviation from it (at least 1e-6 relative), when that
-/// tolerance is below 1e-3 of the image's largest radiance; `None` otherwise.
+/// and a tolerance 8 × the 75th percentile of the border's deviations from it (at least 1e-6
+/// relative), when that tolerance is below 1e-3 of the image's largest radiance; `None` otherwise.
 fn dark_border(img: &Image) -> Option<([f32; 3], f32)> {
     let rgb = img.rgb()?;
     let (w, h) = (img.width, img.height);
@@ -404,9 +404,13 @@ fn dark_border(img: &Image) -> Option<([f32; 3], f32)> {
         v.sort_by(f32::total_cmp);
         bg[ch] = v[v.len() / 2];
     }
-    let spread = border.iter().flat_map(|p| (0..3).map(move |c| (p[c] - bg[c]).abs())).fold(0.0f32, f32::max);
+    // The border's spread robustly: its 75th-percentile deviation (the sphere, or a filter's tails,
+    // may reach a few border pixels, where the silhouette nearly touches the frame).
+    let mut dev: Vec<f32> = border.iter().flat_map(|p| (0..3).map(move |c| (p[c] - bg[c]).abs())).collect();
+    dev.sort_by(f32::total_cmp);
+    let spread = dev[(3 * dev.len()) / 4];
     let peak = rgb.pixels.iter().flatten().filter(|x| x.is_finite()).fold(0.0f32, |a, b| a.max(b.abs()));
-    let tol = (4.0 * spread).max(1e-6 * (1.0 + bg.iter().fold(0.0f32, |a, b| a.max(b.abs()))));
+    let tol = (8.0 * spread).max(1e-6 * (1.0 + bg.iter().fold(0.0f32, |a, b| a.max(b.abs()))));
     (peak > 0.0 && tol < 1e-3 * peak).then_some((bg, tol))
 }
 
@@ -434,7 +438,9 @@ fn blob(w: usize, h: usize, covered: impl Fn(usize) -> bool) -> Option<([f64; 2]
 /// rule, as a filter spreads the sphere into every pixel it reaches, `filter` or, unknown, a box,
 /// with up to 1.5 px more allowed for an unknown filter as wide as Mitsuba's default), both clipped
 /// to the image, and compared by centroid and equivalent radius. Returns `Ok(None)` when they agree
-/// within 1 pixel, `Ok(Some(warning))` when the image has neither alpha nor a uniform background
+/// within 1 pixel (the radius within [r − 1, r + reach + 1.5] for the edge found above a
+/// non-uniform dark background, [`dark_border`]), `Ok(Some(warning))` when the image has neither
+/// alpha nor a uniform or dark background
 /// (nothing to check against), and an error naming the measured and predicted centre and radius
 /// when they disagree by more.
 pub fn check_silhouette(
@@ -510,7 +516,11 @@ pub fn check_silhouette(
         format!(
             "{} (from {})",
             fmt(m.center, m.radius),
-            if m.from == "alpha" { "alpha" } else { "the uniform background" }
+            match m.from {
+                "alpha" => "alpha",
+                "background" => "the uniform background",
+                other => other,
+            }
         )
     });
     Err(Error::new(format!(
