@@ -112,8 +112,8 @@ fn parse_pixel_filter(s: &str) -> Result<PixelFilter, String> {
 /// ([`super::header::Description::transfer`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct BrdfFlags {
-    /// BRDF model of the sphere (default: the header's or --scene's; microfacet and mix have no
-    /// transfer model).
+    /// BRDF model of the sphere (default: the header's or --scene's; mix has no transfer model, microfacet
+    /// only with fresnel none or schlick).
     #[arg(long, value_enum)]
     pub brdf: Option<vocab::BrdfKind>,
     /// Phong exponent s (with --brdf phong).

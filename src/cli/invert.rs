@@ -7,7 +7,8 @@
 //!   and status (recovered / ill-conditioned / unobservable), and the Tikhonov-regularised lighting
 //!   (λ by GCV unless `--lambda-rule discrepancy`), written as a W × W/2 lat-long EXR with `--output`.
 //!   Without `--brdf`, the BRDF (and albedo / k_s / k_r) comes from the image's `reflect:objects`.
-//! - `invert brdf IMAGE.exr… [--lighting SCENE_OR_ENV] --model phong|torrance-sparrow --lmax L
+//! - `invert brdf IMAGE.exr… [--lighting SCENE_OR_ENV] --model phong|torrance-sparrow|microfacet
+//!   [--distribution beckmann|ggx] --lmax L
 //!   [--min P --max P] [--json]`: Λ_l ρ̂_l per order (eq. 16) and the fitted s or σ with its
 //!   Δχ² = 1 interval (unbounded sides reported as null). Lighting as in `analyze`: a scene's
 //!   `[lighting]`, an environment map, or the image's `reflect:lighting` header.
