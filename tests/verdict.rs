@@ -113,7 +113,8 @@ fn gaussian_film(dir: &Path, name: &str, text: &str, floor: f32) -> PathBuf {
                 }
             }
             for ch in 0..3 {
-                planes[ch][py * N + px] = (acc[ch] / wsum) as f32 + floor * ((px * 7 + py * 13 + ch) % 10) as f32 / 10.0;
+                planes[ch][py * N + px] =
+                    (acc[ch] / wsum) as f32 + floor * ((px * 7 + py * 13 + ch) % 10) as f32 / 10.0;
             }
         }
     }
@@ -207,7 +208,8 @@ fn analyze_flags_a_rotated_map_a_wrong_mapping_and_a_wrong_extent() {
     let g = gaussian_film(&dir, "good", &lambert_scene(0.0, 1.05, 4), 1e-5);
     let wrong = dir.join("wrong-extent.toml");
     std::fs::write(&wrong, lambert_scene(0.0, 1.2, 0)).unwrap();
-    let (code, _, err) = reflect_out(&["analyze", g.to_str().unwrap(), "--scene", wrong.to_str().unwrap(), "--lmax", "2"]);
+    let (code, _, err) =
+        reflect_out(&["analyze", g.to_str().unwrap(), "--scene", wrong.to_str().unwrap(), "--lmax", "2"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("own edge") && err.lines().count() == 1, "{err}");
     // ... and the right extent passes the check and the verdict.

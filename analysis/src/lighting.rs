@@ -143,10 +143,12 @@ impl Lighting {
         let Lighting::Envmap { file, mapping, scale, rotate_deg, layer } = self else { return Vec::new() };
         let current = match mapping {
             Some(m) => *m,
-            None => match read_rgb_layer(file, layer.as_deref()).ok().and_then(|i| Mapping::infer(i.width, i.height).ok()) {
-                Some(m) => m,
-                None => return Vec::new(),
-            },
+            None => {
+                match read_rgb_layer(file, layer.as_deref()).ok().and_then(|i| Mapping::infer(i.width, i.height).ok()) {
+                    Some(m) => m,
+                    None => return Vec::new(),
+                }
+            }
         };
         let other = match current {
             Mapping::LatLong => Mapping::Angular,

@@ -103,8 +103,7 @@ pub fn filter_tests(
             .copied()
             .filter(|&l| l < analytic.len() && orders.get(l).is_some_and(|o| o.estimate[c].is_some()))
             .collect();
-        let pos: Vec<usize> =
-            idx.iter().filter_map(|l| fit.fitted_orders.iter().position(|x| x == l)).collect();
+        let pos: Vec<usize> = idx.iter().filter_map(|l| fit.fitted_orders.iter().position(|x| x == l)).collect();
         let p = idx.len();
         if p == 0 {
             scales.push(None);
@@ -208,7 +207,8 @@ pub fn verdict(
                 let (t, _) = filter_tests(&f.orders, &f.channels, analytic, false);
                 Some(combine(&t))
             };
-            let rotated = |deg: f64| rotate_coefficients(r.light, &Rotation::axis_angle([0.0, 0.0, 1.0], deg.to_radians()));
+            let rotated =
+                |deg: f64| rotate_coefficients(r.light, &Rotation::axis_angle([0.0, 0.0, 1.0], deg.to_radians()));
             let mut best: Option<(f64, (f64, usize, f64))> = None;
             let consider = |deg: f64, best: &mut Option<(f64, (f64, usize, f64))>| {
                 if let Some(s) = score(&rotated(deg))

@@ -486,8 +486,7 @@ pub fn check_silhouette(
         // border's own spread. Filter tails below that spread are not counted, so the measured
         // radius lies between the disc's r and r + the filter's reach (+ 1.5 px for an unknown one).
         let Some(rgb) = img.rgb() else { return Ok(None) };
-        let differs =
-            |i: usize| rgb.pixels[i].iter().zip(&bg).any(|(v, b)| (v - b).abs() > tol || !v.is_finite());
+        let differs = |i: usize| rgb.pixels[i].iter().zip(&bg).any(|(v, b)| (v - b).abs() > tol || !v.is_finite());
         let reach = filter.map_or(2.0, |f| f.radius().max(0.5));
         let m = blob(w, h, differs);
         let p = blob(w, h, |i| dist(i) < r);

@@ -240,7 +240,8 @@ mod tests {
 
     #[test]
     fn normal_exitance_agrees_with_the_1d_lobe_and_narrow_lobes_are_mirrors() {
-        let lobe = MicrofacetLobe { distribution: Distribution::Beckmann, alpha: 0.2, fresnel: MicrofacetFresnel::None };
+        let lobe =
+            MicrofacetLobe { distribution: Distribution::Beckmann, alpha: 0.2, fresnel: MicrofacetFresnel::None };
         let q = exitance(&lobe, 0.0, 20);
         let r = beckmann_normal_exitance(0.2, 20);
         for l in 0..=20 {

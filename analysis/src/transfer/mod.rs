@@ -30,11 +30,19 @@ pub use vocab::Horizon;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TransferModel {
     Lambert,
-    Phong { s: f64 },
+    Phong {
+        s: f64,
+    },
     Mirror,
-    TorranceSparrow { sigma: f64, theta_o: f64 },
+    TorranceSparrow {
+        sigma: f64,
+        theta_o: f64,
+    },
     /// The renderer's `microfacet` (docs/src/conventions.md §4) at exitance θ_o (radians).
-    Microfacet { lobe: microfacet::MicrofacetLobe, theta_o: f64 },
+    Microfacet {
+        lobe: microfacet::MicrofacetLobe,
+        theta_o: f64,
+    },
 }
 
 /// The value of a BRDF parameter given by name (`--brdf-param KEY=VALUE`): a number, or a word of
@@ -208,7 +216,9 @@ impl TransferModel {
                 let fresnel_kind: vocab::FresnelKind = word("fresnel", take_value("fresnel"))?;
                 let fresnel = match fresnel_kind {
                     vocab::FresnelKind::None => microfacet::MicrofacetFresnel::None,
-                    vocab::FresnelKind::Schlick => microfacet::MicrofacetFresnel::Schlick { f0: number("f0", take_value("f0"))? },
+                    vocab::FresnelKind::Schlick => {
+                        microfacet::MicrofacetFresnel::Schlick { f0: number("f0", take_value("f0"))? }
+                    }
                     vocab::FresnelKind::Conductor => {
                         return Err(Error::new(
                             "microfacet with fresnel=conductor has no transfer model here (its F differs per \
