@@ -89,6 +89,7 @@ fn report_schemas_are_pinned() {
             ("brdf", "object|null"),
             ("lambda_rho_analytic", "array|null"),
             ("predicted", "array|null"),
+            ("verdict", "object|null"),
             ("warnings", "array"),
         ],
         "analyze",

@@ -117,6 +117,14 @@ pub fn mismatch(robust_chi2: f64, relative_misfit: f64) -> bool {
     robust_chi2 > MISMATCH_CHI2 && relative_misfit > MISMATCH_RELATIVE
 }
 
+/// Whether `warning` (one of [`fit_filter_pixels`]'s) is an order's "cannot be determined" or
+/// "ill-conditioned" note about one of `orders` (e.g. orders the BRDF makes exactly zero, which a
+/// front-end says as such instead).
+pub fn is_order_note(warning: &str, orders: &[usize]) -> bool {
+    (warning.contains("cannot be determined") || warning.contains("is ill-conditioned"))
+        && orders.iter().any(|l| warning.contains(&format!("order l = {l} ")))
+}
+
 /// How well the pixels determine one order of the filter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]

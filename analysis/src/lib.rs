@@ -14,6 +14,8 @@
 //! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
 //! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
+//! - [`verdict`]: whether an image contradicts the lighting, BRDF and camera it was told, and which
+//!   assumption most likely is wrong;
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
@@ -32,6 +34,7 @@ pub mod sh;
 pub mod special;
 pub mod transfer;
 pub mod truncation;
+pub mod verdict;
 
 /// The shared error type and image I/O live in `vocab` (re-exported under their old paths).
 pub use vocab::{error, image};

@@ -118,6 +118,54 @@ impl Lighting {
         Lighting::Envmap { file: path.to_path_buf(), mapping, scale: 1.0, rotate_deg: [0.0; 3], layer: None }
     }
 
+    /// An environment map read with a mapping its aspect ratio contradicts (a square map as
+    /// lat-long, a 2:1 map as angular): a warning naming the file, the shape and both mappings;
+    /// `None` otherwise (including a map that cannot be read, whose error comes from
+    /// [`Lighting::coefficients`]).
+    pub fn mapping_note(&self) -> Option<String> {
+        let Lighting::Envmap { file, mapping: Some(m), layer, .. } = self else { return None };
+        let img = read_rgb_layer(file, layer.as_deref()).ok()?;
+        let inferred = Mapping::infer(img.width, img.height).ok()?;
+        (inferred != *m).then(|| {
+            format!(
+                "{}: a {}×{} map is {inferred} by its aspect ratio but is read as {m} (--mapping or the scene's \
+                 `mapping`): check it",
+                file.display(),
+                img.width,
+                img.height
+            )
+        })
+    }
+
+    /// The same environment map read with the other mapping (lat-long ↔ angular), named, for a
+    /// verdict's alternatives; empty for other lightings.
+    pub fn other_mappings(&self) -> Vec<(String, Lighting)> {
+        let Lighting::Envmap { file, mapping, scale, rotate_deg, layer } = self else { return Vec::new() };
+        let current = match mapping {
+            Some(m) => *m,
+            None => {
+                match read_rgb_layer(file, layer.as_deref()).ok().and_then(|i| Mapping::infer(i.width, i.height).ok()) {
+                    Some(m) => m,
+                    None => return Vec::new(),
+                }
+            }
+        };
+        let other = match current {
+            Mapping::LatLong => Mapping::Angular,
+            Mapping::Angular => Mapping::LatLong,
+        };
+        vec![(
+            format!("the map read as {other} instead of {current}"),
+            Lighting::Envmap {
+                file: file.clone(),
+                mapping: Some(other),
+                scale: *scale,
+                rotate_deg: *rotate_deg,
+                layer: layer.clone(),
+            },
+        )]
+    }
+
     /// L_lm, RGB, l ≤ lmax.
     pub fn coefficients(&self, lmax: usize) -> Result<Vec<[f64; 3]>> {
         let n = num_coefficients(lmax);

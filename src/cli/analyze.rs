@@ -138,6 +138,10 @@ pub struct AnalyzeReport {
     /// Orthographic views: the correlation of neighbouring pixels' noise (a reconstruction filter
     /// wider than a pixel) and the variance inflation applied to every error bar's noise part.
     pub pixel_noise: Option<PixelNoise>,
+    /// Whether the image contradicts what it was told (lighting, BRDF, camera): the measured
+    /// filter against the analytic one, χ² with ν and p, and the most likely wrong assumption
+    /// (`analysis::verdict`); `None` without a lighting or without a BRDF with a transfer model.
+    pub verdict: Option<analysis::verdict::Verdict>,
     /// Notes and warnings, each one sentence (printed on stderr, not in the text report).
     pub warnings: Vec<String>,
 }
@@ -199,12 +203,12 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         let Camera::NormalProbe { theta_o_deg, phi_o_deg } = cameras[0] else { unreachable!() };
         let theta_o_deg =
             Camera::probe_theta_o_deg(theta_o_deg, phi_o_deg, "analysed").map_err(|e| e.in_file(&a.images[0]))?;
-        // Torrance–Sparrow seen at θ_o: the q = 0 coefficient at that exitance angle.
+        // Torrance–Sparrow and microfacet seen at θ_o: the q = 0 coefficient at that exitance angle.
         // (θ_o passed the one exitance check when the header was read; validated again as a model.)
         if let Some(Brdf { model: Some(m), .. }) = brdf.as_mut()
-            && let TransferModel::TorranceSparrow { theta_o, .. } = m
+            && m.depends_on_exitance()
         {
-            *theta_o = theta_o_deg.to_radians();
+            *m = m.at_exitance(theta_o_deg.to_radians());
             m.validate().map_err(|e| e.in_file(&a.images[0]))?;
         }
         let (c, se) = project_normal_probe(&images[0], a.lmax).map_err(|e| e.in_file(&a.images[0]))?;
@@ -263,18 +267,23 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         .map_err(|e| if a.lighting.is_none() { e.in_file(&a.images[0]) } else { e })?;
     // Two orders beyond l_max estimate the truncation bias of the filter fit.
     let l_hi = match &lighting {
-        Some((l, _)) => Some(l.coefficients(analysis::inverse::views::truncation_lmax(a.lmax))?),
+        Some((l, _)) => Some(l.coefficients(l_hi_order(a.lmax))?),
         None => None,
     };
     let l_coeffs: Option<Vec<[f64; 3]>> = l_hi.as_ref().map(|l| l[..num_coefficients(a.lmax)].to_vec());
+    let inflation = pixel_noise_report.as_ref().map_or(1.0, |n| n.inflation);
     let filter = match &l_hi {
         Some(l) => {
             let (samples, have_sigma) = &samples;
-            let inflation = pixel_noise_report.as_ref().map_or(1.0, |n| n.inflation);
             Some(fit_filter_pixels(samples, *have_sigma, inflation, l, a.lmax).map_err(in_first)?)
         }
         None => None,
     };
+    if let Some((l, _)) = &lighting
+        && let Some(note) = l.mapping_note()
+    {
+        warnings.push(note);
+    }
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
         br.model.map(|m| {
             m.lambda_rho(a.lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect()
@@ -294,9 +303,35 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
             ));
         }
     }
+    let verdict = match (&filter, &analytic, &l_hi, &lighting) {
+        (Some(f), Some(an), Some(l), Some((lighting, _))) => {
+            let other_lightings = lighting
+                .other_mappings()
+                .into_iter()
+                .filter_map(|(name, alt)| Some((name, alt.coefficients(l_hi_order(a.lmax)).ok()?)))
+                .collect();
+            let refit = analysis::verdict::Refit {
+                samples: &samples.0,
+                have_sigma: samples.1,
+                inflation,
+                light: l,
+                lmax: a.lmax,
+                other_lightings,
+            };
+            Some(analysis::verdict::verdict(
+                &f.orders,
+                &f.channels,
+                an,
+                analysis::verdict::DEFAULT_ALPHA,
+                samples.1,
+                Some(&refit),
+            )?)
+        }
+        _ => None,
+    };
     let (filter, filter_fit) = match filter {
         Some(f) => {
-            warnings.extend(f.warnings);
+            warnings.extend(zero_orders(f.warnings, analytic.as_deref()));
             (Some(f.orders), Some(f.channels))
         }
         None => (None, None),
@@ -321,8 +356,32 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         lambda_rho_analytic: analytic,
         predicted,
         pixel_noise: pixel_noise_report,
+        verdict,
         warnings,
     })
+}
+
+/// The lighting order the filter fit is given: two orders beyond l_max estimate its truncation bias.
+fn l_hi_order(lmax: usize) -> usize {
+    analysis::inverse::views::truncation_lmax(lmax)
+}
+
+/// The filter fit's warnings, where an order the fit "cannot determine" is one the BRDF makes
+/// exactly zero (Lambert's odd orders above 1, eq. 38) said as such instead.
+fn zero_orders(warnings: Vec<String>, analytic: Option<&[[f64; 3]]>) -> Vec<String> {
+    let Some(an) = analytic else { return warnings };
+    let zero: Vec<usize> = (0..an.len()).filter(|&l| an[l].iter().all(|v| *v == 0.0)).collect();
+    if zero.is_empty() {
+        return warnings;
+    }
+    let mut out: Vec<String> = warnings.into_iter().filter(|w| !analysis::filter::is_order_note(w, &zero)).collect();
+    let list: Vec<String> = zero.iter().map(|l| l.to_string()).collect();
+    out.push(format!(
+        "the BRDF makes A_l exactly 0 at l = {} (eq. 38 for Lambert's odd orders above 1): those orders are known, \
+         not measured; the fit's value there only shows noise and truncation",
+        list.join(", ")
+    ));
+    out
 }
 
 impl std::fmt::Display for AnalyzeReport {
@@ -425,6 +484,9 @@ impl std::fmt::Display for AnalyzeReport {
             } else {
                 writeln!(f, "# filter fit χ²/ν: R {}, G {}, B {}", chi(&fits[0]), chi(&fits[1]), chi(&fits[2]))?;
             }
+        }
+        if let Some(v) = &self.verdict {
+            writeln!(f, "# {}", v.line)?;
         }
         Ok(())
     }

@@ -7,7 +7,7 @@
 use super::{Error, flags};
 use analysis::noise::PixelFilter;
 use analysis::projection::{OrthoCamera, Param};
-use analysis::transfer::TransferModel;
+use analysis::transfer::{ParamValue, TransferModel};
 use std::path::PathBuf;
 
 /// The orthographic camera of each image and the sphere they show, for images whose header does
@@ -112,8 +112,8 @@ fn parse_pixel_filter(s: &str) -> Result<PixelFilter, String> {
 /// ([`super::header::Description::transfer`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct BrdfFlags {
-    /// BRDF model of the sphere (default: the header's or --scene's; microfacet and mix have no
-    /// transfer model).
+    /// BRDF model of the sphere (default: the header's or --scene's; mix has no transfer model, microfacet
+    /// only with fresnel none or schlick).
     #[arg(long, value_enum)]
     pub brdf: Option<vocab::BrdfKind>,
     /// Phong exponent s (with --brdf phong).
@@ -125,23 +125,26 @@ pub struct BrdfFlags {
     /// Any other parameter of the --brdf model, KEY=VALUE with KEY its key in a scene file's brdf
     /// table (repeatable).
     #[arg(long = "brdf-param", value_parser = parse_param)]
-    pub brdf_param: Vec<(String, f64)>,
+    pub brdf_param: Vec<(String, ParamValue)>,
     /// Albedo / k_s / k_r (one number, or r,g,b; default: the header's or scene's, else 1).
     #[arg(long, value_parser = flags::parse_rgb)]
     pub albedo: Option<[f64; 3]>,
 }
 
-/// `KEY=VALUE` with a number as the value.
-fn parse_param(s: &str) -> Result<(String, f64), String> {
+/// `KEY=VALUE` with a number or a word of a closed set (`distribution=ggx`) as the value; which
+/// keys take which is the transfer model's to say ([`TransferModel::from_named`]).
+fn parse_param(s: &str) -> Result<(String, ParamValue), String> {
     let (k, v) = s.split_once('=').ok_or_else(|| format!("expected KEY=VALUE, got \"{s}\""))?;
-    let v: f64 = v.trim().parse().map_err(|_| format!("the value of {k} is not a number: \"{v}\""))?;
+    let v: ParamValue = v.parse().map_err(|e: analysis::Error| format!("the value of {k}: {}", e.message))?;
     Ok((k.trim().to_string(), v))
 }
 
 impl BrdfFlags {
     /// The parameters given (`--s`, `--sigma`, each `--brdf-param`), as (key, value) pairs.
-    pub fn params(&self) -> Vec<(String, f64)> {
-        let named = [("s", self.s), ("sigma", self.sigma)].into_iter().filter_map(|(n, v)| Some((n.to_string(), v?)));
+    pub fn params(&self) -> Vec<(String, ParamValue)> {
+        let named = [("s", self.s), ("sigma", self.sigma)]
+            .into_iter()
+            .filter_map(|(n, v)| Some((n.to_string(), ParamValue::Number(v?))));
         named.chain(self.brdf_param.iter().cloned()).collect()
     }
 
@@ -277,6 +280,8 @@ pub enum FitModel {
     Phong,
     /// Torrance–Sparrow's roughness σ (eq. 50 / 59).
     TorranceSparrow,
+    /// The microfacet BRDF's roughness α (Beckmann or GGX by --distribution, Smith G, F = 1).
+    Microfacet,
 }
 
 /// The quadrature over the normals of `invert factor` (`--quadrature`).

@@ -20,7 +20,7 @@ use super::args::{BrdfFlags, CameraFlags, ViewArgs};
 use analysis::image::{Image, read_image_notes};
 use analysis::lighting::Lighting;
 use analysis::projection::{Mapping, OrthoCamera, Sphere};
-use analysis::transfer::{BrdfTransfer, TransferModel};
+use analysis::transfer::{BrdfTransfer, ParamValue, TransferModel};
 use std::path::{Path, PathBuf};
 use vocab::BrdfKind;
 use vocab::header::Header;
@@ -665,7 +665,7 @@ impl Description {
         let horizon = table.as_ref().and_then(|(_, _, t)| t.map(|t| t.horizon)).unwrap_or_default();
         let mut flags_table = serde_json::json!({ "type": kind.name() });
         for (key, v) in flags.params() {
-            flags_table[key] = v.into();
+            flags_table[key] = serde_json::to_value(&v).unwrap_or_default();
         }
         flags_table["albedo"] = serde_json::json!(scale);
         let r = Resolved {
@@ -699,16 +699,19 @@ fn same_model(a: &TransferModel, b: &TransferModel) -> bool {
         (TransferModel::TorranceSparrow { sigma: x, .. }, TransferModel::TorranceSparrow { sigma: y, .. }) => {
             close(*x, *y, 1.0)
         }
+        (TransferModel::Microfacet { lobe: x, .. }, TransferModel::Microfacet { lobe: y, .. }) => {
+            x.distribution == y.distribution && close(x.alpha, y.alpha, 1.0) && x.fresnel == y.fresnel
+        }
         (a, b) => std::mem::discriminant(a) == std::mem::discriminant(b),
     }
 }
 
 fn param_text(f: &BrdfFlags) -> String {
-    let flag = |k: &str, x: f64| match k {
+    let flag = |k: &str, x: &ParamValue| match k {
         "s" | "sigma" => format!(" --{k} {x}"),
         _ => format!(" --brdf-param {k}={x}"),
     };
-    f.params().iter().map(|(k, x)| flag(k, *x)).collect()
+    f.params().iter().map(|(k, x)| flag(k, x)).collect()
 }
 
 /// The lighting to compare with: `--lighting` (a scene TOML's `[lighting]` table, or an environment

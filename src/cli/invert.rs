@@ -7,7 +7,8 @@
 //!   and status (recovered / ill-conditioned / unobservable), and the Tikhonov-regularised lighting
 //!   (λ by GCV unless `--lambda-rule discrepancy`), written as a W × W/2 lat-long EXR with `--output`.
 //!   Without `--brdf`, the BRDF (and albedo / k_s / k_r) comes from the image's `reflect:objects`.
-//! - `invert brdf IMAGE.exr… [--lighting SCENE_OR_ENV] --model phong|torrance-sparrow --lmax L
+//! - `invert brdf IMAGE.exr… [--lighting SCENE_OR_ENV] --model phong|torrance-sparrow|microfacet
+//!   [--distribution beckmann|ggx] --lmax L
 //!   [--min P --max P] [--json]`: Λ_l ρ̂_l per order (eq. 16) and the fitted s or σ with its
 //!   Δχ² = 1 interval (unbounded sides reported as null). Lighting as in `analyze`: a scene's
 //!   `[lighting]`, an environment map, or the image's `reflect:lighting` header.
@@ -97,6 +98,9 @@ pub struct BrdfArgs {
     /// The parametric model fitted.
     #[arg(long, value_enum)]
     pub model: FitModel,
+    /// The normal distribution of --model microfacet.
+    #[arg(long, value_enum, default_value_t)]
+    pub distribution: vocab::Distribution,
     /// The camera and sphere of images whose header does not say them.
     #[command(flatten)]
     pub view: ViewArgs,
@@ -522,6 +526,7 @@ pub fn invert_brdf_report(a: &BrdfArgs) -> Result<InvertBrdfReport, Error> {
     let model = match a.model {
         FitModel::Phong => Model::Phong,
         FitModel::TorranceSparrow => Model::TorranceSparrow { theta_o: p.theta_o },
+        FitModel::Microfacet => Model::Microfacet { distribution: a.distribution, theta_o: p.theta_o },
     };
     let (dlo, dhi) = model.default_range();
     let range = (a.min.unwrap_or(dlo), a.max.unwrap_or(dhi));
@@ -883,6 +888,7 @@ mod tests {
             lighting: None,
             mapping: None,
             model: FitModel::Phong,
+            distribution: vocab::Distribution::Beckmann,
             view: ViewArgs::default(),
             lmax,
             min: None,

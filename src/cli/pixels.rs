@@ -382,6 +382,38 @@ fn background(img: &Image) -> Option<[f32; 3]> {
     (2 * n >= border.len()).then_some(v)
 }
 
+/// A background that is nearly uniform and dark next to the image: the border's per-channel median
+/// and a tolerance 8 × the 75th percentile of the border's deviations from it (at least 1e-6
+/// relative), when that tolerance is below 1e-3 of the image's largest radiance; `None` otherwise.
+fn dark_border(img: &Image) -> Option<([f32; 3], f32)> {
+    let rgb = img.rgb()?;
+    let (w, h) = (img.width, img.height);
+    if w < 3 || h < 3 {
+        return None;
+    }
+    let border: Vec<[f32; 3]> = (0..w)
+        .flat_map(|c| [rgb.pixels[c], rgb.pixels[(h - 1) * w + c]])
+        .chain((1..h - 1).flat_map(|r| [rgb.pixels[r * w], rgb.pixels[r * w + w - 1]]))
+        .collect();
+    let mut bg = [0.0f32; 3];
+    for ch in 0..3 {
+        let mut v: Vec<f32> = border.iter().map(|p| p[ch]).filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f32::total_cmp);
+        bg[ch] = v[v.len() / 2];
+    }
+    // The border's spread robustly: its 75th-percentile deviation (the sphere, or a filter's tails,
+    // may reach a few border pixels, where the silhouette nearly touches the frame).
+    let mut dev: Vec<f32> = border.iter().flat_map(|p| (0..3).map(move |c| (p[c] - bg[c]).abs())).collect();
+    dev.sort_by(f32::total_cmp);
+    let spread = dev[(3 * dev.len()) / 4];
+    let peak = rgb.pixels.iter().flatten().filter(|x| x.is_finite()).fold(0.0f32, |a, b| a.max(b.abs()));
+    let tol = (8.0 * spread).max(1e-6 * (1.0 + bg.iter().fold(0.0f32, |a, b| a.max(b.abs()))));
+    (peak > 0.0 && tol < 1e-3 * peak).then_some((bg, tol))
+}
+
 /// Centroid and equivalent radius √(n/π) of the pixels where `covered(index)` holds; `None` when none is.
 fn blob(w: usize, h: usize, covered: impl Fn(usize) -> bool) -> Option<([f64; 2], f64)> {
     let (mut n, mut sx, mut sy) = (0usize, 0.0, 0.0);
@@ -406,7 +438,9 @@ fn blob(w: usize, h: usize, covered: impl Fn(usize) -> bool) -> Option<([f64; 2]
 /// rule, as a filter spreads the sphere into every pixel it reaches, `filter` or, unknown, a box,
 /// with up to 1.5 px more allowed for an unknown filter as wide as Mitsuba's default), both clipped
 /// to the image, and compared by centroid and equivalent radius. Returns `Ok(None)` when they agree
-/// within 1 pixel, `Ok(Some(warning))` when the image has neither alpha nor a uniform background
+/// within 1 pixel (the radius within [r − 1, r + reach + 1.5] for the edge found above a
+/// non-uniform dark background, [`dark_border`]), `Ok(Some(warning))` when the image has neither
+/// alpha nor a uniform or dark background
 /// (nothing to check against), and an error naming the measured and predicted centre and radius
 /// when they disagree by more.
 pub fn check_silhouette(
@@ -446,6 +480,17 @@ pub fn check_silhouette(
             p,
             if filter.is_some() { 0.0 } else { 1.5 },
         )
+    } else if let Some((bg, tol)) = dark_border(img) {
+        // A background that is not exactly uniform (a Gaussian film's tails, a renderer's noise
+        // floor) but small next to the sphere: the silhouette is where the image rises above the
+        // border's own spread. Filter tails below that spread are not counted, so the measured
+        // radius lies between the disc's r and r + the filter's reach (+ 1.5 px for an unknown one).
+        let Some(rgb) = img.rgb() else { return Ok(None) };
+        let differs = |i: usize| rgb.pixels[i].iter().zip(&bg).any(|(v, b)| (v - b).abs() > tol || !v.is_finite());
+        let reach = filter.map_or(2.0, |f| f.radius().max(0.5));
+        let m = blob(w, h, differs);
+        let p = blob(w, h, |i| dist(i) < r);
+        (m.map(|(c, r)| Silhouette { center: c, radius: r, from: "the image's own edge" }), p, reach + 1.5)
     } else {
         return Ok(Some(
             "the image has no alpha channel and no uniform background, so the camera and sphere given cannot be \
@@ -470,7 +515,11 @@ pub fn check_silhouette(
         format!(
             "{} (from {})",
             fmt(m.center, m.radius),
-            if m.from == "alpha" { "alpha" } else { "the uniform background" }
+            match m.from {
+                "alpha" => "alpha",
+                "background" => "the uniform background",
+                other => other,
+            }
         )
     });
     Err(Error::new(format!(

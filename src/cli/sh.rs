@@ -5,7 +5,7 @@
 //!   (W = H → angular, W = 2H → lat-long; anything else is an error). Each Y_lm is integrated
 //!   exactly over each pixel's footprint, for the piecewise-constant map the renderer lights with
 //!   (analysis::projection::envmap), so every order is the exact expansion of that map.
-//! - `reflect sh transfer --brdf lambert|phong|mirror|torrance-sparrow [--s S] [--sigma X]
+//! - `reflect sh transfer --brdf lambert|phong|mirror|torrance-sparrow|microfacet [--s S] [--sigma X]
 //!   [--brdf-param KEY=VALUE] [--theta-o DEG] --lmax L [--json]`: Λ_l ρ̂_l for unit albedo / k_s (docs/src/conventions.md §4), with the
 //!   paper's approximation alongside where it has one (eq. 46, 57, 59).
 //!

@@ -33,6 +33,9 @@ pub enum Model {
     Phong,
     /// Simplified Torrance–Sparrow at exitance angle θ_o (radians), parameter σ (eq. 50 at θ_o = 0).
     TorranceSparrow { theta_o: f64 },
+    /// The renderer's microfacet BRDF (F = 1) with distribution D at exitance θ_o (radians),
+    /// parameter α ([`crate::transfer::microfacet`]).
+    Microfacet { distribution: vocab::Distribution, theta_o: f64 },
 }
 
 impl Model {
@@ -40,19 +43,21 @@ impl Model {
         match self {
             Model::Phong => "phong",
             Model::TorranceSparrow { .. } => "torrance-sparrow",
+            Model::Microfacet { .. } => "microfacet",
         }
     }
     pub fn parameter_name(&self) -> &'static str {
         match self {
             Model::Phong => "s",
             Model::TorranceSparrow { .. } => "sigma",
+            Model::Microfacet { .. } => "alpha",
         }
     }
-    /// The default search range of the parameter: s ∈ [0.5, 10⁴], σ ∈ [0.005, 1].
+    /// The default search range of the parameter: s ∈ [0.5, 10⁴], σ ∈ [0.005, 1], α ∈ [0.005, 1].
     pub fn default_range(&self) -> (f64, f64) {
         match self {
             Model::Phong => (0.5, 1.0e4),
-            Model::TorranceSparrow { .. } => (0.005, 1.0),
+            Model::TorranceSparrow { .. } | Model::Microfacet { .. } => (0.005, 1.0),
         }
     }
     /// The search range (`range`, else [`Model::default_range`]) checked: 0 < min < max, both ends
@@ -73,6 +78,14 @@ impl Model {
         match *self {
             Model::Phong => TransferModel::Phong { s: p },
             Model::TorranceSparrow { theta_o } => TransferModel::TorranceSparrow { sigma: p, theta_o },
+            Model::Microfacet { distribution, theta_o } => TransferModel::Microfacet {
+                lobe: crate::transfer::microfacet::MicrofacetLobe {
+                    distribution,
+                    alpha: p,
+                    fresnel: crate::transfer::microfacet::MicrofacetFresnel::None,
+                },
+                theta_o,
+            },
         }
     }
 }
