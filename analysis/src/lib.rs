@@ -14,11 +14,13 @@
 //! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
 //! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
+//! - [`compare`]: is image A image B up to noise (per-pixel z, scale, blocks, a Šidák verdict);
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
+pub mod compare;
 pub mod filter;
 pub mod fit;
 pub mod inverse;
