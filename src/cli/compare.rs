@@ -156,7 +156,7 @@ fn print_text(r: &CompareReport, paths: &[PathBuf]) {
     );
     println!(
         "pixel z: max |z| = {:.2} at row {}, column {}; {} beyond the family's k = {:.2}",
-        p.max_abs_z, p.max_at[0], p.max_at[1], p.beyond_k_family, p.k_family
+        p.max_abs_z, p.max_row, p.max_column, p.beyond_k_family, p.k_family
     );
     if let Some(e) = &r.edges {
         println!(

@@ -175,9 +175,10 @@ pub struct PixelSummary {
     pub chi2: f64,
     pub nu: usize,
     pub chi2_nu: f64,
-    /// The largest |u| and where (row, column).
+    /// The largest |u| and where (row from the top, column from the left).
     pub max_abs_z: f64,
-    pub max_at: [usize; 2],
+    pub max_row: usize,
+    pub max_column: usize,
     /// How many |u| exceed the Šidák k over all pixel-channels (`k_family`): expected 0 with
     /// probability 1 − α under agreement (not a test of the verdict: heavy-tailed estimators).
     pub beyond_k_family: usize,
@@ -394,7 +395,8 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
         nu,
         chi2_nu: chi2 / nu.max(1) as f64,
         max_abs_z: max_abs,
-        max_at,
+        max_row: max_at[0],
+        max_column: max_at[1],
         beyond_k_family: scores.iter().filter(|u| u.abs() > k_family).count(),
         k_family,
     };
