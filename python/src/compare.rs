@@ -78,7 +78,7 @@ fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
 }
 
 /// `compare(images, alpha, block, exclude_edges, layer)`: `images` is [a, b, seeds…], each a path
-/// or a dict of arrays ([`image_of_dict`]). Returns the `--json` document as a dict.
+/// or a dict of arrays (see `image_of_dict`). Returns the `--json` document as a dict.
 #[pyfunction]
 #[pyo3(signature = (images, alpha, block, exclude_edges, layer=None))]
 pub fn compare<'py>(

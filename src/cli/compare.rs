@@ -178,9 +178,9 @@ fn diverging(v: f32) -> [u8; 3] {
 
 fn stage_png(path: &Path, w: usize, h: usize, px: Vec<u8>) -> Result<renderer::output::Staged, Error> {
     let img = image::RgbImage::from_raw(w as u32, h as u32, px).ok_or_else(|| Error::file(path, "bad image size"))?;
-    Ok(renderer::output::stage(path, |tmp| {
+    renderer::output::stage(path, |tmp| {
         img.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| format!("cannot write PNG: {e}"))
-    })?)
+    })
 }
 
 /// The histogram of the pixel z (grey bars) against N(0, 1) (red line), counts on a log scale.
