@@ -1,5 +1,5 @@
 //! Pins the JSON schema (every key path and the JSON type at it) of each command's `--json`
-//! document: `render`, `sh project`, `sh transfer` and `verify`. These documents are the typed
+//! document: `render`, `sh project`, `sh transfer`, `verify` and `compare`. These documents are the typed
 //! report structs (`RenderReport`, `ProjectReport`, `TransferReport`, `verify::report::Report`)
 //! serialized; a renamed, removed, added or retyped field fails here and must be a deliberate
 //! change of this list (and of the guide / the Python package that read them).
@@ -256,4 +256,94 @@ fn verify_schema() {
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
     assert!(html.contains(pic["z_png"].as_str().unwrap()) && html.contains("class=\"summary\""));
+}
+
+#[test]
+fn compare_schema() {
+    // Two seeds of a small Lambert sphere under SH lighting (no data files), independent sampler.
+    let dir = common::temp_dir("schema-compare");
+    let scene = |seed: u64| {
+        format!(
+            "[render]\nwidth = 24\nheight = 24\nspp = 16\nseed = {seed}\nmax_depth = 1\nsampler = \"independent\"\n\
+             [camera]\ntype = \"orthographic\"\nfrom = [3.0, 0.0, 1.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05\n\
+             [lighting]\ntype = \"sh\"\ncoefficients = [[1.0, 0.9, 0.8], [0.1, 0.0, -0.1], [0.3, 0.2, 0.1], [0.0, 0.05, 0.0]]\n\
+             [[objects]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nbrdf = {{ type = \"lambert\", albedo = [0.8, 0.7, 0.6] }}\n"
+        )
+    };
+    let a = common::render_to(&dir, "a.exr", &scene(1));
+    let b = common::render_to(&dir, "b.exr", &scene(2));
+    let (code, out, err) = common::reflect_out(&["compare", &a, &b, "--json"]);
+    assert!(code == 0 || code == 1, "{err}");
+    let doc: Value = serde_json::from_str(&out).unwrap();
+    assert!(doc["verdict"] == "agree" || doc["verdict"] == "disagree", "{doc}");
+    assert_schema(
+        &doc,
+        &[
+            ".a.images: number",
+            ".a.noise: string",
+            ".a: object",
+            ".alpha: number",
+            ".alpha_per_test: number",
+            ".b.images: number",
+            ".b.noise: string",
+            ".b: object",
+            ".blocks.chi2: number",
+            ".blocks.chi2_nu: number",
+            ".blocks.chi2_nu_scale_removed: number",
+            ".blocks.count: number",
+            ".blocks.max_abs_z: number",
+            ".blocks.nu: number",
+            ".blocks.size: number",
+            ".blocks: object",
+            ".edges.chi2_nu: number",
+            ".edges.interior_chi2_nu: number",
+            ".edges.pixels: number",
+            ".edges: object",
+            ".height: number",
+            ".histogram.above: number",
+            ".histogram.below: number",
+            ".histogram.counts: array",
+            ".histogram.counts[]: number",
+            ".histogram.edges: array",
+            ".histogram.edges[]: number",
+            ".histogram.expected: array",
+            ".histogram.expected[]: number",
+            ".histogram: object",
+            ".pixels.beyond_k_family: number",
+            ".pixels.chi2: number",
+            ".pixels.chi2_nu: number",
+            ".pixels.compared: number",
+            ".pixels.exact: number",
+            ".pixels.exact_differing: number",
+            ".pixels.flagged: number",
+            ".pixels.k_family: number",
+            ".pixels.max_abs_z: number",
+            ".pixels.max_column: number",
+            ".pixels.max_row: number",
+            ".pixels.near_edges: number",
+            ".pixels.no_estimate: number",
+            ".pixels.nu: number",
+            ".pixels: object",
+            ".reason: string",
+            ".scale: array",
+            ".scale[].channel: string",
+            ".scale[].dof: number",
+            ".scale[].ratio: number",
+            ".scale[].stderr: number",
+            ".scale[].z: number",
+            ".scale[]: object",
+            ".tests: array",
+            ".tests[].dof: number",
+            ".tests[].name: string",
+            ".tests[].p: number",
+            ".tests[].rejected: bool",
+            ".tests[].statistic: number",
+            ".tests[]: object",
+            ".verdict: string",
+            ".warnings: array",
+            ".warnings[]: string",
+            ".width: number",
+            ": object",
+        ],
+    );
 }

@@ -16,11 +16,13 @@
 //! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
 //! - [`verdict`]: whether an image contradicts the lighting, BRDF and camera it was told, and which
 //!   assumption most likely is wrong;
+//! - [`compare`]: is image A image B up to noise (per-pixel z, scale, blocks, a Šidák verdict);
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
+pub mod compare;
 pub mod filter;
 pub mod fit;
 pub mod inverse;

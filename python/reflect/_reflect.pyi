@@ -149,6 +149,18 @@ def header_attributes(scene: Dict[str, Any]) -> Dict[str, str]:
 def lighting_toml(table: Dict[str, Any]) -> str:
     """A scene file holding only this ``[lighting]`` table (checked with the scene types), for ``--lighting``."""
 
+def compare(
+    images: List[Union[str, Dict[str, Any]]],
+    alpha: float,
+    block: int,
+    exclude_edges: int,
+    layer: Optional[str] = None,
+) -> Dict[str, Any]:
+    """``analysis::compare`` on [a, b, seeds…]: each a path or a dict of float32 arrays (``rgb``
+    (H, W, 3), optional ``stderr`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp``).
+    Returns the document ``reflect compare --json`` prints. Bad input raises ``ValueError``
+    (``FileNotFoundError`` for a missing file) naming the input (``a``, ``b``, ``seeds[k]`` or its path)."""
+
 def verify_checks() -> List[Tuple[str, str]]:
     """The checks of ``reflect verify --list``: (name, equations)."""
 

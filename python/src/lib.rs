@@ -12,6 +12,7 @@
 //! `RuntimeError`; nothing unwinds into Python.
 
 mod commands;
+mod compare;
 mod convert;
 mod objects;
 mod render;
@@ -39,6 +40,7 @@ fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(commands::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(commands::header_attributes, m)?)?;
     m.add_function(wrap_pyfunction!(commands::lighting_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(verify::verify, m)?)?;
     m.add_function(wrap_pyfunction!(verify::verify_checks, m)?)?;
     Ok(())

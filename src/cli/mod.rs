@@ -3,6 +3,7 @@
 pub mod analyze;
 pub mod args;
 pub mod bench;
+pub mod compare;
 pub mod factor;
 pub mod flags;
 pub mod header;
@@ -49,6 +50,8 @@ pub enum Command {
     /// Run renders on a Slurm cluster (a job array of shards and a merge job).
     #[command(subcommand)]
     Slurm(slurm::SlurmCommand),
+    /// Is image A image B up to their noise? Exit 0: they agree, 1: they differ, 2: bad input.
+    Compare(compare::CompareArgs),
     /// Tone-mapped sRGB PNG preview of an image (not an analysis input).
     Png(png::PngArgs),
     /// Benchmark: time to a target error on the paper's scenes, per phase, beside peers if installed.
@@ -63,6 +66,7 @@ pub fn run(cli: Cli) -> Result<ExitCode, Error> {
         Command::Invert(c) => invert::run(c),
         Command::Verify(a) => verify::run(a),
         Command::Png(a) => png::run(a),
+        Command::Compare(a) => compare::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Slurm(c) => slurm::run(c),
         Command::Bench(a) => bench::run(a),

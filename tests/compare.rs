@@ -1,0 +1,325 @@
+//! `reflect compare` and `analysis::compare` on renders of our own renderer (64² Lambert sphere
+//! under a procedural lat-long map written by the test, independent sampler, fixed seeds): correct
+//! pairs pass at the stated false-alarm rate, a 1 % scale error and a 2° rotation of the map fail,
+//! Mitsuba-like images (Gaussian film, alpha, no stderr layer, several seeds) are handled, bad input
+//! is refused in one line with exit 2.
+
+mod common;
+
+use analysis::compare::{CompareParams, Verdict, compare};
+use analysis::image::{Image, read_image, write_exr};
+use common::{reflect_out, root, temp_dir};
+use renderer::render::{RenderOptions, render};
+use renderer::scene::{Scene, SceneFile};
+use std::path::{Path, PathBuf};
+
+const SIZE: usize = 64;
+const SPP: u32 = 64;
+
+/// A 64 × 32 lat-long map with structure at every azimuth: a bright broad lobe (30° wide) towards
+/// (1, 0.4, 0.5), a coloured gradient in y, a dim floor. Written once per test folder.
+fn write_map(dir: &Path) -> PathBuf {
+    let (w, h) = (64usize, 32usize);
+    let mut img = Image { width: w, height: h, ..Default::default() };
+    let lobe = glam::DVec3::new(1.0, 0.4, 0.5).normalize();
+    let mut ch = vec![vec![0f32; w * h]; 3];
+    for r in 0..h {
+        for c in 0..w {
+            let (t, p) = (
+                std::f64::consts::PI * (r as f64 + 0.5) / h as f64,
+                std::f64::consts::TAU * (c as f64 + 0.5) / w as f64,
+            );
+            let d = glam::DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            let a = d.dot(lobe).clamp(-1.0, 1.0).acos();
+            let base = 4.0 * (-(a * a) / (2.0 * 0.5f64.powi(2))).exp() + 0.1;
+            let rgb = [base * (1.0 + 0.5 * d.y), base, base * (1.0 - 0.3 * d.y) + 0.05 * (1.0 + d.z)];
+            for k in 0..3 {
+                ch[k][r * w + c] = rgb[k] as f32;
+            }
+        }
+    }
+    for (k, n) in ["R", "G", "B"].iter().enumerate() {
+        img.channels.insert(n.to_string(), ch[k].clone());
+    }
+    let p = dir.join("map.exr");
+    write_exr(&p, &img).unwrap();
+    p
+}
+
+/// The scene: a Lambert 0.8 unit sphere seen orthographically from (3, 0, 1), under the map scaled
+/// by `scale` and turned by `rot_z` degrees about +z.
+fn scene_toml(map: &Path, seed: u64, scale: f64, rot_z: f64, size: usize) -> String {
+    format!(
+        r#"[render]
+width = {size}
+height = {size}
+spp = {SPP}
+seed = {seed}
+max_depth = 1
+sampler = "independent"
+[camera]
+type = "orthographic"
+from = [3.0, 0.0, 1.0]
+to = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, 1.0]
+extent = 1.05
+[lighting]
+type = "envmap"
+file = "{}"
+mapping = "latlong"
+scale = {scale}
+rotate_deg = [0.0, 0.0, {rot_z}]
+[[objects]]
+shape = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+brdf = {{ type = "lambert", albedo = [0.8, 0.8, 0.8] }}
+"#,
+        map.display()
+    )
+}
+
+fn scene(toml: &str) -> Scene {
+    Scene::build(SceneFile::parse(toml).unwrap(), &root()).unwrap()
+}
+
+/// Renders to `dir/name.exr` (our layout: stderr layers, header with the spp) and returns the path.
+fn render_to(dir: &Path, name: &str, toml: &str) -> PathBuf {
+    let s = scene(toml);
+    let (film, _) = render(&s, &RenderOptions::default());
+    let p = dir.join(format!("{name}.exr"));
+    renderer::output::write_exr(&p, &film, &renderer::output::header_attributes(&s)).unwrap();
+    p
+}
+
+fn load(p: &Path) -> Image {
+    read_image(p).unwrap()
+}
+
+/// Mitsuba 3's default `gaussian` reconstruction filter (stddev 0.5 px, radius 2 px), as in
+/// examples/foreign_render.rs.
+fn gaussian(x: f64) -> f64 {
+    let g = |t: f64| (-t * t / (2.0 * 0.25)).exp();
+    if x.abs() < 2.0 { (g(x) - g(2.0)).max(0.0) } else { 0.0 }
+}
+
+/// A render in Mitsuba 3's conventions: samples taken 4 × 4 per pixel (a 4× finer render at
+/// SPP / 16 spp) splatted with the Gaussian filter, R, G, B and alpha A, no stderr layer and no
+/// header (as examples/foreign_render.rs writes, without its pbrt camera matrices and layer names).
+fn mitsuba_like(map: &Path, seed: u64, scale: f64, size: usize) -> Image {
+    const SUB: usize = 4;
+    let mut toml = scene_toml(map, seed, scale, 0.0, SUB * size);
+    toml = toml.replace(&format!("spp = {SPP}"), &format!("spp = {}", SPP / 16));
+    let (film, _) = render(&scene(&toml), &RenderOptions::default());
+    let fw = film.width as usize;
+    let s = SUB as f64;
+    let mut planes = vec![vec![0f32; size * size]; 4];
+    for py in 0..size {
+        for px in 0..size {
+            let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
+            let lo = |c: f64| ((c - 2.0) * s).floor().max(0.0) as usize;
+            let hi = |c: f64| (((c + 2.0) * s).ceil() as usize).min(fw);
+            let (mut acc, mut wsum) = ([0.0f64; 4], 0.0);
+            for fy in lo(cy)..hi(cy) {
+                let wy = gaussian((fy as f64 + 0.5) / s - cy);
+                for fx in lo(cx)..hi(cx) {
+                    let w = wy * gaussian((fx as f64 + 0.5) / s - cx);
+                    let p = &film.pixels[fy * fw + fx];
+                    for (a, v) in acc.iter_mut().zip(p.rgb) {
+                        *a += w * v as f64;
+                    }
+                    acc[3] += w * p.mask as f64;
+                    wsum += w;
+                }
+            }
+            for ch in 0..4 {
+                planes[ch][py * size + px] = (acc[ch] / wsum) as f32;
+            }
+        }
+    }
+    let mut img = Image { width: size, height: size, ..Default::default() };
+    for (name, plane) in ["R", "G", "B", "A"].iter().zip(planes) {
+        img.channels.insert(name.to_string(), plane);
+    }
+    img
+}
+
+/// Writes `img` to `dir/name.exr`.
+fn save(dir: &Path, name: &str, img: &Image) -> PathBuf {
+    let p = dir.join(format!("{name}.exr"));
+    write_exr(&p, img).unwrap();
+    p
+}
+
+/// Correct pairs (two seeds of one scene, 64², 64 spp, each with its stderr layer) pass at the
+/// stated rate: over 24 pairs at α = 0.01 the number of false alarms is Binomial(24, 0.01), and
+/// P(≥ 3) = 1.6e-3, so more than 2 fails the test. A calibration error shows here: with every
+/// variance planted 20 % low (σ × 0.9), 24 of 24 pairs fail.
+#[test]
+fn correct_pairs_pass_at_the_stated_rate() {
+    let dir = temp_dir("compare-pairs");
+    let map = write_map(&dir);
+    let params = CompareParams::default();
+    let mut failures = Vec::new();
+    for pair in 0..24u64 {
+        let a = load(&render_to(&dir, "a", &scene_toml(&map, 2 * pair, 1.0, 0.0, SIZE)));
+        let b = load(&render_to(&dir, "b", &scene_toml(&map, 2 * pair + 1, 1.0, 0.0, SIZE)));
+        let r = compare(&a, &[b], &params).unwrap();
+        assert_eq!(r.tests.len(), 9, "scale, pixels and blocks in R, G, B: {:?}", r.tests);
+        assert!((r.alpha_per_test - (1.0 - 0.99f64.powf(1.0 / 9.0))).abs() < 1e-15);
+        if r.verdict == Verdict::Disagree {
+            failures.push(format!("pair {pair}: {}", r.reason));
+        }
+    }
+    assert!(
+        failures.len() <= 2,
+        "{} false alarms of 24 at α = 0.01 (binomial: P(≥ 3) = 1.6e-3): {failures:#?}",
+        failures.len()
+    );
+}
+
+/// A 1 % scale error of the lighting (128², 64 spp) fails, and the scale test names it:
+/// expected |z| ≈ 10 (σ of the ratio ≈ 0.1 % at 128²) against the per-test k ≈ 3.3.
+#[test]
+fn one_percent_scale_error_fails() {
+    let dir = temp_dir("compare-scale");
+    let map = write_map(&dir);
+    let a = load(&render_to(&dir, "a", &scene_toml(&map, 11, 1.0, 0.0, 128)));
+    let b = load(&render_to(&dir, "b", &scene_toml(&map, 12, 1.01, 0.0, 128)));
+    let r = compare(&a, &[b], &CompareParams::default()).unwrap();
+    assert_eq!(r.verdict, Verdict::Disagree, "{}", r.reason);
+    for t in r.tests.iter().filter(|t| t.name.starts_with("scale")) {
+        assert!(t.rejected && t.statistic < -5.0, "{t:?}");
+    }
+    for s in &r.scale {
+        assert!((s.ratio * 1.01 - 1.0).abs() < 4.0 * s.stderr, "{s:?}");
+    }
+    assert!(
+        r.reason.contains("global scale A/B") && r.reason.contains("scale or exposure difference only"),
+        "{}",
+        r.reason
+    );
+}
+
+/// A 2° rotation of the map about +z (128², 64 spp) fails on the blocks.
+#[test]
+fn two_degree_rotation_fails() {
+    let dir = temp_dir("compare-rotation");
+    let map = write_map(&dir);
+    let a = load(&render_to(&dir, "a", &scene_toml(&map, 21, 1.0, 0.0, 128)));
+    let b = load(&render_to(&dir, "b", &scene_toml(&map, 22, 1.0, 2.0, 128)));
+    let r = compare(&a, &[b], &CompareParams::default()).unwrap();
+    assert_eq!(r.verdict, Verdict::Disagree, "{}", r.reason);
+    assert!(r.tests.iter().any(|t| t.name.starts_with("blocks") && t.rejected), "{:?}", r.tests);
+    assert!(r.blocks.chi2_nu_scale_removed > 1.5, "a rotation is no scale: {:?}", r.blocks);
+}
+
+/// Mitsuba-like seeds (Gaussian film, alpha, no stderr layer: 8 seeds give B's noise) against our
+/// box-filtered render: the filters differ within 2 px of the silhouette, and the verdict says so;
+/// leaving out 3 px (`exclude_edges`, Mitsuba's radius 2 + 1) the images agree; a 1 % scale error
+/// of the Mitsuba-like seeds still fails there.
+#[test]
+fn mitsuba_like_seeds_filter_named_and_scale_caught() {
+    let dir = temp_dir("compare-mitsuba");
+    let map = write_map(&dir);
+    let a = load(&render_to(&dir, "a", &scene_toml(&map, 1000, 1.0, 0.0, SIZE)));
+    let seeds: Vec<Image> = (0..8).map(|k| mitsuba_like(&map, 2000 + k, 1.0, SIZE)).collect();
+    let r = compare(&a, &seeds, &CompareParams::default()).unwrap();
+    assert_eq!(r.verdict, Verdict::Disagree, "{}", r.reason);
+    assert!(r.reason.contains("silhouette") && r.reason.contains("pixel filter"), "{}", r.reason);
+    assert!(r.b.noise.contains("8 seeds") && r.b.images == 8, "{:?}", r.b);
+    let params = CompareParams { exclude_edges: 3, ..Default::default() };
+    let r = compare(&a, &seeds, &params).unwrap();
+    assert_eq!(r.verdict, Verdict::Agree, "{}", r.reason);
+    assert!(r.pixels.near_edges > 300, "{:?}", r.pixels);
+    let scaled: Vec<Image> = (0..8).map(|k| mitsuba_like(&map, 3000 + k, 1.01, SIZE)).collect();
+    let r = compare(&a, &scaled, &params).unwrap();
+    assert_eq!(r.verdict, Verdict::Disagree, "{}", r.reason);
+    assert!(r.tests.iter().any(|t| t.name.starts_with("scale") && t.rejected), "{:?}", r.tests);
+}
+
+/// The command line: exit 0 when the images agree, 1 when they do not, the `--json` document with
+/// its `verdict`, and the `--report` folder.
+#[test]
+fn cli_exit_status_json_and_report() {
+    let dir = temp_dir("compare-cli");
+    let map = write_map(&dir);
+    let a = render_to(&dir, "a", &scene_toml(&map, 31, 1.0, 0.0, SIZE));
+    let b = render_to(&dir, "b", &scene_toml(&map, 32, 1.0, 0.0, SIZE));
+    let c = render_to(&dir, "c", &scene_toml(&map, 33, 1.05, 0.0, SIZE));
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let (code, out, err) = reflect_out(&["compare", &s(&a), &s(&b)]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.starts_with("AGREE: "), "{out}");
+    let report = dir.join("report");
+    let (code, out, err) = reflect_out(&["compare", &s(&a), &s(&c), "--json", "--report", &s(&report)]);
+    assert_eq!(code, 1, "{out}{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["verdict"], "disagree");
+    for key in
+        ["reason", "alpha", "alpha_per_test", "tests", "scale", "pixels", "blocks", "histogram", "warnings", "a", "b"]
+    {
+        assert!(v.get(key).is_some(), "--json has no {key}: {out}");
+    }
+    assert_eq!(v["alpha"], 0.01);
+    for f in ["index.html", "z.png", "ratio.png", "histogram.png"] {
+        assert!(report.join(f).is_file(), "--report wrote no {f}");
+    }
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(html.contains("disagree") && html.contains("z.png"), "{html}");
+    // Seeds through the command line: B and two more seeds.
+    let b2 = render_to(&dir, "b2", &scene_toml(&map, 34, 1.0, 0.0, SIZE));
+    let b3 = render_to(&dir, "b3", &scene_toml(&map, 35, 1.0, 0.0, SIZE));
+    let (code, out, err) = reflect_out(&["compare", &s(&a), &s(&b), "--seeds", &s(&b2), &s(&b3), "--json"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["b"]["images"], 3);
+    assert!(err.contains("only 3 seeds"), "{err}");
+}
+
+/// Bad input: exit 2 and one `error:` line naming the file and the problem, nothing written.
+#[test]
+fn cli_bad_input() {
+    let dir = temp_dir("compare-bad");
+    let map = write_map(&dir);
+    let a = render_to(&dir, "a", &scene_toml(&map, 41, 1.0, 0.0, SIZE));
+    let small = render_to(&dir, "small", &scene_toml(&map, 42, 1.0, 0.0, 32));
+    let m1 = save(&dir, "m1", &mitsuba_like(&map, 43, 1.0, SIZE));
+    let m2 = save(&dir, "m2", &mitsuba_like(&map, 44, 1.0, SIZE));
+    // A grey (Y only) image of A's size.
+    let mut grey = Image { width: SIZE, height: SIZE, ..Default::default() };
+    grey.channels.insert("Y".into(), vec![0.5; SIZE * SIZE]);
+    let grey = save(&dir, "grey", &grey);
+    // An image without coverage layer (R, G, B, stderr only).
+    let mut bare = load(&a);
+    bare.channels.retain(|k, _| k.len() == 1 || k.starts_with("stderr."));
+    let bare = save(&dir, "bare", &bare);
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let report = dir.join("out");
+    let r = s(&report);
+    let missing = dir.join("missing.exr");
+    let cases: Vec<(Vec<String>, String, &str)> = vec![
+        (vec![s(&a), s(&small)], s(&small), "32×32"),
+        (vec![s(&a), s(&grey)], s(&grey), "channel layout"),
+        (vec![s(&m1), s(&m2)], "neither image".into(), "error estimate"),
+        (vec![s(&bare), s(&bare), "--exclude-edges".into(), "2".into()], "--exclude-edges".into(), "coverage layer"),
+        (vec![s(&a), s(&missing)], s(&missing), "cannot read"),
+        (vec![s(&a), s(&a), "--alpha".into(), "0.7".into()], "--alpha".into(), "(0, 0.5)"),
+        (vec![s(&a), s(&a), "--block".into(), "0".into()], "--block".into(), "≥ 1"),
+    ];
+    for (args, names, mentions) in cases {
+        let mut full = vec!["compare".to_string()];
+        full.extend(args);
+        full.extend(["--report".to_string(), r.clone()]);
+        let full: Vec<&str> = full.iter().map(String::as_str).collect();
+        common::assert_bad_input(&full, &names, mentions, &report.join("index.html"));
+    }
+    // The report never writes over an input.
+    let inside = dir.join("in");
+    std::fs::create_dir_all(&inside).unwrap();
+    let z = inside.join("z.png");
+    std::fs::copy(&a, &z).unwrap();
+    let (code, err) = common::reflect(&["compare", &s(&z), &s(&a), "--report", &s(&inside)]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("never overwrites an input"), "{err}");
+}
