@@ -126,7 +126,8 @@ impl NativeLight {
     fn new(py: Python<'_>, table: &Bound<'_, PyAny>, base: std::path::PathBuf) -> PyResult<Self> {
         let mut section: LightingSection = pythonize::depythonize(table)
             .map_err(|e| input_error(format!("lighting: {}", e.to_string().replace('\n', " "))))?;
-        let light = py.detach(|| renderer::scene::build::build_light(&mut section, &base, &mut Default::default())).py()?;
+        let light =
+            py.detach(|| renderer::scene::build::build_light(&mut section, &base, &mut Default::default())).py()?;
         Ok(NativeLight { light })
     }
 
