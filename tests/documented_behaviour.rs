@@ -168,7 +168,7 @@ fn time_limit_stops_with_its_reason_and_the_image_of_the_samples_done() {
     assert_eq!(p["stopped_by"].as_str(), Some("time-limit"), "{doc}");
     assert_eq!(p["target_reached"].as_bool(), Some(false), "{doc}");
     let spp = doc["spp"].as_u64().unwrap();
-    assert!(spp >= 2 && spp < 1 << 20, "spp reached {spp}");
+    assert!((2..1 << 20).contains(&spp), "spp reached {spp}");
     let plain = dir.join("plain.exr");
     let (code, err) = reflect(&["render", &scene, "--spp", &spp.to_string(), "--out", &s(&plain), "--quiet"]);
     assert_eq!(code, 0, "{err}");

@@ -325,7 +325,7 @@ pub fn run(p: &BenchParams, mut progress: impl FnMut(&str)) -> Result<BenchRepor
             let top = *p.ladder.iter().max().unwrap_or(&1);
             let at_top: Vec<&serde_json::Value> = d.iter().filter(|v| v["spp"].as_u64() == Some(top as u64)).collect();
             let med = |f: &dyn Fn(&serde_json::Value) -> f64| {
-                Spread::of(&d.iter().map(|v| f(v)).collect::<Vec<_>>()).map_or(f64::NAN, |s| s.median)
+                Spread::of(&d.iter().map(f).collect::<Vec<_>>()).map_or(f64::NAN, |s| s.median)
             };
             let ph = |key: &'static str| move |v: &serde_json::Value| num(&v["load_phases"], key);
             series[k].samples_per_sec =
