@@ -91,17 +91,11 @@ def run_reflect(binary, scene, spp, seed, threads, out):
 
 
 def own_peak_mb(resource):
-    """This process's peak RSS in MB (10⁶ bytes): VmHWM of /proc/self/status, which is the peak of the
-    address space since exec (ru_maxrss also holds the parent's peak at the spawn); ru_maxrss where
-    there is no /proc."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) * 1024 / 1e6
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
+    """This process's peak RSS in MB (10⁶ bytes): VmHWM (mitsuba_worker.own_peak_mb), which is the peak
+    of the address space since exec (ru_maxrss also holds the parent's peak at the spawn); ru_maxrss
+    where there is no /proc."""
+    peak = mitsuba_worker.own_peak_mb()
+    return peak if peak is not None else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
 
 
 def mitsuba_peak_mb(name, spp, threads, tmp):
