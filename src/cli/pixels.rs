@@ -439,7 +439,7 @@ fn blob(w: usize, h: usize, covered: impl Fn(usize) -> bool) -> Option<([f64; 2]
 /// with up to 1.5 px more allowed for an unknown filter as wide as Mitsuba's default), both clipped
 /// to the image, and compared by centroid and equivalent radius. Returns `Ok(None)` when they agree
 /// within 1 pixel (the radius within [r − 1, r + reach + 1.5] for the edge found above a
-/// non-uniform dark background, [`dark_border`]), `Ok(Some(warning))` when the image has neither
+/// non-uniform dark background, `dark_border`), `Ok(Some(warning))` when the image has neither
 /// alpha nor a uniform or dark background
 /// (nothing to check against), and an error naming the measured and predicted centre and radius
 /// when they disagree by more.
