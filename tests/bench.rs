@@ -26,6 +26,7 @@ fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half()
         "--json",
     ]);
     assert!(out.join("bench.json").is_file(), "bench.json not written");
+    common::json::assert_documented("bench", &doc);
     assert!(doc["host"]["cpu_features"].is_array() && doc["host"]["load_before"].is_array(), "{}", doc["host"]);
     let scene = &doc["scenes"][0];
     assert_eq!(scene["name"], "lambert-grace");

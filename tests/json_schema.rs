@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::json::{kind, reflect_json as run};
+use common::json::{assert_documented, kind, reflect_json as run};
 use serde_json::Value;
 use std::collections::BTreeSet;
 
@@ -32,6 +32,7 @@ fn assert_schema(doc: &Value, expected: &[&str]) {
 #[test]
 fn sh_transfer_schema() {
     let doc = run(&["sh", "transfer", "--brdf", "torrance-sparrow", "--sigma", "0.1", "--lmax", "3", "--json"]);
+    assert_documented("sh transfer", &doc);
     assert_schema(
         &doc,
         &[
@@ -60,6 +61,7 @@ fn sh_transfer_schema() {
 fn sh_project_schema() {
     let g = common::grace();
     let doc = run(&["sh", "project", g.to_str().unwrap(), "--lmax", "1", "--json"]);
+    assert_documented("sh project", &doc);
     assert_schema(
         &doc,
         &[
@@ -126,6 +128,7 @@ fn render_schema() {
     .unwrap();
     let out = dir.join("s.exr");
     let doc = run(&["render", scene.to_str().unwrap(), "--out", out.to_str().unwrap(), "--json", "--quiet"]);
+    assert_documented("render", &doc);
     let mut want: Vec<&str> = RENDER_KEYS.to_vec();
     want.push(".progressive: null");
     assert_schema(&doc, &want);
@@ -183,6 +186,7 @@ fn render_schema() {
 fn verify_schema() {
     let dir = common::temp_dir("json-schema-verify");
     let doc = run(&["verify", "--quick", "--check", "mirror", "--json", "--out", dir.to_str().unwrap()]);
+    assert_documented("verify", &doc);
     assert_schema(
         &doc,
         &[
@@ -275,6 +279,7 @@ fn compare_schema() {
     let (code, out, err) = common::reflect_out(&["compare", &a, &b, "--json"]);
     assert!(code == 0 || code == 1, "{err}");
     let doc: Value = serde_json::from_str(&out).unwrap();
+    assert_documented("compare", &doc);
     assert!(doc["verdict"] == "agree" || doc["verdict"] == "disagree", "{doc}");
     assert_schema(
         &doc,

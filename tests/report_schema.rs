@@ -7,7 +7,7 @@ mod common;
 
 use analysis::image::{Image, write_exr};
 use analysis::sh::{Reconstructor, latlong_direction, num_coefficients};
-use common::json::{kind, reflect_json};
+use common::json::{assert_documented, kind, reflect_json};
 use serde_json::Value;
 
 /// `doc` has exactly the keys of `schema`, each of one of the listed types ("number|null").
@@ -67,6 +67,7 @@ fn report_schemas_are_pinned() {
     let p = p.to_str().unwrap();
 
     let a = reflect_json(&["analyze", p, "--lmax", "2", "--json"]);
+    assert_documented("analyze", &a);
     assert_schema(
         &a,
         &[
@@ -116,6 +117,7 @@ fn report_schemas_are_pinned() {
     }
 
     let l = reflect_json(&["invert", "lighting", p, "--lmax", "2", "--json"]);
+    assert_documented("invert lighting", &l);
     assert_schema(
         &l,
         &[
@@ -147,6 +149,7 @@ fn report_schemas_are_pinned() {
     assert_eq!(l["lm"].as_array().unwrap().len(), 9);
 
     let b = reflect_json(&["invert", "brdf", p, "--model", "phong", "--lmax", "2", "--json"]);
+    assert_documented("invert brdf", &b);
     assert_schema(
         &b,
         &[
@@ -184,6 +187,7 @@ fn report_schemas_are_pinned() {
     let (s0, s1, s2) = (s0.to_str().unwrap(), s1.to_str().unwrap(), s2.to_str().unwrap());
     let sep = ["invert", "separate", s0, s1, s2, "--kd", "0.5", "--ks", "0.5", "--lmax", "2", "--scan", "--json"];
     let s = reflect_json(&sep);
+    assert_documented("invert separate", &s);
     assert_schema(
         &s,
         &[
@@ -231,6 +235,7 @@ fn report_schemas_are_pinned() {
     args.extend(nodes.iter().map(String::as_str));
     args.extend(["--normal", s0, "--lmax", "1", "--json"]);
     let f = reflect_json(&args);
+    assert_documented("invert factor", &f);
     assert_schema(
         &f,
         &[
@@ -263,6 +268,7 @@ fn report_schemas_are_pinned() {
         assert!(f["orders"][1].get(k).is_some(), "invert factor.orders[1].{k}");
     }
     let n = reflect_json(&["invert", "factor", "--print-nodes", "2x3", "--json"]);
+    assert_documented("invert factor", &n);
     assert_schema(
         &n,
         &[("command", "string"), ("nodes", "array"), ("outgoing", "array")],

@@ -23,3 +23,18 @@ pub fn kind(v: &Value) -> &'static str {
         Value::Object(_) => "object",
     }
 }
+
+/// Asserts that every top-level key of `doc` is named (as `` `key` ``) in the section of the guide's JSON
+/// reference (docs/src/reference/json.md) headed `` ## `reflect COMMAND` ``: a key added to a document
+/// must be documented there.
+pub fn assert_documented(command: &str, doc: &Value) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/src/reference/json.md");
+    let page = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let heading = format!("## `reflect {command}`");
+    let start = page.find(&heading).unwrap_or_else(|| panic!("{path}: no section {heading}"));
+    let body = &page[start + heading.len()..];
+    let section = &body[..body.find("\n## ").unwrap_or(body.len())];
+    let obj = doc.as_object().unwrap_or_else(|| panic!("reflect {command}: the document is not an object"));
+    let missing: Vec<&String> = obj.keys().filter(|k| !section.contains(&format!("`{k}`"))).collect();
+    assert!(missing.is_empty(), "{path}, section {heading}: keys of the document not documented: {missing:?}");
+}
