@@ -5,7 +5,8 @@
 //!   only flags it has;
 //! - every relative link of the README and the guide points at a file that exists (and, for a page of
 //!   the guide, at one of its headings), and every page of `docs/src` is in `SUMMARY.md`;
-//! - user-facing text cites only what a user of the repository can see.
+//! - user-facing text cites only what a user of the repository can see;
+//! - every TOML block of the README and the guide is a scene file that parses.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -425,4 +426,34 @@ fn commands_in_the_readme_and_the_guide_are_real() {
     }
     assert!(checked >= 10, "only {checked} commands found in the README and the guide");
     assert!(bad.is_empty(), "commands of the README and the guide that the binary does not take:\n{}", bad.join("\n"));
+}
+
+/// Every ```toml block of the README and the guide is a scene file (or a part of one) that the scene
+/// parser accepts: an example with a misspelt key or a value outside its closed set fails here.
+#[test]
+fn toml_blocks_of_the_readme_and_the_guide_parse() {
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (page, text) in doc_pages() {
+        let mut block: Option<(usize, String)> = None;
+        for (n, line) in text.lines().enumerate() {
+            match (&mut block, line.strip_prefix("```")) {
+                (None, Some(lang)) if lang.trim() == "toml" => block = Some((n + 1, String::new())),
+                (Some((start, body)), Some(_)) => {
+                    if let Err(e) = vocab::SceneFile::parse(body) {
+                        bad.push(format!("{}:{start}: {e}", page.display()));
+                    }
+                    checked += 1;
+                    block = None;
+                }
+                (Some((_, body)), None) => {
+                    body.push_str(line);
+                    body.push('\n');
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(checked >= 1, "no TOML block found in the README and the guide");
+    assert!(bad.is_empty(), "TOML blocks that do not parse as scene files:\n{}", bad.join("\n"));
 }
