@@ -15,7 +15,8 @@ the top (`OUT/<scene>-<sampler>-<seed>-<spp>.f32`). Prints one JSON object on st
 
 Conventions that differ from reflect's (see the guide): Mitsuba's envmap frame is +y up with u running
 clockwise seen from above, so the map gets a reflecting `to_world`; its rows are corner-aligned, so it is
-handed a (2H+1)-row bitmap that makes its bilinear lookup equal ours; its orthographic camera is scaled to
+handed a (2H+1)-row bitmap whose bilinear interpolant passes through our texel centres (ours is piecewise
+constant: integrals over the map agree, a direction seen directly can differ); its orthographic camera is scaled to
 reflect's extent; `path` with max_depth 2 is our max_depth 1.
 """
 
@@ -75,8 +76,9 @@ def write_ply(path, v, f, np):
 
 
 def corner_aligned(img, np):
-    """Mitsuba's envmap rows are corner-aligned; a (2H+1)-row bitmap whose row m holds our
-    bilinear value at v = m/(2H) makes it look up exactly our function."""
+    """Mitsuba's envmap rows are corner-aligned; in a (2H+1)-row bitmap whose odd rows are ours and
+    whose even rows are the means of their neighbours, its bilinear lookup passes through our texel
+    centres (v = (j + 1/2)/H) as a linear interpolant, which has our map's integrals."""
     h = img.shape[0]
     out = np.empty((2 * h + 1,) + img.shape[1:], np.float32)
     out[1::2] = img
