@@ -1,4 +1,4 @@
-//! Spherical-harmonic benchmarks (targets in guide "Performance"):
+//! Spherical-harmonic benchmarks (targets in guide "Performance notes and their history"):
 //! - evaluation of all 441 Y_lm of l_max = 20 at one direction (target < 1 µs);
 //! - projection of a 2048 × 1024 lat-long environment to l_max = 20 (target well under 1 s on 2 cores);
 //! - projection of a 1000 × 1000 angular map (the grace probe's size) to l_max = 20;

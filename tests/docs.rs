@@ -247,7 +247,12 @@ fn user_facing_text_cites_only_what_a_user_can_see() {
     for f in files {
         texts.push((f.display().to_string(), std::fs::read_to_string(&f).unwrap()));
     }
-    let headings: Vec<String> = pages.iter().flat_map(|(_, t)| headings(t)).collect();
+    // (README headings, guide headings): a `README "…"` citation names the first, a `guide "…"` one the second.
+    let readme = root.join("README.md");
+    let headings: (Vec<String>, Vec<String>) = (
+        pages.iter().filter(|(p, _)| *p == readme).flat_map(|(_, t)| headings(t)).collect(),
+        pages.iter().filter(|(p, _)| *p != readme).flat_map(|(_, t)| headings(t)).collect(),
+    );
     let issue = |t: &str| {
         let lower = t.to_lowercase();
         ["issue ", "issues "].iter().any(|w| {
@@ -293,15 +298,30 @@ fn user_facing_text_cites_only_what_a_user_can_see() {
     assert!(bad.is_empty(), "references a user cannot see:\n{}", bad.join("\n"));
 }
 
-/// Every `guide "SECTION"` (or `README "SECTION"`) in `line` names a heading of the README or the
-/// guide (a section name may continue on the next line: checked as a prefix); one entry in `bad` per
-/// citation that does not.
-fn cited_sections_exist(at: &str, line: &str, headings: &[String], bad: &mut Vec<String>) {
-    for pat in ["README \"", "guide \"", "guide \\\""] {
+/// Every `guide "SECTION"` in `line` names a heading of the guide, and every `README "SECTION"` one of
+/// the README: exactly (backticks aside; a page title's subtitle after a colon may be left out) when
+/// the quotation closes on the line, as a prefix when it runs on to the next line. One entry in `bad` per citation that does not.
+fn cited_sections_exist(at: &str, line: &str, headings: &(Vec<String>, Vec<String>), bad: &mut Vec<String>) {
+    for (pat, names, whose) in [
+        ("README \"", &headings.0, "the README"),
+        ("guide \"", &headings.1, "the guide"),
+        ("guide \\\"", &headings.1, "the guide"),
+    ] {
         for (i, _) in line.match_indices(pat) {
-            let cited = line[i + pat.len()..].split(['"', '\\']).next().unwrap_or("");
-            if !headings.iter().any(|h| h.trim_matches('`').starts_with(cited) || h.starts_with(cited)) {
-                bad.push(format!("{at} (no heading of the README or the guide starts with \"{cited}\")"));
+            let rest = &line[i + pat.len()..];
+            // Closed by a quote (or an escaped one); a backslash ending the line continues a string.
+            let end = rest.find(['"', '\\']).filter(|&k| rest[k..].trim_end() != "\\");
+            let cited = rest[..end.unwrap_or(rest.len())].trim_end_matches('\\').replace('`', "");
+            // A page title's subtitle after a colon may be left out ("Scale-out" for "Scale-out: shards, …").
+            let found = names.iter().any(|h| {
+                let h = h.replace('`', "");
+                match end {
+                    Some(_) => h == cited || h.strip_prefix(&cited).is_some_and(|t| t.starts_with(':')),
+                    None => h.starts_with(&cited),
+                }
+            });
+            if !found {
+                bad.push(format!("{at} (no heading of {whose} is \"{cited}\")"));
             }
         }
     }

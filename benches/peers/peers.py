@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Side-by-side benchmark of `reflect` against Mitsuba 3 (guide "Performance").
+"""Side-by-side benchmark of `reflect` against Mitsuba 3 (guide "Performance notes and their history").
 
 Renders the benchmark scenes `scenes/bench-*.toml` and `benches/peers/bench-mesh-sky.toml` with `reflect` and the same scenes with Mitsuba 3's
 `llvm_ad_rgb` variant in one run, on the same number of threads, and prints a table of render times,

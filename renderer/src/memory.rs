@@ -11,7 +11,7 @@
 //! (`MADV_HUGEPAGE`, and `MADV_COLLAPSE`, Linux 6.1, to move the pages already written into huge
 //! pages at once rather than whenever `khugepaged` gets to them). It is a hint: it changes no
 //! value, and where the kernel declines (THP `never`, an old kernel, no free huge page, another
-//! OS) the table simply stays in small pages. Measured effect: guide "Performance notes".
+//! OS) the table simply stays in small pages. Measured effect: guide "Performance notes and their history".
 
 /// Asks the kernel to back the 2 MiB-aligned part of `data` with transparent huge pages.
 ///

@@ -175,7 +175,7 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
 /// Dispatched at run time: on an x86-64 CPU with the x86-64-v3 features (AVX2, FMA, BMI1/2, LZCNT,
 /// MOVBE; Intel Haswell 2013 and AMD Excavator 2015 onward), the tile loop, with the path tracer and
 /// everything inlined into it, runs as compiled for them (`render_tile_x86_64_v3`: VEX encodings,
-/// BMI; ~9 % fewer instructions a sample, guide "Performance"); on any other CPU, or another
+/// BMI; ~9 % fewer instructions a sample, guide "Performance notes and their history"); on any other CPU, or another
 /// architecture, as compiled for the build's target. The two compute the same bits: Rust never
 /// contracts a multiply and an add into an FMA on its own, the code calls `mul_add` nowhere, and
 /// out-of-line functions (libm among them) are the same in both. A test renders every scene in

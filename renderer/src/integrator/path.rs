@@ -450,8 +450,8 @@ impl<'a> PathTracer<'a> {
             return hits;
         }
         // A BVH: ray by ray. `intersect_batch` on a stage's ≤ 8 rays gives the same hits, but costed
-        // 62 % more render instructions on bench-mesh-sky and no wall time (guide "Performance",
-        // eighth round): its interleaving pays off over many rays, not over one pixel's batch.
+        // 62 % more render instructions on bench-mesh-sky and no wall time (guide "Performance notes and their
+        // history", eighth round): its interleaving pays off over many rays, not over one pixel's batch.
         for ((hit, ray), &want) in hits.iter_mut().zip(&r.rays).zip(&r.want) {
             if want {
                 *hit = geometry.intersect(ray);

@@ -95,7 +95,7 @@ pub fn atan2_x2(y: [f32; 2], x: [f32; 2]) -> [f32; 2] {
 /// definition; a test compares them). Written as a lane loop of branch-free code, which LLVM runs
 /// in SIMD registers: 8 lanes in AVX2 inside a function compiled for x86-64-v3 (the render's tile
 /// loop copy, `render::render_tile`), so that the batched integrator's lat-long lookups cost a
-/// fraction of a scalar call each (guide "Performance", round seven, counts them).
+/// fraction of a scalar call each (guide "Performance notes and their history", round seven, counts them).
 #[inline(always)]
 pub fn atan2_lanes<const N: usize>(y: &[f32; N], x: &[f32; N]) -> [f32; N] {
     let mut r = [0.0; N];
@@ -255,7 +255,7 @@ mod tests {
         }
     }
 
-    /// Not a check: a workload for counting instructions under callgrind (guide "Performance",
+    /// Not a check: a workload for counting instructions under callgrind (guide "Performance notes and their history",
     /// round seven): 2^19 arctangents one call at a time, and in lanes of 8 in functions compiled
     /// for the baseline and for x86-64-v3.
     #[test]

@@ -480,8 +480,8 @@ impl Sampler {
 mod tests {
     use super::*;
 
-    /// Not a check: a workload for counting instructions (run under callgrind, guide "Performance",
-    /// round seven): 2^16 batches of `LANES` 2D Sobol draws through `next_2d_lanes` in a function
+    /// Not a check: a workload for counting instructions (run under callgrind, guide "Performance notes and
+    /// their history", round seven): 2^16 batches of `LANES` 2D Sobol draws through `next_2d_lanes` in a function
     /// compiled for x86-64-v3, and the same draws one by one through `next_2d`.
     #[test]
     #[ignore]
