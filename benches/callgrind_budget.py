@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Per-sample instruction budget of a render, from a callgrind profile (guide "Performance notes and their history", round five).
+"""Per-sample instruction budget of a render, from a callgrind profile (guide "Performance notes and their
+history", round five).
 
     valgrind --tool=callgrind --cache-sim=yes --dump-instr=yes --collect-atstart=no \\
         --toggle-collect='*render_range*' --callgrind-out-file=cg.out \\

@@ -213,8 +213,8 @@ fn flag_extraction() {
 }
 
 /// What a user reads (every `--help`, the README and the guide, the scene files, the Python
-/// package's docstrings, the examples, the deployment example, the changelog) and the sources of the crates refer
-/// only to what a user of the repository can see: no file outside it (`../shared/CONVENTIONS.md`,
+/// package's docstrings, the examples, the deployment example, the changelog) and the sources of the
+/// crates refer only to what a user of the repository can see: no file outside it (`../shared/CONVENTIONS.md`,
 /// whose content the guide's conventions page now states), no tracker issue numbers in user-facing
 /// text, and every `guide "SECTION"` (or `README "SECTION"`) cited names a heading of the README or
 /// the guide.
@@ -300,7 +300,8 @@ fn user_facing_text_cites_only_what_a_user_can_see() {
 
 /// Every `guide "SECTION"` in `line` names a heading of the guide, and every `README "SECTION"` one of
 /// the README: exactly (backticks aside; a page title's subtitle after a colon may be left out) when
-/// the quotation closes on the line, as a prefix when it runs on to the next line. One entry in `bad` per citation that does not.
+/// the quotation closes on the line, as a prefix when it runs on to the next line. One entry in `bad`
+/// per citation that does not.
 fn cited_sections_exist(at: &str, line: &str, headings: &(Vec<String>, Vec<String>), bad: &mut Vec<String>) {
     for (pat, names, whose) in [
         ("README \"", &headings.0, "the README"),

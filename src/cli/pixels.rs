@@ -17,7 +17,7 @@
 
 use super::Error;
 use super::header::Camera;
-use analysis::image::Image;
+use analysis::image::{Image, RgbImage};
 use analysis::noise::{MeasuredCorrelation, PixelFilter, ResidualGrid, estimate_correlation, near_lags};
 use analysis::projection::{
     OrthoCamera, OrthoView, Param, Sample, Sphere, fit_orthographic, ortho_sample_pixels, ortho_samples,
@@ -357,11 +357,10 @@ fn alpha<'a>(img: &'a Image, layer: Option<&str>) -> Option<&'a [f32]> {
     }
 }
 
-/// The RGB values of the pixels on the image's border (each once); `None` for an image without RGB
-/// or narrower than 3 pixels.
-fn border_pixels(img: &Image) -> Option<Vec<[f32; 3]>> {
-    let rgb = img.rgb()?;
-    let (w, h) = (img.width, img.height);
+/// The RGB values of the pixels on the image's border (each once); `None` for an image narrower than
+/// 3 pixels.
+fn border_pixels(rgb: &RgbImage) -> Option<Vec<[f32; 3]>> {
+    let (w, h) = (rgb.width, rgb.height);
     if w < 3 || h < 3 {
         return None;
     }
@@ -376,7 +375,7 @@ fn border_pixels(img: &Image) -> Option<Vec<[f32; 3]>> {
 /// The uniform background of `img`, if it has one: the RGB value of at least half of the pixels on
 /// the image's border (a renderer's miss value, e.g. 0 with the environment hidden).
 fn background(img: &Image) -> Option<[f32; 3]> {
-    let border = border_pixels(img)?;
+    let border = border_pixels(&img.rgb()?)?;
     let mut counts: Vec<([f32; 3], usize)> = Vec::new();
     for p in &border {
         let same = |v: &[f32; 3]| v.iter().zip(p).all(|(a, b)| a.to_bits() == b.to_bits());
@@ -394,7 +393,8 @@ fn background(img: &Image) -> Option<[f32; 3]> {
 /// and a tolerance 8 × the 75th percentile of the border's deviations from it (at least 1e-6
 /// relative), when that tolerance is below 1e-3 of the image's largest radiance; `None` otherwise.
 fn dark_border(img: &Image) -> Option<([f32; 3], f32)> {
-    let border = border_pixels(img)?;
+    let rgb = img.rgb()?;
+    let border = border_pixels(&rgb)?;
     let mut bg = [0.0f32; 3];
     for ch in 0..3 {
         let mut v: Vec<f32> = border.iter().map(|p| p[ch]).filter(|x| x.is_finite()).collect();
@@ -409,7 +409,7 @@ fn dark_border(img: &Image) -> Option<([f32; 3], f32)> {
     let mut dev: Vec<f32> = border.iter().flat_map(|p| (0..3).map(move |c| (p[c] - bg[c]).abs())).collect();
     dev.sort_by(f32::total_cmp);
     let spread = dev[(3 * dev.len()) / 4];
-    let peak = img.rgb()?.pixels.iter().flatten().filter(|x| x.is_finite()).fold(0.0f32, |a, b| a.max(b.abs()));
+    let peak = rgb.pixels.iter().flatten().filter(|x| x.is_finite()).fold(0.0f32, |a, b| a.max(b.abs()));
     let tol = (8.0 * spread).max(1e-6 * (1.0 + bg.iter().fold(0.0f32, |a, b| a.max(b.abs()))));
     (peak > 0.0 && tol < 1e-3 * peak).then_some((bg, tol))
 }

@@ -259,10 +259,10 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                     scene.description.render.spp = n;
                     let rel_error = rel_error.unwrap_or(Err(NoEstimate::OneSample));
                     // As the target measures it (flagged pixels infinite): not the noise summary's p95.
-                    let e = match rel_error {
-                        Ok(_) => format!("{} (flagged pixels counted as infinite)", super::passes::percent(rel_error)),
-                        Err(_) => super::passes::percent(rel_error),
-                    };
+                    let mut e = super::passes::percent(rel_error);
+                    if rel_error.is_ok() {
+                        e.push_str(" (flagged pixels counted as infinite)");
+                    }
                     let note = match (stop, a.target_rel_error, a.time_limit) {
                         (Stop::Target, Some(x), _) => {
                             format!("reached: 95th-percentile relative stderr {e} ≤ {:.4} %", 100.0 * x)
