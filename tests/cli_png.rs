@@ -66,6 +66,27 @@ fn exposure_arithmetic_on_a_known_pixel() {
 }
 
 #[test]
+fn automatic_exposure_of_a_layer_whose_median_is_zero_says_none_was_applied() {
+    // A 0/1 layer (as `stderr_flag` with few flags): the object's median is 0, so there is nothing to
+    // scale; the message must not claim the median went to 0.18.
+    let dir = temp_dir("png-zero-median");
+    let exr = dir.join("flags.exr");
+    let mut img = Image { width: 4, height: 2, ..Default::default() };
+    for c in ["R", "G", "B"] {
+        img.channels.insert(c.into(), vec![0.25; 8]);
+    }
+    img.channels.insert("mask.Y".into(), vec![1.0; 8]);
+    img.channels.insert("stderr_flag.Y".into(), vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+    write_exr(&exr, &img).unwrap();
+    let out = dir.join("flags.png");
+    let (code, err) =
+        reflect(&["png", exr.to_str().unwrap(), "--layer", "stderr_flag", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("+0.00 EV") && err.contains("median luminance is 0, so none applied"), "{err}");
+    assert!(!err.contains("→ 0.18"), "{err}");
+}
+
+#[test]
 fn render_png_takes_an_exposure() {
     let dir = temp_dir("png-render");
     let scene = dir.join("s.toml");

@@ -182,7 +182,7 @@ fn grace_probe_at_64_spp_flagged_pixels_cover() {
     assert!(!honest(&co), "the own error bars pass: {}", co.line("own σ"));
 }
 
-/// A plain scene keeps its error bars: the same sphere under the analytic sky of /work/shared/data
+/// A plain scene keeps its error bars: the same sphere under the analytic sky of `../shared/data`
 /// (`sky_latlong.exr`: smooth, no texel far above the rest), where the estimator has no heavy tail.
 #[test]
 fn plain_scene_error_bars_are_not_inflated() {

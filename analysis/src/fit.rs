@@ -254,42 +254,17 @@ pub fn design_amplification(rows: &[Vec<f64>], weight: &[f64], p: usize) -> Opti
     Some((0..p).map(|i| cinv[i * p + i].max(0.0).sqrt()).collect())
 }
 
-/// Gauss–Jordan inverse with partial pivoting of a small p × p row-major matrix; `None` when a
+/// Inverse of a small p × p row-major matrix by LU with partial pivoting (nalgebra); `None` when a
 /// pivot falls below 1e-13 × the largest diagonal entry (singular for practical purposes).
 pub fn invert(a: &[f64], p: usize) -> Option<Vec<f64>> {
-    let mut m = a.to_vec();
-    let mut inv = vec![0.0; p * p];
-    for i in 0..p {
-        inv[i * p + i] = 1.0;
-    }
     let scale = (0..p).map(|i| a[i * p + i].abs()).fold(0.0, f64::max);
-    for col in 0..p {
-        let piv = (col..p).max_by(|&x, &y| m[x * p + col].abs().total_cmp(&m[y * p + col].abs()))?;
-        if m[piv * p + col].abs() <= 1e-13 * scale.max(1e-300) {
-            return None;
-        }
-        for k in 0..p {
-            m.swap(col * p + k, piv * p + k);
-            inv.swap(col * p + k, piv * p + k);
-        }
-        let d = m[col * p + col];
-        for k in 0..p {
-            m[col * p + k] /= d;
-            inv[col * p + k] /= d;
-        }
-        for r in 0..p {
-            if r != col {
-                let f = m[r * p + col];
-                if f != 0.0 {
-                    for k in 0..p {
-                        m[r * p + k] -= f * m[col * p + k];
-                        inv[r * p + k] -= f * inv[col * p + k];
-                    }
-                }
-            }
-        }
+    let lu = nalgebra::DMatrix::from_row_slice(p, p, a).lu();
+    let u = lu.u();
+    if (0..p).any(|i| !(u[(i, i)].abs() > 1e-13 * scale.max(1e-300))) {
+        return None;
     }
-    Some(inv)
+    // Column-major storage of the transpose is the row-major storage of the inverse.
+    Some(lu.try_inverse()?.transpose().as_slice().to_vec())
 }
 
 /// SH projection of one channel of a W × H `normal-probe` image by lat-long quadrature with exact
@@ -450,8 +425,9 @@ mod tests {
     }
 
     #[test]
-    fn gauss_jordan_inverts() {
-        let a = [4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0];
+    fn inverts_a_general_matrix_and_refuses_a_singular_one() {
+        // Not symmetric, so a row/column-major mix-up fails; a zero leading entry needs pivoting.
+        let a = [0.0, 1.0, 0.5, 2.0, 3.0, -0.2, 0.7, 0.1, 2.0];
         let inv = invert(&a, 3).unwrap();
         for i in 0..3 {
             for j in 0..3 {

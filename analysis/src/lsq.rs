@@ -1,82 +1,54 @@
 //! Dense symmetric positive-definite linear algebra for weighted least squares: Cholesky
-//! factorization G = L Lᵀ, solves, and the inverse (for coefficient covariances).
+//! factorization G = L Lᵀ, solves, and the inverse (for coefficient covariances), over nalgebra.
 //!
 //! Matrices are row-major `p × p` `Vec<f64>`. A pivot below `rel_tol` × the largest diagonal entry
 //! means the normal equations do not determine the unknowns (e.g. SH orders the covered part of
 //! the sphere cannot separate); that is reported as an error rather than a garbage solution.
+
+use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
 
 /// Lower-triangular Cholesky factor of a symmetric positive-definite matrix.
 #[derive(Clone, Debug)]
 pub struct Cholesky {
-    p: usize,
-    l: Vec<f64>,
+    factor: nalgebra::Cholesky<f64, nalgebra::Dyn>,
 }
 
 impl Cholesky {
-    /// Factors `g` (only its lower triangle is read).
+    /// Factors `g` (`p × p`, row-major; only its lower triangle is read). Errors when a pivot
+    /// L_jj² is not above `rel_tol` × the largest diagonal entry of `g`.
     pub fn new(g: &[f64], p: usize, rel_tol: f64) -> Result<Cholesky> {
         assert_eq!(g.len(), p * p);
         let dmax = (0..p).map(|i| g[i * p + i]).fold(0.0f64, f64::max);
-        let mut l = vec![0.0; p * p];
-        for j in 0..p {
-            let mut d = g[j * p + j];
-            for k in 0..j {
-                d -= l[j * p + k] * l[j * p + k];
-            }
-            if !(d > rel_tol * dmax) {
-                return Err(Error::new(format!(
-                    "least-squares system is singular or ill-conditioned at unknown {j} of {p} (pivot {d:.3e})"
-                )));
-            }
-            let d = d.sqrt();
-            l[j * p + j] = d;
-            for i in (j + 1)..p {
-                let mut s = g[i * p + j];
-                let (ri, rj) = (&l[i * p..i * p + j], &l[j * p..j * p + j]);
-                for k in 0..j {
-                    s -= ri[k] * rj[k];
-                }
-                l[i * p + j] = s / d;
-            }
+        let singular = |j: usize, pivot: f64| {
+            Error::new(format!(
+                "least-squares system is singular or ill-conditioned at unknown {j} of {p} (pivot {pivot:.3e})"
+            ))
+        };
+        let Some(factor) = nalgebra::Cholesky::new(DMatrix::from_row_slice(p, p, g)) else {
+            return Err(Error::new(format!(
+                "least-squares system of {p} unknowns is singular (not positive definite)"
+            )));
+        };
+        let l = factor.l_dirty();
+        if let Some(j) = (0..p).find(|&j| !(l[(j, j)] * l[(j, j)] > rel_tol * dmax)) {
+            return Err(singular(j, l[(j, j)] * l[(j, j)]));
         }
-        Ok(Cholesky { p, l })
+        Ok(Cholesky { factor })
     }
 
-    /// Solves G x = b in place.
+    /// Solves G x = b in place (`b` has p entries).
     pub fn solve(&self, b: &mut [f64]) {
-        let (p, l) = (self.p, &self.l);
-        for i in 0..p {
-            let mut s = b[i];
-            for k in 0..i {
-                s -= l[i * p + k] * b[k];
-            }
-            b[i] = s / l[i * p + i];
-        }
-        for i in (0..p).rev() {
-            let mut s = b[i];
-            for k in (i + 1)..p {
-                s -= l[k * p + i] * b[k];
-            }
-            b[i] = s / l[i * p + i];
-        }
+        let mut x = DVector::from_column_slice(b);
+        self.factor.solve_mut(&mut x);
+        b.copy_from_slice(x.as_slice());
     }
 
     /// G⁻¹, row-major.
     pub fn inverse(&self) -> Vec<f64> {
-        let p = self.p;
-        let mut inv = vec![0.0; p * p];
-        let mut e = vec![0.0; p];
-        for j in 0..p {
-            e.iter_mut().for_each(|v| *v = 0.0);
-            e[j] = 1.0;
-            self.solve(&mut e);
-            for i in 0..p {
-                inv[i * p + j] = e[i];
-            }
-        }
-        inv
+        // Column-major storage of the transpose is the row-major storage of G⁻¹.
+        self.factor.inverse().transpose().as_slice().to_vec()
     }
 }
 

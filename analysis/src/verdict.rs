@@ -14,7 +14,7 @@
 //! Diagnosis (only when it does): every alternative is scored by the same χ², the one with the
 //! largest p named:
 //! - `scale`: one free factor k_c per channel, k̂_c = AᵀC⁻¹Â / AᵀC⁻¹A (ν_c − 1 left);
-//! - `rotation`: the lighting rotated about +z (the map's up axis, docs/src/conventions.md §2) by
+//! - `rotation`: the lighting rotated about the world +z axis (the pole of a lat-long map, docs/src/conventions.md §1–§2) by
 //!   ψ, on a 5° grid over the circle refined to 0.25° around the best, each a full refit;
 //! - `mapping`: an environment map read with the other mapping (lat-long ↔ angular);
 //! - anything else (the BRDF's parameters, the camera's extent or orientation) is named as

@@ -179,7 +179,7 @@ fn rotating_a_delta_moves_it() {
 /// (l, m) up to l = 100: exact rational arithmetic in Python (`fractions`): P_l^m by Rodrigues'
 /// formula (no Condon–Shortley phase), cos mφ / sin mφ by exact complex powers, K_lm² exact, and one
 /// 80-digit square root at the end. The direction has rational coordinates: cos θ = 3/5, sin θ = 4/5,
-/// cos φ = 5/13, sin φ = 12/13. (l ≤ 2 is pinned by the docs/src/conventions.md §3 check values above.) A sign,
+/// cos φ = 5/13, sin φ = 12/13. (l ≤ 2 is pinned by the docs/src/conventions.md §3 check values in analysis/src/sh/basis.rs.) A sign,
 /// phase, normalization or index error at any order fails here even if it cancels everywhere else.
 #[test]
 fn basis_pinned_to_independent_values_up_to_l100() {

@@ -128,9 +128,10 @@ pub fn luminance(rgb: [f32; 3]) -> f64 {
 
 /// The automatic exposure of the previews: the EV that maps the median luminance of the object's
 /// pixels (`mask` > 0 where a mask is given, every pixel otherwise) to 0.18, photographic mid-grey
-/// (before the Reinhard curve, which shows 0.18 as 0.153, sRGB 110). 0 when that median is ≤ 0.
+/// (before the Reinhard curve, which shows 0.18 as 0.153, sRGB 110). `None` when that median is ≤ 0
+/// (nothing to scale: a black image, or a 0/1 layer whose median pixel is 0), or there are no pixels.
 /// Median: nearest rank (`noise::nearest_rank`).
-pub fn auto_exposure(pixels: &[[f32; 3]], mask: Option<&[f32]>) -> f64 {
+pub fn auto_exposure(pixels: &[[f32; 3]], mask: Option<&[f32]>) -> Option<f64> {
     let mut y: Vec<f64> = pixels
         .iter()
         .enumerate()
@@ -139,10 +140,7 @@ pub fn auto_exposure(pixels: &[[f32; 3]], mask: Option<&[f32]>) -> f64 {
         .filter(|v| v.is_finite())
         .collect();
     y.sort_by(f64::total_cmp);
-    match crate::noise::nearest_rank(&y, 0.5) {
-        Some(m) if m > 0.0 => (0.18 / m).log2(),
-        _ => 0.0,
-    }
+    crate::noise::nearest_rank(&y, 0.5).filter(|&m| m > 0.0).map(|m| (0.18 / m).log2())
 }
 
 /// Stages a W × H preview PNG (8-bit sRGB, [`tone_map`] at `exposure_ev`): written to a temporary
@@ -196,9 +194,9 @@ mod tests {
         px.extend([[100.0f32; 3]; 6]);
         let mut mask = vec![1.0f32; 5];
         mask.extend([0.0f32; 6]);
-        assert!((auto_exposure(&px, Some(&mask)) + 2.0).abs() < 1e-6);
+        assert!((auto_exposure(&px, Some(&mask)).unwrap() + 2.0).abs() < 1e-6);
         // Without the mask the bright background is the median: log2(0.18/100).
-        assert!((auto_exposure(&px, None) - (0.18f64 / 100.0).log2()).abs() < 1e-6);
-        assert_eq!(auto_exposure(&[[0.0; 3]; 4], None), 0.0);
+        assert!((auto_exposure(&px, None).unwrap() - (0.18f64 / 100.0).log2()).abs() < 1e-6);
+        assert_eq!(auto_exposure(&[[0.0; 3]; 4], None), None);
     }
 }

@@ -82,15 +82,14 @@ pub fn run(a: PngArgs) -> Result<ExitCode, Error> {
         eprintln!("note: {}: {n}", a.image.display());
     }
     let (ev, how) = match a.exposure {
-        Some(ev) => (ev, "set by --exposure"),
+        Some(ev) => (ev, "set by --exposure".to_string()),
         None => {
             let mask = img.channel("mask.Y");
-            let how = if mask.is_some() {
-                "automatic: the object's (mask > 0) median luminance → 0.18"
-            } else {
-                "automatic: the median luminance → 0.18"
-            };
-            (renderer::output::auto_exposure(&px, mask), how)
+            let whose = if mask.is_some() { "the object's (mask > 0)" } else { "the" };
+            match renderer::output::auto_exposure(&px, mask) {
+                Some(ev) => (ev, format!("automatic: {whose} median luminance → 0.18")),
+                None => (0.0, format!("automatic: {whose} median luminance is 0, so none applied")),
+            }
         }
     };
     let (w, h) = (u32::try_from(img.width), u32::try_from(img.height));

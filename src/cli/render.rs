@@ -299,7 +299,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     let ev = a.exposure.unwrap_or_else(|| {
         let px: Vec<[f32; 3]> = film.pixels.iter().map(|p| p.rgb).collect();
         let mask: Vec<f32> = film.pixels.iter().map(|p| p.mask).collect();
-        renderer::output::auto_exposure(&px, Some(&mask))
+        renderer::output::auto_exposure(&px, Some(&mask)).unwrap_or(0.0)
     });
     let png = a.png.as_ref().map(|p| renderer::output::stage_png(p, &film, ev)).transpose()?;
     if let (Some(p), Some(state)) = (&a.state, &final_state) {

@@ -17,7 +17,7 @@
 use super::Ctx;
 use super::check::{Check, Plot, Row};
 use super::filter::{self, Measured};
-use super::fit::{Channel, dot, fit_filter_probe, lsq, normalize, order_parts};
+use super::fit::{Channel, dot, fit_filter_probe, lsq, normalize, order_parts, view_basis};
 use super::picture::Picture;
 use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec, sh_lighting};
@@ -45,10 +45,6 @@ pub fn views() -> [([f64; 3], [f64; 3]); 6] {
     ]
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
 /// Adds the fit rows of one orthographic view (camera at `from`, looking at the origin).
 /// `use_layer`: shift the footprint normals to the render's normal layer (meshes).
 /// Design matrix rows, pixel values and their σ accumulated over views.
@@ -60,9 +56,7 @@ pub struct Design {
 }
 
 pub fn add_view_rows(ch: &Channel, from: [f64; 3], up: [f64; 3], light: &[f64], use_layer: bool, d: &mut Design) {
-    let f = normalize([-from[0], -from[1], -from[2]]);
-    let right = normalize(cross(f, up));
-    let upp = cross(right, f);
+    let [f, right, upp] = view_basis(from, up);
     let (w, h) = (ch.width, ch.height);
     let basis = ShBasis::new(LMAX);
     let mut y = vec![0.0; num_coefficients(LMAX)];
@@ -261,9 +255,7 @@ mod tests {
         let (from, up) = views()[0];
         let w = 48;
         let mut ch = Channel { width: w, height: w, ..Default::default() };
-        let f = normalize([-from[0], -from[1], -from[2]]);
-        let right = normalize(cross(f, up));
-        let upp = cross(right, f);
+        let [f, right, upp] = view_basis(from, up);
         let mut y = vec![0.0; num_coefficients(LMAX)];
         let mut s = vec![0.0; LMAX + 1];
         for r in 0..w {

@@ -3,6 +3,7 @@
 //! functions `reflect analyze` and `reflect invert` call (issue 11: verify checks what users run).
 
 pub use analysis::fit::{Fit, latlong_omega, lsq, order_parts, order_rms, sh_design};
+use glam::DVec3;
 use renderer::film::Film;
 #[cfg(test)]
 use std::f64::consts::PI;
@@ -13,12 +14,19 @@ pub fn latlong_dir(r: usize, c: usize, w: usize, h: usize) -> [f64; 3] {
 }
 
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    DVec3::from(a).dot(DVec3::from(b))
 }
 
+/// `a / |a|`; a zero vector is returned unchanged.
 pub fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    if n > 0.0 { [a[0] / n, a[1] / n, a[2] / n] } else { a }
+    DVec3::from(a).try_normalize().map_or(a, |n| n.to_array())
+}
+
+/// The frame (forward, right, up) of an orthographic camera at `from` looking at the origin
+/// (docs/src/conventions.md §5), as `analysis` computes it for the analyses.
+pub fn view_basis(from: [f64; 3], up: [f64; 3]) -> [[f64; 3]; 3] {
+    let camera = analysis::projection::orthographic::OrthoCamera { from, to: [0.0; 3], up, extent: 1.0 };
+    camera.basis().expect("the checks' fixed views have from ≠ origin and up not along the view")
 }
 
 /// One channel of a film: value, standard error and (for the normal probe) the pixel's normal and

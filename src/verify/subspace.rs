@@ -36,7 +36,7 @@
 
 use super::Ctx;
 use super::check::{Check, F32_FLOOR, Legend, Plot, Row, Series};
-use super::fit::{Channel, dot, latlong_dir, latlong_omega, normalize};
+use super::fit::{Channel, dot, latlong_dir, latlong_omega, normalize, view_basis};
 use super::picture::Picture;
 use super::scenes::lambert;
 use super::scenes::{Camera, Lighting, Shape, Spec, render_spec};
@@ -65,7 +65,7 @@ pub enum Light {
     Sum(Vec<(usize, f64)>),
     /// Grey SH coefficients, l ≤ [`LMAX_FIELD`], non-negative.
     Field(Vec<f64>),
-    /// Grace rotated by `rotate_deg` (scene convention, docs/src/conventions.md §6).
+    /// Grace rotated by `rotate_deg` (docs/src/conventions.md §2, "Rotations").
     Grace([f64; 3]),
 }
 
@@ -405,17 +405,11 @@ pub struct Pixels {
     pub footprint_coarse: Vec<Vec<[f64; 3]>>,
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
 /// Footprint normals of orthographic pixel (r, c) on the unit sphere, `sub` × `sub`, shifted so their
 /// mean is `layer`. None when a footprint point misses the sphere.
 fn footprint(r: usize, c: usize, w: usize, h: usize, sub: usize, layer: [f64; 3]) -> Option<Vec<[f64; 3]>> {
     let (from, up) = VIEW;
-    let f = normalize([-from[0], -from[1], -from[2]]);
-    let right = normalize(cross(f, up));
-    let upp = cross(right, f);
+    let [f, right, upp] = view_basis(from, up);
     let mut ns = vec![];
     let mut mean = [0.0; 3];
     for a in 0..sub {

@@ -919,7 +919,7 @@ fn check_size(w: usize, h: usize) -> Result<()> {
 }
 
 /// Writes `img` as a 32-bit float OpenEXR with all its channels and its string attributes
-/// (for tests, tools and the renderer's conventions of §5; attribute text must be ASCII/Latin-1).
+/// (for tests, tools and the renderer's outputs of docs/src/conventions.md §5; attribute text must be ASCII/Latin-1).
 pub fn write_exr(path: impl AsRef<Path>, img: &Image) -> Result<()> {
     use exr::prelude::{
         AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Layer, LayerAttributes, Text, WritableImage,

@@ -7,9 +7,8 @@
 //! EXR header (`reflect:*` attributes, [`crate::header`]) is written from and read back into them,
 //! and `reflect verify` builds its scenes as values of them.
 //!
-//! Extensions beyond §6 (all optional): `render.sampler` ("sobol" | "independent"),
-//! `camera.jitter` for the normal-probe camera, mesh `smooth`/`translate`/`scale`/`rotate_deg`,
-//! lighting `axial.profile = [[theta_deg, r, g, b], …]`, colours given as a scalar or an RGB triple.
+//! The vocabulary is defined by docs/src/conventions.md §6 and, key by key with defaults, by
+//! docs/src/reference/scene-files.md (rotations: §2 "Rotations").
 
 use crate::closed::{Distribution, FresnelKind, Horizon, Mapping, Sampler};
 use serde::{Deserialize, Serialize};

@@ -23,6 +23,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::lsq::Cholesky;
 use crate::sh::{ShBasis, num_coefficients};
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// Orthographic camera of docs/src/conventions.md §5.
@@ -38,10 +39,11 @@ impl OrthoCamera {
     /// The camera's orthonormal frame (forward f, right, up) of docs/src/conventions.md §5: f = unit(to − from),
     /// right = unit(f × up), up' = right × f. Errors: `from` equals `to`, or `up` is parallel to f.
     pub fn basis(&self) -> Result<[[f64; 3]; 3]> {
-        let f = normalize(sub(self.to, self.from)).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
+        let (from, to, up) = (DVec3::from(self.from), DVec3::from(self.to), DVec3::from(self.up));
+        let f = normalize(to - from).ok_or_else(|| Error::new("camera 'from' equals 'to'"))?;
         let right =
-            normalize(cross(f, self.up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
-        Ok([f, right, cross(right, f)])
+            normalize(f.cross(up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
+        Ok([f.to_array(), right.to_array(), right.cross(f).to_array()])
     }
 }
 
@@ -95,29 +97,10 @@ pub struct Fit {
     pub rms_residual: [f64; 3],
 }
 
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-#[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-#[inline]
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-#[inline]
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = dot(a, a).sqrt();
-    (n > 0.0 && n.is_finite()).then(|| scale(a, 1.0 / n))
+/// `a / |a|`, or `None` for a zero or non-finite vector.
+fn normalize(a: DVec3) -> Option<DVec3> {
+    let n = a.length();
+    (n > 0.0 && n.is_finite()).then(|| a * (1.0 / n))
 }
 
 /// One covered pixel: fit direction, weight, radiance and variance.
@@ -198,16 +181,17 @@ fn collect_samples(
         (Some(x), Some(y), Some(z)) => Some((x, y, z)),
         _ => None,
     };
-    let [f, right, up] = cam.basis()?;
+    let [f, right, up] = cam.basis()?.map(DVec3::from);
+    let (from, center) = (DVec3::from(cam.from), DVec3::from(sphere.center));
     if !(cam.extent > 0.0) || !(sphere.radius > 0.0) {
         return Err(Error::new("camera extent and sphere radius must be positive"));
     }
     let (w, h) = (img.width, img.height);
-    let pix = 2.0 * cam.extent / w as f64; // square pixels (§5: y scaled by H/W)
+    let pix = 2.0 * cam.extent / w as f64; // square pixels (docs/src/conventions.md §5: y scaled by H/W)
     let d_area = pix * pix;
     let half_diag = pix * std::f64::consts::FRAC_1_SQRT_2;
     let r = sphere.radius;
-    let wo = scale(f, -1.0);
+    let wo = -f;
     for row in 0..h {
         for col in 0..w {
             let i = row * w + col;
@@ -218,31 +202,31 @@ fn collect_samples(
             }
             let x = cam.extent * (2.0 * (col as f64 + 0.5) / w as f64 - 1.0);
             let y = cam.extent * (h as f64 / w as f64) * (1.0 - 2.0 * (row as f64 + 0.5) / h as f64);
-            let o = add(cam.from, add(scale(right, x), scale(up, y)));
-            let oc = sub(sphere.center, o);
-            let along = dot(oc, f);
-            let perp = sub(oc, scale(f, along));
-            let dist = dot(perp, perp).sqrt();
+            let o = from + (right * x + up * y);
+            let oc = center - o;
+            let along = oc.dot(f);
+            let perp = oc - f * along;
+            let dist = perp.dot(perp).sqrt();
             if dist + half_diag >= r || along <= 0.0 {
                 continue;
             }
             let t = along - (r * r - dist * dist).sqrt();
-            let hit = add(o, scale(f, t));
-            let mut n = scale(sub(hit, sphere.center), 1.0 / r);
+            let hit = o + f * t;
+            let mut n = (hit - center) * (1.0 / r);
             // The renderer's normal layer (the pixel's mean first-hit normal) when present: robust
             // to a slightly misplaced sphere; the geometric normal otherwise. A (near-)zero layer
             // normal is a miss (or a pixel mostly off the object): skip it.
             if let Some((nx, ny, nz)) = normals {
-                let m = [nx[i] as f64, ny[i] as f64, nz[i] as f64];
-                if dot(m, m) <= 0.25 {
+                let m = DVec3::new(nx[i] as f64, ny[i] as f64, nz[i] as f64);
+                if m.dot(m) <= 0.25 {
                     continue;
                 }
                 n = normalize(m).unwrap_or(n);
             }
-            let cos_o = dot(n, wo);
+            let cos_o = n.dot(wo);
             let (dir, wt) = match param {
                 Param::Normal => (n, d_area / (r * r * cos_o)),
-                Param::Reflection => (sub(scale(n, 2.0 * cos_o), wo), 4.0 * d_area / (r * r)),
+                Param::Reflection => (n * (2.0 * cos_o) - wo, 4.0 * d_area / (r * r)),
             };
             let Some(dir) = normalize(dir) else { continue };
             let px = rgb.pixels[i];
@@ -253,7 +237,7 @@ fn collect_samples(
                 }
                 None => [1.0; 3],
             };
-            out.push(Sample { dir, w: wt, b: [px[0] as f64, px[1] as f64, px[2] as f64], var });
+            out.push(Sample { dir: dir.to_array(), w: wt, b: [px[0] as f64, px[1] as f64, px[2] as f64], var });
             at.push([row, col]);
         }
     }

@@ -8,7 +8,7 @@
 //! projection of the rotated function to rounding error, at O(l_max⁴) cost, for any l_max.
 //!
 //! [`Rotation`] is a 3 × 3 orthonormal matrix; [`Rotation::from_xyz_deg`] builds the scene-file
-//! rotation `rotate_deg` of docs/src/conventions.md §6 (about x, then y, then z: R = R_z R_y R_x).
+//! rotation `rotate_deg` of docs/src/conventions.md §2, "Rotations" (about x, then y, then z: R = R_z R_y R_x).
 
 use super::basis::{ShBasis, num_coefficients};
 use super::reconstruct::{Reconstructor, lmax_of};

@@ -331,7 +331,7 @@ impl TransferModel {
 }
 
 /// How the command line spells BRDF parameter `name`: the built-in models' `--s` and `--sigma`,
-/// any other as `--brdf-param NAME=…` (guide "Adding a BRDF").
+/// any other as `--brdf-param NAME=…` (docs/src/reference/cli.md, the `--brdf-param` flag).
 fn flag(name: &str) -> String {
     match name {
         "s" | "sigma" => format!("--{name}"),
