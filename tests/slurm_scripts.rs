@@ -86,11 +86,6 @@ fn a_preempted_shard_resumes_from_its_checkpoint_and_the_merge_is_the_single_ren
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let jobs = dir.join("final.slurm");
     let (shard_sh, merge_sh) = (jobs.join("shard.sh"), jobs.join("merge.sh"));
-    let shard_text = std::fs::read_to_string(&shard_sh).unwrap();
-    for line in ["#SBATCH --requeue", "#SBATCH --open-mode=append", "--checkpoint-every 30"] {
-        assert!(shard_text.contains(line), "{line:?} in the shard script:\n{shard_text}");
-    }
-    assert!(shard_text.contains("ckpt-\"$SLURM_ARRAY_TASK_ID\".exr"), "a checkpoint per task:\n{shard_text}");
     let log = std::fs::read_to_string(bin.join("sbatch.log")).unwrap();
     assert!(log.contains("--dependency=afterok:4242"), "the merge waits for the array: {log}");
     // Task 1 was preempted after its first pass: its checkpoint is there when it runs again.
@@ -105,6 +100,13 @@ fn a_preempted_shard_resumes_from_its_checkpoint_and_the_merge_is_the_single_ren
         }
     }
     assert!(!ck.exists(), "a finished shard removes its checkpoint (the merge must not see it)");
+    // Slurm requeues the task (a preemption, a node failure) with the same command, appending to its log.
+    let shard_text = std::fs::read_to_string(&shard_sh).unwrap();
+    for line in ["#SBATCH --requeue", "#SBATCH --open-mode=append", "--checkpoint-every 30"] {
+        assert!(shard_text.contains(line), "{line:?} in the shard script:\n{shard_text}");
+    }
+    assert!(shard_text.contains("ckpt-\"$SLURM_ARRAY_TASK_ID\".exr"), "a checkpoint per task:\n{shard_text}");
+
     run_job(&merge_sh, None);
     let single = dir.join("single.exr");
     let o = Command::new(env!("CARGO_BIN_EXE_reflect")).args(["render", s(&scene), "--out", s(&single), "-q"]).output();
