@@ -111,6 +111,9 @@ fn a_preempted_shard_resumes_from_its_checkpoint_and_the_merge_is_the_single_ren
     let single = dir.join("single.exr");
     let o = Command::new(env!("CARGO_BIN_EXE_reflect")).args(["render", s(&scene), "--out", s(&single), "-q"]).output();
     assert!(o.unwrap().status.success());
-    assert!(std::fs::read(&final_).unwrap() == std::fs::read(&single).unwrap(), "the merge differs from the single render");
+    assert!(
+        std::fs::read(&final_).unwrap() == std::fs::read(&single).unwrap(),
+        "the merge differs from the single render"
+    );
     let _ = std::fs::remove_dir_all(dir);
 }

@@ -99,7 +99,10 @@ pub fn read_image_notes(path: &Path) -> Result<(Image, Vec<String>)> {
     let note = if s.spp == s.planned_spp {
         format!("a render state holding all {} spp: its image", s.spp)
     } else {
-        format!("a render state holding {} of {} planned spp: the image of a {}-spp render", s.spp, s.planned_spp, s.spp)
+        format!(
+            "a render state holding {} of {} planned spp: the image of a {}-spp render",
+            s.spp, s.planned_spp, s.spp
+        )
     };
     Ok((film_image(&s.film, &s.attributes), vec![note]))
 }
