@@ -4,7 +4,7 @@
 //!
 //! A state of the samples `[0, n)` of a render planned for N spp is, by the film's fixed dyadic tree
 //! ([`crate::film`]), the same bits as the state of a render of n spp (the samples do not depend on
-//! the planned N): so its image is [`Partial::finish`] at n spp, and its header the scene's with
+//! the planned N): so its image is [`Partial::finish`](crate::film::Partial::finish) at n spp, and its header the scene's with
 //! `render.spp = n`. Both are exactly what a render of the same scene and seed at n spp writes, so
 //! `png`, `analyze` and `compare` of a checkpoint taken during a long render say what they would say
 //! of a short render of the samples taken so far.
@@ -21,7 +21,7 @@ use vocab::image::Image;
 /// A render's state turned into the image of a render of the samples it holds.
 #[derive(Clone, Debug)]
 pub struct StateImage {
-    /// The finished image: what [`Partial::finish`] gives at `spp`.
+    /// The finished image: what [`Partial::finish`](crate::film::Partial::finish) gives at `spp`.
     pub film: Film,
     /// The header a render of `spp` samples writes ([`crate::output::header_attributes`]).
     pub attributes: Vec<(String, String)>,
@@ -76,7 +76,7 @@ fn attributes_at_spp(path: &Path, attributes: &[(String, String)], spp: u32) -> 
     Ok(vocab::header::attributes(&scene, integrator))
 }
 
-/// The image of `img`'s film as a reader of the OpenEXR file `reflect render` writes gets it: the
+/// The image of `film` as a reader of the OpenEXR file `reflect render` writes gets it: the
 /// channels of [`crate::output::film_channels`] and the header's string attributes.
 pub fn film_image(film: &Film, attributes: &[(String, String)]) -> Image {
     Image {
