@@ -1,5 +1,5 @@
-//! Renders against closed forms for a branch no other test compares: an SH-defined light on a
-//! Lambertian sphere.
+//! Renders against closed forms for branches no other test compares: an SH-defined light on a
+//! Lambertian sphere, and an SH albedo texture (below, at its test).
 //!
 //! Under L(ω) = Σ_lm L_lm Y_lm(ω), a convex Lambertian surface of albedo a with normal n reflects
 //! B(n) = (a/π) E(n) = a Σ_lm (Â_l / π) L_lm Y_lm(n), with the paper's clamped-cosine coefficients
@@ -81,35 +81,95 @@ fn lambert_under_sh(n: [f64; 3]) -> [f64; 3] {
     b
 }
 
+/// Checks every covered pixel of `film` against `expected(normal)` (module docs: per pixel within k σ,
+/// and per channel the image-wide difference within 4 of its standard error); `dof_samples` is the
+/// number of independent estimates each σ rests on.
+fn check_closed_form(
+    film: &renderer::film::Film,
+    expected: &dyn Fn([f64; 3]) -> [f64; 3],
+    dof_samples: u32,
+    what: &str,
+) {
+    let covered: Vec<_> = film.pixels.iter().filter(|p| p.mask == 1.0).collect();
+    assert!(covered.len() > 1000, "{what}: {} covered pixels", covered.len());
+    let k = analysis::special::pixel_family_k(3 * covered.len(), dof_samples, 1e-3);
+    // Σ (v − B), Σ σ² and Σ B per channel.
+    let (mut dsum, mut var, mut bsum) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+    for p in &covered {
+        let nrm = p.normal.map(|x| x as f64);
+        let b = expected(nrm);
+        for c in 0..3 {
+            let (v, se) = (p.rgb[c] as f64, p.stderr[c] as f64);
+            assert!(se.is_finite(), "{what}: σ {se}");
+            assert!(
+                (v - b[c]).abs() <= k * se + 1e-5 * b[c],
+                "{what}: normal {nrm:?} channel {c}: {v} ± {se}, closed form {} (k = {k:.2})",
+                b[c]
+            );
+            dsum[c] += v - b[c];
+            var[c] += se * se;
+            bsum[c] += b[c];
+        }
+    }
+    // Per channel (the channels share their paths; the pixels are independent): the image's mean
+    // difference in units of its standard error. Not Σ z / √n, which a skewed estimator shifts by
+    // E[z] · √n (a pixel's mean and its σ are correlated) even without a bias. f32 rounding: 10⁻⁵ Σ B.
+    let pooled: Vec<f64> = (0..3).map(|c| dsum[c].abs() / (var[c].sqrt() + 2.5e-6 * bsum[c])).collect();
+    eprintln!("{what}: {} pixels, k = {k:.2}, pooled |z| per channel {pooled:.2?}", covered.len());
+    assert!(pooled.iter().all(|z| *z < 4.0), "{what}: pooled |z| {pooled:?}");
+}
+
 #[test]
 fn lambert_sphere_under_an_sh_light_is_the_irradiance_closed_form() {
-    for (sampler, spp, dof_samples, seed) in [("independent", 256u32, 256u32, 11u64), ("sobol", 256, 16, 11)] {
-        let film = render_scene(&scene(&sh_scene(sampler, spp, seed)));
-        let covered: Vec<_> = film.pixels.iter().filter(|p| p.mask == 1.0).collect();
-        assert!(covered.len() > 1000, "{sampler}: {} covered pixels", covered.len());
-        let k = analysis::special::pixel_family_k(3 * covered.len(), dof_samples, 1e-3);
-        // Σ (v − B) and Σ σ² per channel.
-        let (mut dsum, mut var) = ([0.0; 3], [0.0; 3]);
-        for p in &covered {
-            let nrm = p.normal.map(|x| x as f64);
-            let b = lambert_under_sh(nrm);
+    for (sampler, dof_samples) in [("independent", 256u32), ("sobol", 16)] {
+        let film = render_scene(&scene(&sh_scene(sampler, 256, 11)));
+        check_closed_form(&film, &lambert_under_sh, dof_samples, &format!("SH light, {sampler}"));
+    }
+}
+
+/// An SH albedo texture T(n) (l ≤ 2, positive) on a Lambertian sphere under uniform radiance L: the
+/// texture multiplies the BRDF (`renderer::texture`), so B(n) = a T(n) L (the cosine integrates to π
+/// against a/π).
+#[test]
+fn textured_lambert_sphere_under_uniform_light_is_albedo_times_texture() {
+    const T: [[f64; 3]; 9] = [
+        [2.0, 1.8, 1.6],
+        [0.3, -0.2, 0.1],
+        [0.2, 0.3, -0.2],
+        [-0.3, 0.1, 0.2],
+        [0.2, -0.15, 0.1],
+        [-0.1, 0.2, 0.15],
+        [0.15, 0.1, -0.2],
+        [0.1, -0.2, 0.15],
+        [-0.2, 0.1, 0.1],
+    ];
+    const L: [f64; 3] = [1.5, 1.2, 1.0];
+    let text: Vec<String> = T.iter().map(|c| format!("[{}, {}, {}]", c[0], c[1], c[2])).collect();
+    let expected = |n: [f64; 3]| {
+        let y = analysis::sh::basis::ShBasis::new(2).eval(n);
+        let mut b = [0.0; 3];
+        for (k, yk) in y.iter().enumerate() {
             for c in 0..3 {
-                let (v, se) = (p.rgb[c] as f64, p.stderr[c] as f64);
-                assert!(se > 0.0 && se.is_finite(), "{sampler}: σ {se}");
-                assert!(
-                    (v - b[c]).abs() <= k * se + 1e-5 * b[c],
-                    "{sampler}: normal {nrm:?} channel {c}: {v} ± {se}, closed form {} (k = {k:.2})",
-                    b[c]
-                );
-                dsum[c] += v - b[c];
-                var[c] += se * se;
+                b[c] += ALBEDO[c] * T[k][c] * yk * L[c];
             }
         }
-        // Per channel (the channels share their paths; the pixels are independent): the image's mean
-        // difference in units of its standard error. Not Σ z / √n, which a skewed estimator shifts by
-        // E[z] · √n (a pixel's mean and its σ are correlated) even without a bias.
-        let pooled: Vec<f64> = (0..3).map(|c| dsum[c] / var[c].sqrt()).collect();
-        eprintln!("{sampler} seed {seed}: {} pixels, k = {k:.2}, pooled z per channel {pooled:.2?}", covered.len());
-        assert!(pooled.iter().all(|z| z.abs() < 4.0), "{sampler} seed {seed}: pooled z {pooled:?}");
+        b
+    };
+    for (sampler, dof_samples) in [("independent", 256u32), ("sobol", 16)] {
+        let toml = sh_scene(sampler, 256, 5)
+            .replace(
+                &format!(
+                    "type = \"sh\"\ncoefficients = [{}]",
+                    COEFFS.map(|c| format!("[{}, {}, {}]", c[0], c[1], c[2])).join(", ")
+                ),
+                &format!("type = \"uniform\"\nradiance = [{}, {}, {}]", L[0], L[1], L[2]),
+            )
+            .replace(
+                "brdf = {",
+                &format!("texture = {{ type = \"sh\", coefficients = [{}] }}\nbrdf = {{", text.join(", ")),
+            );
+        assert!(toml.contains("uniform") && toml.contains("texture"), "{toml}");
+        let film = render_scene(&scene(&toml));
+        check_closed_form(&film, &expected, dof_samples, &format!("texture, {sampler}"));
     }
 }
