@@ -1,5 +1,6 @@
 //! Renders against closed forms for branches no other test compares: an SH-defined light on a
-//! Lambertian sphere, and an SH albedo texture (below, at its test).
+//! Lambertian sphere, an SH albedo texture, and a Phong lobe with `horizon = "ignore"` (the last two
+//! described at their tests).
 //!
 //! Under L(ω) = Σ_lm L_lm Y_lm(ω), a convex Lambertian surface of albedo a with normal n reflects
 //! B(n) = (a/π) E(n) = a Σ_lm (Â_l / π) L_lm Y_lm(n), with the paper's clamped-cosine coefficients
@@ -171,5 +172,47 @@ fn textured_lambert_sphere_under_uniform_light_is_albedo_times_texture() {
         assert!(toml.contains("uniform") && toml.contains("texture"), "{toml}");
         let film = render_scene(&scene(&toml));
         check_closed_form(&film, &expected, dof_samples, &format!("texture, {sampler}"));
+    }
+}
+
+/// A Phong lobe with `horizon = "ignore"` (paper sec. 3.6: the whole lobe, also below the surface)
+/// under the SH light, seen at θ_o = 60° (so the lobe about R crosses the horizon): by Funk–Hecke,
+/// B = Σ_lm k_s f_l L_lm Y_lm(R) with f_l = (s + 1) ∫₀¹ t^s P_l(t) dt: f_0 = 1, f_1 = (s + 1)/(s + 2),
+/// f_2 = s/(s + 3). R = 2 (n·ω_o) n − ω_o, ω_o = cos θ_o n + sin θ_o t (the camera's tangent t of
+/// increasing θ, `renderer::camera::normal_probe`).
+#[test]
+fn phong_ignoring_the_horizon_under_an_sh_light_is_the_funk_hecke_closed_form() {
+    const KS: [f64; 3] = [0.9, 0.8, 0.7];
+    const S: f64 = 8.0;
+    let f = [1.0, (S + 1.0) / (S + 2.0), S / (S + 3.0)];
+    let theta_o = 60f64.to_radians();
+    let expected = |n: [f64; 3]| {
+        let (th, ph) = (n[2].clamp(-1.0, 1.0).acos(), n[1].atan2(n[0]));
+        let t = [th.cos() * ph.cos(), th.cos() * ph.sin(), -th.sin()];
+        let wo: Vec<f64> = (0..3).map(|i| theta_o.cos() * n[i] + theta_o.sin() * t[i]).collect();
+        let d: f64 = (0..3).map(|i| n[i] * wo[i]).sum();
+        let r = [2.0 * d * n[0] - wo[0], 2.0 * d * n[1] - wo[1], 2.0 * d * n[2] - wo[2]];
+        let y = analysis::sh::basis::ShBasis::new(2).eval(r);
+        let mut b = [0.0; 3];
+        for (k, yk) in y.iter().enumerate() {
+            let l = analysis::sh::basis::lm(k).0;
+            for c in 0..3 {
+                b[c] += KS[c] * f[l] * COEFFS[k][c] * yk;
+            }
+        }
+        b
+    };
+    for (sampler, dof_samples) in [("independent", 256u32), ("sobol", 16)] {
+        let toml =
+            sh_scene(sampler, 256, 7).replace("theta_o_deg = 30.0\nphi_o_deg = 40.0", "theta_o_deg = 60.0").replace(
+                &format!("brdf = {{ type = \"lambert\", albedo = [{}, {}, {}] }}", ALBEDO[0], ALBEDO[1], ALBEDO[2]),
+                &format!(
+                    "brdf = {{ type = \"phong\", ks = [{}, {}, {}], s = {S}, horizon = \"ignore\" }}",
+                    KS[0], KS[1], KS[2]
+                ),
+            );
+        assert!(toml.contains("ignore") && toml.contains("theta_o_deg = 60.0"), "{toml}");
+        let film = render_scene(&scene(&toml));
+        check_closed_form(&film, &expected, dof_samples, &format!("Phong, horizon ignored, {sampler}"));
     }
 }
