@@ -27,21 +27,24 @@ const SEEDS: u64 = 64;
 /// Nominal coverage of |z| < 3 for a normal z.
 const NOMINAL: f64 = 0.9973;
 
-fn case_scene(file: &str, seed: u64, edit: &dyn Fn(String) -> String) -> Option<Scene> {
+/// The scene of the env-sun case `file`, edited, built once (its map loaded and its sampling tables
+/// built once per test, not once per seed: the seed is a render setting, see [`renders`]); `None`
+/// when the case is missing.
+fn case_scene(file: &str, edit: &dyn Fn(String) -> String) -> Option<Scene> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/cases/env-sun");
     let text = edit(std::fs::read_to_string(dir.join(file)).ok()?);
-    let mut file = SceneFile::parse(&text).unwrap();
-    file.render.seed = seed;
+    let file = SceneFile::parse(&text).unwrap();
     Some(Scene::build(file, &dir).unwrap())
 }
 
-/// (bounded films, own films) of `SEEDS` renders: `stderr` the bound (`Partial::finish_pooled`; what
-/// renders write at < 16 spp, `Partial::finish`), and the pixels' own σ (`Partial::finish_own`, the
-/// planted error).
-fn renders(mk: &dyn Fn(u64) -> Scene) -> (Vec<Film>, Vec<Film>) {
+/// (bounded films, own films) of `SEEDS` renders of `scene` at seeds 1, 2, …: `stderr` the bound
+/// (`Partial::finish_pooled`; what renders write at < 16 spp, `Partial::finish`), and the pixels' own
+/// σ (`Partial::finish_own`, the planted error). The seed only enters the sampler at render time, so
+/// one built scene serves every seed.
+fn renders(mut scene: Scene) -> (Vec<Film>, Vec<Film>) {
     (1..=SEEDS)
         .map(|s| {
-            let scene = mk(s);
+            (scene.settings.seed, scene.description.render.seed) = (s, s);
             let spp = scene.settings.spp as u64;
             let p = render_range(&scene, &RenderOptions::default(), 0, spp).0.unwrap();
             if p.low_batch_count() {
@@ -136,9 +139,9 @@ fn highest_honest(n: usize) -> f64 {
 
 #[test]
 fn env_sun_error_bars_cover_where_flagged_and_where_not() {
-    let sun = |s| case_scene("conv_independent_256.toml", s, &|t| t);
-    assert!(sun(0).is_some(), "missing data: ../shared/cases/env-sun (the tests need ../shared beside the checkout)");
-    let (pooled, own) = renders(&|s| sun(s).unwrap());
+    let sun = case_scene("conv_independent_256.toml", &|t| t)
+        .expect("missing data: ../shared/cases/env-sun (the tests need ../shared beside the checkout)");
+    let (pooled, own) = renders(sun);
     let (cp, co) = (Coverage::of(&pooled), Coverage::of(&own));
     eprintln!("env-sun, {SEEDS} seeds at 256 spp, channel G");
     eprintln!("{}", co.line("own σ"));
@@ -159,18 +162,17 @@ fn env_sun_error_bars_cover_where_flagged_and_where_not() {
 /// together with its value (z large and negative).
 #[test]
 fn grace_probe_at_64_spp_flagged_pixels_cover() {
-    let grace = |s| {
-        case_scene("conv_independent_256.toml", s, &|t| {
-            t.replace("file = \"sun_latlong.exr\"", "file = \"../../data/grace_probe.hdr\"")
-                .replace("mapping = \"latlong\"", "mapping = \"angular\"")
-                .replace("spp = 256", "spp = 64")
-        })
-    };
     assert!(
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/grace_probe.hdr").exists() && grace(0).is_some(),
-        "missing data: ../shared/cases/env-sun or ../shared/data (the tests need ../shared beside the checkout)"
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/grace_probe.hdr").exists(),
+        "missing data: ../shared/data (the tests need ../shared beside the checkout)"
     );
-    let (pooled, own) = renders(&|s| grace(s).unwrap());
+    let grace = case_scene("conv_independent_256.toml", &|t| {
+        t.replace("file = \"sun_latlong.exr\"", "file = \"../../data/grace_probe.hdr\"")
+            .replace("mapping = \"latlong\"", "mapping = \"angular\"")
+            .replace("spp = 256", "spp = 64")
+    })
+    .expect("missing data: ../shared/cases/env-sun (the tests need ../shared beside the checkout)");
+    let (pooled, own) = renders(grace);
     let (cp, co) = (Coverage::of(&pooled), Coverage::of(&own));
     eprintln!("Grace probe, {SEEDS} seeds at 64 spp, channel G");
     eprintln!("{}", co.line("own σ"));
@@ -186,17 +188,15 @@ fn grace_probe_at_64_spp_flagged_pixels_cover() {
 /// (`sky_latlong.exr`: smooth, no texel far above the rest), where the estimator has no heavy tail.
 #[test]
 fn plain_scene_error_bars_are_not_inflated() {
-    let sky = |s| {
-        case_scene("conv_independent_256.toml", s, &|t| {
-            t.replace("file = \"sun_latlong.exr\"", "file = \"../../data/sky_latlong.exr\"")
-        })
-    };
     assert!(
-        sky(0).is_some_and(|s| s.settings.width > 0)
-            && PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data").exists(),
-        "missing data: ../shared/cases/env-sun or ../shared/data (the tests need ../shared beside the checkout)"
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data").exists(),
+        "missing data: ../shared/data (the tests need ../shared beside the checkout)"
     );
-    let (pooled, own) = renders(&|s| sky(s).unwrap());
+    let sky = case_scene("conv_independent_256.toml", &|t| {
+        t.replace("file = \"sun_latlong.exr\"", "file = \"../../data/sky_latlong.exr\"")
+    })
+    .expect("missing data: ../shared/cases/env-sun (the tests need ../shared beside the checkout)");
+    let (pooled, own) = renders(sky);
     let (cp, co) = (Coverage::of(&pooled), Coverage::of(&own));
     let touched: usize = pooled.iter().map(Film::pooled_count).sum();
     eprintln!("sky, {SEEDS} seeds at 256 spp, channel G; {touched} (seed, pixel) pairs near a flag");
@@ -281,18 +281,14 @@ fn low_spp_error_bars_cover() {
         [("Grace probe", "../../data/grace_probe.hdr", "angular"), ("sky", "../../data/sky_latlong.exr", "latlong")]
     {
         for spp in [4, 8] {
-            let mk = |s| {
-                case_scene("conv_independent_256.toml", s, &|t| {
-                    t.replace("file = \"sun_latlong.exr\"", &format!("file = \"{file}\""))
-                        .replace("mapping = \"latlong\"", &format!("mapping = \"{mapping}\""))
-                        .replace("spp = 256", &format!("spp = {spp}"))
-                })
-            };
-            assert!(
-                data.exists() && mk(0).is_some(),
-                "missing data: ../shared/cases/env-sun or ../shared/data (the tests need ../shared beside the checkout)"
-            );
-            let (written, own) = renders(&|s| mk(s).unwrap());
+            assert!(data.exists(), "missing data: ../shared/data (the tests need ../shared beside the checkout)");
+            let scene = case_scene("conv_independent_256.toml", &|t| {
+                t.replace("file = \"sun_latlong.exr\"", &format!("file = \"{file}\""))
+                    .replace("mapping = \"latlong\"", &format!("mapping = \"{mapping}\""))
+                    .replace("spp = 256", &format!("spp = {spp}"))
+            })
+            .expect("missing data: ../shared/cases/env-sun (the tests need ../shared beside the checkout)");
+            let (written, own) = renders(scene);
             let (cw, co, cx) = (Coverage::of(&written), Coverage::of(&own), Coverage::of(&oracle(&own)));
             eprintln!("{name}, {SEEDS} seeds at {spp} spp, channel G");
             eprintln!("{}", co.line("own σ"));

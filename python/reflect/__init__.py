@@ -200,7 +200,9 @@ def read_image(path: Union[str, "os.PathLike[str]"]) -> Image:
     Returns an :class:`Image`: ``channels`` maps each channel name (``R``, ``G``, ``B``,
     ``normal.X``, ``mask.Y``, ``stderr.R``, …) to an (H, W) float32 array, row 0 at the top;
     ``attributes`` holds the header's string attributes (a render's ``reflect:scene``,
-    ``reflect:camera``, …). Non-finite values are refused (``ValueError``).
+    ``reflect:camera``, …). Non-finite values are refused (``ValueError``). A render's state (a
+    checkpoint, a ``--state`` file, a ``reflect merge --partial`` of the first shards) is read as
+    the image a render of the samples it holds writes.
     """
     channels, attributes = _reflect.read_image(os.fspath(path))
     return Image(channels, attributes)

@@ -111,7 +111,8 @@ def load_scene(kind: str, value: Any, base: Optional[str] = None) -> Tuple[Dict[
     """Checks a scene with the scene-file types and returns (tables as given, base folder, file)."""
 
 def read_image(path: str) -> Tuple[Dict[str, npt.NDArray[np.float32]], Dict[str, str]]:
-    """Every channel of an ``.exr``/``.hdr`` file as (H, W) float32, and the header's string attributes."""
+    """Every channel of an ``.exr``/``.hdr`` file as (H, W) float32, and the header's string attributes (a render's
+    state: the image of the samples it holds)."""
 
 def sh_project_file(path: str, mapping: Optional[str], lmax: int) -> npt.NDArray[np.float64]:
     """L_lm = ∫ L(ω) Y_lm(ω) dω of an environment map file, exact per pixel: ((lmax+1)², 3) float64."""

@@ -101,7 +101,7 @@ pub fn compare<'py>(
             PyValueError::new_err(format!("{}: expected a path, an array or a RenderResult", input_name(i)))
         })?;
         let read = || -> Result<Image, analysis::Error> {
-            let (img, _notes) = analysis::image::read_image_notes(&p)?;
+            let (img, _notes) = renderer::render_file::read_image_notes(&p)?;
             Ok(img.select_layer(layer.as_deref()).map_err(|e| e.in_file(&p))?.0)
         };
         match py.detach(read) {

@@ -181,7 +181,7 @@ pub fn read_image<'py>(
     py: Python<'py>,
     path: PathBuf,
 ) -> PyResult<(Bound<'py, pyo3::types::PyDict>, std::collections::BTreeMap<String, String>)> {
-    let img = py.detach(|| analysis::image::read_image(&path)).py()?;
+    let img = py.detach(|| renderer::render_file::read_image(&path)).py()?;
     let channels = pyo3::types::PyDict::new(py);
     let (h, w) = (img.height, img.width);
     for (name, v) in img.channels {

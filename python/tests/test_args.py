@@ -102,3 +102,29 @@ def tiny_exr(tmp_path):
 def test_command_keywords(tiny_exr, call, kw):
     with pytest.raises(ValueError, match=rf"\b{kw}="):
         call(tiny_exr)
+
+
+def test_json_null_becomes_nan_in_float_arrays():
+    """The reports' JSON → NumPy rule (how-to/python.md): a list of numbers with a null is float64 with NaN
+    there; integers alone are int64; lists of strings, and ragged lists, are not arrays."""
+    from reflect._commands import _arrays
+
+    out = _arrays(
+        {
+            "coefficients": [[1.5, None], [None, 2.0]],
+            "lm": [0, 1, 2],
+            "sigma": [None, None],
+            "nested": {"x": [1, None]},
+            "names": ["a", None],
+            "ragged": [[1.0], [2.0, None]],
+        }
+    )
+    c = out["coefficients"]
+    assert c.dtype == np.float64 and c.shape == (2, 2)
+    assert np.isnan(c[0, 1]) and np.isnan(c[1, 0]) and c[0, 0] == 1.5 and c[1, 1] == 2.0
+    assert out["lm"].dtype == np.int64 and out["lm"].tolist() == [0, 1, 2]
+    assert out["sigma"].dtype == np.float64 and np.isnan(out["sigma"]).all()
+    x = out["nested"]["x"]
+    assert x.dtype == np.float64 and x[0] == 1.0 and np.isnan(x[1])
+    assert out["names"] == ["a", None]
+    assert isinstance(out["ragged"], list) and np.isnan(out["ragged"][1][1])

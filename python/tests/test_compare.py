@@ -58,3 +58,28 @@ def test_compare_fails_a_scale_error_and_names_inputs(cli, tmp_path):
         reflect.compare(rgb, rgb * 1.0)
     with pytest.raises(FileNotFoundError):
         reflect.compare(a, tmp_path / "missing.exr")
+
+
+def test_a_render_state_reads_as_the_render_of_its_samples(cli, tmp_path):
+    """A merge --partial of the first shards (a state of samples [0, n)) reads as the n-spp render:
+    the same channels and header from read_image, the same report from compare."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(TINY)
+    parts = [tmp_path / f"p{i}.exr" for i in range(3)]
+    for i, p in enumerate(parts):
+        cli("render", scene, "--spp", "48", "--shard", f"{i}/3", "--out", p, "-q")
+    state = tmp_path / "state.exr"
+    cli("merge", parts[0], parts[1], "--partial", "--out", state, "-q")
+    done = tmp_path / "done.exr"
+    cli("render", scene, "--spp", "32", "--out", done, "-q")
+    other = tmp_path / "other.exr"
+    cli("render", scene, "--spp", "32", "--seed", "11", "--out", other, "-q")
+    a, b = reflect.read_image(state), reflect.read_image(done)
+    assert a.attributes == b.attributes
+    assert sorted(a.channels) == sorted(b.channels)
+    for k in b.channels:
+        assert np.array_equal(a.channels[k], b.channels[k]), k
+    ra, rb = reflect.compare(state, other), reflect.compare(done, other)
+    assert ra["a"] == rb["a"] and ra["tests"] == rb["tests"] and ra["pixels"] == rb["pixels"]
+    with pytest.raises(ValueError, match="not a render's first samples"):
+        reflect.read_image(parts[1])

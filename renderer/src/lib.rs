@@ -11,6 +11,7 @@
 //! - [`geometry`]: spheres and triangle meshes (OBJ, glTF) in one BVH.
 //! - [`camera`], [`film`], [`integrator`], [`scene`], [`render`]: from a scene file to an image;
 //!   [`progressive`]: renders in passes (target error, time limit, checkpoints, shards, continuation).
+//! - [`shard`]: partial renders on disk; [`render_file`]: any file a render leaves (a state too) as its image.
 
 pub mod brdf;
 pub mod camera;
@@ -24,6 +25,7 @@ pub mod noise;
 pub mod output;
 pub mod progressive;
 pub mod render;
+pub mod render_file;
 pub mod sampling;
 pub mod scene;
 pub mod shard;

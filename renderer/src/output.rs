@@ -76,10 +76,26 @@ pub fn write_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
 pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> Result<Staged> {
     use exr::prelude::*;
     let (w, h) = (film.width as usize, film.height as usize);
-    let chan = |name: &str, f: &dyn Fn(&crate::film::Pixel) -> f32| {
-        AnyChannel::new(name, FlatSamples::F32(film.pixels.iter().map(f).collect()))
-    };
-    let list: smallvec::SmallVec<[AnyChannel<FlatSamples>; 4]> = smallvec::smallvec![
+    let list: smallvec::SmallVec<[AnyChannel<FlatSamples>; 4]> = film_channels(film)
+        .into_iter()
+        .map(|(name, samples)| AnyChannel::new(name, FlatSamples::F32(samples)))
+        .collect();
+    let mut layer =
+        Layer::new((w, h), LayerAttributes::default(), vocab::exr_order::FAST_LOSSLESS, AnyChannels::sort(list));
+    for (k, v) in attributes {
+        if let (Some(k), Some(v)) = (Text::new_or_none(k), Text::new_or_none(v)) {
+            layer.attributes.other.insert(k, AttributeValue::Text(v));
+        }
+    }
+    let image = Image::from_layer(layer);
+    stage(path, |tmp| vocab::exr_order::write_exr_canonical(tmp, |c| image.write().to_buffered(c)))
+}
+
+/// The channels a render writes ([`stage_exr`]), by name, each row-major: what the file holds and
+/// what a reader of it gets back (`crate::render_file` builds the image of a partial render from it).
+pub fn film_channels(film: &Film) -> Vec<(&'static str, Vec<f32>)> {
+    let chan = |name: &'static str, f: &dyn Fn(&crate::film::Pixel) -> f32| (name, film.pixels.iter().map(f).collect());
+    vec![
         chan("R", &|p| p.rgb[0]),
         chan("G", &|p| p.rgb[1]),
         chan("B", &|p| p.rgb[2]),
@@ -94,16 +110,7 @@ pub fn stage_exr(path: &Path, film: &Film, attributes: &[(String, String)]) -> R
         chan("stderr_own.R", &|p| p.stderr_own[0]),
         chan("stderr_own.G", &|p| p.stderr_own[1]),
         chan("stderr_own.B", &|p| p.stderr_own[2]),
-    ];
-    let mut layer =
-        Layer::new((w, h), LayerAttributes::default(), vocab::exr_order::FAST_LOSSLESS, AnyChannels::sort(list));
-    for (k, v) in attributes {
-        if let (Some(k), Some(v)) = (Text::new_or_none(k), Text::new_or_none(v)) {
-            layer.attributes.other.insert(k, AttributeValue::Text(v));
-        }
-    }
-    let image = Image::from_layer(layer);
-    stage(path, |tmp| vocab::exr_order::write_exr_canonical(tmp, |c| image.write().to_buffered(c)))
+    ]
 }
 
 /// sRGB transfer of a linear value in [0, 1].

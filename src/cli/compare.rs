@@ -60,7 +60,7 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
     let mut images: Vec<Image> = Vec::with_capacity(paths.len());
     let mut notes = Vec::new();
     for p in &paths {
-        let (img, n) = analysis::image::read_image_notes(p)?;
+        let (img, n) = renderer::render_file::read_image_notes(p)?;
         let (img, note) = img.select_layer(a.layer.as_deref()).map_err(|e| e.in_file(p))?;
         notes.extend(n.into_iter().chain(note).map(|n| format!("note: {}: {n}", p.display())));
         images.push(img);

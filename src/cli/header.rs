@@ -17,10 +17,11 @@
 
 use super::Error;
 use super::args::{BrdfFlags, CameraFlags, ViewArgs};
-use analysis::image::{Image, read_image_notes};
+use analysis::image::Image;
 use analysis::lighting::Lighting;
 use analysis::projection::{Mapping, OrthoCamera, Sphere};
 use analysis::transfer::{BrdfTransfer, ParamValue, TransferModel};
+use renderer::render_file::read_image_notes;
 use std::path::{Path, PathBuf};
 use vocab::BrdfKind;
 use vocab::header::Header;

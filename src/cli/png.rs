@@ -58,7 +58,7 @@ pub fn run(a: PngArgs) -> Result<ExitCode, Error> {
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
-    let (mut img, mut notes) = analysis::image::read_image_notes(&a.image)?;
+    let (mut img, mut notes) = renderer::render_file::read_image_notes(&a.image)?;
     let mut layer = a.layer.clone().unwrap_or_default();
     if layer.is_empty() || analysis::image::BEAUTY_PART_NAMES.contains(&layer.to_ascii_lowercase().as_str()) {
         // The radiance: the beauty, else the only radiance layer (several: the error lists them).

@@ -4,6 +4,11 @@
 //! them succeeded (`--dependency=afterok`, `--kill-on-invalid-dep=yes` so that a failed shard fails
 //! the merge instead of leaving it pending). The scripts, logs and parts go to `FINAL.slurm/` next to
 //! the output, which must be on a file system every node sees.
+//!
+//! Each shard task checkpoints (`--checkpoint FINAL.slurm/ckpt-I.exr`, every `--checkpoint-every`
+//! seconds and on the SIGTERM of a preemption or time limit) and is requeueable (`#SBATCH --requeue`,
+//! logs appended): a requeued task runs the same command, which resumes from its checkpoint, so a
+//! preempted shard loses at most one pass and the merge is still bit-identical to a single render.
 
 use super::Error;
 use super::outputs::Format;
@@ -42,6 +47,10 @@ pub struct SlurmRenderArgs {
     /// Random seed (overrides render.seed).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Seconds between a shard task's checkpoint saves (it also saves on SIGTERM, and a requeued task
+    /// resumes from its checkpoint).
+    #[arg(long, default_value_t = 600.0)]
+    pub checkpoint_every: f64,
     /// Print the two job scripts and the sbatch commands; submit nothing, write nothing.
     #[arg(long)]
     pub dry_run: bool,
@@ -84,11 +93,15 @@ fn scripts(a: &SlurmRenderArgs, exe: &Path, scene: &Path, dir: &Path, out: &Path
         overrides += &format!(" --seed {s}");
     }
     let shard = format!(
-        "#!/bin/sh\n#SBATCH --job-name=reflect-shard\n#SBATCH --array=0-{last}\n#SBATCH --output={log}\n{head}\
-         # One shard of the render: samples [I·spp/N, (I+1)·spp/N) of every pixel.\n\
-         exec {exe} render {scene} --shard \"$SLURM_ARRAY_TASK_ID/{n}\" --out {dir}/part-\"$SLURM_ARRAY_TASK_ID\".exr --quiet{overrides}\n",
+        "#!/bin/sh\n#SBATCH --job-name=reflect-shard\n#SBATCH --array=0-{last}\n#SBATCH --output={log}\n\
+         #SBATCH --open-mode=append\n#SBATCH --requeue\n{head}\
+         # One shard of the render: samples [I·spp/N, (I+1)·spp/N) of every pixel. Its state is saved to\n\
+         # ckpt-I.exr every {every} s and on SIGTERM (preemption, time limit); a requeued task resumes from it.\n\
+         exec {exe} render {scene} --shard \"$SLURM_ARRAY_TASK_ID/{n}\" --out {dir}/part-\"$SLURM_ARRAY_TASK_ID\".exr \
+         --checkpoint {dir}/ckpt-\"$SLURM_ARRAY_TASK_ID\".exr --checkpoint-every {every}{overrides}\n",
         last = a.tasks - 1,
         n = a.tasks,
+        every = a.checkpoint_every,
         log = dir.join("shard-%a.log").display(),
         exe = q(exe),
         scene = q(scene),
@@ -135,6 +148,9 @@ pub fn run(c: SlurmCommand) -> Result<ExitCode, Error> {
             scene.settings.spp, a.tasks
         )));
     }
+    if !a.checkpoint_every.is_finite() || a.checkpoint_every < 0.0 {
+        return Err(Error::new(format!("--checkpoint-every must be finite and ≥ 0, got {}", a.checkpoint_every)));
+    }
     let out = abs(&a.out)?;
     let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "render".into());
     let dir = out.with_file_name(format!("{stem}.slurm"));
@@ -159,11 +175,11 @@ pub fn run(c: SlurmCommand) -> Result<ExitCode, Error> {
         return Ok(ExitCode::SUCCESS);
     }
     std::fs::create_dir_all(&dir).map_err(|e| Error::file(&dir, format!("cannot create the job folder: {e}")))?;
-    // Parts of an earlier submission (maybe with another N) would overlap the new ones.
+    // Parts and checkpoints of an earlier submission (maybe with another N) would overlap the new ones.
     if let Ok(rd) = std::fs::read_dir(&dir) {
         for e in rd.flatten() {
             let n = e.file_name().to_string_lossy().into_owned();
-            if n.starts_with("part-") && n.ends_with(".exr") {
+            if (n.starts_with("part-") || n.starts_with("ckpt-")) && n.ends_with(".exr") {
                 let _ = std::fs::remove_file(e.path());
             }
         }
