@@ -235,3 +235,62 @@ fn correct_images_are_not_flagged_beyond_the_stated_rate() {
     }
     assert!(flagged.len() <= 1, "{flagged:#?}");
 }
+
+/// A map flipped left to right (a renderer whose azimuth runs the other way: φ → π − φ on the
+/// angular probe) is flagged and the diagnosis names the mirrored frame, at the right turn (180°:
+/// u → −u is φ → −φ then a half turn), with and without the stderr layer. Planted error: without
+/// the `mirrored` alternative the suspect is a rotation or none.
+#[test]
+fn analyze_names_a_mirrored_map() {
+    let dir = temp_dir("verdict-mirror");
+    let mut map = read_image(grace()).unwrap();
+    let w = map.width;
+    for plane in map.channels.values_mut() {
+        for row in plane.chunks_mut(w) {
+            row.reverse();
+        }
+    }
+    let flipped = dir.join("grace-flipped.exr");
+    write_exr(&flipped, &map).unwrap();
+    let told = dir.join("told.toml");
+    std::fs::write(&told, lambert_scene(0.0, 1.05, 0)).unwrap();
+    let text = lambert_scene(0.0, 1.05, 5).replace(&format!("{:?}", grace_s()), &format!("{:?}", flipped.to_str().unwrap()));
+    let p = render_text(&dir, "mirrored", &text);
+    for (what, img) in [("stderr layer", p.clone()), ("no stderr", without_stderr(&p))] {
+        let (doc, _) = analyze(&[img.to_str().unwrap(), "--lighting", told.to_str().unwrap(), "--lmax", "2"]);
+        let v = &doc["verdict"];
+        assert_eq!(status(&doc), "contradicts", "{what}: {}", v["line"]);
+        assert_eq!(v["suspect"]["assumption"], "mirrored", "{what}: {}", v["line"]);
+        let detail = v["suspect"]["detail"].as_str().unwrap();
+        let deg: f64 = detail.rsplit("by ").next().unwrap().split('°').next().unwrap().parse().unwrap();
+        assert!((deg.abs() - 180.0).abs() <= 2.0, "{what}: {detail}");
+    }
+}
+
+/// The text says which χ²/ν is which: the fit at l ≤ l_max (above 1 by the truncated orders, not
+/// the verdict's test) and the one with the orders up to the truncation order (the one warned
+/// about above 2), and the verdict line says when the pixels scatter beyond their σ. Planted error:
+/// the text without the second line (as it was) fails.
+#[test]
+fn analyze_text_names_both_chi2_and_agrees_with_json() {
+    let dir = temp_dir("verdict-text");
+    let p = render_text(&dir, "good", &lambert_scene(0.0, 1.05, 20));
+    let p = p.to_str().unwrap();
+    let (code, out, err) = reflect_out(&["analyze", p, "--lmax", "2"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("filter fit χ²/ν at l <= 2") && out.contains("not the verdict's test"), "{out}");
+    let top = out.lines().find(|l| l.starts_with("# with the orders up to l = ")).unwrap_or_else(|| panic!("{out}"));
+    assert!(top.contains("truncation_chi2_per_dof"), "{top}");
+    let (doc, werr) = analyze(&[p, "--lmax", "2"]);
+    let x: Vec<f64> =
+        doc["filter_fit"].as_array().unwrap().iter().map(|c| c["truncation_chi2_per_dof"].as_f64().unwrap()).collect();
+    for (c, v) in ["R", "G", "B"].iter().zip(&x) {
+        assert!(top.contains(&format!("{c} {v:.3}")), "{top} against {x:?}");
+    }
+    let line = doc["verdict"]["line"].as_str().unwrap();
+    assert!(out.contains(line), "{out}");
+    // Above 2: a warning and the verdict's note; else neither.
+    let above = x.iter().any(|v| *v > 2.0);
+    assert_eq!(line.contains("scatter beyond their σ"), above && status(&doc) == "consistent", "{line}: {x:?}");
+    assert_eq!(werr.contains("more scatter than the per-pixel σ") || werr.contains("signal the model does not carry"), above, "{werr}: {x:?}");
+}
