@@ -294,3 +294,46 @@ fn analyze_text_names_both_chi2_and_agrees_with_json() {
     assert_eq!(line.contains("scatter beyond their σ"), above && status(&doc) == "consistent", "{line}: {x:?}");
     assert_eq!(werr.contains("more scatter than the per-pixel σ") || werr.contains("signal the model does not carry"), above, "{werr}: {x:?}");
 }
+
+/// `invert brdf`'s verdict: the measured filter against the recovered model (Phong at the fitted
+/// s). Correct Phong images (s = 8, `horizon = "ignore"` so that eq. 43 is exact; 64², 16 spp,
+/// 4 seeds) pass at α = 1 %: false alarms Binomial(4, 0.01), P(≥ 2) = 5.9e-4, so more than one
+/// fails; a Lambert sphere and a Torrance–Sparrow one (σ 0.3) fitted as Phong are flagged, with
+/// exit status 0 (a finding, as `analyze`'s) and the text's `# verdict:` line the JSON's. Planted
+/// error: a verdict that is always consistent fails on the Lambert sphere.
+#[test]
+fn invert_brdf_verdict_passes_the_model_and_flags_another_brdf() {
+    let dir = temp_dir("verdict-invert");
+    let scene = |brdf: &str, seed: u64| {
+        lambert_scene(0.0, 1.05, seed).replace("brdf = { type = \"lambert\", albedo = [0.8, 0.8, 0.8] }", brdf)
+    };
+    let invert = |img: &Path| {
+        let (code, out, err) =
+            reflect_out(&["invert", "brdf", img.to_str().unwrap(), "--model", "phong", "--lmax", "6", "--json"]);
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str::<Value>(&out).unwrap()
+    };
+    let phong = "brdf = { type = \"phong\", s = 8.0, horizon = \"ignore\" }";
+    let mut flagged = Vec::new();
+    for seed in 30..34 {
+        let p = render_text(&dir, &format!("phong{seed}"), &scene(phong, seed));
+        let doc = invert(&p);
+        assert_eq!(doc["verdict"]["alpha"], 0.01);
+        if status(&doc) != "consistent" {
+            flagged.push(doc["verdict"]["line"].to_string());
+        }
+    }
+    assert!(flagged.len() <= 1, "{flagged:#?}");
+    for (name, brdf) in [
+        ("lambert", "brdf = { type = \"lambert\", albedo = [0.8, 0.8, 0.8] }"),
+        ("ts", "brdf = { type = \"torrance-sparrow\", sigma = 0.3, horizon = \"ignore\" }"),
+    ] {
+        let p = render_text(&dir, name, &scene(brdf, 40));
+        let doc = invert(&p);
+        assert_eq!(status(&doc), "contradicts", "{name}: {}", doc["verdict"]["line"]);
+        let (code, out, err) = reflect_out(&["invert", "brdf", p.to_str().unwrap(), "--model", "phong", "--lmax", "6"]);
+        assert_eq!(code, 0, "{err}");
+        let line = out.lines().find(|l| l.starts_with("# verdict: ")).unwrap_or_else(|| panic!("{out}"));
+        assert_eq!(&line[2..], doc["verdict"]["line"].as_str().unwrap());
+    }
+}

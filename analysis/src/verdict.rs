@@ -340,6 +340,52 @@ pub fn verdict(
     })
 }
 
+/// The verdict of a model fitted to the measured filter (`invert brdf`): the image against the
+/// re-prediction from the recovered quantities. `fits` holds, per channel, its name, the fit's
+/// minimum χ² (the measured filter against the model at the fitted parameter and scale, weighted
+/// by the filter's covariance ⊕ truncation²) and its ν (orders minus fitted parameters);
+/// p_c = P(χ²_ν ≥ χ²_c), combined over the channels by Šidák as in [`verdict`]. `model` names the
+/// model in the line ("phong at s = 31.8"), `have_sigma` where the σ came from. `None` when no
+/// channel has ν > 0.
+pub fn of_model_fit(fits: &[(&str, f64, i64)], model: &str, alpha: f64, have_sigma: bool) -> Option<Verdict> {
+    let channels: Vec<ChannelTest> = fits
+        .iter()
+        .filter(|f| f.2 > 0 && f.1.is_finite())
+        .map(|&(_, chi2, dof)| ChannelTest { chi2, dof: dof as usize, p_value: chi2_survival(chi2, dof as f64) })
+        .collect();
+    if channels.is_empty() {
+        return None;
+    }
+    let (chi2, dof, p_value) = combine(&channels);
+    let consistent = p_value >= alpha;
+    let head = format!(
+        "χ² {chi2:.1} for ν {dof} of the measured filter against {model} (σ from the {}), p {p_value:.2e} (Šidák over \
+         {} channels; α {alpha})",
+        if have_sigma { "stderr layer" } else { "fit residuals" },
+        channels.len()
+    );
+    let line = if consistent {
+        format!("verdict: consistent with the recovered model and the lighting and camera it was told — {head}")
+    } else {
+        format!(
+            "verdict: the image CONTRADICTS the recovered model — {head}; no value of the parameter makes this model \
+             describe the image: check the model (another BRDF), the lighting and the camera"
+        )
+    };
+    Some(Verdict {
+        status: if consistent { "consistent" } else { "contradicts" }.into(),
+        alpha,
+        chi2,
+        dof,
+        p_value,
+        channels,
+        sigma_from: if have_sigma { "stderr-layer" } else { "residuals" }.into(),
+        suspect: None,
+        alternatives: Vec::new(),
+        line,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
