@@ -212,6 +212,12 @@ fn analyze_flags_a_rotated_map_a_wrong_mapping_and_a_wrong_extent() {
         reflect_out(&["analyze", g.to_str().unwrap(), "--scene", wrong.to_str().unwrap(), "--lmax", "2"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("own edge") && err.lines().count() == 1, "{err}");
+    // The diagnosis names the extent, with a range that holds the true 1.05.
+    assert!(err.contains("likely wrong assumption is the extent"), "{err}");
+    let range = err.split("an extent of ").nth(1).unwrap().split(' ').next().unwrap();
+    let (lo, hi) = range.split_once('–').unwrap_or((range, range));
+    let (lo, hi): (f64, f64) = (lo.parse().unwrap(), hi.parse().unwrap());
+    assert!(lo <= 1.05 + 0.02 && hi >= 1.05 - 0.02, "{err}");
     // ... and the right extent passes the check and the verdict.
     let (doc, _) = analyze(&[g.to_str().unwrap(), "--scene", told_s, "--lmax", "2"]);
     assert_eq!(status(&doc), "consistent", "{}", doc["verdict"]["line"]);
