@@ -260,7 +260,8 @@ fn analyze_names_a_mirrored_map() {
     write_exr(&flipped, &map).unwrap();
     let told = dir.join("told.toml");
     std::fs::write(&told, lambert_scene(0.0, 1.05, 0)).unwrap();
-    let text = lambert_scene(0.0, 1.05, 5).replace(&format!("{:?}", grace_s()), &format!("{:?}", flipped.to_str().unwrap()));
+    let text =
+        lambert_scene(0.0, 1.05, 5).replace(&format!("{:?}", grace_s()), &format!("{:?}", flipped.to_str().unwrap()));
     let p = render_text(&dir, "mirrored", &text);
     for (what, img) in [("stderr layer", p.clone()), ("no stderr", without_stderr(&p))] {
         let (doc, _) = analyze(&[img.to_str().unwrap(), "--lighting", told.to_str().unwrap(), "--lmax", "2"]);
@@ -298,7 +299,11 @@ fn analyze_text_names_both_chi2_and_agrees_with_json() {
     // Above 2: a warning and the verdict's note; else neither.
     let above = x.iter().any(|v| *v > 2.0);
     assert_eq!(line.contains("scatter beyond their σ"), above && status(&doc) == "consistent", "{line}: {x:?}");
-    assert_eq!(werr.contains("more scatter than the per-pixel σ") || werr.contains("signal the model does not carry"), above, "{werr}: {x:?}");
+    assert_eq!(
+        werr.contains("more scatter than the per-pixel σ") || werr.contains("signal the model does not carry"),
+        above,
+        "{werr}: {x:?}"
+    );
 }
 
 /// `invert brdf`'s verdict: the measured filter against the recovered model (Phong at the fitted

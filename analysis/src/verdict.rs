@@ -156,11 +156,7 @@ pub fn filter_tests(
 /// SH coefficients of the lighting mirrored through the xz plane (y → −y, φ → −φ): the real
 /// basis's m < 0 functions are odd in y (sin(|m|φ)), the others even.
 pub fn mirrored(light: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    light
-        .iter()
-        .enumerate()
-        .map(|(k, c)| if crate::sh::lm(k).1 < 0 { c.map(|v| -v) } else { *c })
-        .collect()
+    light.iter().enumerate().map(|(k, c)| if crate::sh::lm(k).1 < 0 { c.map(|v| -v) } else { *c }).collect()
 }
 
 /// Total χ², ν and the Šidák-combined p of channel tests.
@@ -297,7 +293,9 @@ pub fn verdict(
             .take(3)
             .zip(["R", "G", "B"])
             .filter_map(|(c, n)| {
-                c.truncation_chi2_per_dof.filter(|x| have_sigma && *x > crate::filter::MISMATCH_CHI2).map(|x| format!("{n} {x:.2}"))
+                c.truncation_chi2_per_dof
+                    .filter(|x| have_sigma && *x > crate::filter::MISMATCH_CHI2)
+                    .map(|x| format!("{n} {x:.2}"))
             })
             .collect();
         let note = match fits.iter().filter_map(|c| c.truncation_lmax).max() {

@@ -499,7 +499,13 @@ impl std::fmt::Display for AnalyzeReport {
                 } else {
                     "χ²/ν (truncation_chi2_per_dof: above 2 is scatter beyond the σ, said in a warning)"
                 };
-                writeln!(f, "# with the orders up to l = {top}, {what}: R {}, G {}, B {}", x(&fits[0]), x(&fits[1]), x(&fits[2]))?;
+                writeln!(
+                    f,
+                    "# with the orders up to l = {top}, {what}: R {}, G {}, B {}",
+                    x(&fits[0]),
+                    x(&fits[1]),
+                    x(&fits[2])
+                )?;
             }
         }
         if let Some(v) = &self.verdict {

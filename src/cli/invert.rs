@@ -642,7 +642,12 @@ fn brdf_report(
     } else {
         let per: Vec<(&str, f64, i64)> = channels.iter().map(|c| (c.channel.as_str(), c.chi2_min, c.dof)).collect();
         let have_sigma = filter_fit.as_ref().is_none_or(|f| f.channels.iter().any(|c| c.p_value.is_some()));
-        analysis::verdict::of_model_fit(&per, &format!("the {} model fitted per channel", model.name()), analysis::verdict::DEFAULT_ALPHA, have_sigma)
+        analysis::verdict::of_model_fit(
+            &per,
+            &format!("the {} model fitted per channel", model.name()),
+            analysis::verdict::DEFAULT_ALPHA,
+            have_sigma,
+        )
     };
     // A minimum of χ² on the search range's bound is no estimate: χ² still falls beyond it (a
     // mismatched model runs s to the bottom of the range: a 90°-rotated lighting gave s = 0.5 of
