@@ -178,6 +178,35 @@ fn correct_pairs_pass_at_the_stated_rate() {
     );
 }
 
+/// Correct pairs of Sobol renders pass at high spp. The Sobol sampler's error bar is the spread of
+/// its 16 replicate means, so its z are Student t with 15 degrees of freedom whatever the spp (not
+/// spp − 1): the difference of two such renders is a t of ≈ 30 (Welch), whose χ²/ν taken as
+/// Gaussian is 30/28 ≈ 1.07 instead of 1, ≈ 5σ above 1 on the 16384 pixels of one channel at
+/// 128², and those pairs fail (the planted error: the dof read as spp − 1). Four pairs at α = 0.01
+/// (128², 256 spp; 32², 16384 spp): false alarms are Binomial(4, 0.01), P(≥ 2) = 5.9e-4, so more
+/// than one fails the test.
+#[test]
+fn correct_sobol_pairs_pass_at_high_spp() {
+    let dir = temp_dir("compare-sobol");
+    let map = write_map(&dir);
+    let mut failures = Vec::new();
+    for (pair, (spp, size)) in [(256u32, 128), (256, 128), (256, 128), (16384, 32)].into_iter().enumerate() {
+        let sobol = |seed: u64| {
+            scene_toml(&map, seed, 1.0, 0.0, size)
+                .replace(&format!("spp = {SPP}"), &format!("spp = {spp}"))
+                .replace("sampler = \"independent\"", "sampler = \"sobol\"")
+        };
+        let a = load(&render_to(&dir, "a", &sobol(100 + 2 * pair as u64)));
+        let b = load(&render_to(&dir, "b", &sobol(101 + 2 * pair as u64)));
+        let r = compare(&a, &[b], &CompareParams::default()).unwrap();
+        assert!(r.a.noise.contains("sobol sampler: 15 degrees of freedom"), "{:?}", r.a);
+        if r.verdict == Verdict::Disagree {
+            failures.push(format!("pair {pair} ({spp} spp): {}", r.reason));
+        }
+    }
+    assert!(failures.len() <= 1, "{} false alarms of 4 at α = 0.01: {failures:#?}", failures.len());
+}
+
 /// A 1 % scale error of the lighting (128², 64 spp) fails, and the scale test names it:
 /// expected |z| ≈ 10 (σ of the ratio ≈ 0.1 % at 128²) against the per-test k ≈ 3.3.
 #[test]

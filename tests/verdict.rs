@@ -212,6 +212,12 @@ fn analyze_flags_a_rotated_map_a_wrong_mapping_and_a_wrong_extent() {
         reflect_out(&["analyze", g.to_str().unwrap(), "--scene", wrong.to_str().unwrap(), "--lmax", "2"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("own edge") && err.lines().count() == 1, "{err}");
+    // The diagnosis names the extent, with a range that holds the true 1.05.
+    assert!(err.contains("likely wrong assumption is the extent"), "{err}");
+    let range = err.split("an extent of ").nth(1).unwrap().split(' ').next().unwrap();
+    let (lo, hi) = range.split_once('–').unwrap_or((range, range));
+    let (lo, hi): (f64, f64) = (lo.parse().unwrap(), hi.parse().unwrap());
+    assert!(lo <= 1.05 + 0.02 && hi >= 1.05 - 0.02, "{err}");
     // ... and the right extent passes the check and the verdict.
     let (doc, _) = analyze(&[g.to_str().unwrap(), "--scene", told_s, "--lmax", "2"]);
     assert_eq!(status(&doc), "consistent", "{}", doc["verdict"]["line"]);
@@ -234,4 +240,111 @@ fn correct_images_are_not_flagged_beyond_the_stated_rate() {
         }
     }
     assert!(flagged.len() <= 1, "{flagged:#?}");
+}
+
+/// A map flipped left to right (a renderer whose azimuth runs the other way: φ → π − φ on the
+/// angular probe) is flagged and the diagnosis names the mirrored frame, at the right turn (180°:
+/// u → −u is φ → −φ then a half turn), with and without the stderr layer. Planted error: without
+/// the `mirrored` alternative the suspect is a rotation or none.
+#[test]
+fn analyze_names_a_mirrored_map() {
+    let dir = temp_dir("verdict-mirror");
+    let mut map = read_image(grace()).unwrap();
+    let w = map.width;
+    for plane in map.channels.values_mut() {
+        for row in plane.chunks_mut(w) {
+            row.reverse();
+        }
+    }
+    let flipped = dir.join("grace-flipped.exr");
+    write_exr(&flipped, &map).unwrap();
+    let told = dir.join("told.toml");
+    std::fs::write(&told, lambert_scene(0.0, 1.05, 0)).unwrap();
+    let text =
+        lambert_scene(0.0, 1.05, 5).replace(&format!("{:?}", grace_s()), &format!("{:?}", flipped.to_str().unwrap()));
+    let p = render_text(&dir, "mirrored", &text);
+    for (what, img) in [("stderr layer", p.clone()), ("no stderr", without_stderr(&p))] {
+        let (doc, _) = analyze(&[img.to_str().unwrap(), "--lighting", told.to_str().unwrap(), "--lmax", "2"]);
+        let v = &doc["verdict"];
+        assert_eq!(status(&doc), "contradicts", "{what}: {}", v["line"]);
+        assert_eq!(v["suspect"]["assumption"], "mirrored", "{what}: {}", v["line"]);
+        let detail = v["suspect"]["detail"].as_str().unwrap();
+        let deg: f64 = detail.rsplit("by ").next().unwrap().split('°').next().unwrap().parse().unwrap();
+        assert!((deg.abs() - 180.0).abs() <= 2.0, "{what}: {detail}");
+    }
+}
+
+/// The text says which χ²/ν is which: the fit at l ≤ l_max (above 1 by the truncated orders, not
+/// the verdict's test) and the one with the orders up to the truncation order (the one warned
+/// about above 2), and the verdict line says when the pixels scatter beyond their σ. Planted error:
+/// the text without the second line (as it was) fails.
+#[test]
+fn analyze_text_names_both_chi2_and_agrees_with_json() {
+    let dir = temp_dir("verdict-text");
+    let p = render_text(&dir, "good", &lambert_scene(0.0, 1.05, 20));
+    let p = p.to_str().unwrap();
+    let (code, out, err) = reflect_out(&["analyze", p, "--lmax", "2"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("filter fit χ²/ν at l <= 2") && out.contains("not the verdict's test"), "{out}");
+    let top = out.lines().find(|l| l.starts_with("# with the orders up to l = ")).unwrap_or_else(|| panic!("{out}"));
+    assert!(top.contains("truncation_chi2_per_dof"), "{top}");
+    let (doc, werr) = analyze(&[p, "--lmax", "2"]);
+    let x: Vec<f64> =
+        doc["filter_fit"].as_array().unwrap().iter().map(|c| c["truncation_chi2_per_dof"].as_f64().unwrap()).collect();
+    for (c, v) in ["R", "G", "B"].iter().zip(&x) {
+        assert!(top.contains(&format!("{c} {v:.3}")), "{top} against {x:?}");
+    }
+    let line = doc["verdict"]["line"].as_str().unwrap();
+    assert!(out.contains(line), "{out}");
+    // Above 2: a warning and the verdict's note; else neither.
+    let above = x.iter().any(|v| *v > 2.0);
+    assert_eq!(line.contains("scatter beyond their σ"), above && status(&doc) == "consistent", "{line}: {x:?}");
+    assert_eq!(
+        werr.contains("more scatter than the per-pixel σ") || werr.contains("signal the model does not carry"),
+        above,
+        "{werr}: {x:?}"
+    );
+}
+
+/// `invert brdf`'s verdict: the measured filter against the recovered model (Phong at the fitted
+/// s). Correct Phong images (s = 8, `horizon = "ignore"` so that eq. 43 is exact; 64², 16 spp,
+/// 4 seeds) pass at α = 1 %: false alarms Binomial(4, 0.01), P(≥ 2) = 5.9e-4, so more than one
+/// fails; a Lambert sphere and a Torrance–Sparrow one (σ 0.3) fitted as Phong are flagged, with
+/// exit status 0 (a finding, as `analyze`'s) and the text's `# verdict:` line the JSON's. Planted
+/// error: a verdict that is always consistent fails on the Lambert sphere.
+#[test]
+fn invert_brdf_verdict_passes_the_model_and_flags_another_brdf() {
+    let dir = temp_dir("verdict-invert");
+    let scene = |brdf: &str, seed: u64| {
+        lambert_scene(0.0, 1.05, seed).replace("brdf = { type = \"lambert\", albedo = [0.8, 0.8, 0.8] }", brdf)
+    };
+    let invert = |img: &Path| {
+        let (code, out, err) =
+            reflect_out(&["invert", "brdf", img.to_str().unwrap(), "--model", "phong", "--lmax", "6", "--json"]);
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str::<Value>(&out).unwrap()
+    };
+    let phong = "brdf = { type = \"phong\", s = 8.0, horizon = \"ignore\" }";
+    let mut flagged = Vec::new();
+    for seed in 30..34 {
+        let p = render_text(&dir, &format!("phong{seed}"), &scene(phong, seed));
+        let doc = invert(&p);
+        assert_eq!(doc["verdict"]["alpha"], 0.01);
+        if status(&doc) != "consistent" {
+            flagged.push(doc["verdict"]["line"].to_string());
+        }
+    }
+    assert!(flagged.len() <= 1, "{flagged:#?}");
+    for (name, brdf) in [
+        ("lambert", "brdf = { type = \"lambert\", albedo = [0.8, 0.8, 0.8] }"),
+        ("ts", "brdf = { type = \"torrance-sparrow\", sigma = 0.3, horizon = \"ignore\" }"),
+    ] {
+        let p = render_text(&dir, name, &scene(brdf, 40));
+        let doc = invert(&p);
+        assert_eq!(status(&doc), "contradicts", "{name}: {}", doc["verdict"]["line"]);
+        let (code, out, err) = reflect_out(&["invert", "brdf", p.to_str().unwrap(), "--model", "phong", "--lmax", "6"]);
+        assert_eq!(code, 0, "{err}");
+        let line = out.lines().find(|l| l.starts_with("# verdict: ")).unwrap_or_else(|| panic!("{out}"));
+        assert_eq!(&line[2..], doc["verdict"]["line"].as_str().unwrap());
+    }
 }

@@ -17,6 +17,8 @@
 //! - `rotation`: the lighting rotated about the world +z axis (the pole of a lat-long map, docs/src/conventions.md §1–§2) by
 //!   ψ, on a 5° grid over the circle refined to 0.25° around the best, each a full refit;
 //! - `mapping`: an environment map read with the other mapping (lat-long ↔ angular);
+//! - `mirrored`: the lighting mirrored (φ → −φ: a renderer whose azimuth runs the other way, or a
+//!   map flipped left to right), at the best rotation about +z as above;
 //! - anything else (the BRDF's parameters, the camera's extent or orientation) is named as
 //!   untested when no alternative explains the residual.
 
@@ -40,7 +42,7 @@ pub struct ChannelTest {
 /// An alternative assumption and how well it explains the image.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Alternative {
-    /// `scale`, `rotation` or `mapping`.
+    /// `scale`, `rotation`, `mapping` or `mirrored`.
     pub assumption: String,
     /// What the alternative is, in words (e.g. "the map rotated by +5.00° about +z").
     pub detail: String,
@@ -151,6 +153,12 @@ pub fn filter_tests(
     (tests, scales)
 }
 
+/// SH coefficients of the lighting mirrored through the xz plane (y → −y, φ → −φ): the real
+/// basis's m < 0 functions are odd in y (sin(|m|φ)), the others even.
+pub fn mirrored(light: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    light.iter().enumerate().map(|(k, c)| if crate::sh::lm(k).1 < 0 { c.map(|v| -v) } else { *c }).collect()
+}
+
 /// Total χ², ν and the Šidák-combined p of channel tests.
 fn combine(tests: &[ChannelTest]) -> (f64, usize, f64) {
     let chi2 = tests.iter().map(|t| t.chi2).sum();
@@ -207,30 +215,50 @@ pub fn verdict(
                 let (t, _) = filter_tests(&f.orders, &f.channels, analytic, false);
                 Some(combine(&t))
             };
-            let rotated =
-                |deg: f64| rotate_coefficients(r.light, &Rotation::axis_angle([0.0, 0.0, 1.0], deg.to_radians()));
-            let mut best: Option<(f64, (f64, usize, f64))> = None;
-            let consider = |deg: f64, best: &mut Option<(f64, (f64, usize, f64))>| {
-                if let Some(s) = score(&rotated(deg))
-                    && best.as_ref().is_none_or(|b| s.0 < b.1.0)
-                {
-                    *best = Some((deg, s));
+            // The best rotation about +z of `light`: a 5° grid refined to 0.25° around its best
+            // (the told angle 0 itself left out unless `with_zero`).
+            let scan = |light: &[[f64; 3]], with_zero: bool| -> Option<(f64, (f64, usize, f64))> {
+                let rotated =
+                    |deg: f64| rotate_coefficients(light, &Rotation::axis_angle([0.0, 0.0, 1.0], deg.to_radians()));
+                let consider = |deg: f64, best: &mut Option<(f64, (f64, usize, f64))>| {
+                    if (deg != 0.0 || with_zero)
+                        && let Some(s) = score(&rotated(deg))
+                        && best.as_ref().is_none_or(|b| s.0 < b.1.0)
+                    {
+                        *best = Some((deg, s));
+                    }
+                };
+                let mut best = None;
+                for i in 0..72 {
+                    consider(i as f64 * 5.0 - if i > 36 { 360.0 } else { 0.0 }, &mut best);
                 }
-            };
-            for i in 1..72 {
-                consider(i as f64 * 5.0 - if i > 36 { 360.0 } else { 0.0 }, &mut best);
-            }
-            if let Some((c, _)) = best {
-                for j in -20..=20 {
-                    if j != 0 {
-                        consider(c + j as f64 * 0.25, &mut best);
+                if let Some((c, _)) = best {
+                    for j in -20..=20 {
+                        if j != 0 {
+                            consider(c + j as f64 * 0.25, &mut best);
+                        }
                     }
                 }
-            }
-            if let Some((deg, (c2, d, p))) = best {
+                best
+            };
+            if let Some((deg, (c2, d, p))) = scan(r.light, false) {
                 alternatives.push(Alternative {
                     assumption: "rotation".into(),
                     detail: format!("the lighting rotated by {deg:+.2}° about +z"),
+                    chi2: c2,
+                    dof: d,
+                    p_value: p,
+                });
+            }
+            // A renderer whose φ runs the other way sees the map mirrored (φ → −φ, y → −y, which
+            // negates the sin(|m|φ) coefficients, m < 0), possibly also turned about +z.
+            if let Some((deg, (c2, d, p))) = scan(&mirrored(r.light), true) {
+                alternatives.push(Alternative {
+                    assumption: "mirrored".into(),
+                    detail: format!(
+                        "the lighting mirrored (φ → −φ: a frame whose azimuth runs the other way) and rotated by \
+                         {deg:+.2}° about +z"
+                    ),
                     chi2: c2,
                     dof: d,
                     p_value: p,
@@ -257,7 +285,29 @@ pub fn verdict(
         if have_sigma { "stderr layer" } else { "fit residuals" }
     );
     let line = if consistent {
-        format!("verdict: consistent with the lighting, BRDF and camera it was told — {head}")
+        // The test is of the filter; scatter of the pixels beyond their σ that the filter absorbs
+        // (heavy-tailed pixels, signal above the highest fitted order) is said beside it, so that a
+        // χ²/ν of several is never printed next to a bare "consistent".
+        let scatter: Vec<String> = fits
+            .iter()
+            .take(3)
+            .zip(["R", "G", "B"])
+            .filter_map(|(c, n)| {
+                c.truncation_chi2_per_dof
+                    .filter(|x| have_sigma && *x > crate::filter::MISMATCH_CHI2)
+                    .map(|x| format!("{n} {x:.2}"))
+            })
+            .collect();
+        let note = match fits.iter().filter_map(|c| c.truncation_lmax).max() {
+            Some(top) if !scatter.is_empty() => format!(
+                "; but the pixels scatter beyond their σ (χ²/ν {} with the orders up to l = {top}, above {}): \
+                 the filter agrees, the pixels hold what it does not test (heavy-tailed pixels or signal above l = {top})",
+                scatter.join(", "),
+                crate::filter::MISMATCH_CHI2
+            ),
+            _ => String::new(),
+        };
+        format!("verdict: consistent with the lighting, BRDF and camera it was told — {head}{note}")
     } else {
         let why = match &suspect {
             Some(s) if s.p_value >= alpha => {
@@ -269,7 +319,7 @@ pub fn verdict(
             ),
             None => format!(
                 "no {} explains it: check the BRDF's parameters and the camera (extent, orientation)",
-                if refit.is_some() { "scale, rotation or mapping" } else { "overall scale" }
+                if refit.is_some() { "scale, rotation, mirroring or mapping" } else { "overall scale" }
             ),
         };
         format!("verdict: the image CONTRADICTS what it was told — {head}; {why}")
@@ -288,6 +338,52 @@ pub fn verdict(
     })
 }
 
+/// The verdict of a model fitted to the measured filter (`invert brdf`): the image against the
+/// re-prediction from the recovered quantities. `fits` holds, per channel, its name, the fit's
+/// minimum χ² (the measured filter against the model at the fitted parameter and scale, weighted
+/// by the filter's covariance ⊕ truncation²) and its ν (orders minus fitted parameters);
+/// p_c = P(χ²_ν ≥ χ²_c), combined over the channels by Šidák as in [`verdict`]. `model` names the
+/// model in the line ("phong at s = 31.8"), `have_sigma` where the σ came from. `None` when no
+/// channel has ν > 0.
+pub fn of_model_fit(fits: &[(&str, f64, i64)], model: &str, alpha: f64, have_sigma: bool) -> Option<Verdict> {
+    let channels: Vec<ChannelTest> = fits
+        .iter()
+        .filter(|f| f.2 > 0 && f.1.is_finite())
+        .map(|&(_, chi2, dof)| ChannelTest { chi2, dof: dof as usize, p_value: chi2_survival(chi2, dof as f64) })
+        .collect();
+    if channels.is_empty() {
+        return None;
+    }
+    let (chi2, dof, p_value) = combine(&channels);
+    let consistent = p_value >= alpha;
+    let head = format!(
+        "χ² {chi2:.1} for ν {dof} of the measured filter against {model} (σ from the {}), p {p_value:.2e} (Šidák over \
+         {} channels; α {alpha})",
+        if have_sigma { "stderr layer" } else { "fit residuals" },
+        channels.len()
+    );
+    let line = if consistent {
+        format!("verdict: consistent with the recovered model and the lighting and camera it was told — {head}")
+    } else {
+        format!(
+            "verdict: the image CONTRADICTS the recovered model — {head}; no value of the parameter makes this model \
+             describe the image: check the model (another BRDF), the lighting and the camera"
+        )
+    };
+    Some(Verdict {
+        status: if consistent { "consistent" } else { "contradicts" }.into(),
+        alpha,
+        chi2,
+        dof,
+        p_value,
+        channels,
+        sigma_from: if have_sigma { "stderr-layer" } else { "residuals" }.into(),
+        suspect: None,
+        alternatives: Vec::new(),
+        line,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -299,5 +395,24 @@ mod tests {
         let per = 1.0 - (1.0f64 - alpha).powf(1.0 / 3.0);
         assert!((sidak(per, 3) - alpha).abs() < 1e-12);
         assert_eq!(sidak(1.0, 3), 1.0);
+    }
+
+    #[test]
+    fn mirrored_coefficients_are_the_function_at_minus_y() {
+        // A lighting with every coefficient to l = 4 nonzero: the mirrored coefficients evaluated at
+        // (x, y, z) give the original at (x, −y, z). Planted error (the m > 0 terms negated instead)
+        // fails this.
+        let light: Vec<[f64; 3]> = (0..25).map(|k| [1.0 + 0.3 * k as f64, (k as f64).sin(), 0.1]).collect();
+        let m = mirrored(&light);
+        let mut rec = crate::sh::Reconstructor::new(4);
+        for d in [[0.3f64, 0.5, 0.81], [-0.6, 0.7, -0.39], [0.0, -1.0, 0.0]] {
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let d = d.map(|v| v / n);
+            let a = rec.eval(&m, d);
+            let b = rec.eval(&light, [d[0], -d[1], d[2]]);
+            for c in 0..3 {
+                assert!((a[c] - b[c]).abs() < 1e-12, "{d:?}: {a:?} {b:?}");
+            }
+        }
     }
 }

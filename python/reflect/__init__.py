@@ -151,13 +151,14 @@ def _compare_input(x: Any, name: str) -> Any:
             "stderr_flag": np.ascontiguousarray(x.stderr_flag, dtype=np.float32),
             "mask": np.ascontiguousarray(x.mask, dtype=np.float32),
             "spp": int(x.stats["spp"]),
+            "sampler": str(x.stats["sampler"]),
         }
     if isinstance(x, np.ndarray):
         x = {"rgb": x}
     if isinstance(x, dict):
         out: Dict[str, Any] = {}
         for k, v in x.items():
-            out[k] = v if k == "spp" or v is None else np.ascontiguousarray(v, dtype=np.float32)
+            out[k] = v if k in ("spp", "sampler") or v is None else np.ascontiguousarray(v, dtype=np.float32)
         return out
     raise TypeError(f"{name}: expected a path, an (H, W, 3) array, a dict of arrays or a RenderResult, got {type(x).__name__}")
 
@@ -177,8 +178,10 @@ def compare(
     Each image is a path (``.exr``/``.hdr``), a :class:`RenderResult` (its ``stderr`` layer, flags,
     mask and spp are used), an (H, W, 3) array of linear radiance (no error estimate: taken as
     exact), or a dict of arrays ``{"rgb": (H, W, 3), "stderr": (H, W, 3), "stderr_flag": (H, W),
-    "mask": (H, W), "spp": int}`` (all but ``rgb`` optional; ``spp`` gives the error layer's
-    spp − 1 degrees of freedom). ``seeds``: further independent renders of ``b``'s renderer; ``b``'s
+    "mask": (H, W), "spp": int, "sampler": str}`` (all but ``rgb`` optional; ``spp`` and
+    ``sampler`` give the error layer's degrees of freedom: spp − 1 for ``"independent"``, the
+    default and any renderer whose error bar is the samples' standard error, 15 for ``"sobol"``,
+    whose error bar is the spread of 16 replicates). ``seeds``: further independent renders of ``b``'s renderer; ``b``'s
     noise is then the seeds' per-pixel spread. ``alpha``: the family-wise false-alarm rate of the
     verdict; ``block``: the side of the block test's tiles (pixels); ``exclude_edges``: leave out
     pixels within that many pixels of the silhouette (3 for Mitsuba 3's default Gaussian film).

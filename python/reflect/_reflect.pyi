@@ -158,7 +158,8 @@ def compare(
     layer: Optional[str] = None,
 ) -> Dict[str, Any]:
     """``analysis::compare`` on [a, b, seeds…]: each a path or a dict of float32 arrays (``rgb``
-    (H, W, 3), optional ``stderr`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp``).
+    (H, W, 3), optional ``stderr`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp`` and
+    ``sampler``: ``"independent"``, the default, or ``"sobol"``, which fix the error layer's degrees of freedom).
     Returns the document ``reflect compare --json`` prints. Bad input raises ``ValueError``
     (``FileNotFoundError`` for a missing file) naming the input (``a``, ``b``, ``seeds[k]`` or its path)."""
 

@@ -20,8 +20,8 @@ fn input_name(i: usize) -> String {
 }
 
 /// An image from a dict of arrays: `rgb` (H, W, 3) float32, optional `stderr` (H, W, 3),
-/// `stderr_flag` and `mask` (H, W) float32, `spp` (int: the error layer's samples, for its degrees
-/// of freedom).
+/// `stderr_flag` and `mask` (H, W) float32, `spp` (int: the error layer's samples) and `sampler`
+/// (`"independent"`, the default, or `"sobol"`), which give the error layer's degrees of freedom.
 fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
     let bad = |m: String| PyValueError::new_err(format!("{name}: {m}"));
     let rgb: PyReadonlyArray3<f32> = d
@@ -67,11 +67,20 @@ fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
             img.channels.insert(channel.into(), v.iter().copied().collect());
         }
     }
+    let sampler = match d.get_item("sampler")?.filter(|s| !s.is_none()) {
+        Some(s) => {
+            let s: String = s.extract().map_err(|_| bad("'sampler' must be a string".into()))?;
+            s.parse::<vocab::Sampler>().map_err(|e| bad(e.to_string()))?
+        }
+        // An error bar from another renderer is its samples' standard error (spp − 1 degrees of
+        // freedom), as the independent sampler's.
+        None => vocab::Sampler::Independent,
+    };
     if let Some(spp) = d.get_item("spp")?.filter(|s| !s.is_none()) {
         let spp: u32 = spp.extract().map_err(|_| bad("'spp' must be a whole number".into()))?;
         img.attributes.insert(
             vocab::header::RENDER.into(),
-            serde_json::json!({ "width": w, "height": h, "spp": spp }).to_string(),
+            serde_json::json!({ "width": w, "height": h, "spp": spp, "sampler": sampler }).to_string(),
         );
     }
     Ok(img)

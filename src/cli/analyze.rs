@@ -482,7 +482,30 @@ impl std::fmt::Display for AnalyzeReport {
                     chi(&fits[2])
                 )?;
             } else {
-                writeln!(f, "# filter fit χ²/ν: R {}, G {}, B {}", chi(&fits[0]), chi(&fits[1]), chi(&fits[2]))?;
+                writeln!(
+                    f,
+                    "# filter fit χ²/ν at l <= {} (the orders above it are signal this fit leaves in the residual, so \
+                     it exceeds 1 by the truncation; not the verdict's test): R {}, G {}, B {}",
+                    self.lmax,
+                    chi(&fits[0]),
+                    chi(&fits[1]),
+                    chi(&fits[2])
+                )?;
+            }
+            if let Some(top) = fits.iter().filter_map(|c| c.truncation_lmax).max() {
+                let x = |c: &ChannelFit| c.truncation_chi2_per_dof.map_or("-".to_string(), |x| format!("{x:.3}"));
+                let what = if fits.iter().all(|c| c.p_value.is_none()) {
+                    "residual variance (the noise σ̂² of the error bars)"
+                } else {
+                    "χ²/ν (truncation_chi2_per_dof: above 2 is scatter beyond the σ, said in a warning)"
+                };
+                writeln!(
+                    f,
+                    "# with the orders up to l = {top}, {what}: R {}, G {}, B {}",
+                    x(&fits[0]),
+                    x(&fits[1]),
+                    x(&fits[2])
+                )?;
             }
         }
         if let Some(v) = &self.verdict {

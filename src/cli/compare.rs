@@ -17,7 +17,8 @@ pub struct CompareArgs {
     /// Image B: a render with its stderr layer, or the first seed of B's renderer (with --seeds).
     pub b: PathBuf,
     /// Further seeds of B's renderer (independent renders of the same scene): B's noise is then the
-    /// seeds' per-pixel spread (n − 1 degrees of freedom), and the images' stderr layers are not used.
+    /// spread of B and the seeds per pixel (n − 1 degrees of freedom for n images), and their stderr
+    /// layers are not used (A's is).
     #[arg(long, num_args = 1..)]
     pub seeds: Vec<PathBuf>,
     /// Family-wise false-alarm rate of the verdict (the probability that agreeing images are
@@ -27,8 +28,9 @@ pub struct CompareArgs {
     /// Side of the square blocks of the block test, in pixels.
     #[arg(long, default_value_t = 8)]
     pub block: usize,
-    /// Leave out the pixels within N pixels of the silhouette (N = 1: the silhouette only), found
-    /// from a mask.Y or alpha (A) channel: for renderers with different pixel filters.
+    /// Leave out every pixel within N − 1 pixels (in rows and columns) of a silhouette pixel (N = 1:
+    /// the silhouette only; 3 for a filter of radius 2 px), found from a mask.Y or alpha (A) channel:
+    /// for renderers with different pixel filters.
     #[arg(long, default_value_t = 0)]
     pub exclude_edges: usize,
     /// The radiance layer of multi-layer EXRs, by its channel prefix (the same for every image).
@@ -38,7 +40,7 @@ pub struct CompareArgs {
     #[arg(long)]
     pub json: bool,
     /// Write a report folder: index.html, z.png (per-pixel z, diverging colours), ratio.png
-    /// (A/B), histogram.png (z against N(0, 1)).
+    /// (A/B), histogram.png (the pixels' Gaussian scores of z against N(0, 1)).
     #[arg(long)]
     pub report: Option<PathBuf>,
 }
@@ -124,7 +126,7 @@ fn print_text(r: &CompareReport, paths: &[PathBuf]) {
     );
     let p = &r.pixels;
     println!(
-        "pixels: {} compared of {}×{} ({} flagged, {} without estimate, {} near the silhouette left out; {} exact values)",
+        "pixels: {} compared of {}×{} ({} flagged, {} without estimate, {} near the silhouette left out); {} pixel-channels with zero error on both sides",
         p.compared, r.width, r.height, p.flagged, p.no_estimate, p.near_edges, p.exact
     );
     println!("tests (each at level {:.3e}, family-wise false-alarm rate α = {}):", r.alpha_per_test, r.alpha);
@@ -183,7 +185,7 @@ fn stage_png(path: &Path, w: usize, h: usize, px: Vec<u8>) -> Result<renderer::o
     })
 }
 
-/// The histogram of the pixel z (grey bars) against N(0, 1) (red line), counts on a log scale.
+/// The histogram of the pixel scores u (grey bars) against N(0, 1) (red line), counts on a log scale.
 fn histogram_png(r: &CompareReport) -> (usize, usize, Vec<u8>) {
     let (w, h, bar) = (480usize, 240usize, 10usize);
     let mut px = vec![255u8; w * h * 3];
@@ -243,7 +245,7 @@ fn stage_report(dir: &Path, r: &CompareReport, paths: &[PathBuf]) -> Result<Vec<
     }
     let verdict = if r.verdict == Verdict::Agree { "agree" } else { "disagree" };
     let html = format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>reflect compare: {verdict}</title>\n<style>body{{font-family:sans-serif;max-width:60em}} img.map{{width:256px;image-rendering:pixelated}} td,th{{padding:0 .6em}}</style></head><body>\n<h1>The images {verdict}</h1>\n<p>{}</p>\n<p>A: {} ({})<br>B: {} ({} image{}, {})</p>\n<table><tr><th>test</th><th>z or χ²/ν</th><th>ν</th><th>p</th><th>at level {:.3e}</th></tr>\n{rows}</table>\n<p>Family-wise false-alarm rate α = {} (Šidák over {} tests).</p>\n<figure><img class=\"map\" src=\"z.png\"><figcaption>z of R + G + B per pixel, blue −5 … red +5 (A above B); grey: not compared.</figcaption></figure>\n<figure><img class=\"map\" src=\"ratio.png\"><figcaption>A / B (R + G + B) per pixel, blue 0.905 … red 1.105 (log scale).</figcaption></figure>\n<figure><img src=\"histogram.png\"><figcaption>Pixel z (all channels, bins of 0.25 over −6 … 6, log counts) against N(0, 1) (red); black: z = 0. Beyond the range: {} below, {} above.</figcaption></figure>\n</body></html>\n",
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>reflect compare: {verdict}</title>\n<style>body{{font-family:sans-serif;max-width:60em}} img.map{{width:256px;image-rendering:pixelated}} td,th{{padding:0 .6em}}</style></head><body>\n<h1>The images {verdict}</h1>\n<p>{}</p>\n<p>A: {} ({})<br>B: {} ({} image{}, {})</p>\n<table><tr><th>test</th><th>z or χ²/ν</th><th>ν</th><th>p</th><th>at level {:.3e}</th></tr>\n{rows}</table>\n<p>Family-wise false-alarm rate α = {} (Šidák over {} tests).</p>\n<figure><img class=\"map\" src=\"z.png\"><figcaption>z of R + G + B per pixel, blue −5 … red +5 (A above B); grey: not compared.</figcaption></figure>\n<figure><img class=\"map\" src=\"ratio.png\"><figcaption>A / B (R + G + B) per pixel, blue 0.905 … red 1.105 (log scale).</figcaption></figure>\n<figure><img src=\"histogram.png\"><figcaption>Pixel scores u (each channel's z turned into the N(0, 1) value of the same tail probability under its Student t, so that agreeing images give N(0, 1); bins of 0.25 over −6 … 6, log counts) against N(0, 1) (red); black: u = 0. Beyond the range: {} below, {} above.</figcaption></figure>\n</body></html>\n",
         esc(&r.reason),
         esc(&paths[0].display().to_string()),
         esc(&r.a.noise),

@@ -517,6 +517,11 @@ pub struct InvertBrdfReport {
     /// Orthographic views: the correlation of neighbouring pixels' noise and the variance inflation
     /// applied to the noise part of every error bar.
     pub pixel_noise: Option<PixelNoise>,
+    /// The image against the re-prediction of the recovered model (`analysis::verdict::of_model_fit`):
+    /// χ² of the measured filter against the model at the fitted parameter, per channel with its ν
+    /// and p, Šidák over the channels at α = 1 %; null when the fit has no weights (no error estimate)
+    /// or no degrees of freedom.
+    pub verdict: Option<analysis::verdict::Verdict>,
     pub warnings: Vec<String>,
 }
 
@@ -626,6 +631,24 @@ fn brdf_report(
     mut warnings: Vec<String>,
 ) -> InvertBrdfReport {
     let model = fit.model;
+    let described = format!("the {} model at {} = {:.4}", model.name(), model.parameter_name(), fit.parameter);
+    let verdict = if channels.is_empty() {
+        fit.p_value().and(analysis::verdict::of_model_fit(
+            &[("all", fit.chi2_min, fit.dof)],
+            &described,
+            analysis::verdict::DEFAULT_ALPHA,
+            fit.weighted_by_stderr,
+        ))
+    } else {
+        let per: Vec<(&str, f64, i64)> = channels.iter().map(|c| (c.channel.as_str(), c.chi2_min, c.dof)).collect();
+        let have_sigma = filter_fit.as_ref().is_none_or(|f| f.channels.iter().any(|c| c.p_value.is_some()));
+        analysis::verdict::of_model_fit(
+            &per,
+            &format!("the {} model fitted per channel", model.name()),
+            analysis::verdict::DEFAULT_ALPHA,
+            have_sigma,
+        )
+    };
     // A minimum of χ² on the search range's bound is no estimate: χ² still falls beyond it (a
     // mismatched model runs s to the bottom of the range: a 90°-rotated lighting gave s = 0.5 of
     // [0.5, 10000], printed as the interval [unbounded, 0.5]).
@@ -664,6 +687,7 @@ fn brdf_report(
         profile: fit.profile.iter().map(|(p, d)| [*p, *d]).collect(),
         filter_fit,
         pixel_noise: None,
+        verdict,
         warnings,
     }
 }
@@ -859,6 +883,9 @@ impl std::fmt::Display for InvertBrdfReport {
         }
         if let Some(n) = &self.pixel_noise {
             writeln!(f, "{}", n.line())?;
+        }
+        if let Some(v) = &self.verdict {
+            writeln!(f, "# {}", v.line)?;
         }
         Ok(())
     }

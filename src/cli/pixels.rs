@@ -524,11 +524,45 @@ pub fn check_silhouette(
     });
     Err(Error::new(format!(
         "the sphere's silhouette in the image has {measured_text}, but the camera ({}) and sphere (centre {}, radius {}) \
-         predict {predicted_text}: check the camera (--extent, --from/--to/--up, or the [camera] of --scene) and the sphere (--center/--radius)",
+         predict {predicted_text}: {}",
         Camera::Ortho(*camera),
         sphere.center.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
-        sphere.radius
+        sphere.radius,
+        suspect(measured.as_ref(), predicted, slack, camera.extent)
     )))
+}
+
+/// The assumption a silhouette mismatch most likely comes from. The same centre and another
+/// radius: the extent (or the sphere's radius), whose value the measured radius gives — the image
+/// shows the sphere r_m / r_p times the size predicted, so the extent is the told one × r_p / r_m,
+/// a range when the measured edge may include up to `slack` px of a filter's tail. A moved centre:
+/// the camera's position or the sphere's centre. (Clipping at the image's edge biases both; the
+/// words say "likely".)
+fn suspect(measured: Option<&Silhouette>, predicted: Option<([f64; 2], f64)>, slack: f64, extent: f64) -> String {
+    let generic = "check the camera (--extent, --from/--to/--up, or the [camera] of --scene) and the sphere \
+                   (--center/--radius)";
+    let (Some(m), Some((pc, pr))) = (measured, predicted) else { return generic.to_string() };
+    let dc = ((m.center[0] - pc[0]).powi(2) + (m.center[1] - pc[1]).powi(2)).sqrt();
+    if dc <= 1.0 && m.radius > 0.0 {
+        // The sphere's own radius lies between the measured one less the slack and the measured one.
+        let at = |r: f64| extent * pr / r;
+        let range = if slack > 0.0 && m.radius > slack {
+            format!("{:.3}–{:.3}", at(m.radius), at(m.radius - slack))
+        } else {
+            format!("{:.3}", at(m.radius))
+        };
+        format!(
+            "the likely wrong assumption is the extent (or the sphere's radius): the sphere appears {:.3}× the size \
+             predicted, as with an extent of {range} for the told {extent}; check --extent (or the [camera] of \
+             --scene) and --radius",
+            m.radius / pr
+        )
+    } else {
+        format!(
+            "the likely wrong assumption is the camera's position or the sphere's centre (the centre is {dc:.1} px \
+             off): check --from/--to/--up (or the [camera] of --scene) and --center; {generic}"
+        )
+    }
 }
 
 #[cfg(test)]

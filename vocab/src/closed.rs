@@ -79,6 +79,25 @@ closed_set! {
     }
 }
 
+/// The number of independent replicates (independent scrambles) of the Sobol sampler; the renderer's
+/// `sampling::sampler::REPLICATES` (why 16 is argued there). Here because a reader of a render's
+/// header needs it to know its error bars' degrees of freedom ([`Sampler::stderr_dof`]).
+pub const SOBOL_REPLICATES: u32 = 16;
+
+impl Sampler {
+    /// The degrees of freedom of a render's per-pixel standard error (`stderr` layer) at `spp`
+    /// samples: the independent sampler's is the sample standard error of the mean, spp − 1; the
+    /// Sobol sampler's is the spread of its [`SOBOL_REPLICATES`] replicate means, R − 1 from one
+    /// full round on (below one round every sample is its own replicate: spp − 1). At least 1.
+    pub fn stderr_dof(self, spp: u32) -> u32 {
+        let samples = match self {
+            Sampler::Independent => spp,
+            Sampler::Sobol => spp.min(SOBOL_REPLICATES),
+        };
+        samples.saturating_sub(1).max(1)
+    }
+}
+
 closed_set! {
     /// Horizon handling of `phong` and `torrance-sparrow` (docs/src/conventions.md §4, paper sec. 3.6).
     #[derive(Default)]
@@ -203,6 +222,9 @@ mod tests {
         let e = "mercator".parse::<Mapping>().unwrap_err().to_string();
         assert!(e.contains("mercator") && e.contains("\"latlong\" | \"angular\""), "{e}");
         assert_eq!(Sampler::default(), Sampler::Sobol);
+        // The error bar's degrees of freedom: Sobol's from its 16 replicates whatever the spp.
+        assert_eq!([1, 8, 16, 64, 16384].map(|n| Sampler::Sobol.stderr_dof(n)), [1, 7, 15, 15, 15]);
+        assert_eq!([1, 8, 16, 64, 16384].map(|n| Sampler::Independent.stderr_dof(n)), [1, 7, 15, 63, 16383]);
         // A bad value in a file names the key's set, not just "unknown variant".
         let e = serde_json::from_str::<Sampler>("\"halton\"").unwrap_err().to_string();
         assert!(e.contains("sampler") && e.contains("halton") && e.contains("\"sobol\""), "{e}");

@@ -25,8 +25,9 @@ pub struct Estimate {
     /// The variance of `mean` (σ², the square of the error layer, or s²/n over n seeds); 0 for an
     /// image without error layer (taken as exact).
     pub var: Vec<[f64; 3]>,
-    /// Degrees of freedom of `var`: spp − 1 of a render whose header says its spp, n − 1 for n
-    /// seeds, ∞ when unknown (an error layer from an unknown number of samples, taken as exact σ).
+    /// Degrees of freedom of `var`: from a render's header, its sampler's (15 for Sobol's 16
+    /// replicates, spp − 1 for the independent sampler), n − 1 for n seeds, ∞ when unknown (an
+    /// error layer of another renderer, taken as exact σ).
     pub dof: f64,
     /// Pixels left out, and why.
     pub excluded: Vec<Option<Excluded>>,
@@ -89,14 +90,17 @@ fn coverage(img: &Image) -> Option<Vec<f32>> {
     img.channel("mask.Y").or_else(|| img.channel("A")).map(<[f32]>::to_vec)
 }
 
-/// The spp a render's header states (`reflect:render`), if any.
-fn header_spp(img: &Image) -> Option<u32> {
-    vocab::header::Header::read(&img.attributes).ok()?.render.map(|r| r.spp)
+/// The spp a render's header states (`reflect:render`) and the degrees of freedom of its error
+/// layer, which depend on the sampler ([`vocab::Sampler::stderr_dof`]: 15 for Sobol from 16 spp
+/// on, spp − 1 for the independent sampler), if the header states them.
+fn header_dof(img: &Image) -> Option<(u32, vocab::Sampler, u32)> {
+    let r = vocab::header::Header::read(&img.attributes).ok()?.render?;
+    Some((r.spp, r.sampler, r.sampler.stderr_dof(r.spp)))
 }
 
 impl Estimate {
-    /// One image: its error layer `stderr.R/G/B` when present (σ² per pixel, spp − 1 degrees of
-    /// freedom when the header states the spp, else taken as exact), else no error (variance 0).
+    /// One image: its error layer `stderr.R/G/B` when present (σ² per pixel, of the degrees of
+    /// freedom its header's sampler and spp give, else taken as exact), else no error (variance 0).
     /// `stderr_flag.Y` > 0 and +inf in the layer exclude the pixel. `index` names the input in
     /// errors.
     pub fn of_image(img: &Image, index: usize) -> Result<Estimate, CompareError> {
@@ -128,10 +132,12 @@ impl Estimate {
                         excluded[i] = Some(Excluded::Flagged);
                     }
                 }
-                let spp = header_spp(img);
-                let dof = spp.map_or(f64::INFINITY, |s| s.saturating_sub(1).max(1) as f64);
-                let source = match spp {
-                    Some(s) => format!("stderr layer ({s} spp: {} degrees of freedom)", s.saturating_sub(1)),
+                let stated = header_dof(img);
+                let dof = stated.map_or(f64::INFINITY, |(_, _, d)| d as f64);
+                let source = match stated {
+                    Some((spp, sampler, d)) => {
+                        format!("stderr layer ({spp} spp, {sampler} sampler: {d} degrees of freedom)")
+                    }
                     None => "stderr layer (spp unknown: σ taken as exact)".to_string(),
                 };
                 (var, dof, source, true)

@@ -1,8 +1,9 @@
 //! Is image A the same picture as image B, up to their Monte Carlo noise? (`reflect compare`,
 //! guide "Comparing two renderers".)
 //!
-//! Each side is an [`Estimate`] per pixel and channel: a render with its `stderr` layer (σ² of
-//! spp − 1 degrees of freedom when the header states the spp), several seeds of one renderer
+//! Each side is an [`Estimate`] per pixel and channel: a render with its `stderr` layer (σ² of the
+//! degrees of freedom its header's sampler gives: 15 for Sobol, spp − 1 for the independent
+//! sampler), several seeds of one renderer
 //! (mean and s²/n, n − 1 degrees of freedom), or an image without error layer (taken as exact:
 //! a converged reference). Pixels flagged (`stderr_flag.Y` = 1) or without estimate (+inf) on
 //! either side, and optionally those near the silhouette (`exclude_edges`), are left out.
@@ -164,9 +165,10 @@ pub struct PixelSummary {
     pub flagged: usize,
     /// Left out: no error estimate (+inf) in A or B.
     pub no_estimate: usize,
-    /// Left out: within `exclude_edges` of the silhouette.
+    /// Left out: within `exclude_edges` − 1 pixels (Chebyshev distance) of a silhouette pixel.
     pub near_edges: usize,
-    /// Pixel-channels with zero variance on both sides (exact values), not in the χ².
+    /// Pixel-channels (a pixel counts once per channel) with zero variance on both sides (exact
+    /// values), not in the χ².
     pub exact: usize,
     /// Of those, how many differ (relative difference > 1e-4): each is a disagreement.
     pub exact_differing: usize,
@@ -215,7 +217,7 @@ pub struct EdgeSummary {
 /// How one side's noise was estimated.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SideSummary {
-    /// "stderr layer (64 spp: 63 degrees of freedom)", "8 seeds (…)", "no error layer: taken as exact".
+    /// "stderr layer (64 spp, sobol sampler: 15 degrees of freedom)", "8 seeds (…)", "no error layer: taken as exact".
     pub noise: String,
     /// The number of images making up this side.
     pub images: usize,

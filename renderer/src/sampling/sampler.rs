@@ -33,7 +33,7 @@ const KEYS: usize = 16;
 /// sampler. A larger R would tighten σ̂ but leave fewer points in each replicate, and a replicate's
 /// points are where the QMC gain comes from (at n spp each replicate is a net of n / R points; the
 /// variance cost against one sequence of n points is measured in the guide, "Error bars").
-pub const REPLICATES: u32 = 16;
+pub const REPLICATES: u32 = vocab::closed::SOBOL_REPLICATES;
 
 /// Mixed into the pixel key to derive a replicate's key (keeps them apart from the draws' keys).
 const REPLICATE_SALT: u64 = 0x5EED_0F5C_4A3B_1E00;
