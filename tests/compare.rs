@@ -306,6 +306,35 @@ fn cli_exit_status_json_and_report() {
     assert!(err.contains("only 3 seeds"), "{err}");
 }
 
+/// An image in pbrt-v4's axes (columns mirrored, the camera in `worldToNDC`/`worldToCamera` of a
+/// left-handed LookAt) compares with ours as the same picture: `compare` mirrors it back and says
+/// so. The same mirrored pixels without the matrices are a different picture (exit 1): the check
+/// that the mirroring, not a lenient test, makes the pair agree.
+#[test]
+fn pbrt_axes_are_mirrored_before_comparing() {
+    let dir = temp_dir("compare-pbrt-axes");
+    let map = write_map(&dir);
+    let a = render_to(&dir, "a", &scene_toml(&map, 41, 1.0, 0.0, SIZE));
+    let mut b = load(&render_to(&dir, "b", &scene_toml(&map, 42, 1.0, 0.0, SIZE)));
+    b.attributes.retain(|k, _| !k.starts_with("reflect:"));
+    for data in b.channels.values_mut() {
+        data.chunks_exact_mut(SIZE).for_each(|row| row.reverse());
+    }
+    let bare = save(&dir, "b-mirrored", &b);
+    let (cam, ndc) = common::pbrt_matrices([3.0, 0.0, 1.0], [0.0; 3], [0.0, 0.0, 1.0], 1.05);
+    b.matrices.insert("worldToCamera".into(), cam);
+    b.matrices.insert("worldToNDC".into(), ndc);
+    let pbrt = save(&dir, "b-pbrt", &b);
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let (code, out, err) = reflect_out(&["compare", &s(&a), &s(&pbrt)]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(err.contains("b-pbrt.exr: the worldToNDC camera sees the mirror image of ours"), "{err}");
+    assert!(err.contains("columns mirrored before comparing"), "{err}");
+    let (code, out, err) = reflect_out(&["compare", &s(&a), &s(&bare)]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(!err.contains("mirror"), "{err}");
+}
+
 /// Bad input: exit 2 and one `error:` line naming the file and the problem, nothing written.
 #[test]
 fn cli_bad_input() {

@@ -103,40 +103,6 @@ fn assert_filter_right(doc: &Value, what: &str) {
     }
 }
 
-/// pbrt-v4's `worldToCamera` and `worldToNDC` for an orthographic LookAt camera (column vectors,
-/// stored row by row): camera x = normalize(up × dir) (pbrt's left-handed LookAt), y = dir × x,
-/// z = dir; NDC = ½ screen + ½ with screen = camera xy / extent, z over [0, 10].
-fn pbrt_matrices(from: [f64; 3], to: [f64; 3], up: [f64; 3], extent: f64) -> ([f32; 16], [f32; 16]) {
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let unit = |a: [f64; 3]| {
-        let n = dot(a, a).sqrt();
-        [a[0] / n, a[1] / n, a[2] / n]
-    };
-    let dir = unit(sub(to, from));
-    let x = unit(cross(up, dir));
-    let y = cross(dir, x);
-    let rows = [x, y, dir];
-    let mut cam = [0f32; 16];
-    let mut ndc = [0f32; 16];
-    let (sx, sz) = (0.5 / extent, 0.5 / 10.0);
-    for (i, r) in rows.iter().enumerate() {
-        let t = -dot(*r, from);
-        let (s, o) = if i < 2 { (sx, 0.5) } else { (sz, 0.5) };
-        for j in 0..3 {
-            cam[4 * i + j] = r[j] as f32;
-            ndc[4 * i + j] = (s * r[j]) as f32;
-        }
-        cam[4 * i + 3] = t as f32;
-        ndc[4 * i + 3] = (s * t + o) as f32;
-    }
-    cam[15] = 1.0;
-    ndc[15] = 1.0;
-    (cam, ndc)
-}
-
 #[test]
 fn lambert_filter_from_foreign_images() {
     let dir = temp_dir("foreign-lambert");

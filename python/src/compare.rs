@@ -111,7 +111,10 @@ pub fn compare<'py>(
         })?;
         let read = || -> Result<Image, analysis::Error> {
             let (img, _notes) = renderer::render_file::read_image_notes(&p)?;
-            Ok(img.select_layer(layer.as_deref()).map_err(|e| e.in_file(&p))?.0)
+            let mut img = img.select_layer(layer.as_deref()).map_err(|e| e.in_file(&p))?.0;
+            // pbrt-v4's image axes brought to ours, as the CLI does.
+            reflect::cli::compare::to_our_image_axes(&mut img);
+            Ok(img)
         };
         match py.detach(read) {
             Ok(img) => imgs.push(img),

@@ -63,8 +63,11 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
     let mut notes = Vec::new();
     for p in &paths {
         let (img, n) = renderer::render_file::read_image_notes(p)?;
-        let (img, note) = img.select_layer(a.layer.as_deref()).map_err(|e| e.in_file(p))?;
+        let (mut img, note) = img.select_layer(a.layer.as_deref()).map_err(|e| e.in_file(p))?;
         notes.extend(n.into_iter().chain(note).map(|n| format!("note: {}: {n}", p.display())));
+        if let Some(n) = to_our_image_axes(&mut img) {
+            notes.push(format!("note: {}: {n}", p.display()));
+        }
         images.push(img);
     }
     let params = CompareParams { alpha: a.alpha, block: a.block, exclude_edges: a.exclude_edges };
@@ -92,6 +95,28 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
         Verdict::Agree => ExitCode::SUCCESS,
         Verdict::Disagree => ExitCode::from(1),
     })
+}
+
+/// Brings an image whose `worldToNDC` camera sees the mirror image of ours (pbrt-v4's left-handed
+/// LookAt) to our image axes by mirroring its columns, as `analyze` does
+/// ([`super::header::camera_of_matrices`]), so that a pbrt image compares pixel for pixel with ours.
+/// Returns the note to print: the mirroring, or why the matrices were not used (a perspective or
+/// skewed `worldToNDC` says nothing `compare` can use about the axes, and the images are compared
+/// as they are).
+pub fn to_our_image_axes(img: &mut Image) -> Option<String> {
+    match super::header::camera_of_matrices(img) {
+        Ok(Some((_, true))) => {
+            for data in img.channels.values_mut() {
+                data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
+            }
+            Some(
+                "the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored before comparing"
+                    .to_string(),
+            )
+        }
+        Ok(_) => None,
+        Err(e) => Some(format!("worldToNDC not used to check the image axes ({e}); compared as stored")),
+    }
 }
 
 /// A [`CompareError`] as the CLI's one-line error, naming the file it is about.

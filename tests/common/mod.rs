@@ -234,3 +234,31 @@ pub fn microfacet(ggx: bool, alpha: f64, height_correlated: bool) -> impl Fn([f6
         d * g / (4.0 * wo[2])
     }
 }
+
+/// pbrt-v4's `worldToCamera` and `worldToNDC` for an orthographic LookAt camera (column vectors,
+/// stored row by row): camera x = normalize(up × dir) (pbrt's left-handed LookAt), y = dir × x,
+/// z = dir; NDC = ½ screen + ½ with screen = camera xy / extent, z over [0, 10]. An image made
+/// through it is our image of the same camera with its columns mirrored.
+pub fn pbrt_matrices(from: [f64; 3], to: [f64; 3], up: [f64; 3], extent: f64) -> ([f32; 16], [f32; 16]) {
+    use glam::DVec3;
+    let from = DVec3::from(from);
+    let dir = (DVec3::from(to) - from).normalize();
+    let x = DVec3::from(up).cross(dir).normalize();
+    let y = dir.cross(x);
+    let mut cam = [0f32; 16];
+    let mut ndc = [0f32; 16];
+    let (sx, sz) = (0.5 / extent, 0.5 / 10.0);
+    for (i, r) in [x, y, dir].iter().enumerate() {
+        let t = -r.dot(from);
+        let s = if i < 2 { sx } else { sz };
+        for j in 0..3 {
+            cam[4 * i + j] = r[j] as f32;
+            ndc[4 * i + j] = (s * r[j]) as f32;
+        }
+        cam[4 * i + 3] = t as f32;
+        ndc[4 * i + 3] = (s * t + 0.5) as f32;
+    }
+    cam[15] = 1.0;
+    ndc[15] = 1.0;
+    (cam, ndc)
+}
