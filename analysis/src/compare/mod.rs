@@ -35,7 +35,8 @@
 //! exposure or scale difference leaves the blocks agreeing once divided out), and, where an image
 //! has a coverage layer (`mask.Y`, else an alpha channel `A`), the pixel χ²/ν on the silhouette
 //! against the interior (a box against a Gaussian film differs at the silhouette: guide "Comparing
-//! two renderers", "Pixel filters").
+//! two renderers", "Pixel filters"), and the curvature fit A − B = c ∇² away from the silhouette
+//! ([`CurvatureFit`]: one image blurred relative to the other, as a wider pixel filter makes it).
 
 mod estimate;
 mod statistics;
@@ -214,6 +215,30 @@ pub struct EdgeSummary {
     pub interior_chi2_nu: f64,
 }
 
+/// The curvature diagnostic of one channel: the weighted least-squares fit A − B = c ∇²M over the
+/// compared pixels away from the silhouette, with M = (A + B)/2 and ∇² its discrete Laplacian
+/// taken from the 8 neighbours only (diagonals minus the 4-neighbours, h² ∇² for a smooth image),
+/// so that the regressor holds none of the pixel's own noise. A pixel filter of variance s² per
+/// axis makes an image I + (s²/2) ∇²I to second order, so two filters differ by
+/// c = (s_A² − s_B²)/2 px²: a box pixel has s² = 1/12, Mitsuba 3's and pbrt-v4's default Gaussian
+/// film s² ≈ 0.25, so c ≈ −0.083 px² when B is the Gaussian film (noise in ∇²M shrinks the fitted
+/// c towards 0).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CurvatureFit {
+    pub channel: String,
+    /// c in px².
+    pub c: f64,
+    /// Its standard error (from the pixels' variances).
+    pub stderr: f64,
+    /// c / stderr: the χ² the fit removes is z².
+    pub z: f64,
+    /// The share of the channel's excess pixel χ² (χ² − ν) that z² explains, in [0, 1]; 0 without
+    /// an excess.
+    pub explained: f64,
+    /// Pixels in the fit.
+    pub pixels: usize,
+}
+
 /// How one side's noise was estimated.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SideSummary {
@@ -255,6 +280,9 @@ pub struct CompareReport {
     pub pixels: PixelSummary,
     pub blocks: BlockSummary,
     pub edges: Option<EdgeSummary>,
+    /// The curvature diagnostic per channel ([`CurvatureFit`]): one image blurred relative to the
+    /// other (a different pixel filter) shows as differences that follow ∇² of the image.
+    pub curvature: Vec<CurvatureFit>,
     pub histogram: Histogram,
     pub warnings: Vec<String>,
     /// Per pixel, the z of the channel sum (R + G + B), NaN where not compared; row-major.
@@ -489,6 +517,14 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
         EdgeSummary { pixels: epx, chi2_nu: e2 / en.max(1) as f64, interior_chi2_nu: i2 / inn.max(1) as f64 }
     });
 
+    // The curvature diagnostic, away from the silhouette (whose jump dominates any Laplacian).
+    let curvature: Vec<CurvatureFit> = (0..3)
+        .filter_map(|c| {
+            let excess = pchi2[c] - pnu[c] as f64;
+            curvature_fit(&ea, &eb, &idx, band.as_deref(), c, excess)
+        })
+        .collect();
+
     // The family of tests and the verdict.
     let mut tests: Vec<TestResult> = scale
         .iter()
@@ -517,7 +553,7 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
         t.rejected = t.p < alpha_per_test;
     }
     let disagree = tests.iter().any(|t| t.rejected) || exact_differing > 0;
-    let reason = reason(&tests, &scale, &pixels, &blocks, edges.as_ref(), params, alpha_per_test);
+    let reason = reason(&tests, &scale, &pixels, &blocks, edges.as_ref(), &curvature, params, alpha_per_test);
     let histogram = histogram(&scores);
     Ok(CompareReport {
         verdict: if disagree { Verdict::Disagree } else { Verdict::Agree },
@@ -533,6 +569,7 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
         pixels,
         blocks,
         edges,
+        curvature,
         histogram,
         warnings,
         z_map,
@@ -541,12 +578,14 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
 }
 
 /// The verdict's one line: the rejecting tests, most significant first, with the likely cause.
+#[allow(clippy::too_many_arguments)] // the report's parts, each read once
 fn reason(
     tests: &[TestResult],
     scale: &[ScaleResult],
     pixels: &PixelSummary,
     blocks: &BlockSummary,
     edges: Option<&EdgeSummary>,
+    curvature: &[CurvatureFit],
     params: &CompareParams,
     alpha_per_test: f64,
 ) -> String {
@@ -560,6 +599,8 @@ fn reason(
     }
     rejected.sort_by(|x, y| x.p.total_cmp(&y.p));
     let mut parts: Vec<String> = Vec::new();
+    // Named once, at the most significant channel it explains.
+    let mut curvature_named = false;
     if pixels.exact_differing > 0 {
         parts.push(format!("{} pixel values with zero error bars on both sides differ", pixels.exact_differing));
     }
@@ -600,6 +641,22 @@ fn reason(
                         e.chi2_nu, e.pixels, e.interior_chi2_nu
                     ));
                 }
+                if !curvature_named
+                    && let Some(f) = curvature.iter().find(|f| f.channel == t.name[7..])
+                    && f.z.abs() > crate::special::sidak_k(3, params.alpha)
+                    && f.explained >= 0.25
+                {
+                    curvature_named = true;
+                    let (smoother, sharper) = if f.c < 0.0 { ("B", "A") } else { ("A", "B") };
+                    s.push_str(&format!(
+                        ", and the differences follow the image's curvature (A − B = c ∇², away from any silhouette: c = {:+.3} ± {:.3} px², z {:+.1}, {:.0} % of the excess χ²): {smoother} is smoother than {sharper}, as a wider pixel filter makes it (a Gaussian film of σ 0.5 px against a box gives c ≈ {}0.083 px²); render both with the same filter",
+                        f.c,
+                        f.stderr,
+                        f.z,
+                        100.0 * f.explained,
+                        if f.c < 0.0 { "−" } else { "+" }
+                    ));
+                }
                 parts.push(s);
             }
             "blocks" => parts.push(format!(
@@ -615,6 +672,57 @@ fn reason(
         }
     }
     format!("{} (each test at level {alpha_per_test:.3e}, family-wise α = {})", parts.join("; "), params.alpha)
+}
+
+/// The [`CurvatureFit`] of channel `c` over the compared pixels `idx` outside the silhouette band
+/// whose 8 neighbours are all compared; `None` with fewer than 16 such pixels or no curvature.
+fn curvature_fit(
+    ea: &Estimate,
+    eb: &Estimate,
+    idx: &[usize],
+    band: Option<&[bool]>,
+    c: usize,
+    excess: f64,
+) -> Option<CurvatureFit> {
+    let (w, h) = (ea.width, ea.height);
+    let mut used = vec![false; w * h];
+    idx.iter().for_each(|&i| used[i] = true);
+    let m = |i: usize| 0.5 * (ea.mean[i][c] + eb.mean[i][c]);
+    let (mut sxy, mut sxx, mut count) = (0.0f64, 0.0f64, 0usize);
+    for &i in idx {
+        let (y, x) = (i / w, i % w);
+        if y == 0 || x == 0 || y + 1 >= h || x + 1 >= w || band.is_some_and(|b| b[i]) {
+            continue;
+        }
+        let ring = [i - w - 1, i - w, i - w + 1, i - 1, i + 1, i + w - 1, i + w, i + w + 1];
+        if !ring.iter().all(|&j| used[j]) {
+            continue;
+        }
+        let var = ea.var[i][c] + eb.var[i][c];
+        if !(var > 0.0) {
+            continue;
+        }
+        let diagonal = m(i - w - 1) + m(i - w + 1) + m(i + w - 1) + m(i + w + 1);
+        let cross = m(i - w) + m(i - 1) + m(i + 1) + m(i + w);
+        let lap = diagonal - cross;
+        let d = ea.mean[i][c] - eb.mean[i][c];
+        sxy += d * lap / var;
+        sxx += lap * lap / var;
+        count += 1;
+    }
+    if count < 16 || !(sxx > 0.0) {
+        return None;
+    }
+    let (coef, stderr) = (sxy / sxx, sxx.sqrt().recip());
+    let z = coef / stderr;
+    Some(CurvatureFit {
+        channel: CHANNELS[c].to_string(),
+        c: coef,
+        stderr,
+        z,
+        explained: if excess > 0.0 { (z * z / excess).min(1.0) } else { 0.0 },
+        pixels: count,
+    })
 }
 
 /// Pixels on the silhouette of a coverage layer: partial coverage (0.01 < m < 0.99), or a
