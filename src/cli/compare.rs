@@ -99,16 +99,14 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
 
 /// Brings an image whose `worldToNDC` camera sees the mirror image of ours (pbrt-v4's left-handed
 /// LookAt) to our image axes by mirroring its columns, as `analyze` does
-/// ([`super::header::camera_of_matrices`]), so that a pbrt image compares pixel for pixel with ours.
-/// Returns the note to print: the mirroring, or why the matrices were not used (a perspective or
-/// skewed `worldToNDC` says nothing `compare` can use about the axes, and the images are compared
-/// as they are).
+/// ([`analysis::projection::camera_of_matrices`]), so that a pbrt image compares pixel for pixel
+/// with ours. Returns the note to print: the mirroring, or why the matrices were not used (a
+/// perspective or skewed `worldToNDC` says nothing `compare` can use about the axes, and the images
+/// are compared as they are).
 pub fn to_our_image_axes(img: &mut Image) -> Option<String> {
-    match super::header::camera_of_matrices(img) {
-        Ok(Some((_, true))) => {
-            for data in img.channels.values_mut() {
-                data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
-            }
+    match analysis::projection::camera_of_matrices(img) {
+        Ok(Some(m)) if m.mirrored => {
+            analysis::projection::mirror_columns(img);
             Some(
                 "the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored before comparing"
                     .to_string(),

@@ -19,7 +19,7 @@ use super::Error;
 use super::args::{BrdfFlags, CameraFlags, ViewArgs};
 use analysis::image::Image;
 use analysis::lighting::Lighting;
-use analysis::projection::{Mapping, OrthoCamera, Sphere};
+use analysis::projection::{Mapping, OrthoCamera, Sphere, camera_of_matrices, mirror_columns};
 use analysis::transfer::{BrdfTransfer, ParamValue, TransferModel};
 use renderer::render_file::read_image_notes;
 use std::path::{Path, PathBuf};
@@ -106,40 +106,9 @@ pub(crate) fn close(a: f64, b: f64, scale: f64) -> bool {
     (a - b).abs() <= AGREE * scale.max(a.abs()).max(b.abs()).max(1.0)
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn unit(a: [f64; 3]) -> [f64; 3] {
-    let n = dot(a, a).sqrt();
-    if n > 0.0 { [a[0] / n, a[1] / n, a[2] / n] } else { a }
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-/// Two orthographic cameras make the same image (docs/src/conventions.md §5) when their forward and right
-/// vectors, extents and the line through the image centre agree: `from` may slide along the view
-/// direction and `up` may tilt within the plane of forward and up', as neither changes a ray.
-pub fn same_view(a: &OrthoCamera, b: &OrthoCamera) -> bool {
-    let (fa, fb) = (unit(sub(a.to, a.from)), unit(sub(b.to, b.from)));
-    let (ra, rb) = (unit(cross(fa, a.up)), unit(cross(fb, b.up)));
-    let d = sub(a.from, b.from);
-    let along = dot(d, fa);
-    let perp = sub(d, [fa[0] * along, fa[1] * along, fa[2] * along]);
-    let s = a.extent.abs().max(b.extent.abs());
-    (0..3).all(|i| close(fa[i], fb[i], 1.0) && close(ra[i], rb[i], 1.0) && close(perp[i], 0.0, s))
-        && close(a.extent, b.extent, s)
-}
-
 fn same_camera(a: &Camera, b: &Camera) -> bool {
     match (a, b) {
-        (Camera::Ortho(x), Camera::Ortho(y)) => same_view(x, y),
+        (Camera::Ortho(x), Camera::Ortho(y)) => x.same_view(y),
         (
             Camera::NormalProbe { theta_o_deg: t1, phi_o_deg: p1 },
             Camera::NormalProbe { theta_o_deg: t2, phi_o_deg: p2 },
@@ -215,7 +184,7 @@ struct SphereShown(Sphere);
 /// Reads the images of an analysis command and describes them ([`describe`]): each image's radiance
 /// layer is chosen by `view.image.layer` ([`Image::select_layer`]; a note on stderr names the layer taken
 /// and the layers ignored), and a camera recovered from the standard `worldToNDC` / `worldToCamera`
-/// attributes ([`camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
+/// attributes ([`analysis::projection::camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
 /// image of ours has its columns mirrored here, once, for every command. An orthographic camera not
 /// from the image's own `reflect:camera` is checked against the sphere's silhouette
 /// ([`super::pixels::check_silhouette`]: a mismatch is an error; an image with nothing to check
@@ -250,9 +219,7 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
     }
     for ((img, p), mirrored) in images.iter_mut().zip(paths).zip(&d.mirrored) {
         if *mirrored {
-            for data in img.channels.values_mut() {
-                data.chunks_exact_mut(img.width).for_each(|row| row.reverse());
-            }
+            mirror_columns(img);
             notes.push(format!(
                 "note: {}: the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored",
                 p.display()
@@ -408,7 +375,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             .camera
             .as_ref()
             .map(|c| Camera::of_section(c, what).map(|c| (c, "the header's reflect:camera".to_string())));
-        let matrix = camera_of_matrices(img).map_err(in_p)?;
+        let matrix = camera_of_matrices(img).map_err(in_p)?.map(|m| (m.camera, m.mirrored));
         if let Some((c, _)) = &matrix {
             notes.push(format!(
                 "note: {}: camera from the worldToNDC{} attributes: {}",
@@ -484,7 +451,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], view: &ViewArgs, what: &str
             }
             (Some((Camera::Ortho(b), src)), None) if f.ortho_given() => {
                 let c = flags_over(f, &b);
-                if !same_view(&c, &b) {
+                if !c.same_view(&b) {
                     return Err(Error::file(
                         p,
                         format!(
@@ -759,90 +726,6 @@ pub fn lighting_of(
         }
         None => Ok(None),
     }
-}
-
-/// The orthographic camera of the standard OpenEXR attributes `worldToNDC` and (optionally)
-/// `worldToCamera` (m44f), as pbrt-v4 writes them: each the 4 × 4 matrix M with p' = M (p, 1)ᵀ
-/// (column vectors, M stored row by row; a matrix stored the other way round, Imath's row-vector
-/// convention with the translation in the last row, is transposed). NDC x ∈ [0, 1] runs left to
-/// right over the image, NDC y ∈ [0, 1] bottom to top, NDC z grows away from the camera (pbrt-v4's
-/// NDCFromWorld = Translate(½, ½, ½) · Scale(½, ½, ½) · screenFromWorld).
-///
-/// An orthographic camera maps world points affinely: ndc_x = a_x·p + b_x, ndc_y = a_y·p + b_y, so
-/// (docs/src/conventions.md §5) right = a_x/|a_x|, up' = a_y/|a_y|, extent = 1/(2|a_x|), forward f = right ×
-/// up'... taken from `worldToCamera` (camera +z) or NDC z when given, and the centre ray through the
-/// point where ndc = (½, ½). A camera whose forward is up' × right instead sees the mirror image of
-/// ours: `Ok(Some((camera, true)))` then asks the caller to mirror the image's columns.
-///
-/// `Ok(None)`: no `worldToNDC`. Errors: a projective (perspective) matrix, skewed axes or pixels that
-/// are not square, each said in words.
-pub fn camera_of_matrices(img: &Image) -> Result<Option<(OrthoCamera, bool)>, Error> {
-    let Some(ndc) = img.matrices.get("worldToNDC") else { return Ok(None) };
-    let m = column_convention(ndc);
-    let row = |i: usize| [m[4 * i] as f64, m[4 * i + 1] as f64, m[4 * i + 2] as f64];
-    let w_row = [m[12] as f64, m[13] as f64, m[14] as f64, m[15] as f64];
-    if w_row[0].abs() + w_row[1].abs() + w_row[2].abs() > 1e-6 * w_row[3].abs().max(1e-30) {
-        return Err(Error::new(
-            "worldToNDC is a perspective projection (its last row is not (0, 0, 0, 1)); the analysis models orthographic views only: render the sphere with an orthographic camera",
-        ));
-    }
-    let s = w_row[3];
-    let (ax, ay, az) = (scale(row(0), 1.0 / s), scale(row(1), 1.0 / s), scale(row(2), 1.0 / s));
-    let (bx, by) = (m[3] as f64 / s, m[7] as f64 / s);
-    let (nx, ny) = (dot(ax, ax).sqrt(), dot(ay, ay).sqrt());
-    if !(nx > 0.0 && ny > 0.0) || dot(ax, ay).abs() > 1e-4 * nx * ny {
-        return Err(Error::new("worldToNDC: the image's x and y axes are not perpendicular in the world"));
-    }
-    let (w, h) = (img.width as f64, img.height as f64);
-    // Square pixels: |a_y| / |a_x| = W / H.
-    if ((ny / nx) - w / h).abs() > 1e-4 * (w / h) {
-        return Err(Error::new(format!(
-            "worldToNDC: pixels are not square ({}×{} image, NDC scales {nx} and {ny} per world unit)",
-            img.width, img.height
-        )));
-    }
-    let right = scale(ax, 1.0 / nx);
-    let up = scale(ay, 1.0 / ny);
-    let extent = 1.0 / (2.0 * nx);
-    let ours = cross(up, right); // forward of a camera that sees the image as ours does: right = f × up'
-    // The direction the camera looks: worldToCamera's +z row, else NDC z growing with depth.
-    let look = match img.matrices.get("worldToCamera") {
-        Some(c) => {
-            let c = column_convention(c);
-            [c[8] as f64, c[9] as f64, c[10] as f64]
-        }
-        None => az,
-    };
-    let along = dot(look, ours);
-    let mirrored = along < 0.0;
-    let f = if mirrored { scale(ours, -1.0) } else { ours };
-    // The image centre (ndc ½, ½) on the plane spanned by a_x, a_y; `to` is the point of the central
-    // ray nearest the world origin (where a scene's sphere usually is) and `from` 4 extents before it
-    // (outside a sphere the view frames). An orthographic view does not depend on where `from` lies
-    // on its axis; this only makes the camera the notes print read like one a user would write.
-    let p0 = add(scale(ax, (0.5 - bx) / (nx * nx)), scale(ay, (0.5 - by) / (ny * ny)));
-    let to = add(p0, scale(f, -dot(p0, f)));
-    let from = add(to, scale(f, -4.0 * extent.max(1.0)));
-    // A mirrored camera: the caller flips the columns, so the image's right is −right.
-    let right_used = if mirrored { scale(right, -1.0) } else { right };
-    debug_assert!(dot(cross(f, up), right_used) > 0.0);
-    Ok(Some((OrthoCamera { from, to, up, extent }, mirrored)))
-}
-
-/// `m` in the column-vector convention (translation in the last column): a matrix whose last
-/// column is (0, 0, 0, 1) and whose last row is not (Imath's row-vector layout) is transposed.
-fn column_convention(m: &[f32; 16]) -> [f32; 16] {
-    let last_col_unit = m[3] == 0.0 && m[7] == 0.0 && m[11] == 0.0 && m[15] != 0.0;
-    let last_row_unit = m[12] == 0.0 && m[13] == 0.0 && m[14] == 0.0;
-    if last_col_unit && !last_row_unit { std::array::from_fn(|k| m[(k % 4) * 4 + k / 4]) } else { *m }
-}
-
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
 }
 
 /// The order up to which [`same_lighting`] compares two lightings' L_lm.

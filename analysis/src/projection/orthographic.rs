@@ -45,6 +45,23 @@ impl OrthoCamera {
             normalize(f.cross(up)).ok_or_else(|| Error::new("camera 'up' is parallel to the view direction"))?;
         Ok([f.to_array(), right.to_array(), right.cross(f).to_array()])
     }
+
+    /// Whether two cameras make the same image (docs/src/conventions.md §5): the same forward and
+    /// right vectors, extent and line through the image centre, to the relative precision 1e-5 of
+    /// values stored as f32 (headers). `from` may slide along the view direction and `up` tilt
+    /// within the plane of forward and up', as neither changes a ray. A degenerate camera (no
+    /// basis) is the same as no other.
+    pub fn same_view(&self, other: &OrthoCamera) -> bool {
+        const AGREE: f64 = 1e-5;
+        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= AGREE * scale.max(a.abs()).max(b.abs()).max(1.0);
+        let (Ok([fa, ra, _]), Ok([fb, rb, _])) = (self.basis(), other.basis()) else { return false };
+        let (fa, fb, ra, rb) = (DVec3::from(fa), DVec3::from(fb), DVec3::from(ra), DVec3::from(rb));
+        let d = DVec3::from(self.from) - DVec3::from(other.from);
+        let perp = d - fa * d.dot(fa);
+        let s = self.extent.abs().max(other.extent.abs());
+        (0..3).all(|i| close(fa[i], fb[i], 1.0) && close(ra[i], rb[i], 1.0) && close(perp[i], 0.0, s))
+            && close(self.extent, other.extent, s)
+    }
 }
 
 /// A sphere in world space.
