@@ -111,7 +111,11 @@ pub fn compare<'py>(
         })?;
         let read = || -> Result<Image, analysis::Error> {
             let (img, _notes) = renderer::render_file::read_image_notes(&p)?;
-            Ok(img.select_layer(layer.as_deref()).map_err(|e| e.in_file(&p))?.0)
+            let mut img = img.select_layer(layer.as_deref()).map_err(|e| e.in_file(&p))?.0;
+            // As `reflect compare`: flagged pixels are compared with the error bars near them
+            // bounded.
+            reflect::cli::header::bound_near_flags(&mut img);
+            Ok(img)
         };
         match py.detach(read) {
             Ok(img) => imgs.push(img),

@@ -63,8 +63,11 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
     let mut notes = Vec::new();
     for p in &paths {
         let (img, n) = renderer::render_file::read_image_notes(p)?;
-        let (img, note) = img.select_layer(a.layer.as_deref()).map_err(|e| e.in_file(p))?;
+        let (mut img, note) = img.select_layer(a.layer.as_deref()).map_err(|e| e.in_file(p))?;
         notes.extend(n.into_iter().chain(note).map(|n| format!("note: {}: {n}", p.display())));
+        // Flagged pixels are compared, with the error bars near them bounded as every analysis
+        // reads a render (leaving them out would select on the image's values).
+        super::header::bound_near_flags(&mut img);
         images.push(img);
     }
     let params = CompareParams { alpha: a.alpha, block: a.block, exclude_edges: a.exclude_edges };
