@@ -550,6 +550,7 @@ mod tests {
             view: ViewArgs::default(),
             brdf: BrdfFlags::default(),
             json: true,
+            no_diagnosis: false,
         }
     }
 

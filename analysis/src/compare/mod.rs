@@ -101,9 +101,7 @@ pub enum CompareError {
         "exclude_edges needs a coverage layer (mask.Y or an alpha channel A) in A or B to find the silhouette; neither has one"
     )]
     NoMask,
-    #[error(
-        "no pixel is left to compare ({no_estimate} without estimate, {edges} near the silhouette)"
-    )]
+    #[error("no pixel is left to compare ({no_estimate} without estimate, {edges} near the silhouette)")]
     NoPixels { no_estimate: usize, edges: usize },
     #[error("{0}")]
     BadParam(String),
