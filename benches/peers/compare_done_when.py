@@ -142,7 +142,6 @@ def compare(args, a, b, seeds=(), extra=()):
     if rc == 2:
         return rc, err.strip().splitlines()[-1] if err.strip() else "exit 2", None
     d = json.loads(out)
-    scale = [t for t in d["tests"] if t["name"].startswith("scale")]
     return rc, d["reason"], d
 
 
