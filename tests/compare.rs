@@ -337,7 +337,7 @@ fn pbrt_axes_are_mirrored_before_comparing() {
 
 /// An image with a constant error layer `sigma` of `f` over a 128² grid plus seeded Gaussian noise
 /// of that σ (`noise_seed` None: no noise).
-fn synthetic(f: &dyn Fn(f64, f64) -> f64, sigma: f32, noise_seed: Option<u64>) -> Image {
+fn synthetic_noisy(f: &dyn Fn(f64, f64) -> f64, sigma: f32, noise_seed: Option<u64>) -> Image {
     let n = 128usize;
     let mut state = noise_seed.unwrap_or(0).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     let mut uniform = move || {
@@ -388,8 +388,8 @@ fn a_blurred_image_is_named_by_its_curvature() {
     };
     let s2: f64 = (-2..=2i64).map(|k| weight(k) * (k * k) as f64).sum::<f64>() / norm;
     assert!((s2 - 0.2150).abs() < 1e-3, "{s2}");
-    let a = synthetic(&f, 1e-3, None);
-    let b = synthetic(&blurred, 1e-3, None);
+    let a = synthetic_noisy(&f, 1e-3, None);
+    let b = synthetic_noisy(&blurred, 1e-3, None);
     let r = compare(&a, &[b], &CompareParams::default()).unwrap();
     assert_eq!(r.verdict, Verdict::Disagree, "{}", r.reason);
     assert!(
@@ -403,8 +403,8 @@ fn a_blurred_image_is_named_by_its_curvature() {
         assert!(fit.explained > 0.9, "{fit:?}");
     }
     // Noise only: agreement, and no curvature named.
-    let a = synthetic(&f, 1e-3, Some(1));
-    let b = synthetic(&f, 1e-3, Some(2));
+    let a = synthetic_noisy(&f, 1e-3, Some(1));
+    let b = synthetic_noisy(&f, 1e-3, Some(2));
     let r = compare(&a, &[b], &CompareParams::default()).unwrap();
     assert_eq!(r.verdict, Verdict::Agree, "{}", r.reason);
     assert!(!r.reason.contains("curvature"), "{}", r.reason);
@@ -455,4 +455,96 @@ fn cli_bad_input() {
     let (code, err) = common::reflect(&["compare", &s(&z), &s(&a), "--report", &s(&inside)]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("never overwrites an input"), "{err}");
+}
+
+/// A deterministic N(0, 1) stream (splitmix64 and Box–Muller), so that the synthetic images below
+/// are the same on every run.
+fn normals(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    let mut next = move || {
+        s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = s;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    move || {
+        let (u, v) = (next().max(1e-300), next());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+/// An image of `n` × `n` pixels from per-pixel (value, σ) of one grey channel copied to R, G, B.
+fn synthetic(n: usize, mut px: impl FnMut(usize) -> (f64, f64)) -> Image {
+    let mut img = Image { width: n, height: n, ..Default::default() };
+    let (v, s): (Vec<f32>, Vec<f32>) = (0..n * n).map(&mut px).map(|(v, s)| (v as f32, s as f32)).unzip();
+    for c in ["R", "G", "B"] {
+        img.channels.insert(c.into(), v.clone());
+        img.channels.insert(format!("stderr.{c}"), s.clone());
+    }
+    img
+}
+
+/// Pixels flagged on one side only (our render against another renderer's, which has no flag
+/// layer) are compared, not left out. The flag follows the pixel's own luck: on Lambert under
+/// Grace at 512², 64 spp, our flagged pixels were 13–29 % darker than Mitsuba's and leaving them
+/// out made every correct pair disagree on the scale (A/B +0.6–0.8 %, 12–15σ). Synthetic, the same
+/// selection: 256² pixels of truth 1; A's unflagged pixels read +0.5 % (σ 5 %), every fifth pixel
+/// is flagged and reads −2 % (σ 20 %), so A's mean is right and its pixels are within their bars
+/// (|bias| ≤ 0.1σ each); B is unflagged truth with σ 5 %. Comparing all pixels: the scale z is
+/// N(0, 1) and the verdict agrees (a fixed seed; the bias of the flag selection is 0.5 % ≈ 18σ of
+/// the scale, so leaving the flagged pixels out fails: checked by planting that back).
+#[test]
+fn pixels_flagged_on_one_side_are_compared() {
+    let n = 256;
+    let flagged = |i: usize| i % 5 == 2;
+    let mut ga = normals(7);
+    let mut a = synthetic(n, |i| {
+        let (bias, s) = if flagged(i) { (-0.02, 0.2) } else { (0.005, 0.05) };
+        (1.0 + bias + s * ga(), s)
+    });
+    a.channels.insert("stderr_flag.Y".into(), (0..n * n).map(|i| if flagged(i) { 1.0 } else { 0.0 }).collect());
+    let mut gb = normals(8);
+    let b = synthetic(n, |_| (1.0 + 0.05 * gb(), 0.05));
+    let r = compare(&a, &[b], &CompareParams::default()).unwrap();
+    let scale = r.tests.iter().find(|t| t.name == "scale R").unwrap();
+    assert!(scale.statistic.abs() < 4.0, "scale z {} (the flag selection's bias is about 18σ)", scale.statistic);
+    assert_eq!(r.verdict, Verdict::Agree, "{}", r.reason);
+    assert_eq!(r.pixels.compared, n * n, "every pixel compared");
+    assert_eq!(r.pixels.flagged, n * n / 5 + usize::from((n * n) % 5 > 2), "flagged pixels counted");
+}
+
+/// Another renderer's error layer with its degrees of freedom stated in `reflect:stderr_dof`:
+/// both sides' σ from the spread of 4 replicate images (3 degrees of freedom), 128² pixels. The
+/// z are then Student t of Welch's ν ≈ 6, not N(0, 1): taken as exact, u² has mean ≈ 1.5 and the
+/// pixel χ² rejects the correct pair (checked by planting the attribute's name wrong); with the
+/// attribute they agree. A malformed value is bad input naming the attribute.
+#[test]
+fn stated_stderr_dof_of_another_renderer() {
+    let n = 128;
+    let replicate_image = |seed: u64| {
+        let mut g = normals(seed);
+        synthetic(n, |_| {
+            let r: Vec<f64> = (0..4).map(|_| 1.0 + 0.1 * g()).collect();
+            let m = r.iter().sum::<f64>() / 4.0;
+            let s2 = r.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 3.0;
+            (m, (s2 / 4.0).sqrt())
+        })
+    };
+    let (mut a, mut b) = (replicate_image(11), replicate_image(12));
+    for img in [&mut a, &mut b] {
+        img.attributes.insert(vocab::header::STDERR_DOF.into(), "3".into());
+    }
+    let r = compare(&a, std::slice::from_ref(&b), &CompareParams::default()).unwrap();
+    assert_eq!(r.verdict, Verdict::Agree, "{}", r.reason);
+    assert!((r.pixels.chi2_nu - 1.0).abs() < 0.05, "pixel χ²/ν {}", r.pixels.chi2_nu);
+    let (mut a_exact, mut b_exact) = (a.clone(), b.clone());
+    a_exact.attributes.clear();
+    b_exact.attributes.clear();
+    let r = compare(&a_exact, &[b_exact], &CompareParams::default()).unwrap();
+    assert_eq!(r.verdict, Verdict::Disagree, "taken as exact σ, the t tails must show: {}", r.reason);
+    b.attributes.insert(vocab::header::STDERR_DOF.into(), "many".into());
+    let e = compare(&a, &[b], &CompareParams::default()).unwrap_err();
+    assert_eq!(e.input(), Some(1));
+    assert!(e.to_string().contains("reflect:stderr_dof is 'many'"), "{e}");
 }

@@ -188,6 +188,14 @@ fn analyze_flags_a_rotated_map_a_wrong_mapping_and_a_wrong_extent() {
                 .parse()
                 .unwrap();
             assert!((deg.abs() - rot).abs() <= 1.0, "{rot}°, {what}: {}", v["line"]);
+            // --no-diagnosis: the same test, and only the scale is tried.
+            let (fast, _) = analyze(&[img.to_str().unwrap(), "--lighting", told_s, "--lmax", "2", "--no-diagnosis"]);
+            let f = &fast["verdict"];
+            assert_eq!(status(&fast), "contradicts", "{rot}°, {what}, --no-diagnosis: {}", f["line"]);
+            assert_eq!(f["chi2"], v["chi2"], "{rot}°, {what}: --no-diagnosis changed the test");
+            let tried: Vec<&str> =
+                f["alternatives"].as_array().unwrap().iter().map(|a| a["assumption"].as_str().unwrap()).collect();
+            assert_eq!(tried, ["scale"], "{rot}°, {what}, --no-diagnosis: {}", f["line"]);
         }
         // Mitsuba's Gaussian film, headerless: the told scene as a sidecar.
         let g = gaussian_film(&dir, &format!("rot{rot}"), &lambert_scene(rot, 1.05, 2), 1e-5);

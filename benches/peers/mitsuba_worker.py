@@ -87,13 +87,18 @@ def corner_aligned(img, np):
     return out
 
 
-def mitsuba_scene(mi, np, name, size, spp, sampler, data, tmp):
-    """The Mitsuba scene of a reflect benchmark scene (see the module docstring)."""
+def mitsuba_scene(mi, np, name, size, spp, sampler, data, tmp, albedo=0.8, rotate_z_deg=0.0, rfilter="box",
+                  aligned=True):
+    """The Mitsuba scene of a reflect benchmark scene (see the module docstring). The keywords make the
+    deliberately wrong scenes of `compare_done_when.py`: another Lambert `albedo`, the map turned by
+    `rotate_z_deg` about +z (right-handed, in our frame), Mitsuba's default `rfilter="gaussian"`
+    instead of our box film, and `aligned=False` to hand Mitsuba the map unchanged (its corner-aligned
+    rows then shift it by half a texel in latitude)."""
     map_file, shape, bsdf = SCENES[name]
     T = mi.ScalarTransform4f
     img = np.array(mi.Bitmap(os.path.join(data, map_file)), dtype=np.float32)[:, :, :3]
     bsdfs = {
-        "diffuse": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.8}},
+        "diffuse": {"type": "diffuse", "reflectance": {"type": "rgb", "value": albedo}},
         "beckmann": {"type": "roughconductor", "distribution": "beckmann", "alpha": 0.2, "material": "none",
                      "specular_reflectance": {"type": "rgb", "value": 1.0}, "sample_visible": True},
     }
@@ -104,12 +109,13 @@ def mitsuba_scene(mi, np, name, size, spp, sampler, data, tmp):
         "sensor": {
             "type": "orthographic",
             "to_world": T().look_at(origin=[d, 0, 0.3 * d], target=[0, 0, 0], up=[0, 0, 1]) @ T().scale([1.05, 1.05, 1]),
-            "film": {"type": "hdrfilm", "width": size, "height": size, "rfilter": {"type": "box"},
+            "film": {"type": "hdrfilm", "width": size, "height": size, "rfilter": {"type": rfilter},
                      "pixel_format": "rgb", "component_format": "float32"},
             "sampler": {"type": sampler, "sample_count": spp},
         },
-        "emitter": {"type": "envmap", "bitmap": mi.Bitmap(corner_aligned(img, np)),
-                    "to_world": T([[0, 0, -1, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1]])},
+        "emitter": {"type": "envmap", "bitmap": mi.Bitmap(corner_aligned(img, np) if aligned else img),
+                    "to_world": T().rotate([0, 0, 1], rotate_z_deg)
+                    @ T([[0, 0, -1, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1]])},
     }
     if shape == "sphere":
         scene["object"] = {"type": "sphere", "center": [0, 0, 0], "radius": 1.0, "bsdf": bsdfs[bsdf]}

@@ -114,6 +114,9 @@ pub fn compare<'py>(
             let mut img = img.select_layer(layer.as_deref()).map_err(|e| e.in_file(&p))?.0;
             // pbrt-v4's image axes brought to ours, as the CLI does.
             reflect::cli::compare::to_our_image_axes(&mut img);
+            // As `reflect compare`: flagged pixels are compared with the error bars near them
+            // bounded.
+            reflect::cli::header::bound_near_flags(&mut img);
             Ok(img)
         };
         match py.detach(read) {

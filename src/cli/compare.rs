@@ -68,6 +68,9 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
         if let Some(n) = to_our_image_axes(&mut img) {
             notes.push(format!("note: {}: {n}", p.display()));
         }
+        // Flagged pixels are compared, with the error bars near them bounded as every analysis
+        // reads a render (leaving them out would select on the image's values).
+        super::header::bound_near_flags(&mut img);
         images.push(img);
     }
     let params = CompareParams { alpha: a.alpha, block: a.block, exclude_edges: a.exclude_edges };

@@ -22,6 +22,11 @@ pub const OBJECTS: &str = "reflect:objects";
 pub const SCENE: &str = "reflect:scene";
 /// Header key of the integrator's one-line description.
 pub const INTEGRATOR: &str = "reflect:integrator";
+/// The degrees of freedom of the `stderr` layer of an image written by another renderer (a
+/// number ≥ 1, or `inf` for an exact σ): e.g. k − 1 for the spread of k replicate images,
+/// spp − 1 for the per-pixel spread of spp independent samples. Our renders state theirs in
+/// [`RENDER`] (its sampler and spp).
+pub const STDERR_DOF: &str = "reflect:stderr_dof";
 
 /// JSON with every non-ASCII character escaped, because EXR text attributes are byte strings.
 fn ascii_json(s: &str) -> String {

@@ -8,9 +8,6 @@ use vocab::image::Image;
 /// Why a pixel takes no part in the comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Excluded {
-    /// `stderr_flag.Y` = 1: one rare heavy sample dominates the pixel's own error bar (guide "Error
-    /// bars"), so its z is not N(0, 1) even when the renderers agree.
-    Flagged,
     /// `stderr` = +inf: fewer than two samples, no variance estimate.
     NoEstimate,
 }
@@ -31,6 +28,13 @@ pub struct Estimate {
     pub dof: f64,
     /// Pixels left out, and why.
     pub excluded: Vec<Option<Excluded>>,
+    /// Pixels with `stderr_flag.Y` = 1 (one rare heavy sample dominates their own error bar, guide
+    /// "Error bars"). They are compared, not left out: the flag depends on the pixel's own samples
+    /// and so correlates with its value (under a map with small bright regions the flagged pixels
+    /// are mostly the darker ones), so leaving them out of one side selects on its values and
+    /// biases the scale. The caller bounds the error bars near them as every analysis reads a
+    /// render (`reflect`'s `bound_near_flags`).
+    pub flagged: Vec<bool>,
     /// The seeds' own values (n images), for variances of block means and sums that include the
     /// correlation of neighbouring pixels (a Gaussian film); empty for a single image.
     pub seeds: Vec<Vec<[f64; 3]>>,
@@ -98,6 +102,18 @@ fn header_dof(img: &Image) -> Option<(u32, vocab::Sampler, u32)> {
     Some((r.spp, r.sampler, r.sampler.stderr_dof(r.spp)))
 }
 
+/// The degrees of freedom another renderer states for its error layer in the attribute
+/// [`vocab::header::STDERR_DOF`] (without it, its σ is taken as exact: with the spread of k
+/// replicates, u² would have mean about (k − 1)/(k − 3) and the pixel χ² over 10⁵ pixels would
+/// reject correct images). A value that is not a number ≥ 1 is bad input.
+fn stated_dof(img: &Image, index: usize) -> Result<Option<f64>, CompareError> {
+    let Some(text) = img.attributes.get(vocab::header::STDERR_DOF) else { return Ok(None) };
+    match text.trim().parse::<f64>() {
+        Ok(d) if d >= 1.0 => Ok(Some(d)),
+        _ => Err(CompareError::BadStderrDof { input: index, value: text.clone() }),
+    }
+}
+
 impl Estimate {
     /// One image: its error layer `stderr.R/G/B` when present (σ² per pixel, of the degrees of
     /// freedom its header's sampler and spp give, else taken as exact), else no error (variance 0).
@@ -109,6 +125,10 @@ impl Estimate {
         let mean: Vec<[f64; 3]> = rgb.pixels.iter().map(|p| p.map(f64::from)).collect();
         let mut excluded = vec![None; n];
         let flag = img.channel("stderr_flag.Y");
+        let flagged: Vec<bool> = match flag {
+            Some(f) => f.iter().map(|&v| v > 0.0).collect(),
+            None => vec![false; n],
+        };
         let (var, dof, source, has_error) = match img.rgb_layer("stderr.") {
             Some(layer) => {
                 let mut var = vec![[0.0; 3]; n];
@@ -128,17 +148,15 @@ impl Estimate {
                             var[i][c] = (s as f64) * (s as f64);
                         }
                     }
-                    if excluded[i].is_none() && flag.is_some_and(|f| f[i] > 0.0) {
-                        excluded[i] = Some(Excluded::Flagged);
-                    }
                 }
-                let stated = header_dof(img);
-                let dof = stated.map_or(f64::INFINITY, |(_, _, d)| d as f64);
-                let source = match stated {
-                    Some((spp, sampler, d)) => {
-                        format!("stderr layer ({spp} spp, {sampler} sampler: {d} degrees of freedom)")
+                let (dof, source) = match (header_dof(img), stated_dof(img, index)?) {
+                    (Some((spp, sampler, d)), _) => {
+                        (d as f64, format!("stderr layer ({spp} spp, {sampler} sampler: {d} degrees of freedom)"))
                     }
-                    None => "stderr layer (spp unknown: σ taken as exact)".to_string(),
+                    (None, Some(d)) => {
+                        (d, format!("stderr layer ({d} degrees of freedom, from its reflect:stderr_dof attribute)"))
+                    }
+                    (None, None) => (f64::INFINITY, "stderr layer (spp unknown: σ taken as exact)".to_string()),
                 };
                 (var, dof, source, true)
             }
@@ -151,6 +169,7 @@ impl Estimate {
             var,
             dof,
             excluded,
+            flagged,
             seeds: Vec::new(),
             mask: coverage(img),
             source,
@@ -188,6 +207,7 @@ impl Estimate {
             var,
             dof: nf - 1.0,
             excluded: vec![None; px],
+            flagged: vec![false; px],
             seeds,
             mask: imgs.iter().find_map(coverage),
             source: format!("{n} seeds (per-pixel spread: {} degrees of freedom)", n - 1),

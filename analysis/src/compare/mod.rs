@@ -5,8 +5,10 @@
 //! degrees of freedom its header's sampler gives: 15 for Sobol, spp − 1 for the independent
 //! sampler), several seeds of one renderer
 //! (mean and s²/n, n − 1 degrees of freedom), or an image without error layer (taken as exact:
-//! a converged reference). Pixels flagged (`stderr_flag.Y` = 1) or without estimate (+inf) on
-//! either side, and optionally those near the silhouette (`exclude_edges`), are left out.
+//! a converged reference). Pixels without estimate (+inf) on either side, and optionally those
+//! near the silhouette (`exclude_edges`), are left out. Pixels flagged (`stderr_flag.Y` = 1) are
+//! compared and counted: leaving them out of one side would select on its values (see
+//! [`Estimate::flagged`]).
 //!
 //! For each difference Δ = A − B the z is Δ / √(σ_A² + σ_B²), a Student t of Welch–Satterthwaite's
 //! ν degrees of freedom under Gaussian noise, turned into its N(0, 1) score u
@@ -85,6 +87,10 @@ pub enum CompareError {
     )]
     BadStderr { input: usize, value: f64, row: usize, column: usize },
     #[error(
+        "its attribute reflect:stderr_dof is '{value}': the degrees of freedom of the stderr layer must be a number ≥ 1 (or inf)"
+    )]
+    BadStderrDof { input: usize, value: String },
+    #[error(
         "neither image has an error estimate (a stderr layer, or several seeds of B): the noise of the images is unknown, so no difference can be judged"
     )]
     NoErrorEstimate,
@@ -96,10 +102,8 @@ pub enum CompareError {
         "exclude_edges needs a coverage layer (mask.Y or an alpha channel A) in A or B to find the silhouette; neither has one"
     )]
     NoMask,
-    #[error(
-        "no pixel is left to compare ({flagged} flagged, {no_estimate} without estimate, {edges} near the silhouette)"
-    )]
-    NoPixels { flagged: usize, no_estimate: usize, edges: usize },
+    #[error("no pixel is left to compare ({no_estimate} without estimate, {edges} near the silhouette)")]
+    NoPixels { no_estimate: usize, edges: usize },
     #[error("{0}")]
     BadParam(String),
 }
@@ -112,6 +116,7 @@ impl CompareError {
             | CompareError::ChannelLayout { input, .. }
             | CompareError::NoRadiance { input }
             | CompareError::BadStderr { input, .. }
+            | CompareError::BadStderrDof { input, .. }
             | CompareError::Misaligned { input, .. } => Some(*input),
             _ => None,
         }
@@ -162,7 +167,7 @@ pub struct ScaleResult {
 pub struct PixelSummary {
     /// Pixels compared (not left out).
     pub compared: usize,
-    /// Left out: flagged in A or B (`stderr_flag.Y` = 1).
+    /// Compared pixels flagged in A or B (`stderr_flag.Y` = 1; compared, not left out).
     pub flagged: usize,
     /// Left out: no error estimate (+inf) in A or B.
     pub no_estimate: usize,
@@ -354,18 +359,20 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
     for i in 0..n {
         match (ea.excluded[i], eb.excluded[i]) {
             (Some(Excluded::NoEstimate), _) | (_, Some(Excluded::NoEstimate)) => no_estimate += 1,
-            (Some(Excluded::Flagged), _) | (_, Some(Excluded::Flagged)) => flagged += 1,
             _ if near_edge[i] => near_edges += 1,
-            _ => used[i] = true,
+            _ => {
+                used[i] = true;
+                flagged += usize::from(ea.flagged[i] || eb.flagged[i]);
+            }
         }
     }
     let idx: Vec<usize> = (0..n).filter(|&i| used[i]).collect();
     if idx.is_empty() {
-        return Err(CompareError::NoPixels { flagged, no_estimate, edges: near_edges });
+        return Err(CompareError::NoPixels { no_estimate, edges: near_edges });
     }
     if flagged > 0 {
         warnings.push(format!(
-            "{flagged} flagged pixels (stderr_flag.Y = 1: a rare heavy sample dominates their error bar) are left out"
+            "{flagged} compared pixels are flagged (stderr_flag.Y = 1: a rare heavy sample dominates their own error bar); they are not left out, which would bias the comparison towards the side whose flags removed its low pixels"
         ));
     }
     if no_estimate > 0 {
