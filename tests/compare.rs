@@ -267,6 +267,47 @@ fn mitsuba_like_seeds_filter_named_and_scale_caught() {
     assert!(r.tests.iter().any(|t| t.name.starts_with("scale") && t.rejected), "{:?}", r.tests);
 }
 
+/// A background that differs by convention, noise-free on both sides (another renderer's map
+/// lookup seen directly), decides the verdict on its own; `object_only` leaves it out (with the
+/// silhouette band, as for any Gaussian film) and the object agrees. Without a coverage layer the
+/// option is refused.
+#[test]
+fn object_only_leaves_out_a_background_that_differs_by_convention() {
+    let dir = temp_dir("compare-object-only");
+    let map = write_map(&dir);
+    let a = load(&render_to(&dir, "a", &scene_toml(&map, 3000, 1.0, 0.0, SIZE)));
+    let seeds: Vec<Image> = (0..8)
+        .map(|k| {
+            let mut img = mitsuba_like(&map, 3100 + k, 1.0, SIZE);
+            let alpha = img.channels["A"].clone();
+            for c in ["R", "G", "B"] {
+                let plane = img.channels.get_mut(c).unwrap();
+                for (v, &m) in plane.iter_mut().zip(&alpha) {
+                    if m <= 0.0 {
+                        *v *= 1.02;
+                    }
+                }
+            }
+            img
+        })
+        .collect();
+    let edges = CompareParams { exclude_edges: 3, ..Default::default() };
+    let r = compare(&a, &seeds, &edges).unwrap();
+    assert_eq!(r.verdict, Verdict::Disagree, "{}", r.reason);
+    assert!(r.pixels.exact_differing > 0, "{:?}", r.pixels);
+    let r = compare(&a, &seeds, &CompareParams { object_only: true, ..edges }).unwrap();
+    assert_eq!(r.verdict, Verdict::Agree, "{}", r.reason);
+    assert!(r.pixels.background > 0 && r.pixels.exact_differing == 0, "{:?}", r.pixels);
+    let mut bare = a.clone();
+    bare.channels.remove("mask.Y");
+    let mut seeds_bare = seeds.clone();
+    seeds_bare.iter_mut().for_each(|s| {
+        s.channels.remove("A");
+    });
+    let e = compare(&bare, &seeds_bare, &CompareParams { object_only: true, ..Default::default() }).unwrap_err();
+    assert!(e.to_string().contains("object_only needs a coverage layer"), "{e}");
+}
+
 /// The command line: exit 0 when the images agree, 1 when they do not, the `--json` document with
 /// its `verdict`, and the `--report` folder.
 #[test]

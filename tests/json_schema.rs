@@ -334,6 +334,7 @@ fn compare_schema() {
             ".pixels.max_column: number",
             ".pixels.max_row: number",
             ".pixels.near_edges: number",
+            ".pixels.background: number",
             ".pixels.no_estimate: number",
             ".pixels.nu: number",
             ".pixels: object",

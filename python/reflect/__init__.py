@@ -171,6 +171,7 @@ def compare(
     alpha: float = 0.01,
     block: int = 8,
     exclude_edges: int = 0,
+    object_only: bool = False,
     layer: Optional[str] = None,
 ) -> Dict[str, Any]:
     """Is image ``a`` image ``b`` up to their Monte Carlo noise? ``reflect compare --json``.
@@ -184,7 +185,8 @@ def compare(
     whose error bar is the spread of 16 replicates). ``seeds``: further independent renders of ``b``'s renderer; ``b``'s
     noise is then the seeds' per-pixel spread. ``alpha``: the family-wise false-alarm rate of the
     verdict; ``block``: the side of the block test's tiles (pixels); ``exclude_edges``: leave out
-    pixels within that many pixels of the silhouette (3 for Mitsuba 3's default Gaussian film).
+    pixels within that many pixels of the silhouette (3 for Mitsuba 3's default Gaussian film);
+    ``object_only``: leave out the background (coverage 0 in a mask or alpha channel).
 
     Returns the ``--json`` document as a dict (plain lists, as the CLI prints it): ``verdict``
     ("agree" | "disagree"), ``reason``, ``alpha``, ``alpha_per_test``, ``tests``, ``scale``,
@@ -194,7 +196,7 @@ def compare(
     """
     images = [_compare_input(a, "a"), _compare_input(b, "b")]
     images += [_compare_input(s, f"seeds[{k}]") for k, s in enumerate(seeds)]
-    return _reflect.compare(images, float(alpha), int(block), int(exclude_edges), layer)
+    return _reflect.compare(images, float(alpha), int(block), int(exclude_edges), layer, _args.boolean("object_only", object_only))
 
 
 def read_image(path: Union[str, "os.PathLike[str]"]) -> Image:

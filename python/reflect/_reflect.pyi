@@ -156,6 +156,7 @@ def compare(
     block: int,
     exclude_edges: int,
     layer: Optional[str] = None,
+    object_only: bool = False,
 ) -> Dict[str, Any]:
     """``analysis::compare`` on [a, b, seeds…]: each a path or a dict of float32 arrays (``rgb``
     (H, W, 3), optional ``stderr`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp`` and

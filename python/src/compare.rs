@@ -86,10 +86,10 @@ fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
     Ok(img)
 }
 
-/// `compare(images, alpha, block, exclude_edges, layer)`: `images` is [a, b, seeds…], each a path
+/// `compare(images, alpha, block, exclude_edges, layer, object_only)`: `images` is [a, b, seeds…], each a path
 /// or a dict of arrays (see `image_of_dict`). Returns the `--json` document as a dict.
 #[pyfunction]
-#[pyo3(signature = (images, alpha, block, exclude_edges, layer=None))]
+#[pyo3(signature = (images, alpha, block, exclude_edges, layer=None, object_only=false))]
 pub fn compare<'py>(
     py: Python<'py>,
     images: Vec<Bound<'py, PyAny>>,
@@ -97,6 +97,7 @@ pub fn compare<'py>(
     block: usize,
     exclude_edges: usize,
     layer: Option<String>,
+    object_only: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let mut imgs = Vec::with_capacity(images.len());
     let mut paths: Vec<Option<PathBuf>> = Vec::with_capacity(images.len());
@@ -129,7 +130,7 @@ pub fn compare<'py>(
     if imgs.len() < 2 {
         return Err(PyValueError::new_err("compare needs a and b"));
     }
-    let params = CompareParams { alpha, block, exclude_edges };
+    let params = CompareParams { alpha, block, exclude_edges, object_only };
     let report =
         py.detach(|| analysis::compare::compare(&imgs[0], &imgs[1..], &params)).map_err(|e: CompareError| {
             let name = |i: usize| paths[i].as_ref().map_or_else(|| input_name(i), |p| p.display().to_string());

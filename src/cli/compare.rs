@@ -33,6 +33,11 @@ pub struct CompareArgs {
     /// for renderers with different pixel filters.
     #[arg(long, default_value_t = 0)]
     pub exclude_edges: usize,
+    /// Compare the object only: leave out the background (coverage 0 in A's mask.Y or alpha, else
+    /// B's), where another renderer's environment-map lookup may differ from ours with no noise on
+    /// either side to absorb it.
+    #[arg(long)]
+    pub object_only: bool,
     /// The radiance layer of multi-layer EXRs, by its channel prefix (the same for every image).
     #[arg(long)]
     pub layer: Option<String>,
@@ -73,7 +78,8 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
         super::header::bound_near_flags(&mut img);
         images.push(img);
     }
-    let params = CompareParams { alpha: a.alpha, block: a.block, exclude_edges: a.exclude_edges };
+    let params =
+        CompareParams { alpha: a.alpha, block: a.block, exclude_edges: a.exclude_edges, object_only: a.object_only };
     let report = analysis::compare::compare(&images[0], &images[1..], &params).map_err(|e| error_of(e, &paths))?;
     let staged = match &a.report {
         Some(dir) => stage_report(dir, &report, &paths)?,
@@ -129,6 +135,7 @@ fn error_of(e: CompareError, paths: &[PathBuf]) -> Error {
     let msg = msg
         .replace("exclude_edges = 3", "--exclude-edges 3")
         .replace("exclude_edges", "--exclude-edges")
+        .replace("object_only", "--object-only")
         .replace("alpha must", "--alpha must")
         .replace("block must", "--block must");
     match e.input().and_then(|i| paths.get(i)) {
@@ -152,8 +159,8 @@ fn print_text(r: &CompareReport, paths: &[PathBuf]) {
     );
     let p = &r.pixels;
     println!(
-        "pixels: {} compared of {}×{} ({} flagged, {} without estimate, {} near the silhouette left out); {} pixel-channels with zero error on both sides",
-        p.compared, r.width, r.height, p.flagged, p.no_estimate, p.near_edges, p.exact
+        "pixels: {} compared of {}×{} ({} flagged, {} without estimate, {} near the silhouette and {} of background left out); {} pixel-channels with zero error on both sides",
+        p.compared, r.width, r.height, p.flagged, p.no_estimate, p.near_edges, p.background, p.exact
     );
     println!("tests (each at level {:.3e}, family-wise false-alarm rate α = {}):", r.alpha_per_test, r.alpha);
     for t in &r.tests {

@@ -60,11 +60,15 @@ pub struct CompareParams {
     /// Leave out every pixel at a Chebyshev distance < N from a silhouette pixel (N = 1: the
     /// silhouette pixels only); 0 leaves none out. Needs a coverage layer in A or B.
     pub exclude_edges: usize,
+    /// Compare the object only: leave out every pixel whose coverage (A's `mask.Y` or alpha, else
+    /// B's) is 0, the background, where another renderer's map lookup may differ from ours
+    /// without noise on either side. Needs a coverage layer in A or B.
+    pub object_only: bool,
 }
 
 impl Default for CompareParams {
     fn default() -> Self {
-        CompareParams { alpha: 0.01, block: 8, exclude_edges: 0 }
+        CompareParams { alpha: 0.01, block: 8, exclude_edges: 0, object_only: false }
     }
 }
 
@@ -98,12 +102,12 @@ pub enum CompareError {
         "its coverage (mask or alpha) disagrees with input {other}'s on {count} of {object} object pixels: a different camera, crop or object, not noise"
     )]
     Misaligned { input: usize, other: usize, count: usize, object: usize },
+    #[error("{0} needs a coverage layer (mask.Y or an alpha channel A) in A or B to find the object; neither has one")]
+    NoMask(&'static str),
     #[error(
-        "exclude_edges needs a coverage layer (mask.Y or an alpha channel A) in A or B to find the silhouette; neither has one"
+        "no pixel is left to compare ({no_estimate} without estimate, {edges} near the silhouette, {background} background)"
     )]
-    NoMask,
-    #[error("no pixel is left to compare ({no_estimate} without estimate, {edges} near the silhouette)")]
-    NoPixels { no_estimate: usize, edges: usize },
+    NoPixels { no_estimate: usize, edges: usize, background: usize },
     #[error("{0}")]
     BadParam(String),
 }
@@ -173,6 +177,8 @@ pub struct PixelSummary {
     pub no_estimate: usize,
     /// Left out: within `exclude_edges` − 1 pixels (Chebyshev distance) of a silhouette pixel.
     pub near_edges: usize,
+    /// Left out: background (coverage 0), with `object_only`.
+    pub background: usize,
     /// Pixel-channels (a pixel counts once per channel) with zero variance on both sides (exact
     /// values), not in the χ².
     pub exact: usize,
@@ -351,15 +357,22 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
     let silhouette = ea.mask.as_ref().or(eb.mask.as_ref()).map(|m| silhouette_pixels(m, w, h));
     let near_edge: Vec<bool> = match (params.exclude_edges, &silhouette) {
         (0, _) => vec![false; n],
-        (_, None) => return Err(CompareError::NoMask),
+        (_, None) => return Err(CompareError::NoMask("exclude_edges")),
         (r, Some(s)) => dilate(s, w, h, r - 1),
     };
+    let background: Option<Vec<bool>> = match (params.object_only, ea.mask.as_ref().or(eb.mask.as_ref())) {
+        (false, _) => None,
+        (true, None) => return Err(CompareError::NoMask("object_only")),
+        (true, Some(m)) => Some(m.iter().map(|&c| c <= 0.0).collect()),
+    };
+    let mut in_background = 0;
     let (mut flagged, mut no_estimate, mut near_edges) = (0, 0, 0);
     let mut used = vec![false; n];
     for i in 0..n {
         match (ea.excluded[i], eb.excluded[i]) {
             (Some(Excluded::NoEstimate), _) | (_, Some(Excluded::NoEstimate)) => no_estimate += 1,
             _ if near_edge[i] => near_edges += 1,
+            _ if background.as_ref().is_some_and(|b| b[i]) => in_background += 1,
             _ => {
                 used[i] = true;
                 flagged += usize::from(ea.flagged[i] || eb.flagged[i]);
@@ -368,7 +381,7 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
     }
     let idx: Vec<usize> = (0..n).filter(|&i| used[i]).collect();
     if idx.is_empty() {
-        return Err(CompareError::NoPixels { no_estimate, edges: near_edges });
+        return Err(CompareError::NoPixels { no_estimate, edges: near_edges, background: in_background });
     }
     if flagged > 0 {
         warnings.push(format!(
@@ -426,6 +439,7 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
         flagged,
         no_estimate,
         near_edges,
+        background: in_background,
         exact,
         exact_differing,
         chi2,
