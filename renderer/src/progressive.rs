@@ -277,7 +277,13 @@ pub fn film_rel_error(mut film: crate::film::Film) -> Result<f64, NoEstimate> {
 
 /// The sample range of shard `i` of `n` of a render of `spp` samples: `[i·spp/n, (i+1)·spp/n)`.
 pub fn shard_range(i: u32, n: u32, spp: u32) -> (u64, u64) {
-    let f = |k: u32| k as u64 * spp as u64 / n as u64;
+    split_range(i, n, (0, spp as u64))
+}
+
+/// Shard `i` of `n` of the samples `[a, b)`: `[a + i·(b−a)/n, a + (i+1)·(b−a)/n)` (a round of a
+/// render in rounds, [`crate::rounds`]; [`shard_range`] is the range `[0, spp)`).
+pub fn split_range(i: u32, n: u32, (a, b): (u64, u64)) -> (u64, u64) {
+    let f = |k: u32| a + (k as u128 * (b - a) as u128 / n as u128) as u64;
     (f(i), f(i + 1))
 }
 
