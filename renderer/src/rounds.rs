@@ -92,7 +92,8 @@ pub fn next_round(budget: &RoundsBudget, p: &RoundsProgress) -> RoundDecision {
         let (samples, wall) = p.last_round;
         let left = limit.saturating_sub(p.elapsed).as_secs_f64();
         let per_sample = wall.as_secs_f64() / samples.max(1) as f64;
-        let fit = if per_sample > 0.0 { (left / per_sample).floor().min(u64::MAX as f64 / 2.0) as u64 } else { u64::MAX };
+        let fit =
+            if per_sample > 0.0 { (left / per_sample).floor().min(u64::MAX as f64 / 2.0) as u64 } else { u64::MAX };
         let fit_end = (p.done.saturating_add(fit) / g * g).min(budget.max_spp);
         if left <= 0.0 || fit_end <= p.done {
             return RoundDecision::Stop(Stop::TimeLimit);
@@ -107,7 +108,12 @@ mod tests {
     use super::*;
 
     fn budget(max_spp: u64, time_limit: Option<u64>) -> RoundsBudget {
-        RoundsBudget { target_rel_error: 0.01, max_spp, time_limit: time_limit.map(Duration::from_secs), granularity: 16 }
+        RoundsBudget {
+            target_rel_error: 0.01,
+            max_spp,
+            time_limit: time_limit.map(Duration::from_secs),
+            granularity: 16,
+        }
     }
 
     fn progress(done: u64, e: f64) -> RoundsProgress {
