@@ -571,6 +571,29 @@ mod tests {
         assert!(p95_rel_error(&plain(&half)).unwrap() > 0.05);
     }
 
+    /// Rounds of shards (`crate::rounds`): parts of a render planned for 1024 spp, rounds [0, 32),
+    /// [32, 64), [64, 100) each split 3 ways, merge to the state of a plain 100-spp render, bit for bit.
+    #[test]
+    fn rounds_of_split_ranges_merge_to_the_single_render_of_their_total() {
+        let planned = scene(1024, 5);
+        let mut parts = Vec::new();
+        for round in [(0, 32), (32, 64), (64, 100)] {
+            let split: Vec<(u64, u64)> = (0..3).map(|i| split_range(i, 3, round)).collect();
+            assert_eq!((split[0].0, split[2].1), round);
+            assert!(split.windows(2).all(|w| w[0].1 == w[1].0), "{split:?}");
+            for (a, b) in split {
+                parts.push(render_range(&planned, &RenderOptions::default(), a, b).0.unwrap());
+            }
+        }
+        parts.reverse();
+        let mut merged = Partial::merge(parts).unwrap();
+        assert_eq!((merged.start, merged.end, merged.spp), (0, 100, 1024));
+        merged.spp = 100;
+        assert_eq!(bits(&merged), bits(&plain(&scene(100, 5))));
+        assert_eq!(split_range(2, 4, (10, 10)), (10, 10));
+        assert_eq!(shard_range(1, 4, 40), split_range(1, 4, (0, 40)));
+    }
+
     #[test]
     fn a_continued_state_gives_the_single_render_bits() {
         let short = scene(5, 8);
