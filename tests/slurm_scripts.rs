@@ -236,11 +236,8 @@ fn rounds_of_shards_reach_the_target_and_merge_to_the_single_render() {
     let queue = std::fs::read_to_string(bin.join("queue")).unwrap();
     let state1 = std::fs::read(dir.join("final.slurm/state-1.exr")).unwrap();
     for r in [1, 2] {
-        let o = Command::new("sh")
-            .arg(dir.join(format!("final.slurm/step-{r}.sh")))
-            .env("PATH", &path)
-            .output()
-            .unwrap();
+        let o =
+            Command::new("sh").arg(dir.join(format!("final.slurm/step-{r}.sh"))).env("PATH", &path).output().unwrap();
         assert!(o.status.success());
         assert!(String::from_utf8_lossy(&o.stdout).contains("nothing to do"), "{o:?}");
     }
