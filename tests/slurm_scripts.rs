@@ -246,3 +246,43 @@ fn rounds_of_shards_reach_the_target_and_merge_to_the_single_render() {
     assert!(std::fs::read(&final_).unwrap() == image);
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// A step job whose round's parts are missing (its array failed, or it was run by hand too early)
+/// fails in one line naming the part, writes nothing and leaves the round undecided; `--samples`
+/// beyond the spp is refused.
+#[test]
+fn a_step_without_its_parts_names_them_and_writes_nothing() {
+    let dir = common::temp_dir("slurm-rounds-missing");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, renderer::scene::build::DEFAULT_SCENE).unwrap();
+    let bin = queueing_sbatch(&dir);
+    let path = format!("{}:{}", s(&bin), std::env::var("PATH").unwrap_or_default());
+    let final_ = dir.join("final.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["slurm", "render", s(&scene), "--tasks", "2", "--out", s(&final_), "--target-rel-error", "0.05"])
+        .env("PATH", &path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let jobs = dir.join("final.slurm");
+    let plan = std::fs::read(jobs.join("rounds.json")).unwrap();
+    let o = Command::new("sh").arg(jobs.join("step-0.sh")).env("PATH", &path).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: ") && err.contains("r0-part-0.exr"), "{err}");
+    assert!(!jobs.join("state-0.exr").exists() && !final_.exists());
+    assert!(std::fs::read(jobs.join("rounds.json")).unwrap() == plan, "the plan changed");
+    let o = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["render", s(&scene), "--spp", "64", "--samples", "32:96", "--out", s(&dir.join("p.exr"))])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.starts_with("error: --samples 32:96 ends beyond the render's 64 spp") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!dir.join("p.exr").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}

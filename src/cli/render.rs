@@ -206,6 +206,13 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     // The state to continue, checked against the scene before anything is rendered or printed.
     let initial = a.continue_from.as_ref().map(|p| super::passes::read_continue(p, &scene)).transpose()?;
     let s = scene.settings.clone();
+    let whole = a.samples.unwrap_or((0, s.spp as u64));
+    if whole.1 > s.spp as u64 {
+        return Err(Error::new(format!(
+            "--samples {}:{} ends beyond the render's {} spp (give --spp at least {})",
+            whole.0, whole.1, s.spp, whole.1
+        )));
+    }
     if !a.quiet {
         eprintln!(
             "rendering {} ({}×{}, {} spp, max_depth {}, seed {})",
@@ -216,13 +223,6 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.max_depth,
             s.seed
         );
-    }
-    let whole = a.samples.unwrap_or((0, s.spp as u64));
-    if whole.1 > s.spp as u64 {
-        return Err(Error::new(format!(
-            "--samples {}:{} ends beyond the render's {} spp (give --spp at least {})",
-            whole.0, whole.1, s.spp, whole.1
-        )));
     }
     let range = a.shard.map_or(whole, |(i, n)| renderer::progressive::split_range(i, n, whole));
     let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
