@@ -31,7 +31,8 @@ fn projected_envmap(
 ) -> Result<std::sync::Arc<Vec<[f64; 3]>>> {
     use std::collections::HashMap;
     use std::sync::{Arc, Mutex, OnceLock};
-    static MEMO: OnceLock<Mutex<HashMap<ProjectionKey, Arc<Vec<[f64; 3]>>>>> = OnceLock::new();
+    type Memo = Mutex<HashMap<ProjectionKey, Arc<Vec<[f64; 3]>>>>;
+    static MEMO: OnceLock<Memo> = OnceLock::new();
     let key = std::fs::canonicalize(file).ok().and_then(|path| {
         let meta = std::fs::metadata(&path).ok()?;
         Some((path, meta.len(), meta.modified().ok()?, layer.map(str::to_string), mapping, lmax))
