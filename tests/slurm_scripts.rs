@@ -117,3 +117,172 @@ fn a_preempted_shard_resumes_from_its_checkpoint_and_the_merge_is_the_single_ren
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// A folder holding an `sbatch` that queues its job (`ID ARGS… SCRIPT` in `queue` beside it) and
+/// prints its id, as `sbatch --parsable` does; [`run_queue`] then runs the jobs as Slurm would.
+fn queueing_sbatch(dir: &Path) -> PathBuf {
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let script = bin.join("sbatch");
+    let b = s(&bin);
+    std::fs::write(
+        &script,
+        format!(
+            "#!/bin/sh\nn=$(($(cat {b}/next 2>/dev/null || echo 100) + 1))\necho $n > {b}/next\n\
+             echo \"$n $*\" >> {b}/queue\necho $n\n"
+        ),
+    )
+    .unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
+    bin
+}
+
+/// Runs the queued jobs in order (a job's `--dependency=afterok:ID` must have run), every task of an
+/// array (`#SBATCH --array=0-M`), until the queue is empty; jobs the jobs submit are queued too.
+/// Returns the number of jobs run.
+fn run_queue(bin: &Path, path: &str) -> usize {
+    let mut done = std::collections::HashSet::new();
+    let mut k = 0;
+    loop {
+        let queue = std::fs::read_to_string(bin.join("queue")).unwrap_or_default();
+        let Some(line) = queue.lines().nth(k) else { return k };
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let (id, script) = (words[0], Path::new(words[words.len() - 1]));
+        for w in &words {
+            if let Some(dep) = w.strip_prefix("--dependency=afterok:") {
+                assert!(done.contains(dep), "job {id} depends on {dep}, which has not run");
+            }
+        }
+        let text = std::fs::read_to_string(script).unwrap();
+        let array = text.lines().find_map(|l| l.strip_prefix("#SBATCH --array=0-")).map(|m| m.parse::<u32>().unwrap());
+        let tasks: Vec<Option<u32>> = match array {
+            Some(m) => (0..=m).map(Some).collect(),
+            None => vec![None],
+        };
+        for t in tasks {
+            let mut c = Command::new("sh");
+            c.arg(script).env("PATH", path);
+            if let Some(i) = t {
+                c.env("SLURM_ARRAY_TASK_ID", i.to_string());
+            }
+            let o = c.output().unwrap();
+            assert!(
+                o.status.success(),
+                "job {id} {} (task {t:?}): {}{}",
+                script.display(),
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        done.insert(id.to_string());
+        k += 1;
+    }
+}
+
+/// A render to a target error in rounds: 3 tasks a round, a first round of 32 spp whose error
+/// (about 19 % at the 95th percentile, seed 3) is above the 8 % target, so the step jobs submit
+/// rounds of doubling samples until the merged state reaches it (128 spp: 7.8 %). The image is the
+/// single render of the total spp byte for byte, every round continues the samples of the ones
+/// before, and a step run again does nothing twice.
+#[test]
+fn rounds_of_shards_reach_the_target_and_merge_to_the_single_render() {
+    let dir = common::temp_dir("slurm-rounds");
+    let mut f = renderer::scene::SceneFile::parse(renderer::scene::build::DEFAULT_SCENE).unwrap();
+    (f.render.width, f.render.height, f.render.spp, f.render.seed) = (24, 16, 4, 3);
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, toml::to_string(&f).unwrap()).unwrap();
+    let bin = queueing_sbatch(&dir);
+    let final_ = dir.join("final.exr");
+    let path = format!("{}:{}", s(&bin), std::env::var("PATH").unwrap_or_default());
+    let o = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["slurm", "render", s(&scene), "--tasks", "3", "--out", s(&final_), "--spp", "1024"])
+        .args(["--target-rel-error", "0.08", "--first-round-spp", "32"])
+        .env("PATH", &path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!final_.exists(), "no image before the rounds ran");
+    let jobs = run_queue(&bin, &path);
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("final.slurm/rounds.json")).unwrap()).unwrap();
+    let rounds = plan["rounds"].as_array().unwrap();
+    assert_eq!(jobs, 2 * rounds.len(), "an array and a step job per round");
+    let ranges: Vec<(u64, u64)> =
+        rounds.iter().map(|r| (r["start"].as_u64().unwrap(), r["end"].as_u64().unwrap())).collect();
+    assert_eq!(ranges, [(0, 32), (32, 64), (64, 128)], "rounds that continue each other, doubling");
+    let decisions: Vec<&str> = rounds.iter().map(|r| r["measured"]["decision"].as_str().unwrap()).collect();
+    assert_eq!(decisions, ["next", "next", "target"]);
+    let errors: Vec<f64> = rounds.iter().map(|r| r["measured"]["rel_error_p95"].as_f64().unwrap()).collect();
+    assert!(errors[..2].iter().all(|&e| e > 0.08) && errors[2] <= 0.08, "{errors:?}");
+
+    // The merged image is the single render of the total spp, and its measured error that render's.
+    let single = dir.join("single.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["render", s(&scene), "--spp", "128", "--out", s(&single), "-q"])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let image = std::fs::read(&final_).unwrap();
+    assert!(image == std::fs::read(&single).unwrap(), "the rounds' image differs from the single render");
+    let single_partial = {
+        let mut sc = renderer::scene::Scene::load(&scene).unwrap();
+        sc.settings.spp = 128;
+        renderer::render::render_range(&sc, &Default::default(), 0, 128).0.unwrap()
+    };
+    assert_eq!(errors[2], renderer::progressive::p95_rel_error(&single_partial).unwrap());
+
+    // Step 1 and the last step run again (a requeued job): nothing is submitted, nothing rewritten.
+    let queue = std::fs::read_to_string(bin.join("queue")).unwrap();
+    let state1 = std::fs::read(dir.join("final.slurm/state-1.exr")).unwrap();
+    for r in [1, 2] {
+        let o =
+            Command::new("sh").arg(dir.join(format!("final.slurm/step-{r}.sh"))).env("PATH", &path).output().unwrap();
+        assert!(o.status.success());
+        assert!(String::from_utf8_lossy(&o.stdout).contains("nothing to do"), "{o:?}");
+    }
+    assert_eq!(std::fs::read_to_string(bin.join("queue")).unwrap(), queue, "a step run again submitted a job");
+    assert!(std::fs::read(dir.join("final.slurm/state-1.exr")).unwrap() == state1);
+    assert!(std::fs::read(&final_).unwrap() == image);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A step job whose round's parts are missing (its array failed, or it was run by hand too early)
+/// fails in one line naming the part, writes nothing and leaves the round undecided; `--samples`
+/// beyond the spp is refused.
+#[test]
+fn a_step_without_its_parts_names_them_and_writes_nothing() {
+    let dir = common::temp_dir("slurm-rounds-missing");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, renderer::scene::build::DEFAULT_SCENE).unwrap();
+    let bin = queueing_sbatch(&dir);
+    let path = format!("{}:{}", s(&bin), std::env::var("PATH").unwrap_or_default());
+    let final_ = dir.join("final.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["slurm", "render", s(&scene), "--tasks", "2", "--out", s(&final_), "--target-rel-error", "0.05"])
+        .env("PATH", &path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let jobs = dir.join("final.slurm");
+    let plan = std::fs::read(jobs.join("rounds.json")).unwrap();
+    let o = Command::new("sh").arg(jobs.join("step-0.sh")).env("PATH", &path).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: ") && err.contains("r0-part-0.exr"), "{err}");
+    assert!(!jobs.join("state-0.exr").exists() && !final_.exists());
+    assert!(std::fs::read(jobs.join("rounds.json")).unwrap() == plan, "the plan changed");
+    let o = Command::new(env!("CARGO_BIN_EXE_reflect"))
+        .args(["render", s(&scene), "--spp", "64", "--samples", "32:96", "--out", s(&dir.join("p.exr"))])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.starts_with("error: --samples 32:96 ends beyond the render's 64 spp") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!dir.join("p.exr").exists());
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -14,6 +14,45 @@ use crate::sh::{Rotation, ShBasis, num_coefficients, rotate_coefficients};
 use std::path::{Path, PathBuf};
 use vocab::scene::{Color, LightingSection, decimal, decimal3};
 
+/// What identifies a projection of an environment-map file: the file (canonical path, length and
+/// modification time, so that a file rewritten in between is read again), its layer, the mapping
+/// asked for and l_max.
+type ProjectionKey = (PathBuf, u64, std::time::SystemTime, Option<String>, Option<Mapping>, usize);
+
+/// L_lm of the map `file` (unscaled, unrotated), projected once per process: a 1000² probe takes
+/// about a second to project to l = 16, and an analysis reads the same map several times (the filter
+/// fit, the lighting check, the other mapping of the verdict), as do callers that analyse many images
+/// under one lighting (a coverage test over seeds, `verify`).
+fn projected_envmap(
+    file: &Path,
+    layer: Option<&str>,
+    mapping: Option<Mapping>,
+    lmax: usize,
+) -> Result<std::sync::Arc<Vec<[f64; 3]>>> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    type Memo = Mutex<HashMap<ProjectionKey, Arc<Vec<[f64; 3]>>>>;
+    static MEMO: OnceLock<Memo> = OnceLock::new();
+    let key = std::fs::canonicalize(file).ok().and_then(|path| {
+        let meta = std::fs::metadata(&path).ok()?;
+        Some((path, meta.len(), meta.modified().ok()?, layer.map(str::to_string), mapping, lmax))
+    });
+    let memo = MEMO.get_or_init(Default::default);
+    if let Some(c) = key.as_ref().and_then(|k| memo.lock().ok()?.get(k).cloned()) {
+        return Ok(c);
+    }
+    let img = read_rgb_layer(file, layer)?;
+    let mapping = match mapping {
+        Some(m) => m,
+        None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(file))?,
+    };
+    let c = Arc::new(project_envmap(&img, mapping, lmax).map_err(|e| e.in_file(file))?);
+    if let (Some(k), Ok(mut m)) = (key, memo.lock()) {
+        m.insert(k, c.clone());
+    }
+    Ok(c)
+}
+
 /// A distant lighting environment.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Lighting {
@@ -182,17 +221,46 @@ impl Lighting {
             }
             Lighting::Sh { coefficients } => (0..n).map(|k| coefficients.get(k).copied().unwrap_or([0.0; 3])).collect(),
             Lighting::Envmap { file, mapping, scale, rotate_deg, layer } => {
-                let img = read_rgb_layer(file, layer.as_deref())?;
-                let mapping = match mapping {
-                    Some(m) => *m,
-                    None => Mapping::infer(img.width, img.height).map_err(|e| e.in_file(file))?,
-                };
-                let mut c = project_envmap(&img, mapping, lmax).map_err(|e| e.in_file(file))?;
+                let mut c = projected_envmap(file, layer.as_deref(), *mapping, lmax)?.as_ref().clone();
                 if *rotate_deg != [0.0; 3] {
                     c = rotate_coefficients(&c, &Rotation::from_xyz_deg(*rotate_deg));
                 }
                 c.iter().map(|v| [v[0] * scale, v[1] * scale, v[2] * scale]).collect()
             }
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vocab::image::{Image, write_exr};
+
+    fn write_map(path: &Path, (w, h): (usize, usize), value: f32) {
+        let mut img = Image { width: w, height: h, ..Default::default() };
+        for c in ["R", "G", "B"] {
+            img.channels.insert(c.to_string(), vec![value; w * h]);
+        }
+        write_exr(path, &img).unwrap();
+    }
+
+    #[test]
+    fn a_map_file_is_projected_once_until_it_changes() {
+        let dir = std::env::temp_dir().join(format!("reflect-lighting-memo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("map.exr");
+        write_map(&path, (16, 8), 1.0);
+        let a = projected_envmap(&path, None, None, 2).unwrap();
+        let b = projected_envmap(&path, None, None, 2).unwrap();
+        assert!(std::sync::Arc::ptr_eq(&a, &b), "the second projection was not the first one's");
+        assert!(!std::sync::Arc::ptr_eq(&a, &projected_envmap(&path, None, None, 3).unwrap()));
+        // Rewritten (another size, so another length): projected again, with the new values.
+        write_map(&path, (32, 16), 2.0);
+        let c = projected_envmap(&path, None, None, 2).unwrap();
+        assert!((c[0][0] / a[0][0] - 2.0).abs() < 1e-3, "{} then {}: a stale projection", a[0][0], c[0][0]);
+        // Lighting::coefficients goes through it, scaled afterwards.
+        let l = Lighting::Envmap { file: path, mapping: None, scale: 0.5, rotate_deg: [0.0; 3], layer: None };
+        assert_eq!(l.coefficients(2).unwrap()[0][0], 0.5 * c[0][0]);
+        let _ = std::fs::remove_dir_all(dir);
     }
 }

@@ -10,7 +10,8 @@
 //!   `eval`, `sample` and `pdf`.
 //! - [`geometry`]: spheres and triangle meshes (OBJ, glTF) in one BVH.
 //! - [`camera`], [`film`], [`integrator`], [`scene`], [`render`]: from a scene file to an image;
-//!   [`progressive`]: renders in passes (target error, time limit, checkpoints, shards, continuation).
+//!   [`progressive`]: renders in passes (target error, time limit, checkpoints, shards, continuation);
+//!   [`rounds`]: the decisions of a render to a target error in rounds of shards.
 //! - [`shard`]: partial renders on disk; [`render_file`]: any file a render leaves (a state too) as its image.
 
 pub mod brdf;
@@ -26,6 +27,7 @@ pub mod output;
 pub mod progressive;
 pub mod render;
 pub mod render_file;
+pub mod rounds;
 pub mod sampling;
 pub mod scene;
 pub mod shard;

@@ -277,7 +277,13 @@ pub fn film_rel_error(mut film: crate::film::Film) -> Result<f64, NoEstimate> {
 
 /// The sample range of shard `i` of `n` of a render of `spp` samples: `[i·spp/n, (i+1)·spp/n)`.
 pub fn shard_range(i: u32, n: u32, spp: u32) -> (u64, u64) {
-    let f = |k: u32| k as u64 * spp as u64 / n as u64;
+    split_range(i, n, (0, spp as u64))
+}
+
+/// Shard `i` of `n` of the samples `[a, b)`: `[a + i·(b−a)/n, a + (i+1)·(b−a)/n)` (a round of a
+/// render in rounds, [`crate::rounds`]; [`shard_range`] is the range `[0, spp)`).
+pub fn split_range(i: u32, n: u32, (a, b): (u64, u64)) -> (u64, u64) {
+    let f = |k: u32| a + (k as u128 * (b - a) as u128 / n as u128) as u64;
     (f(i), f(i + 1))
 }
 
@@ -563,6 +569,29 @@ mod tests {
         let mut half = scene(f.state.end as u32 / 2, 3);
         half.settings.spp = f.state.end as u32 / 2;
         assert!(p95_rel_error(&plain(&half)).unwrap() > 0.05);
+    }
+
+    /// Rounds of shards (`crate::rounds`): parts of a render planned for 1024 spp, rounds [0, 32),
+    /// [32, 64), [64, 100) each split 3 ways, merge to the state of a plain 100-spp render, bit for bit.
+    #[test]
+    fn rounds_of_split_ranges_merge_to_the_single_render_of_their_total() {
+        let planned = scene(1024, 5);
+        let mut parts = Vec::new();
+        for round in [(0, 32), (32, 64), (64, 100)] {
+            let split: Vec<(u64, u64)> = (0..3).map(|i| split_range(i, 3, round)).collect();
+            assert_eq!((split[0].0, split[2].1), round);
+            assert!(split.windows(2).all(|w| w[0].1 == w[1].0), "{split:?}");
+            for (a, b) in split {
+                parts.push(render_range(&planned, &RenderOptions::default(), a, b).0.unwrap());
+            }
+        }
+        parts.reverse();
+        let mut merged = Partial::merge(parts).unwrap();
+        assert_eq!((merged.start, merged.end, merged.spp), (0, 100, 1024));
+        merged.spp = 100;
+        assert_eq!(bits(&merged), bits(&plain(&scene(100, 5))));
+        assert_eq!(split_range(2, 4, (10, 10)), (10, 10));
+        assert_eq!(shard_range(1, 4, 40), split_range(1, 4, (0, 40)));
     }
 
     #[test]

@@ -27,10 +27,24 @@ pub struct MergeArgs {
     pub quiet: bool,
 }
 
-pub fn run(a: MergeArgs) -> Result<ExitCode, Error> {
-    Files::new().inputs("part", &a.parts).output("--out", &a.out, Format::Exr).check()?;
-    let mut files: Vec<(PathBuf, PartialFile)> = Vec::with_capacity(a.parts.len());
-    for p in &a.parts {
+/// Parts read, checked against each other and merged.
+pub struct Merged {
+    /// The union of the parts' samples.
+    pub partial: Partial,
+    /// The first part's header, its range and blocks those of the union.
+    pub header: PartialHeader,
+    /// The first part's `reflect:*` attributes.
+    pub attributes: Vec<(String, String)>,
+    /// The parts holding the first and the last samples.
+    pub first: PathBuf,
+    pub last: PathBuf,
+}
+
+/// Reads the partial renders `parts` and merges them, refusing (one line naming the file) parts of
+/// different scenes, seeds, spp or sizes, overlapping ranges and gaps between them.
+pub fn merge_parts(parts: &[PathBuf]) -> Result<Merged, Error> {
+    let mut files: Vec<(PathBuf, PartialFile)> = Vec::with_capacity(parts.len());
+    for p in parts {
         let f = read_partial(p)?;
         if let Some((first, f0)) = files.first() {
             let (h, h0): (&PartialHeader, &PartialHeader) = (&f.header, &f0.header);
@@ -69,40 +83,46 @@ pub fn run(a: MergeArgs) -> Result<ExitCode, Error> {
             ));
         }
     }
-    let (first, last) = (&files[order[0]], &files[order[order.len() - 1]]);
-    let spp = first.1.header.spp as u64;
+    let (first, last) = (files[order[0]].0.clone(), files[order[order.len() - 1]].0.clone());
+    let attributes = files[order[0]].1.attributes.clone();
+    let header0 = files[order[0]].1.header.clone();
+    let partial =
+        Partial::merge(files.into_iter().map(|(_, f)| f.partial).collect()).map_err(|e| Error::new(e.to_string()))?;
+    let header = PartialHeader {
+        start: partial.start,
+        end: partial.end,
+        blocks: partial.blocks.iter().map(|b| (b.start, b.log2)).collect(),
+        ..header0
+    };
+    Ok(Merged { partial, header, attributes, first, last })
+}
+
+pub fn run(a: MergeArgs) -> Result<ExitCode, Error> {
+    Files::new().inputs("part", &a.parts).output("--out", &a.out, Format::Exr).check()?;
+    let Merged { partial: merged, header, attributes: attrs, first, last } = merge_parts(&a.parts)?;
+    let spp = header.spp as u64;
     if !a.partial {
-        if first.1.partial.start > 0 {
+        if merged.start > 0 {
             return Err(Error::file(
-                &first.0,
+                &first,
                 format!(
                     "samples [0, {}) are missing before this part (use --partial to merge a sub-range)",
-                    first.1.partial.start
+                    merged.start
                 ),
             ));
         }
-        if last.1.partial.end < spp {
+        if merged.end < spp {
             return Err(Error::file(
-                &last.0,
+                &last,
                 format!(
                     "samples [{}, {spp}) are missing after this part (use --partial to merge a sub-range)",
-                    last.1.partial.end
+                    merged.end
                 ),
             ));
         }
     }
-    let attrs = first.1.attributes.clone();
-    let header0 = first.1.header.clone();
-    let n = files.len();
-    let merged =
-        Partial::merge(files.into_iter().map(|(_, f)| f.partial).collect()).map_err(|e| Error::new(e.to_string()))?;
+    let n = a.parts.len();
     if a.partial {
-        let header = PartialHeader {
-            start: merged.start,
-            end: merged.end,
-            blocks: merged.blocks.iter().map(|b| (b.start, b.log2)).collect(),
-            ..header0
-        };
         write_partial(&a.out, &merged, &header, &attrs)?;
     } else {
         let film = merged.finish();

@@ -14,6 +14,7 @@ pub mod passes;
 pub mod pixels;
 pub mod png;
 pub mod render;
+pub mod rounds;
 pub mod separate;
 pub mod sh;
 pub mod slurm;

@@ -27,6 +27,17 @@ pub fn parse_shard(s: &str) -> Result<(u32, u32), String> {
     Ok((i, n))
 }
 
+/// `--samples A:B`: A < B.
+pub fn parse_samples(s: &str) -> Result<(u64, u64), String> {
+    let (a, b) = s.split_once(':').ok_or("expected A:B, e.g. 64:128")?;
+    let a: u64 = a.trim().parse().map_err(|_| "bad first sample A")?;
+    let b: u64 = b.trim().parse().map_err(|_| "bad end sample B")?;
+    if a >= b {
+        return Err(format!("need A < B, got {a}:{b}"));
+    }
+    Ok((a, b))
+}
+
 /// A relative error as a percentage, or "no estimate" with the reason.
 pub fn percent(e: Result<f64, NoEstimate>) -> String {
     match e {

@@ -51,6 +51,10 @@ pub struct RenderArgs {
     /// as a partial render for `reflect merge`.
     #[arg(long, value_parser = super::passes::parse_shard)]
     pub shard: Option<(u32, u32)>,
+    /// Render only the samples [A, B) of every pixel (B ≤ spp; a round of a render in rounds), written
+    /// as a partial render for `reflect merge`; with --shard I/N, shard I of N of them.
+    #[arg(long, value_name = "A:B", value_parser = super::passes::parse_samples)]
+    pub samples: Option<(u64, u64)>,
     /// Resume from FILE if it exists (refusing one of another scene), save progress to it atomically
     /// every --checkpoint-every seconds and on SIGINT/SIGTERM, and remove it after the final output.
     #[arg(long)]
@@ -177,13 +181,18 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     if let Some(ev) = a.exposure.filter(|e| !e.is_finite() || e.abs() > 100.0) {
         return Err(Error::new(format!("--exposure must be finite and within ±100 stops, got {ev}")));
     }
-    if a.shard.is_some() && (a.target_rel_error.is_some() || a.time_limit.is_some() || a.png.is_some()) {
-        return Err(Error::new(
-            "--shard renders a partial render: it takes no --target-rel-error, --time-limit or --png",
-        ));
+    let flag = if a.samples.is_some() { "--samples" } else { "--shard" };
+    let part = a.shard.is_some() || a.samples.is_some();
+    if part && (a.target_rel_error.is_some() || a.time_limit.is_some() || a.png.is_some()) {
+        return Err(Error::new(format!(
+            "{flag} renders a partial render: it takes no --target-rel-error, --time-limit or --png \
+             (to a target error across shards: reflect slurm render --target-rel-error, guide \"Scale-out: shards, merge, checkpoints, target error, continuing, Slurm\")"
+        )));
     }
-    if a.shard.is_some() && (a.continue_from.is_some() || a.state.is_some()) {
-        return Err(Error::new("--shard writes a partial render (itself a state): it takes no --continue or --state"));
+    if part && (a.continue_from.is_some() || a.state.is_some()) {
+        return Err(Error::new(format!(
+            "{flag} writes a partial render (itself a state): it takes no --continue or --state"
+        )));
     }
     for (name, v) in [
         ("--target-rel-error", a.target_rel_error),
@@ -197,6 +206,13 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
     // The state to continue, checked against the scene before anything is rendered or printed.
     let initial = a.continue_from.as_ref().map(|p| super::passes::read_continue(p, &scene)).transpose()?;
     let s = scene.settings.clone();
+    let whole = a.samples.unwrap_or((0, s.spp as u64));
+    if whole.1 > s.spp as u64 {
+        return Err(Error::new(format!(
+            "--samples {}:{} ends beyond the render's {} spp (give --spp at least {})",
+            whole.0, whole.1, s.spp, whole.1
+        )));
+    }
     if !a.quiet {
         eprintln!(
             "rendering {} ({}×{}, {} spp, max_depth {}, seed {})",
@@ -208,10 +224,9 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
             s.seed
         );
     }
-    let range = a.shard.map_or((0, s.spp as u64), |(i, n)| renderer::progressive::shard_range(i, n, s.spp));
+    let range = a.shard.map_or(whole, |(i, n)| renderer::progressive::split_range(i, n, whole));
     let progressive = a.target_rel_error.is_some() || a.time_limit.is_some();
-    let plain =
-        a.shard.is_none() && a.checkpoint.is_none() && !progressive && a.continue_from.is_none() && a.state.is_none();
+    let plain = !part && a.checkpoint.is_none() && !progressive && a.continue_from.is_none() && a.state.is_none();
     let mut progressive_report = None;
     let mut final_state = None;
     let (film, stats) = if plain {
@@ -234,7 +249,7 @@ pub fn run(a: RenderArgs) -> Result<ExitCode, Error> {
                 return Ok(ExitCode::from(130));
             }
             Outcome::Done(Finished { mut state, stats, passes, stop, rel_error }) => {
-                if a.shard.is_some() {
+                if part {
                     let header = renderer::shard::partial_header(&scene, &state);
                     renderer::shard::write_partial(&out, &state, &header, &attrs)?;
                     if let Some(ck) = &a.checkpoint {

@@ -9,6 +9,12 @@
 //! seconds and on the SIGTERM of a preemption or time limit) and is requeueable (`#SBATCH --requeue`,
 //! logs appended): a requeued task runs the same command, which resumes from its checkpoint, so a
 //! preempted shard loses at most one pass and the merge is still bit-identical to a single render.
+//!
+//! With `--target-rel-error X`, the render runs in rounds (`renderer::rounds`): round r is a job
+//! array over the samples `[S_{r-1}, S_r)` and a step job (`reflect slurm step DIR --round r`) that
+//! merges the state of the rounds so far, measures its 95th-percentile relative error and either
+//! writes the image or submits round r + 1. `DIR/rounds.json` records the plan and every round, so
+//! that a step run again does nothing twice.
 
 use super::Error;
 use super::outputs::Format;
@@ -18,8 +24,19 @@ use std::process::{Command, ExitCode};
 
 #[derive(clap::Subcommand, Debug, Clone)]
 pub enum SlurmCommand {
-    /// Render a scene as a job array of shards and a merge job.
+    /// Render a scene as a job array of shards and a merge job (or, with --target-rel-error, in rounds).
     Render(SlurmRenderArgs),
+    /// The job that ends a round of a render in rounds: merge, measure, then finish or submit the next round.
+    Step(SlurmStepArgs),
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct SlurmStepArgs {
+    /// The job folder of a render in rounds (FINAL.slurm/, holding rounds.json).
+    pub dir: PathBuf,
+    /// The round that has just finished (0, 1, …).
+    #[arg(long)]
+    pub round: usize,
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -41,7 +58,7 @@ pub struct SlurmRenderArgs {
     /// Threads per task (sbatch --cpus-per-task and reflect --threads) [default: the site's default].
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
-    /// Samples per pixel (overrides render.spp).
+    /// Samples per pixel (overrides render.spp); with --target-rel-error, the most to take over all rounds.
     #[arg(long)]
     pub spp: Option<u32>,
     /// Random seed (overrides render.seed).
@@ -51,6 +68,19 @@ pub struct SlurmRenderArgs {
     /// resumes from its checkpoint).
     #[arg(long, default_value_t = 600.0)]
     pub checkpoint_every: f64,
+    /// Render in rounds until the 95th percentile of the object pixels' relative standard error (worst
+    /// channel) of the merged image is at most X: each round a job array, then a step job that merges,
+    /// measures and submits the next round (about (error / X)² times the samples so far, at most double).
+    #[arg(long)]
+    pub target_rel_error: Option<f64>,
+    /// With --target-rel-error: submit no round that would end more than SECS seconds after the
+    /// first was submitted (predicted from the last round's time per sample).
+    #[arg(long, requires = "target_rel_error")]
+    pub time_limit: Option<f64>,
+    /// With --target-rel-error: samples per pixel of the first round (at least 16, whole rounds of the
+    /// Sobol sampler's 16 replicates).
+    #[arg(long, default_value_t = 64, requires = "target_rel_error")]
+    pub first_round_spp: u64,
     /// Print the two job scripts and the sbatch commands; submit nothing, write nothing.
     #[arg(long)]
     pub dry_run: bool,
@@ -63,11 +93,11 @@ pub struct SlurmRenderArgs {
 }
 
 /// `s` quoted for a POSIX shell.
-fn sh_quote(s: &str) -> String {
+pub(super) fn sh_quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
-fn abs(p: &Path) -> Result<PathBuf, Error> {
+pub(super) fn abs(p: &Path) -> Result<PathBuf, Error> {
     std::path::absolute(p).map_err(|e| Error::file(p, format!("cannot make the path absolute: {e}")))
 }
 
@@ -120,7 +150,7 @@ fn scripts(a: &SlurmRenderArgs, exe: &Path, scene: &Path, dir: &Path, out: &Path
     (shard, merge)
 }
 
-fn sbatch(args: &[String], script: &Path) -> Result<String, Error> {
+pub(super) fn sbatch(args: &[String], script: &Path) -> Result<String, Error> {
     let out = Command::new("sbatch")
         .args(args)
         .arg(script)
@@ -137,7 +167,11 @@ fn sbatch(args: &[String], script: &Path) -> Result<String, Error> {
 }
 
 pub fn run(c: SlurmCommand) -> Result<ExitCode, Error> {
-    let SlurmCommand::Render(a) = c;
+    let a = match c {
+        SlurmCommand::Render(a) if a.target_rel_error.is_some() => return super::rounds::start(a),
+        SlurmCommand::Render(a) => a,
+        SlurmCommand::Step(a) => return super::rounds::step(a),
+    };
     super::render::scene_inputs(Some(&a.scene)).output("--out", &a.out, Format::Exr).check()?;
     // Refuse a bad scene here, not in N failed tasks.
     let ra = RenderArgs { scene: Some(a.scene.clone()), spp: a.spp, seed: a.seed, quiet: true, ..Default::default() };
