@@ -176,6 +176,7 @@ fn report_schemas_are_pinned() {
             ("profile", "array"),
             ("filter_fit", "object|null"),
             ("pixel_noise", "object|null"),
+            ("verdict", "object|null"),
             ("warnings", "array"),
         ],
         "invert brdf",
