@@ -148,6 +148,7 @@ def _compare_input(x: Any, name: str) -> Any:
         return {
             "rgb": np.ascontiguousarray(x.rgb, dtype=np.float32),
             "stderr": np.ascontiguousarray(x.stderr, dtype=np.float32),
+            "stderr_own": np.ascontiguousarray(x.stderr_own, dtype=np.float32),
             "stderr_flag": np.ascontiguousarray(x.stderr_flag, dtype=np.float32),
             "mask": np.ascontiguousarray(x.mask, dtype=np.float32),
             "spp": int(x.stats["spp"]),
@@ -178,7 +179,7 @@ def compare(
 
     Each image is a path (``.exr``/``.hdr``), a :class:`RenderResult` (its ``stderr`` layer, flags,
     mask and spp are used), an (H, W, 3) array of linear radiance (no error estimate: taken as
-    exact), or a dict of arrays ``{"rgb": (H, W, 3), "stderr": (H, W, 3), "stderr_flag": (H, W),
+    exact), or a dict of arrays ``{"rgb": (H, W, 3), "stderr": (H, W, 3), "stderr_own": (H, W, 3), "stderr_flag": (H, W),
     "mask": (H, W), "spp": int, "sampler": str}`` (all but ``rgb`` optional; ``spp`` and
     ``sampler`` give the error layer's degrees of freedom: spp − 1 for ``"independent"``, the
     default and any renderer whose error bar is the samples' standard error, 15 for ``"sobol"``,

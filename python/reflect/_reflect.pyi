@@ -26,6 +26,10 @@ class RenderResult:
         """Standard error of each pixel mean, √(s²/n): (H, W, 3) float32 (conservative for Sobol);
         +inf at 1 spp, where one sample has no spread (no estimate, never 0)."""
     @property
+    def stderr_own(self) -> npt.NDArray[np.float32]:
+        """The pixel's own standard error, before the bound near flagged pixels (the ``stderr_own``
+        layer): (H, W, 3) float32."""
+    @property
     def normal(self) -> npt.NDArray[np.float32]:
         """World-space normal of the first hit, averaged and renormalized; 0 on a miss: (H, W, 3) float32."""
     @property
@@ -159,7 +163,7 @@ def compare(
     object_only: bool = False,
 ) -> Dict[str, Any]:
     """``analysis::compare`` on [a, b, seeds…]: each a path or a dict of float32 arrays (``rgb``
-    (H, W, 3), optional ``stderr`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp`` and
+    (H, W, 3), optional ``stderr`` and ``stderr_own`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp`` and
     ``sampler``: ``"independent"``, the default, or ``"sobol"``, which fix the error layer's degrees of freedom).
     Returns the document ``reflect compare --json`` prints. Bad input raises ``ValueError``
     (``FileNotFoundError`` for a missing file) naming the input (``a``, ``b``, ``seeds[k]`` or its path)."""

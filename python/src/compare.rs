@@ -19,7 +19,7 @@ fn input_name(i: usize) -> String {
     }
 }
 
-/// An image from a dict of arrays: `rgb` (H, W, 3) float32, optional `stderr` (H, W, 3),
+/// An image from a dict of arrays: `rgb` (H, W, 3) float32, optional `stderr` and `stderr_own` (H, W, 3),
 /// `stderr_flag` and `mask` (H, W) float32, `spp` (int: the error layer's samples) and `sampler`
 /// (`"independent"`, the default, or `"sobol"`), which give the error layer's degrees of freedom.
 fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
@@ -45,7 +45,7 @@ fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
             if plane.iter().any(|x| x.is_nan() || (prefix == "rgb" && !x.is_finite())) {
                 return Err(bad(format!("'{prefix}' holds NaN or infinite values")));
             }
-            let key = if prefix == "rgb" { n.to_string() } else { format!("stderr.{n}") };
+            let key = if prefix == "rgb" { n.to_string() } else { format!("{prefix}.{n}") };
             img.channels.insert(key, plane);
         }
         Ok(())
@@ -55,6 +55,11 @@ fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
         let s: PyReadonlyArray3<f32> =
             s.extract().map_err(|_| bad("'stderr' must be a float32 array of shape (H, W, 3)".into()))?;
         planes(&s, "stderr", &mut img)?;
+    }
+    if let Some(s) = d.get_item("stderr_own")?.filter(|s| !s.is_none()) {
+        let s: PyReadonlyArray3<f32> =
+            s.extract().map_err(|_| bad("'stderr_own' must be a float32 array of shape (H, W, 3)".into()))?;
+        planes(&s, "stderr_own", &mut img)?;
     }
     for (key, channel) in [("stderr_flag", "stderr_flag.Y"), ("mask", "mask.Y")] {
         if let Some(m) = d.get_item(key)?.filter(|s| !s.is_none()) {
@@ -103,7 +108,11 @@ pub fn compare<'py>(
     let mut paths: Vec<Option<PathBuf>> = Vec::with_capacity(images.len());
     for (i, x) in images.iter().enumerate() {
         if let Ok(d) = x.cast::<PyDict>() {
-            imgs.push(image_of_dict(d, &input_name(i))?);
+            let mut img = image_of_dict(d, &input_name(i))?;
+            // As for a file: flagged pixels compared with the error bars near them bounded (when
+            // the dict carries `stderr_own`, as a RenderResult does).
+            reflect::cli::header::bound_near_flags(&mut img);
+            imgs.push(img);
             paths.push(None);
             continue;
         }

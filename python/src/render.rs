@@ -268,6 +268,10 @@ pub struct RenderResult {
     /// Standard error of each pixel mean, float32 (H, W, 3); +inf at 1 spp (no estimate).
     #[pyo3(get)]
     stderr: Py<PyArray3<f32>>,
+    /// The pixel's own standard error before the bound near flagged pixels (the `stderr_own`
+    /// layer), float32 (H, W, 3).
+    #[pyo3(get)]
+    stderr_own: Py<PyArray3<f32>>,
     /// World-space normal of the first hit (0 on a miss), float32 (H, W, 3).
     #[pyo3(get)]
     normal: Py<PyArray3<f32>>,
@@ -306,6 +310,7 @@ impl RenderResult {
         };
         let rgb = rgb3(|p| p.rgb)?;
         let stderr = rgb3(|p| p.stderr)?;
+        let stderr_own = rgb3(|p| p.stderr_own)?;
         let normal = rgb3(|p| p.normal)?;
         let mask = layer(py, &film, |p| [p.mask])?.reshape([h, w])?.unbind();
         let flags: Vec<bool> = film.pixels.iter().map(|p| p.unreliable).collect();
@@ -328,6 +333,7 @@ impl RenderResult {
         Ok(RenderResult {
             rgb,
             stderr,
+            stderr_own,
             normal,
             mask,
             stderr_flag,

@@ -36,7 +36,8 @@ def test_compare_equals_the_cli_json(cli, tmp_path):
     ia, ib = reflect.read_image(a), reflect.read_image(b)
 
     def as_dict(img):
-        return {"rgb": img.layer(""), "stderr": img.layer("stderr."), "stderr_flag": img.channels["stderr_flag.Y"],
+        return {"rgb": img.layer(""), "stderr": img.layer("stderr."), "stderr_own": img.layer("stderr_own."),
+                "stderr_flag": img.channels["stderr_flag.Y"],
                 "mask": img.channels["mask.Y"], "spp": 16}
 
     assert plain(reflect.compare(as_dict(ia), as_dict(ib), block=4)) == plain(doc)
