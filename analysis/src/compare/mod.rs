@@ -542,7 +542,7 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
     let curvature: Vec<CurvatureFit> = (0..3)
         .filter_map(|c| {
             let excess = pchi2[c] - pnu[c] as f64;
-            curvature_fit(&ea, &eb, &idx, band.as_deref(), c, excess)
+            curvature_fit(&ea, &eb, &idx, &used, band.as_deref(), c, excess)
         })
         .collect();
 
@@ -695,19 +695,18 @@ fn reason(
     format!("{} (each test at level {alpha_per_test:.3e}, family-wise α = {})", parts.join("; "), params.alpha)
 }
 
-/// The [`CurvatureFit`] of channel `c` over the compared pixels `idx` outside the silhouette band
+/// The [`CurvatureFit`] of channel `c` over the compared pixels `idx` (`used` as a mask) outside the silhouette band
 /// whose 8 neighbours are all compared; `None` with fewer than 16 such pixels or no curvature.
 fn curvature_fit(
     ea: &Estimate,
     eb: &Estimate,
     idx: &[usize],
+    used: &[bool],
     band: Option<&[bool]>,
     c: usize,
     excess: f64,
 ) -> Option<CurvatureFit> {
     let (w, h) = (ea.width, ea.height);
-    let mut used = vec![false; w * h];
-    idx.iter().for_each(|&i| used[i] = true);
     let m = |i: usize| 0.5 * (ea.mean[i][c] + eb.mean[i][c]);
     let (mut sxy, mut sxx, mut count) = (0.0f64, 0.0f64, 0usize);
     for &i in idx {
