@@ -139,7 +139,7 @@ pub fn compare<'py>(
     if imgs.len() < 2 {
         return Err(PyValueError::new_err("compare needs a and b"));
     }
-    let params = CompareParams { alpha, block, exclude_edges, object_only };
+    let params = CompareParams { alpha, block, exclude_edges, object_only, b_systematic: None };
     let report =
         py.detach(|| analysis::compare::compare(&imgs[0], &imgs[1..], &params)).map_err(|e: CompareError| {
             let name = |i: usize| paths[i].as_ref().map_or_else(|| input_name(i), |p| p.display().to_string());

@@ -1,8 +1,14 @@
 //! `reflect compare A B [--seeds B2 B3 …]`: is A the same picture as B up to their noise? Parses,
 //! calls [`analysis::compare::compare`] and prints; the statistics live there. Exit status 0 when
 //! the images agree, 1 when they do not, 2 for bad input (as `cmp` and `diff`).
+//!
+//! `reflect compare A --prediction`: B is the image the theory predicts for A's scene (its header,
+//! `--scene` or the view, BRDF and lighting flags, as `analyze` reads them),
+//! [`analysis::predict::predict_scene`].
 
 use super::Error;
+use super::args::{BrdfFlags, ViewArgs};
+use super::header::{Camera, lighting_of};
 use super::outputs::{Files, Format};
 use analysis::compare::{CompareError, CompareParams, CompareReport, Verdict};
 use analysis::image::Image;
@@ -15,7 +21,27 @@ pub struct CompareArgs {
     /// exact.
     pub a: PathBuf,
     /// Image B: a render with its stderr layer, or the first seed of B's renderer (with --seeds).
-    pub b: PathBuf,
+    #[arg(required_unless_present = "prediction")]
+    pub b: Option<PathBuf>,
+    /// Compare A with the image the theory predicts for its scene (eq. 15 pixel by pixel: a
+    /// lambert sphere, or phong with horizon = "ignore", seen by an orthographic camera), from A's
+    /// header or --scene, else the view, BRDF and lighting flags; A needs its stderr layer.
+    #[arg(long, conflicts_with_all = ["b", "seeds"])]
+    pub prediction: bool,
+    /// With --prediction: the lighting (a scene .toml's [lighting] table, or an environment map) in
+    /// place of the header's or --scene's.
+    #[arg(long, requires = "prediction")]
+    pub lighting: Option<PathBuf>,
+    /// With --prediction: the mapping of an environment map given with --lighting (default:
+    /// inferred from its aspect ratio).
+    #[arg(long, value_enum, requires = "lighting")]
+    pub mapping: Option<vocab::Mapping>,
+    /// With --prediction: the camera and sphere of an image whose header does not say them.
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// With --prediction: the BRDF of the sphere when the header and --scene do not say it.
+    #[command(flatten)]
+    pub brdf: BrdfFlags,
     /// Further seeds of B's renderer (independent renders of the same scene): B's noise is then the
     /// spread of B and the seeds per pixel (n − 1 degrees of freedom for n images), and their stderr
     /// layers are not used (A's is).
@@ -38,9 +64,6 @@ pub struct CompareArgs {
     /// either side to absorb it.
     #[arg(long)]
     pub object_only: bool,
-    /// The radiance layer of multi-layer EXRs, by its channel prefix (the same for every image).
-    #[arg(long)]
-    pub layer: Option<String>,
     /// Print the report as one JSON document (its `verdict` is "agree" or "disagree").
     #[arg(long)]
     pub json: bool,
@@ -55,34 +78,78 @@ const REPORT_FILES: [(&str, Format); 4] =
     [("index.html", Format::Html), ("z.png", Format::Png), ("ratio.png", Format::Png), ("histogram.png", Format::Png)];
 
 pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
-    let mut paths = vec![a.a.clone(), a.b.clone()];
+    if !a.prediction
+        && let Some(flag) = description_flag(&a)
+    {
+        return Err(Error::new(format!(
+            "{flag} describes the scene of --prediction; without --prediction the images are compared as they are"
+        )));
+    }
+    let mut paths = vec![a.a.clone()];
+    paths.extend(a.b.iter().cloned());
     paths.extend(a.seeds.iter().cloned());
-    let mut files = Files::new().input("image A", &a.a).input("image B", &a.b).inputs("--seeds", &a.seeds);
+    let mut files = Files::new().input("image A", &a.a).inputs("image B", a.b.as_slice()).inputs("--seeds", &a.seeds);
     if let Some(dir) = &a.report {
         for (name, f) in REPORT_FILES {
             files = files.output("--report", dir.join(name), f);
         }
     }
     files.check()?;
-    let mut images: Vec<Image> = Vec::with_capacity(paths.len());
-    let mut notes = Vec::new();
-    for p in &paths {
-        let (img, n) = renderer::render_file::read_image_notes(p)?;
-        let (mut img, note) = img.select_layer(a.layer.as_deref()).map_err(|e| e.in_file(p))?;
-        notes.extend(n.into_iter().chain(note).map(|n| format!("note: {}: {n}", p.display())));
-        if let Some(n) = to_our_image_axes(&mut img) {
-            notes.push(format!("note: {}: {n}", p.display()));
+    let mut params = CompareParams {
+        alpha: a.alpha,
+        block: a.block,
+        exclude_edges: a.exclude_edges,
+        object_only: a.object_only,
+        b_systematic: None,
+    };
+    let (report, notes) = if a.prediction {
+        let (image, predicted, warnings) = prediction(&a)?;
+        params.b_systematic = Some(predicted.systematic.clone());
+        let mut report =
+            analysis::compare::compare(&image, &[predicted.to_image()], &params).map_err(|e| error_of(e, &paths))?;
+        report.b.noise = format!(
+            "the prediction of eq. 15 summed to l = {}: exact but for its truncation, a systematic error bounded by \
+             2 max |B(l ≤ {}) − B(l ≤ {})| nearby (at most {:.1e} of the mean radiance), added to every error bar",
+            predicted.lmax,
+            predicted.lmax,
+            predicted.lmax_check,
+            predicted.max_relative_systematic()
+        );
+        // Pixels not predicted carry no estimate in B: say so, rather than "fewer than 2 samples".
+        let unpredicted = predicted.predicted.iter().filter(|p| !**p).count();
+        let in_a = report.pixels.no_estimate.saturating_sub(unpredicted);
+        report.warnings.retain(|w| !w.contains("pixels without error estimate (stderr +inf"));
+        if in_a > 0 {
+            report
+                .warnings
+                .push(format!("{in_a} pixels without error estimate (stderr +inf: fewer than 2 samples) are left out"));
         }
-        // Flagged pixels are compared, with the error bars near them bounded as every analysis
-        // reads a render (leaving them out would select on the image's values).
-        super::header::bound_near_flags(&mut img);
-        images.push(img);
-    }
-    let params =
-        CompareParams { alpha: a.alpha, block: a.block, exclude_edges: a.exclude_edges, object_only: a.object_only };
-    let report = analysis::compare::compare(&images[0], &images[1..], &params).map_err(|e| error_of(e, &paths))?;
+        report.warnings.splice(0..0, warnings);
+        (report, Vec::new())
+    } else {
+        let mut images: Vec<Image> = Vec::with_capacity(paths.len());
+        let mut notes = Vec::new();
+        for p in &paths {
+            let (img, n) = renderer::render_file::read_image_notes(p)?;
+            let (mut img, note) = img.select_layer(a.view.image.layer.as_deref()).map_err(|e| e.in_file(p))?;
+            notes.extend(n.into_iter().chain(note).map(|n| format!("note: {}: {n}", p.display())));
+            if let Some(n) = to_our_image_axes(&mut img) {
+                notes.push(format!("note: {}: {n}", p.display()));
+            }
+            // Flagged pixels are compared, with the error bars near them bounded as every analysis
+            // reads a render (leaving them out would select on the image's values).
+            super::header::bound_near_flags(&mut img);
+            images.push(img);
+        }
+        let report = analysis::compare::compare(&images[0], &images[1..], &params).map_err(|e| error_of(e, &paths))?;
+        (report, notes)
+    };
+    let shown: Vec<String> = match &a.b {
+        Some(_) => paths.iter().map(|p| p.display().to_string()).collect(),
+        None => vec![a.a.display().to_string(), "the prediction".to_string()],
+    };
     let staged = match &a.report {
-        Some(dir) => stage_report(dir, &report, &paths)?,
+        Some(dir) => stage_report(dir, &report, &shown)?,
         None => Vec::new(),
     };
     for n in &notes {
@@ -95,7 +162,7 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).expect("the report serialises"));
     } else {
-        print_text(&report, &paths);
+        print_text(&report, &shown);
     }
     if let Some(dir) = &a.report {
         eprintln!("wrote {}", dir.join("index.html").display());
@@ -104,6 +171,69 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
         Verdict::Agree => ExitCode::SUCCESS,
         Verdict::Disagree => ExitCode::from(1),
     })
+}
+
+/// The first flag given that describes the scene of `--prediction` (camera, sphere, BRDF, lighting),
+/// if any: without `--prediction` they would be ignored, so they are refused.
+fn description_flag(a: &CompareArgs) -> Option<&'static str> {
+    let v = &a.view;
+    let b = &a.brdf;
+    [
+        (!v.from.is_empty(), "--from"),
+        (!v.to.is_empty(), "--to"),
+        (!v.up.is_empty(), "--up"),
+        (!v.extent.is_empty(), "--extent"),
+        (v.center.is_some(), "--center"),
+        (v.radius.is_some(), "--radius"),
+        (v.pixel_filter.is_some(), "--pixel-filter"),
+        (v.image.scene.is_some(), "--scene"),
+        (!v.image.theta_o.is_empty(), "--theta-o"),
+        (!v.image.phi_o.is_empty(), "--phi-o"),
+        (b.brdf.is_some(), "--brdf"),
+        (b.s.is_some(), "--s"),
+        (b.sigma.is_some(), "--sigma"),
+        (!b.brdf_param.is_empty(), "--brdf-param"),
+        (b.albedo.is_some(), "--albedo"),
+    ]
+    .into_iter()
+    .find_map(|(given, flag)| given.then_some(flag))
+}
+
+/// Image A as every analysis reads it, and the image the theory predicts for its scene, with the
+/// warnings of reading A's description: A's description from its header, `--scene` or the flags (`super::header::load`).
+fn prediction(a: &CompareArgs) -> Result<(Image, analysis::predict::PredictedImage, Vec<String>), Error> {
+    let (mut images, d) = super::header::load(std::slice::from_ref(&a.a), &a.view, "compared")?;
+    let image = images.remove(0);
+    let in_a = |e: Error| e.in_file(&a.a);
+    let Camera::Ortho(camera) = d.cameras[0] else {
+        return Err(Error::file(
+            &a.a,
+            "is a normal-probe render: --prediction predicts orthographic views of a sphere (analyze compares a \
+             normal probe with the theory)",
+        ));
+    };
+    if image.stderr_layer().map_err(in_a)?.is_none() {
+        return Err(Error::file(
+            &a.a,
+            "has no stderr layer: a comparison with the prediction judges the image by its own error bars",
+        ));
+    }
+    let resolved = d.transfer(&a.brdf, 0.0).map_err(in_a)?.ok_or_else(|| {
+        Error::file(&a.a, "the sphere's BRDF is not known (no reflect:objects header, --scene or --brdf)")
+    })?;
+    let transfer = resolved.transfer.ok_or_else(|| {
+        Error::file(&a.a, format!("the sphere's BRDF ({}, {}) has no transfer model", resolved.kind, resolved.source))
+    })?;
+    let (lighting, _) = lighting_of(a.lighting.as_deref(), a.mapping, &d)?.ok_or_else(|| {
+        Error::file(&a.a, "the lighting is not known (no reflect:lighting header or --scene): give --lighting")
+    })?;
+    let scene = analysis::predict::OrthoScene { camera, sphere: d.sphere, width: image.width, height: image.height };
+    let predicted =
+        analysis::predict::predict_scene(&scene, &lighting, transfer.model, transfer.scale, transfer.horizon)
+            .map_err(in_a)?;
+    let mut warnings = d.stderr_notes.clone();
+    warnings.extend(d.warnings.iter().cloned());
+    Ok((image, predicted, warnings))
 }
 
 /// Brings an image whose `worldToNDC` camera sees the mirror image of ours (pbrt-v4's left-handed
@@ -144,16 +274,16 @@ fn error_of(e: CompareError, paths: &[PathBuf]) -> Error {
     }
 }
 
-fn print_text(r: &CompareReport, paths: &[PathBuf]) {
+fn print_text(r: &CompareReport, paths: &[String]) {
     let verdict = match r.verdict {
         Verdict::Agree => "AGREE",
         Verdict::Disagree => "DISAGREE",
     };
     println!("{verdict}: {}", r.reason);
-    println!("A: {} — {}", paths[0].display(), r.a.noise);
+    println!("A: {} — {}", paths[0], r.a.noise);
     println!(
         "B: {}{} — {}",
-        paths[1].display(),
+        paths[1],
         if r.b.images > 1 { format!(" and {} more seeds", r.b.images - 1) } else { String::new() },
         r.b.noise
     );
@@ -254,7 +384,7 @@ fn histogram_png(r: &CompareReport) -> (usize, usize, Vec<u8>) {
     (w, h, px)
 }
 
-fn stage_report(dir: &Path, r: &CompareReport, paths: &[PathBuf]) -> Result<Vec<renderer::output::Staged>, Error> {
+fn stage_report(dir: &Path, r: &CompareReport, paths: &[String]) -> Result<Vec<renderer::output::Staged>, Error> {
     let (w, h) = (r.width, r.height);
     let z: Vec<u8> = r.z_map.iter().flat_map(|&v| diverging(v / 5.0)).collect();
     let ratio: Vec<u8> = r.ratio_map.iter().flat_map(|&v| diverging(v.ln() / 0.1)).collect();
@@ -280,9 +410,9 @@ fn stage_report(dir: &Path, r: &CompareReport, paths: &[PathBuf]) -> Result<Vec<
     let html = format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>reflect compare: {verdict}</title>\n<style>body{{font-family:sans-serif;max-width:60em}} img.map{{width:256px;image-rendering:pixelated}} td,th{{padding:0 .6em}}</style></head><body>\n<h1>The images {verdict}</h1>\n<p>{}</p>\n<p>A: {} ({})<br>B: {} ({} image{}, {})</p>\n<table><tr><th>test</th><th>z or χ²/ν</th><th>ν</th><th>p</th><th>at level {:.3e}</th></tr>\n{rows}</table>\n<p>Family-wise false-alarm rate α = {} (Šidák over {} tests).</p>\n<figure><img class=\"map\" src=\"z.png\"><figcaption>z of R + G + B per pixel, blue −5 … red +5 (A above B); grey: not compared.</figcaption></figure>\n<figure><img class=\"map\" src=\"ratio.png\"><figcaption>A / B (R + G + B) per pixel, blue 0.905 … red 1.105 (log scale).</figcaption></figure>\n<figure><img src=\"histogram.png\"><figcaption>Pixel scores u (each channel's z turned into the N(0, 1) value of the same tail probability under its Student t, so that agreeing images give N(0, 1); bins of 0.25 over −6 … 6, log counts) against N(0, 1) (red); black: u = 0. Beyond the range: {} below, {} above.</figcaption></figure>\n</body></html>\n",
         esc(&r.reason),
-        esc(&paths[0].display().to_string()),
+        esc(&paths[0]),
         esc(&r.a.noise),
-        esc(&paths[1].display().to_string()),
+        esc(&paths[1]),
         r.b.images,
         if r.b.images == 1 { "" } else { "s" },
         esc(&r.b.noise),

@@ -44,6 +44,9 @@ pub struct Estimate {
     pub source: String,
     /// Whether the side has any error estimate (an error layer or seeds).
     pub has_error: bool,
+    /// A bound on the systematic error of each pixel (a prediction's truncation), coherent between
+    /// pixels: see [`super::CompareParams::b_systematic`].
+    pub systematic: Option<Vec<[f64; 3]>>,
 }
 
 /// The RGB layout of an image: three channels, or one (`Y`, replicated), or none.
@@ -174,6 +177,7 @@ impl Estimate {
             mask: coverage(img),
             source,
             has_error,
+            systematic: None,
         })
     }
 
@@ -212,6 +216,7 @@ impl Estimate {
             mask: imgs.iter().find_map(coverage),
             source: format!("{n} seeds (per-pixel spread: {} degrees of freedom)", n - 1),
             has_error: true,
+            systematic: None,
         })
     }
 
@@ -220,17 +225,33 @@ impl Estimate {
     /// included), else Σ σ² (pixels independent, a box film) with Welch–Satterthwaite's ν.
     pub fn sum(&self, idx: &[usize], c: usize) -> (f64, f64, f64) {
         let s: f64 = idx.iter().map(|&i| self.mean[i][c]).sum();
+        // A systematic bound adds to the sum's variance as one error of its full size: exact (∞
+        // degrees of freedom), so it raises the Welch–Satterthwaite ν of the total.
+        let sys = self.systematic.as_ref().map_or(0.0, |t| idx.iter().map(|&i| t[i][c]).sum::<f64>().powi(2));
+        let with_sys = |v: f64, dof: f64| {
+            let total = v + sys;
+            let dof = if dof.is_finite() && v > 0.0 { (dof * total * total / (v * v)).min(1e9) } else { dof };
+            (s, total, dof)
+        };
         if self.seeds.len() >= 2 {
             let n = self.seeds.len() as f64;
             let sums: Vec<f64> = self.seeds.iter().map(|sd| idx.iter().map(|&i| sd[i][c]).sum()).collect();
             let m = sums.iter().sum::<f64>() / n;
             let v = sums.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0) / n;
-            return (s, v, n - 1.0);
+            return with_sys(v, n - 1.0);
         }
         let v: f64 = idx.iter().map(|&i| self.var[i][c]).sum();
         // Welch–Satterthwaite over the pixels, all with the same ν: (Σ v)² / Σ (v² / ν).
         let v2: f64 = idx.iter().map(|&i| self.var[i][c].powi(2)).sum();
         let dof = if self.dof.is_finite() && v2 > 0.0 { (v * v / v2 * self.dof).min(1e9) } else { f64::INFINITY };
-        (s, v, dof)
+        with_sys(v, dof)
+    }
+
+    /// The variance of pixel `i` with its systematic bound added in quadrature.
+    pub fn pixel_var(&self, i: usize) -> [f64; 3] {
+        match &self.systematic {
+            Some(t) => std::array::from_fn(|c| self.var[i][c] + t[i][c] * t[i][c]),
+            None => self.var[i],
+        }
     }
 }

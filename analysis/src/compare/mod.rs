@@ -64,11 +64,16 @@ pub struct CompareParams {
     /// B's) is 0, the background, where another renderer's map lookup may differ from ours
     /// without noise on either side. Needs a coverage layer in A or B.
     pub object_only: bool,
+    /// A bound on B's systematic error per pixel and channel (row-major, `width × height`), as a
+    /// prediction's truncation ([`crate::predict::PredictedImage::systematic`]): it is not noise
+    /// and does not average down, so it is added in quadrature to each pixel's standard error and,
+    /// summed over the pixels (as if all of one sign), to each block mean's and channel sum's.
+    pub b_systematic: Option<Vec<[f64; 3]>>,
 }
 
 impl Default for CompareParams {
     fn default() -> Self {
-        CompareParams { alpha: 0.01, block: 8, exclude_edges: 0, object_only: false }
+        CompareParams { alpha: 0.01, block: 8, exclude_edges: 0, object_only: false, b_systematic: None }
     }
 }
 
@@ -326,7 +331,15 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
         estimate::check_alignment(img, k + 1, a, 0)?;
     }
     let ea = Estimate::of_image(a, 0)?;
-    let eb = if b.len() >= 2 { Estimate::of_seeds(b, 1)? } else { Estimate::of_image(&b[0], 1)? };
+    let mut eb = if b.len() >= 2 { Estimate::of_seeds(b, 1)? } else { Estimate::of_image(&b[0], 1)? };
+    if let Some(t) = &params.b_systematic {
+        if t.len() != eb.mean.len() || t.iter().flatten().any(|x| !(*x >= 0.0 && x.is_finite())) {
+            return Err(CompareError::BadParam(
+                "b_systematic must hold one finite, non-negative RGB bound per pixel".into(),
+            ));
+        }
+        eb.systematic = Some(t.clone());
+    }
     if !ea.has_error && !eb.has_error {
         return Err(CompareError::NoErrorEstimate);
     }
@@ -403,7 +416,7 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
     let mut z_map = vec![f32::NAN; n];
     let mut ratio_map = vec![f32::NAN; n];
     for &i in &idx {
-        let (ma, mb, va, vb) = (ea.mean[i], eb.mean[i], ea.var[i], eb.var[i]);
+        let (ma, mb, va, vb) = (ea.mean[i], eb.mean[i], ea.pixel_var(i), eb.pixel_var(i));
         for c in 0..3 {
             match Difference::new(ma[c] - mb[c], va[c], vb[c], ea.dof, eb.dof) {
                 Some(d) => {

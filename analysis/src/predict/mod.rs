@@ -5,6 +5,10 @@
 //! Parameters: lighting coefficients `L` (RGB, index order k), transfer coefficients Λ_l ρ̂_l
 //! (l = 0 …), an RGB albedo / k_s scale.
 
+pub mod orthographic;
+
+pub use orthographic::{OrthoScene, PredictedImage, predict_orthographic, predict_scene};
+
 use crate::sh::{lm, reconstruct_latlong};
 
 /// B_lm = albedo · Λ_l ρ̂_l · L_lm for every k of `lighting` (orders beyond `lambda_rho` are 0).
