@@ -178,6 +178,9 @@ fn angular_map(lighting: &Lighting) -> Result<bool> {
     }
 }
 
+/// One pixel's prediction: radiance, |B_{lmax} − B_{lmax_check}|, coverage, whether predicted.
+type PixelPrediction = ([f64; 3], [f64; 3], f32, bool);
+
 /// 2 × the largest `band` value of the predicted pixels within Chebyshev distance `reach` of each
 /// predicted pixel (0 elsewhere): a running maximum along rows, then along columns.
 fn envelope(band: &[[f64; 3]], predicted: &[bool], w: usize, h: usize, reach: usize) -> Vec<[f64; 3]> {
@@ -263,7 +266,7 @@ pub fn predict_orthographic(
     let plane = |row: f64, col: f64| {
         (cam.extent * (2.0 * col / w as f64 - 1.0), cam.extent * (h as f64 / w as f64) * (1.0 - 2.0 * row / h as f64))
     };
-    let rows: Vec<Vec<([f64; 3], [f64; 3], f32, bool)>> = (0..h)
+    let rows: Vec<Vec<PixelPrediction>> = (0..h)
         .into_par_iter()
         .map(|row| {
             let basis = ShBasis::new(lmax);
