@@ -28,7 +28,7 @@ pub struct CompareArgs {
     /// header or --scene, else the view, BRDF and lighting flags; A needs its stderr layer.
     #[arg(long, conflicts_with_all = ["b", "seeds"])]
     pub prediction: bool,
-    /// With --prediction: the lighting (a scene .toml's [lighting] table, or an environment map) in
+    /// With --prediction: the lighting (a scene .toml's `[lighting]` table, or an environment map) in
     /// place of the header's or --scene's.
     #[arg(long, requires = "prediction")]
     pub lighting: Option<PathBuf>,
