@@ -82,7 +82,7 @@ def render(
     too large value raises ``ValueError`` naming the keyword, as does any other bad argument.
 
     Rendering in passes (the renderer's progressive loop, the one ``reflect render`` runs):
-    ``target_rel_error`` (e.g. 0.01) stops once the 95th percentile over the object's pixels of the
+    ``target_rel_error`` (e.g. 0.01) stops once the 95th percentile over the object's pixels (``mask`` > 0) of the
     worst channel's relative standard error is at most it (checked from 16 spp on; ``spp`` is then the
     most samples to take); ``time_limit`` (seconds of rendering) stops after the last pass that fits;
     ``checkpoint`` (an ``.exr`` path) resumes from that file if it exists and saves the state there every

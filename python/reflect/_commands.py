@@ -351,7 +351,11 @@ def _keywords(message: str) -> str:
         name = m.group(1).replace("-", "_")
         return f"{name}_=" if keyword_module.iskeyword(name) else f"{name}="
 
-    return _KEYWORD_FLAG.sub(keyword, message)
+    out = _KEYWORD_FLAG.sub(keyword, message)
+    if "from_=" in out and "camera=" not in out:
+        # The flags' keywords exist, but the way to describe an array's camera is one table.
+        out += " (or camera= a scene-file camera table, e.g. {'type': 'orthographic', 'from': [3, 0, 1], 'extent': 1.05})"
+    return out
 
 
 def _image_list(images: Any) -> List[Any]:

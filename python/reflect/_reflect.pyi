@@ -8,7 +8,7 @@ raises ``reflect.InputError`` (a ``ValueError``) with a one-line message on bad 
 ``reflect.MissingFileError`` (a ``FileNotFoundError``) when a named input file does not exist.
 """
 
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -43,7 +43,10 @@ class RenderResult:
     @property
     def stats(self) -> Dict[str, Any]:
         """``wall_seconds``, ``samples``, ``rays``, ``threads``, ``samples_per_sec``, ``rays_per_sec``,
-        and the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``."""
+        the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``, and of a
+        render to a target error or time limit: ``passes``, ``stopped_by`` (``"target"``, ``"time-limit"``,
+        ``"spp-cap"``), ``rel_error_p95`` (the 95th-percentile relative error reached, or None),
+        ``rel_error_unknown`` (why it is None), ``target_rel_error``, ``time_limit``."""
     @property
     def spp(self) -> int:
         """Samples per pixel of the image: the spp reached by a render to a target error or time limit."""

@@ -177,9 +177,15 @@ class TorranceSparrow(BRDF):
 
 
 class Microfacet(BRDF):
-    """A microfacet BRDF D·G·F / (4 cos θ_o) (guide "Conventions" §4): ``distribution`` "beckmann"
-    (default) or "ggx", roughness ``alpha`` > 0, Smith's height-correlated G, and ``fresnel`` "none"
-    (default, F = 1), "schlick" (needs ``f0``) or "conductor" (needs ``eta`` and ``k``, RGB)."""
+    """A microfacet BRDF D·G·F / (4 cos θ_i cos θ_o) (guide "Conventions" §4; ``eval`` returns
+    ρ̂ = BRDF · cos θ_i = D·G·F / (4 cos θ_o)): ``distribution`` "beckmann" (default) or "ggx", roughness
+    ``alpha`` > 0, Smith's height-correlated G, and ``fresnel`` "none" (default, F = 1), "schlick"
+    (needs ``f0``) or "conductor" (needs ``eta`` and ``k``, RGB).
+
+    ``sample`` draws a half vector h and reflects ω_o about it: Beckmann from D(h) cos θ_h, GGX from
+    its visible normals D_ωo(h) = G1(ω_o) max(0, ω_o·h) D(h) / cos θ_o (Heitz 2018); the pdf of ω_i is
+    p(h) / (4 ω_o·h). Draws with ω_o·h ≤ 0 or ω_i below the horizon are refused (``pdf`` integrates to
+    the kept fraction, a little below 1 at large ``alpha``)."""
 
     def __init__(
         self,

@@ -289,6 +289,21 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
     {
         warnings.push(note);
     }
+    // SH coefficients are the whole lighting (orders not given are 0): coefficients of a map cut at
+    // l_max describe a smoother lighting than the image was rendered under, and the verdict, which
+    // reads the lighting to l_max + 2, would call the difference a contradiction without this.
+    if let Some((analysis::lighting::Lighting::Sh { coefficients }, _)) = &lighting
+        && coefficients.len() < num_coefficients(l_hi_order(a.lmax))
+    {
+        let given = analysis::sh::reconstruct::lmax_of(coefficients.len())
+            .map_or_else(|| format!("{} coefficients", coefficients.len()), |l| format!("coefficients to l = {l}"));
+        warnings.push(format!(
+            "the lighting is SH {given}, orders above taken as 0; the fit and verdict read it to l = {}: if the \
+             lighting has energy there (coefficients projected from a map), the image will contradict it — give \
+             coefficients to a few orders more than --lmax, or the map",
+            l_hi_order(a.lmax)
+        ));
+    }
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
         br.model.map(|m| {
             m.lambda_rho(a.lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect()
