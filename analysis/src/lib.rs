@@ -13,6 +13,8 @@
 //! - [`predict`], [`filter`]: B_lm from L_lm and the per-order filter measured from renders;
 //! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
+//! - [`observation`]: what a set of images shows (camera, sphere, BRDF, lighting) from headers,
+//!   a sidecar scene and explicit values;
 //! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
 //! - [`verdict`]: whether an image contradicts the lighting, BRDF and camera it was told, and which
 //!   assumption most likely is wrong;
@@ -29,6 +31,7 @@ pub mod inverse;
 pub mod lighting;
 pub mod lsq;
 pub mod noise;
+pub mod observation;
 pub mod predict;
 pub mod projection;
 pub mod quadrature;

@@ -36,10 +36,11 @@
 //! header is checked against the sphere's silhouette when the image is read (`super::header::load`).
 use super::Error;
 use super::args::{BrdfFlags, ParamArg, ViewArgs};
-use super::header::{Camera, lighting_of, load};
+use super::header::load;
 use super::pixels::{PixelNoise, prepare as pixel_noise_of};
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
+use analysis::observation::{Camera, lighting_of};
 use analysis::projection::{OrthoView, Param, fit_orthographic, ortho_samples, probe_samples, project_normal_probe};
 use analysis::sh::{lm, num_coefficients};
 use analysis::transfer::{TransferModel, parameterization};
@@ -181,7 +182,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         }
     }
     let brdf_at = |theta_o: f64| -> Result<Option<Brdf>, Error> {
-        Ok(described.transfer(&a.brdf, theta_o).map_err(|e| e.in_file(&a.images[0]))?.map(|r| Brdf {
+        Ok(described.transfer(&a.brdf.values(), theta_o).map_err(|e| e.in_file(&a.images[0]))?.map(|r| Brdf {
             model: r.transfer.map(|t| t.model),
             scale: r.transfer.map_or([1.0; 3], |t| t.scale),
             kind: r.kind,

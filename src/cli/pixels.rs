@@ -16,9 +16,9 @@
 //! l_max 4 measured F̂ 6.8, which would widen every bar 2.6×), not noise.
 
 use super::Error;
-use super::header::Camera;
 use analysis::image::{Image, RgbImage};
 use analysis::noise::{MeasuredCorrelation, PixelFilter, ResidualGrid, estimate_correlation, near_lags};
+use analysis::observation::Camera;
 use analysis::projection::{
     OrthoCamera, OrthoView, Param, Sample, Sphere, fit_orthographic, ortho_sample_pixels, ortho_samples,
 };

@@ -35,12 +35,12 @@
 
 use super::Error;
 use super::args::{Channel, ImageArgs};
-use super::header::Camera;
 use super::outputs::{Files, Format};
 use analysis::image::{Image, RgbImage, write_exr};
 use analysis::inverse::separation::{
     LOW, ResidualFit, Samples, Separated, Separation, best_split, fit_residuals, nine_term_residual, probe_samples,
 };
+use analysis::observation::Camera;
 use analysis::projection::resolution::{
     LATLONG_REFLECTION_RULE, check_latlong, check_order, latlong_max_order_reflection,
 };
@@ -184,13 +184,13 @@ fn json_rgb(v: Option<&Value>) -> Option<[f64; 3]> {
 /// ([`super::header::describe`]).
 fn check_weight(arg: Option<[f64; 3]>, header: Option<[f64; 3]>, flag: &str, source: &str) -> Result<(), Error> {
     if let (Some(v), Some(h)) = (arg, header)
-        && !(0..3).all(|i| super::header::close(v[i], h[i], 1.0))
+        && !(0..3).all(|i| analysis::observation::close(v[i], h[i], 1.0))
     {
         let sym = if flag == "kd" { "k_d" } else { "k_s" };
         return Err(Error::new(format!(
             "--{flag} {} but {source} gives {sym} = {} (its mix of lambert and mirror): they contradict each other",
-            super::header::v3(v),
-            super::header::v3(h)
+            analysis::observation::v3(v),
+            analysis::observation::v3(h)
         )));
     }
     Ok(())
