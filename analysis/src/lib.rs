@@ -18,6 +18,7 @@
 //! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
 //! - [`verdict`]: whether an image contradicts the lighting, BRDF and camera it was told, and which
 //!   assumption most likely is wrong;
+//! - [`separate`]: diffuse + specular separation (sec. 3.5) as parameters → report;
 //! - [`compare`]: is image A image B up to noise (per-pixel z, scale, blocks, a Šidák verdict);
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
@@ -35,6 +36,7 @@ pub mod observation;
 pub mod predict;
 pub mod projection;
 pub mod quadrature;
+pub mod separate;
 pub mod sh;
 pub mod special;
 pub mod transfer;
