@@ -42,10 +42,10 @@ impl BrdfFlags {
 /// attributes ([`analysis::projection::camera_of_matrices`]) is said on stderr; an image whose matrix camera sees the mirror
 /// image of ours has its columns mirrored here, once, for every command. An orthographic camera not
 /// from the image's own `reflect:camera` is checked against the sphere's silhouette
-/// ([`super::pixels::check_silhouette`]: a mismatch is an error; an image with nothing to check
+/// ([`analysis::observation::pixels::check_silhouette`]: a mismatch is an error; an image with nothing to check
 /// against gives a warning in [`Observation::warnings`]). The pixels' noise correlation is decided
-/// after this, by [`super::pixels::prepare`]. With `--pixel-filter`, the
-/// pixels whose filter footprint reaches the silhouette are masked out ([`super::pixels::edge_margin`]).
+/// after this, by [`analysis::observation::pixels::prepare`]. With `--pixel-filter`, the
+/// pixels whose filter footprint reaches the silhouette are masked out ([`analysis::observation::pixels::edge_margin`]).
 pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image>, Observation), Error> {
     // Notes go to stderr only once everything is read and described: bad input gets its one line.
     let mut notes = Vec::new();
@@ -87,9 +87,14 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
         // --scene, worldToNDC) is checked against the sphere's silhouette.
         if let Camera::Ortho(c) = cam
             && !img.attributes.contains_key("reflect:camera")
-            && let Some(w) =
-                super::pixels::check_silhouette(img, view.image.layer.as_deref(), c, &d.sphere, view.pixel_filter)
-                    .map_err(|e| e.in_file(p))?
+            && let Some(w) = analysis::observation::pixels::check_silhouette(
+                img,
+                view.image.layer.as_deref(),
+                c,
+                &d.sphere,
+                view.pixel_filter,
+            )
+            .map_err(|e| e.in_file(p))?
         {
             d.warnings.push(format!("{}: {w}", p.display()));
         }

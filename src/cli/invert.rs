@@ -24,7 +24,6 @@ use super::Error;
 use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
 use super::header::load;
 use super::outputs::{Files, Format};
-use super::pixels::PixelNoise;
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, write_exr};
@@ -32,6 +31,7 @@ use analysis::inverse::brdf::{BrdfFit, Model, estimate_transfer, fit_model, fit_
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
+use analysis::observation::pixels::PixelNoise;
 use analysis::observation::{Camera, Observation, lighting_of};
 use analysis::projection::{
     OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples, project_normal_probe,
@@ -160,7 +160,7 @@ struct Projected {
     /// Cameras, sphere, BRDF and lighting of the images (header, --scene, flags).
     described: Observation,
     /// Orthographic views: the correlation of neighbouring pixels' noise and the variance
-    /// inflation every pixel fit applies ([`super::pixels::noise`]).
+    /// inflation every pixel fit applies ([`analysis::observation::pixels::noise`]).
     noise: Option<PixelNoise>,
 }
 
@@ -176,9 +176,16 @@ fn project(
     let (mut images, described) = load(paths, view, "inverted")?;
     let param = param(&described);
     let in_first = |e: Error| if paths.len() == 1 { e.in_file(&paths[0]) } else { e };
-    let noise =
-        super::pixels::prepare(&mut images, &described.cameras, &described.sphere, param, lmax, view.pixel_filter)
-            .map_err(in_first)?;
+    let (noise, notes) = analysis::observation::pixels::prepare(
+        &mut images,
+        &described.cameras,
+        &described.sphere,
+        param,
+        lmax,
+        view.pixel_filter,
+    )
+    .map_err(|e| in_first(e.into()))?;
+    notes.iter().for_each(|n| eprintln!("{n}"));
     let mut ortho = Vec::new();
     let mut probe = None;
     for (c, p) in described.cameras.iter().zip(paths) {

@@ -66,6 +66,11 @@ pub enum Error {
     /// BRDF parameters or an albedo without a BRDF kind, where no header or scene names one.
     #[error("--s, --sigma, --brdf-param and --albedo need --brdf (no header or scene names the BRDF)")]
     BrdfParamsWithoutKind,
+    /// The sphere's silhouette in an orthographic view is not where the camera and sphere put it:
+    /// what was measured, the camera and sphere told (`told`), what they predict, and the
+    /// assumption most likely wrong.
+    #[error("the sphere's silhouette in the image has {measured}, but {told} predict {predicted}: {suspect}")]
+    Silhouette { measured: String, told: String, predicted: String, suspect: String },
     /// A mapping given without an environment map to apply it to.
     #[error("--mapping applies only to an environment map given with --lighting")]
     MappingWithoutLighting,

@@ -21,12 +21,14 @@
 //! - [`sphere`]: the sphere and its BRDF table;
 //! - [`brdf`]: the BRDF as a transfer model ([`Observation::transfer`]);
 //! - [`lighting`]: the lighting to compare with ([`lighting_of`]);
+//! - [`pixels`]: the pixels' noise correlation and the silhouette check of orthographic views;
 //! - [`error`]: why an image could not be described.
 
 pub mod brdf;
 pub mod camera;
 pub mod error;
 pub mod lighting;
+pub mod pixels;
 pub mod sphere;
 
 pub use brdf::{BrdfValues, Resolved};
