@@ -13,9 +13,12 @@
 //! - [`predict`], [`filter`]: B_lm from L_lm and the per-order filter measured from renders;
 //! - [`inverse`]: inverse lighting (eq. 17) and inverse BRDF (eq. 16) with their conditioning;
 //! - [`lighting`]: the scene's lighting description → L_lm;
+//! - [`observation`]: what a set of images shows (camera, sphere, BRDF, lighting) from headers,
+//!   a sidecar scene and explicit values;
 //! - [`noise`]: pixel noise correlated by a reconstruction filter, and the error-bar inflation it implies;
 //! - [`verdict`]: whether an image contradicts the lighting, BRDF and camera it was told, and which
 //!   assumption most likely is wrong;
+//! - [`separate`]: diffuse + specular separation (sec. 3.5) as parameters → report;
 //! - [`compare`]: is image A image B up to noise (per-pixel z, scale, blocks, a Šidák verdict);
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
@@ -29,9 +32,11 @@ pub mod inverse;
 pub mod lighting;
 pub mod lsq;
 pub mod noise;
+pub mod observation;
 pub mod predict;
 pub mod projection;
 pub mod quadrature;
+pub mod separate;
 pub mod sh;
 pub mod special;
 pub mod transfer;

@@ -32,14 +32,15 @@
 //!
 //! Orthographic views: noise correlated between neighbouring pixels by a reconstruction filter
 //! (`--pixel-filter`, else measured from the residuals) widens the noise part of every error bar by
-//! √F (`super::pixels::prepare`, `pixel_noise` in the report); a camera not from the image's own
+//! √F (`analysis::observation::pixels::prepare`, `pixel_noise` in the report); a camera not from the image's own
 //! header is checked against the sphere's silhouette when the image is read (`super::header::load`).
 use super::Error;
 use super::args::{BrdfFlags, ParamArg, ViewArgs};
-use super::header::{Camera, lighting_of, load};
-use super::pixels::{PixelNoise, prepare as pixel_noise_of};
+use super::header::load;
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelOrder, fit_filter_pixels};
+use analysis::observation::pixels::{PixelNoise, prepare as pixel_noise_of};
+use analysis::observation::{Camera, lighting_of};
 use analysis::projection::{OrthoView, Param, fit_orthographic, ortho_samples, probe_samples, project_normal_probe};
 use analysis::sh::{lm, num_coefficients};
 use analysis::transfer::{TransferModel, parameterization};
@@ -181,7 +182,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
         }
     }
     let brdf_at = |theta_o: f64| -> Result<Option<Brdf>, Error> {
-        Ok(described.transfer(&a.brdf, theta_o).map_err(|e| e.in_file(&a.images[0]))?.map(|r| Brdf {
+        Ok(described.transfer(&a.brdf.values(), theta_o).map_err(|e| e.in_file(&a.images[0]))?.map(|r| Brdf {
             model: r.transfer.map(|t| t.model),
             scale: r.transfer.map_or([1.0; 3], |t| t.scale),
             kind: r.kind,
@@ -199,8 +200,9 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeReport, Error> {
 
     let n_probe = cameras.iter().filter(|c| matches!(c, Camera::NormalProbe { .. })).count();
     let mut brdf = brdf;
-    let pixel_noise_report =
-        pixel_noise_of(&mut images, cameras, &sphere, param, a.lmax, a.view.pixel_filter).map_err(in_first)?;
+    let (pixel_noise_report, notes) = pixel_noise_of(&mut images, cameras, &sphere, param, a.lmax, a.view.pixel_filter)
+        .map_err(|e| in_first(e.into()))?;
+    notes.iter().for_each(|n| eprintln!("{n}"));
     let (b, b_se, method, pixels, se_source, rms, carried, samples) = if n_probe > 0 {
         if images.len() != 1 {
             return Err(Error::new("a normal-probe render must be analysed on its own (one image)"));

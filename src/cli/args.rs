@@ -6,7 +6,8 @@
 
 use super::{Error, flags};
 use analysis::noise::PixelFilter;
-use analysis::projection::{OrthoCamera, Param};
+use analysis::observation::CameraValues;
+use analysis::projection::Param;
 use analysis::transfer::{ParamValue, TransferModel};
 use std::path::PathBuf;
 
@@ -19,7 +20,7 @@ use std::path::PathBuf;
 /// at all ([`flags::per_image`]); `--center` and `--radius` describe the one sphere; `--scene S.toml` says
 /// the images are renders of that scene (camera, sphere, BRDF, lighting; its `[render]` size must be
 /// the images'). A header's `reflect:camera` / `reflect:objects`, the scene and the flags are
-/// combined by [`super::header::describe`]: each fills in what the others leave open, and two that
+/// combined by [`analysis::observation::describe`]: each fills in what the others leave open, and two that
 /// contradict each other are an error naming both values. Positions and lengths are in world units
 /// of our frame (docs/src/conventions.md §1, +z up); `--extent` is the half-width of the view.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -109,7 +110,7 @@ fn parse_pixel_filter(s: &str) -> Result<PixelFilter, String> {
 /// scale. Shared by every command that takes a BRDF by flags (`sh transfer`, `analyze`, `invert
 /// lighting`), all through the one mapping [`TransferModel::from_named`];
 /// a header's or `--scene`'s BRDF that contradicts the flags is an error naming both
-/// ([`super::header::Description::transfer`]).
+/// ([`analysis::observation::Observation::transfer`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct BrdfFlags {
     /// BRDF model of the sphere (default: the header's or --scene's; mix has no transfer model, microfacet
@@ -162,53 +163,16 @@ impl BrdfFlags {
     }
 }
 
-/// The camera flags of one image (`None` where a flag is not given).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct CameraFlags {
-    pub from: Option<[f64; 3]>,
-    pub to: Option<[f64; 3]>,
-    pub up: Option<[f64; 3]>,
-    pub extent: Option<f64>,
-    /// `--theta-o` / `--phi-o`: a normal-probe camera (degrees).
-    pub theta_o: Option<f64>,
-    pub phi_o: Option<f64>,
-}
-
-impl CameraFlags {
-    /// Whether an orthographic flag (`--from/--to/--up/--extent`) is given.
-    pub fn ortho_given(&self) -> bool {
-        self.from.is_some() || self.to.is_some() || self.up.is_some() || self.extent.is_some()
-    }
-
-    /// The normal-probe angles (θ_o°, φ_o°) of `--theta-o/--phi-o` (each defaulting to 0 when the
-    /// other is given); `None` when neither is given.
-    pub fn probe(&self) -> Option<(f64, f64)> {
-        (self.theta_o.is_some() || self.phi_o.is_some())
-            .then(|| (self.theta_o.unwrap_or(0.0), self.phi_o.unwrap_or(0.0)))
-    }
-
-    /// The orthographic camera these flags describe: `--from` and `--extent` are needed, `--to`
-    /// defaults to the origin and `--up` to +z. `None` when either is missing.
-    pub fn camera(&self) -> Option<OrthoCamera> {
-        Some(OrthoCamera {
-            from: self.from?,
-            to: self.to.unwrap_or([0.0; 3]),
-            up: self.up.unwrap_or([0.0, 0.0, 1.0]),
-            extent: self.extent?,
-        })
-    }
-}
-
 impl ViewArgs {
     /// The camera flags of each of `n` images: each flag given not at all or once per image
     /// (anything else is refused naming the flag).
-    pub fn per_image(&self, n: usize) -> Result<Vec<CameraFlags>, Error> {
+    pub fn per_image(&self, n: usize) -> Result<Vec<CameraValues>, Error> {
         let (from, to) = (flags::per_image(&self.from, "from", n)?, flags::per_image(&self.to, "to", n)?);
         let (up, extent) = (flags::per_image(&self.up, "up", n)?, flags::per_image(&self.extent, "extent", n)?);
         let theta_o = flags::per_image(&self.image.theta_o, "theta-o", n)?;
         let phi_o = flags::per_image(&self.image.phi_o, "phi-o", n)?;
         Ok((0..n)
-            .map(|i| CameraFlags {
+            .map(|i| CameraValues {
                 from: from[i],
                 to: to[i],
                 up: up[i],

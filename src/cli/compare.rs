@@ -8,10 +8,10 @@
 
 use super::Error;
 use super::args::{BrdfFlags, ViewArgs};
-use super::header::{Camera, lighting_of};
 use super::outputs::{Files, Format};
 use analysis::compare::{CompareError, CompareParams, CompareReport, Verdict};
 use analysis::image::Image;
+use analysis::observation::{Camera, lighting_of};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -218,15 +218,17 @@ fn prediction(a: &CompareArgs) -> Result<(Image, analysis::predict::PredictedIma
             "has no stderr layer: a comparison with the prediction judges the image by its own error bars",
         ));
     }
-    let resolved = d.transfer(&a.brdf, 0.0).map_err(in_a)?.ok_or_else(|| {
+    let resolved = d.transfer(&a.brdf.values(), 0.0).map_err(|e| e.in_file(&a.a))?.ok_or_else(|| {
         Error::file(&a.a, "the sphere's BRDF is not known (no reflect:objects header, --scene or --brdf)")
     })?;
     let transfer = resolved.transfer.ok_or_else(|| {
         Error::file(&a.a, format!("the sphere's BRDF ({}, {}) has no transfer model", resolved.kind, resolved.source))
     })?;
-    let (lighting, _) = lighting_of(a.lighting.as_deref(), a.mapping, &d)?.ok_or_else(|| {
-        Error::file(&a.a, "the lighting is not known (no reflect:lighting header or --scene): give --lighting")
-    })?;
+    let (lighting, _) = lighting_of(a.lighting.as_deref(), a.mapping, &d)
+        .map_err(|e| if a.lighting.is_none() { e.in_file(&a.a) } else { e })?
+        .ok_or_else(|| {
+            Error::file(&a.a, "the lighting is not known (no reflect:lighting header or --scene): give --lighting")
+        })?;
     let scene = analysis::predict::OrthoScene { camera, sphere: d.sphere, width: image.width, height: image.height };
     let predicted =
         analysis::predict::predict_scene(&scene, &lighting, transfer.model, transfer.scale, transfer.horizon)

@@ -40,13 +40,13 @@
 
 use super::Error;
 use super::args::{Channel, ImageArgs, Quadrature};
-use super::header::Camera as ViewCamera;
 use super::sh::check_lmax;
 use analysis::image::{Image, read_image};
 use analysis::inverse::factorization::{
     DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, check_nodes, directional_lighting,
     filter_from_lighting, fmt_node, hemisphere_nodes, match_nodes, node_degrees, project,
 };
+use analysis::observation::Camera as ViewCamera;
 use analysis::projection::latlong_max_order;
 use analysis::projection::resolution::{LATLONG_RULE, check_latlong};
 use analysis::sh::lm;

@@ -22,9 +22,8 @@
 //! normal parameterization for lambert and the reflection one otherwise).
 use super::Error;
 use super::args::{BrdfFlags, FitModel, LambdaRule, ViewArgs};
-use super::header::{Camera, Description, lighting_of, load};
+use super::header::load;
 use super::outputs::{Files, Format};
-use super::pixels::PixelNoise;
 use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, write_exr};
@@ -32,6 +31,8 @@ use analysis::inverse::brdf::{BrdfFit, Model, estimate_transfer, fit_model, fit_
 use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
 use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
+use analysis::observation::pixels::PixelNoise;
+use analysis::observation::{Camera, Observation, lighting_of};
 use analysis::projection::{
     OrthoView, Param, Sample, check_latlong, fit_orthographic, latlong_max_order, ortho_samples, project_normal_probe,
 };
@@ -157,9 +158,9 @@ struct Projected {
     /// Orthographic views: their used pixels and whether every view has a `stderr` layer.
     samples: Option<(Vec<Sample>, bool)>,
     /// Cameras, sphere, BRDF and lighting of the images (header, --scene, flags).
-    described: Description,
+    described: Observation,
     /// Orthographic views: the correlation of neighbouring pixels' noise and the variance
-    /// inflation every pixel fit applies ([`super::pixels::noise`]).
+    /// inflation every pixel fit applies ([`analysis::observation::pixels::noise`]).
     noise: Option<PixelNoise>,
 }
 
@@ -169,15 +170,22 @@ fn project(
     paths: &[PathBuf],
     view: &ViewArgs,
     lmax: usize,
-    param: impl Fn(&Description) -> Param,
+    param: impl Fn(&Observation) -> Param,
 ) -> Result<Projected, Error> {
     check_lmax(lmax)?;
     let (mut images, described) = load(paths, view, "inverted")?;
     let param = param(&described);
     let in_first = |e: Error| if paths.len() == 1 { e.in_file(&paths[0]) } else { e };
-    let noise =
-        super::pixels::prepare(&mut images, &described.cameras, &described.sphere, param, lmax, view.pixel_filter)
-            .map_err(in_first)?;
+    let (noise, notes) = analysis::observation::pixels::prepare(
+        &mut images,
+        &described.cameras,
+        &described.sphere,
+        param,
+        lmax,
+        view.pixel_filter,
+    )
+    .map_err(|e| in_first(e.into()))?;
+    notes.iter().for_each(|n| eprintln!("{n}"));
     let mut ortho = Vec::new();
     let mut probe = None;
     for (c, p) in described.cameras.iter().zip(paths) {
@@ -237,10 +245,10 @@ fn project(
 }
 
 /// BRDF model and albedo from the flags, else from the header's or scene's BRDF table, both through
-/// the one BRDF → transfer-model mapping ([`Description::transfer`]).
-fn brdf_of(a: &LightingArgs, d: &Description, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
+/// the one BRDF → transfer-model mapping ([`Observation::transfer`]).
+fn brdf_of(a: &LightingArgs, d: &Observation, theta_o: f64) -> Result<(TransferModel, [f64; 3], String), Error> {
     let r = d
-        .transfer(&a.brdf, theta_o)?
+        .transfer(&a.brdf.values(), theta_o)?
         .ok_or_else(|| Error::new("no BRDF: pass --brdf (the image header names none)"))?;
     let t = r.transfer.ok_or_else(|| {
         Error::new(format!("the BRDF '{}' of {} has no transfer model: pass --brdf", r.kind, r.source))
@@ -338,7 +346,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         check_latlong(a.lmax, a.width, a.width / 2, "--output map (--width)").map_err(|e| e.in_file(out))?;
     }
     // The parameterization only matters for orthographic views; lambert is a function of the normal.
-    let param = |d: &Description| {
+    let param = |d: &Observation| {
         let kind = a.brdf.brdf.or_else(|| d.brdf.as_ref().map(|(b, _)| b.kind()));
         kind.map_or(Param::Reflection, parameterization)
     };
@@ -458,7 +466,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
     })
 }
 
-fn lighting_for_brdf(a: &BrdfArgs, d: &Description) -> Result<(Lighting, String), Error> {
+fn lighting_for_brdf(a: &BrdfArgs, d: &Observation) -> Result<(Lighting, String), Error> {
     lighting_of(a.lighting.as_deref(), a.mapping, d)?
         .ok_or_else(|| Error::file(&a.images[0], "no reflect:lighting in the header: pass --lighting or --scene"))
 }

@@ -11,7 +11,6 @@ pub mod invert;
 pub mod merge;
 pub mod outputs;
 pub mod passes;
-pub mod pixels;
 pub mod png;
 pub mod render;
 pub mod rounds;

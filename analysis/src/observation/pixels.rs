@@ -15,14 +15,13 @@
 //! it "detects" is the truncation remainder left in the residuals (a Phong sphere under Grace at
 //! l_max 4 measured F̂ 6.8, which would widen every bar 2.6×), not noise.
 
-use super::Error;
-use super::header::Camera;
-use analysis::image::{Image, RgbImage};
-use analysis::noise::{MeasuredCorrelation, PixelFilter, ResidualGrid, estimate_correlation, near_lags};
-use analysis::projection::{
+use super::{Camera, Error};
+use crate::image::{Image, RgbImage};
+use crate::noise::{MeasuredCorrelation, PixelFilter, ResidualGrid, estimate_correlation, near_lags};
+use crate::projection::{
     OrthoCamera, OrthoView, Param, Sample, Sphere, fit_orthographic, ortho_sample_pixels, ortho_samples,
 };
-use analysis::sh::{ShBasis, lmax_of};
+use crate::sh::{ShBasis, lmax_of};
 
 /// The noise correlation at one lag: measured from the residuals and, with `--pixel-filter`, the
 /// kernel's.
@@ -104,8 +103,9 @@ impl PixelNoise {
 /// mixes with the background are left out ([`edge_margin`]) and its kernel gives ρ and F; without,
 /// a first SH fit's residuals give them ([`noise`]), and when they show a correlation the pixels
 /// within the reach of the equivalent Gaussian filter (stddev from ρ̂(1, 0) = exp(−1/(4σ²)), radius
-/// 4σ, within [0.5, 4] px) are left out too. Returns `None` without orthographic views. Errors: as
-/// the fit ([`fit_orthographic`]).
+/// 4σ, within [0.5, 4] px) are left out too. Returns `None` without orthographic views, and the
+/// notes for the user (`note: …` lines: the pixels a given filter left out). Errors: as the fit
+/// ([`fit_orthographic`]).
 pub fn prepare(
     images: &mut [Image],
     cameras: &[Camera],
@@ -113,14 +113,17 @@ pub fn prepare(
     param: Param,
     lmax: usize,
     filter: Option<PixelFilter>,
-) -> Result<Option<PixelNoise>, Error> {
+) -> Result<(Option<PixelNoise>, Vec<String>), Error> {
+    let mut notes = Vec::new();
     if !cameras.iter().all(|c| matches!(c, Camera::Ortho(_))) || images.is_empty() {
-        return Ok(None);
+        return Ok((None, notes));
     }
     if let Some(f) = filter {
         let n = edge_margin(images, cameras, sphere, f);
         if n > 0 {
-            eprintln!("note: --pixel-filter {f}: {n} pixels within the filter's reach of the silhouette left out");
+            notes.push(format!(
+                "note: --pixel-filter {f}: {n} pixels within the filter's reach of the silhouette left out"
+            ));
         }
     }
     let views: Vec<OrthoView> = images
@@ -149,10 +152,10 @@ pub fn prepare(
             "; {n} pixels within {radius:.1} px of the silhouette left out (the reach of a Gaussian filter with this correlation)"
         ));
     }
-    Ok(Some(report))
+    Ok((Some(report), notes))
 }
 
-/// The noise correlation of the pixels `samples` of `views` (as [`analysis::projection::ortho_samples`]
+/// The noise correlation of the pixels `samples` of `views` (as [`crate::projection::ortho_samples`]
 /// returns them) and the variance inflation every fit over them applies (module docs): from
 /// `filter` when given, else F = 1 when every view is our own render (`own`), else measured from the
 /// residuals of the SH fit `coefficients` (RGB, index order, up to any l_max). Errors: as
@@ -522,14 +525,17 @@ pub fn check_silhouette(
             }
         )
     });
-    Err(Error::new(format!(
-        "the sphere's silhouette in the image has {measured_text}, but the camera ({}) and sphere (centre {}, radius {}) \
-         predict {predicted_text}: {}",
-        Camera::Ortho(*camera),
-        sphere.center.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
-        sphere.radius,
-        suspect(measured.as_ref(), predicted, slack, camera.extent)
-    )))
+    Err(Error::Silhouette {
+        measured: measured_text,
+        told: format!(
+            "the camera ({}) and sphere (centre {}, radius {})",
+            Camera::Ortho(*camera),
+            sphere.center.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(","),
+            sphere.radius
+        ),
+        predicted: predicted_text,
+        suspect: suspect(measured.as_ref(), predicted, slack, camera.extent),
+    })
 }
 
 /// The assumption a silhouette mismatch most likely comes from. The same centre and another
