@@ -20,6 +20,7 @@ use crate::light::{DistantLight, LightSample, Located};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
+use crate::simd::{Float, Float3};
 
 /// Russian roulette starts after this many vertices (the first bounces are never cut).
 pub(super) const RR_START: u32 = 3;
@@ -98,7 +99,6 @@ impl PathState {
 #[derive(Clone, Copy, Debug)]
 struct VertexPlan {
     frame: Frame,
-    outgoing: Outgoing,
     u_light: Vec2,
     /// The BRDF's sample (`None`: no sample, or a zero weight).
     bs: Option<BrdfSample>,
@@ -109,7 +109,6 @@ struct VertexPlan {
 impl VertexPlan {
     const NONE: VertexPlan = VertexPlan {
         frame: Frame { s: Vec3::ZERO, t: Vec3::ZERO, n: Vec3::ZERO },
-        outgoing: Outgoing { wo: Vec3::ZERO, lambda_o: 0.0 },
         u_light: Vec2::ZERO,
         bs: None,
         located: Located::NONE,
@@ -270,30 +269,38 @@ impl<'a> PathTracer<'a> {
                     cursor[k] = sampler.cursor();
                 }
             }
-            // The BRDF's terms of ω_o and its sample: in SIMD lanes where every planned lane has
-            // the same BRDF (`Brdf::sample_at_lanes`), else lane by lane.
+            // The BRDF's terms of ω_o and its sample: all lanes at once where every planned lane
+            // has the same BRDF, else each lane with its own BRDF (the same code at one lane).
             let shared = shared_object(&st, &planned);
-            let samples = match shared {
+            let mut outgoing = Outgoing::plain(Float3::from_lanes(&wo));
+            let mut samples = [None; LANES];
+            match shared {
                 Some(object) => {
                     let brdf = &scene.brdfs[object as usize];
-                    let outgoing = brdf.outgoing_lanes(&wo, &planned);
+                    outgoing = brdf.outgoing(outgoing.wo);
+                    let mut u = [Float::ZERO; 2];
                     for k in 0..LANES {
-                        plan[k].outgoing = outgoing[k];
+                        (u[0].0[k], u[1].0[k]) = (u_brdf[k].x, u_brdf[k].y);
                     }
-                    brdf.sample_at_lanes(&outgoing, &u_lobe, &u_brdf, &planned)
+                    let s = brdf.sample_at(&outgoing, Float(u_lobe), u);
+                    for k in 0..LANES {
+                        if planned[k] {
+                            samples[k] = s.lane(k);
+                        }
+                    }
                 }
                 None => {
-                    let mut samples = [None; LANES];
                     for k in 0..LANES {
                         if planned[k] {
                             let brdf = &scene.brdfs[st[k].object as usize];
-                            plan[k].outgoing = brdf.outgoing(wo[k]);
-                            samples[k] = brdf.sample_at(&plan[k].outgoing, u_lobe[k], u_brdf[k]);
+                            let o = brdf.outgoing::<1>(Float3::splat(wo[k]));
+                            outgoing.set_lane(k, &o);
+                            let u = [Float::splat(u_brdf[k].x), Float::splat(u_brdf[k].y)];
+                            samples[k] = brdf.sample_at(&o, Float::splat(u_lobe[k]), u).lane(0);
                         }
                     }
-                    samples
                 }
-            };
+            }
             for k in 0..LANES {
                 if planned[k] {
                     // The direction is located in the light after this stage (`locate_lanes`: an
@@ -340,17 +347,23 @@ impl<'a> PathTracer<'a> {
                     evaluate[k] = true;
                 }
             }
-            let mut outgoing = [Outgoing::plain(Vec3::Z); LANES];
-            for k in 0..LANES {
-                outgoing[k] = plan[k].outgoing;
-            }
             let f = match shared {
-                Some(object) => scene.brdfs[object as usize].eval_at_lanes(&outgoing, &wi_local, &evaluate),
+                Some(object) => {
+                    let f = scene.brdfs[object as usize].eval_at(&outgoing, Float3::from_lanes(&wi_local));
+                    let mut out = [Rgb::ZERO; LANES];
+                    for k in 0..LANES {
+                        if evaluate[k] {
+                            out[k] = f.lane(k);
+                        }
+                    }
+                    out
+                }
                 None => {
                     let mut f = [Rgb::ZERO; LANES];
                     for k in 0..LANES {
                         if evaluate[k] {
-                            f[k] = scene.brdfs[st[k].object as usize].eval_at(&outgoing[k], wi_local[k]);
+                            let brdf = &scene.brdfs[st[k].object as usize];
+                            f[k] = brdf.eval_at(&outgoing.lane(k), Float3::splat(wi_local[k])).lane(0);
                         }
                     }
                     f
@@ -378,12 +391,22 @@ impl<'a> PathTracer<'a> {
                 weigh[k] = matches!((planned[k], &nee[k], occluded[k]), (true, Some(p), false) if !p.ls.delta);
             }
             let brdf_pdf = match shared {
-                Some(object) => scene.brdfs[object as usize].pdf_at_lanes(&outgoing, &wi_local, &weigh),
+                Some(object) => {
+                    let p = scene.brdfs[object as usize].pdf_at(&outgoing, Float3::from_lanes(&wi_local));
+                    let mut out = [0.0f32; LANES];
+                    for k in 0..LANES {
+                        if weigh[k] {
+                            out[k] = p.lane(k);
+                        }
+                    }
+                    out
+                }
                 None => {
                     let mut pdf = [0.0f32; LANES];
                     for k in 0..LANES {
                         if weigh[k] {
-                            pdf[k] = scene.brdfs[st[k].object as usize].pdf_at(&outgoing[k], wi_local[k]);
+                            let brdf = &scene.brdfs[st[k].object as usize];
+                            pdf[k] = brdf.pdf_at(&outgoing.lane(k), Float3::splat(wi_local[k])).lane(0);
                         }
                     }
                     pdf

@@ -112,8 +112,8 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         for k in 0..N {
             s[k] = (x[k] * x[k] + y[k] * y[k]).sqrt();
         }
-        let theta = fast::atan2_lanes(&s, z);
-        let phi = fast::atan2_lanes(y, x);
+        let theta = crate::simd::Float(s).atan2(crate::simd::Float(*z)).0;
+        let phi = crate::simd::Float(*y).atan2(crate::simd::Float(*x)).0;
         let (h, w) = (len_f32(self.height), len_f32(self.width));
         let mut index = [0usize; N];
         for k in 0..N {
