@@ -20,7 +20,7 @@ use crate::light::{DistantLight, LightSample, Located};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
-use crate::simd::{Float, Float3};
+use crate::simd::{Float, Float3, Mask};
 
 /// Russian roulette starts after this many vertices (the first bounces are never cut).
 pub(super) const RR_START: u32 = 3;
@@ -152,8 +152,8 @@ impl<'a> PathTracer<'a> {
     /// numbers and the BRDF's sample, with the loads of the light's data for that direction and of
     /// the light's sampling tables for u_light all issued before any is read; next-event
     /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
-    /// next vertex. The lat-long light samples ([`DistantLight::sample_lanes`]), the lat-long
-    /// lookups of the BRDF directions ([`DistantLight::locate_lanes`]), a single sphere's
+    /// next vertex. The lat-long light samples ([`DistantLight::sample_each`]), the lat-long
+    /// lookups of the BRDF directions ([`DistantLight::locate_each`]), a single sphere's
     /// intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) and, where every planned
     /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Brdf::sample_at_lanes`])
     /// run in SIMD lanes; a BVH's camera rays are walked as one packet
@@ -227,7 +227,8 @@ impl<'a> PathTracer<'a> {
             miss_dirs[k] = camera.rays[k].dir;
             any_missed |= missed[k];
         }
-        let background = if any_missed { scene.light.eval_lanes(&miss_dirs, &missed) } else { [Rgb::ZERO; LANES] };
+        let background =
+            if any_missed { scene.light.eval_each(Float3::from_lanes(&miss_dirs), Mask(missed)) } else { [Rgb::ZERO; LANES] };
         for k in 0..n {
             if camera.want[k] {
                 match hits[k] {
@@ -303,7 +304,7 @@ impl<'a> PathTracer<'a> {
             }
             for k in 0..LANES {
                 if planned[k] {
-                    // The direction is located in the light after this stage (`locate_lanes`: an
+                    // The direction is located in the light after this stage (`locate_each`: an
                     // environment map's texel found once, its load started); `eval_pdf_located`
                     // reads it in stage 4.
                     plan[k].bs = match samples[k] {
@@ -323,7 +324,7 @@ impl<'a> PathTracer<'a> {
                 sampled[k] = planned[k] && plan[k].bs.is_some();
                 dirs[k] = plan[k].located.wi;
             }
-            let located = scene.light.locate_lanes(&dirs, &sampled);
+            let located = scene.light.locate_each(Float3::from_lanes(&dirs), Mask(sampled));
             for k in 0..LANES {
                 if sampled[k] {
                     plan[k].located = located[k];
@@ -337,7 +338,11 @@ impl<'a> PathTracer<'a> {
                 nee_wanted[k] = planned[k] && !scene.brdfs[st[k].object as usize].is_delta();
                 u_light[k] = plan[k].u_light;
             }
-            let light_samples = scene.light.sample_lanes(&u_light, &nee_wanted);
+            let mut u = [Float::ZERO; 2];
+            for k in 0..LANES {
+                (u[0].0[k], u[1].0[k]) = (u_light[k].x, u_light[k].y);
+            }
+            let light_samples = scene.light.sample_each(u, Mask(nee_wanted));
             // The BRDF's value for each light sample (in SIMD lanes where the BRDF is shared).
             let mut wi_local = [Vec3::Z; LANES];
             let mut evaluate = [false; LANES];
