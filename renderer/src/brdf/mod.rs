@@ -322,7 +322,7 @@ mod tests {
     /// directions and numbers plus the edge cases (below and on the horizon, the normal itself,
     /// u = 0 and u → 1).
     #[test]
-    fn eight_lanes_are_one_lane() {
+    fn eight_wide_is_one_wide() {
         let mut rng = TestRng::new(21);
         let special = [
             Vec3::Z,
@@ -351,10 +351,10 @@ mod tests {
                 let wi: [Vec3; 8] = std::array::from_fn(|_| dir(&mut rng));
                 let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(pick(&mut rng), pick(&mut rng)));
                 let u_lobe: [f32; 8] = std::array::from_fn(|_| pick(&mut rng));
-                let o = brdf.outgoing(Float3::from_lanes(&wo));
+                let o = brdf.outgoing(Float3::from_vecs(&wo));
                 let s = brdf.sample_at(&o, Float(u_lobe), [Float(u.map(|u| u.x)), Float(u.map(|u| u.y))]);
-                let f = brdf.eval_at(&o, Float3::from_lanes(&wi));
-                let p = brdf.pdf_at(&o, Float3::from_lanes(&wi));
+                let f = brdf.eval_at(&o, Float3::from_vecs(&wi));
+                let p = brdf.pdf_at(&o, Float3::from_vecs(&wi));
                 for k in 0..8 {
                     let o1 = brdf.outgoing::<1>(Float3::splat(wo[k]));
                     assert!(same(o.lambda_o.lane(k), o1.lambda_o.lane(0)), "{brdf:?} outgoing {:?}", wo[k]);

@@ -154,7 +154,7 @@ impl<'a> PathTracer<'a> {
     /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
     /// next vertex. The lat-long light samples ([`DistantLight::sample_each`]), the lat-long
     /// lookups of the BRDF directions ([`DistantLight::locate_each`]), a single sphere's
-    /// intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) and, where every planned
+    /// intersections ([`crate::geometry::Sphere::intersect_ts`]) and, where every planned
     /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Brdf::sample_at_lanes`])
     /// run in SIMD lanes; a BVH's camera rays are walked as one packet
     /// ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the live lanes
@@ -227,8 +227,11 @@ impl<'a> PathTracer<'a> {
             miss_dirs[k] = camera.rays[k].dir;
             any_missed |= missed[k];
         }
-        let background =
-            if any_missed { scene.light.eval_each(Float3::from_lanes(&miss_dirs), Mask(missed)) } else { [Rgb::ZERO; LANES] };
+        let background = if any_missed {
+            scene.light.eval_each(Float3::from_vecs(&miss_dirs), Mask(missed))
+        } else {
+            [Rgb::ZERO; LANES]
+        };
         for k in 0..n {
             if camera.want[k] {
                 match hits[k] {
@@ -273,7 +276,7 @@ impl<'a> PathTracer<'a> {
             // The BRDF's terms of ω_o and its sample: all lanes at once where every planned lane
             // has the same BRDF, else each lane with its own BRDF (the same code at one lane).
             let shared = shared_object(&st, &planned);
-            let mut outgoing = Outgoing::plain(Float3::from_lanes(&wo));
+            let mut outgoing = Outgoing::plain(Float3::from_vecs(&wo));
             let mut samples = [None; LANES];
             match shared {
                 Some(object) => {
@@ -324,7 +327,7 @@ impl<'a> PathTracer<'a> {
                 sampled[k] = planned[k] && plan[k].bs.is_some();
                 dirs[k] = plan[k].located.wi;
             }
-            let located = scene.light.locate_each(Float3::from_lanes(&dirs), Mask(sampled));
+            let located = scene.light.locate_each(Float3::from_vecs(&dirs), Mask(sampled));
             for k in 0..LANES {
                 if sampled[k] {
                     plan[k].located = located[k];
@@ -354,7 +357,7 @@ impl<'a> PathTracer<'a> {
             }
             let f = match shared {
                 Some(object) => {
-                    let f = scene.brdfs[object as usize].eval_at(&outgoing, Float3::from_lanes(&wi_local));
+                    let f = scene.brdfs[object as usize].eval_at(&outgoing, Float3::from_vecs(&wi_local));
                     let mut out = [Rgb::ZERO; LANES];
                     for k in 0..LANES {
                         if evaluate[k] {
@@ -397,7 +400,7 @@ impl<'a> PathTracer<'a> {
             }
             let brdf_pdf = match shared {
                 Some(object) => {
-                    let p = scene.brdfs[object as usize].pdf_at(&outgoing, Float3::from_lanes(&wi_local));
+                    let p = scene.brdfs[object as usize].pdf_at(&outgoing, Float3::from_vecs(&wi_local));
                     let mut out = [0.0f32; LANES];
                     for k in 0..LANES {
                         if weigh[k] {
@@ -468,11 +471,17 @@ impl<'a> PathTracer<'a> {
         let mut hits = [None; LANES];
         let geometry = &self.scene.geometry;
         if let Some(sphere) = geometry.single_sphere() {
-            // One sphere (object 0): its roots in SIMD lanes, then the hit records.
-            let (t, hit) = sphere.intersect_t_lanes(&r.rays);
+            // One sphere (object 0): its roots over the lanes, then the hit records.
+            let (mut origin, mut dir, mut t_max) = (Float3::<LANES>::ZERO, Float3::<LANES>::ZERO, Float::<LANES>::ZERO);
             for k in 0..LANES {
-                if r.want[k] && hit[k] {
-                    hits[k] = Some(sphere.hit_at(&r.rays[k], t[k], 0));
+                origin.set_lane(k, r.rays[k].origin);
+                dir.set_lane(k, r.rays[k].dir);
+                t_max.0[k] = r.rays[k].t_max;
+            }
+            let (t, hit) = sphere.intersect_ts(origin, dir, t_max);
+            for k in 0..LANES {
+                if r.want[k] && hit.lane(k) {
+                    hits[k] = Some(sphere.hit_at(&r.rays[k], t.lane(k), 0));
                 }
             }
             return hits;

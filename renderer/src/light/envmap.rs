@@ -21,8 +21,8 @@
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample, Located};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
-use crate::simd::{Float, Float3, Mask};
 use crate::sampling::distribution::PiecewiseConstant2D;
+use crate::simd::{Float, Float3, Mask};
 use rayon::prelude::*;
 use std::path::Path;
 use vocab::image::RgbImage;
@@ -531,7 +531,7 @@ mod tests {
     /// Eight lanes of `sample_each` and `locate_each` are their one-lane calls (`sample`,
     /// `locate`) lane by lane, bit for bit, with and without a rotation, for both mappings.
     #[test]
-    fn eight_lanes_are_one_lane_samples_and_lookups() {
+    fn eight_wide_samples_and_lookups_are_one_wide() {
         let rotation = rotation_xyz_deg([20.0, -35.0, 110.0]);
         for (mapping, w, h) in [(Mapping::LatLong, 64, 32), (Mapping::Angular, 64, 64)] {
             for rot in [glam::Mat3::IDENTITY, rotation] {
@@ -543,7 +543,7 @@ mod tests {
                     let want: [bool; 8] = std::array::from_fn(|k| (batch + k) % 5 != 0);
                     let lanes = e.sample_each([Float(u.map(|u| u.x)), Float(u.map(|u| u.y))], Mask(want));
                     let dirs: [Vec3; 8] = std::array::from_fn(|k| lanes[k].map_or(Vec3::Z, |s| s.wi));
-                    let located = e.locate_each(Float3::from_lanes(&dirs), Mask(want));
+                    let located = e.locate_each(Float3::from_vecs(&dirs), Mask(want));
                     for k in 0..8 {
                         if !want[k] {
                             assert!(lanes[k].is_none());

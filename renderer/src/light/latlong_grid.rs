@@ -11,8 +11,8 @@
 //! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
 
 use crate::math::{PI, Vec2, Vec3};
-use crate::simd::{Float, Float3, Mask};
 use crate::sampling::distribution::{PiecewiseConstant2D, index_below, len_f32};
+use crate::simd::{Float, Float3, Mask};
 
 /// Margins of [`LatLongGrid::sample_direction_cell`], each a few times the error it covers. In z:
 /// the row edges' f32 rounding (6e-8) plus sinθ × the error of `cell`'s θ, which is below 2e-6 rad
@@ -200,7 +200,11 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// cell), its row, its sinθ and its row's z edges.
     #[inline(always)]
     #[allow(clippy::type_complexity)]
-    fn warp<const N: usize>(&self, pu: Float<N>, pv: Float<N>) -> (Float3<N>, [usize; N], Float<N>, Float<N>, Float<N>) {
+    fn warp<const N: usize>(
+        &self,
+        pu: Float<N>,
+        pv: Float<N>,
+    ) -> (Float3<N>, [usize; N], Float<N>, Float<N>, Float<N>) {
         let fv = pv * len_f32(self.height);
         let (mut r, mut fr, mut ir, mut ir1) = ([0usize; N], Float::<N>::ZERO, [0u32; N], [0u32; N]);
         for k in 0..N {
@@ -243,10 +247,10 @@ mod tests {
     use crate::sampling::chi2::TestRng;
 
     /// A 2048 × 1024 grid with cells of very different weights, and the rotations the tests apply.
-    /// `cell_index_lanes` is `cell` lane by lane: random unit directions, the poles, the seam φ = 0
+    /// `cells` at eight lanes is its one-lane call `cell` lane by lane: random unit directions, the poles, the seam φ = 0
     /// from both sides, and ±0 components.
     #[test]
-    fn cell_lanes_give_the_scalar_cells() {
+    fn eight_wide_cells_are_one_wide_cells() {
         let g = grid();
         let mut dirs: Vec<Vec3> = (0..4096)
             .map(|i| {
@@ -267,7 +271,7 @@ mod tests {
             dirs.push(Vec3::Y);
         }
         for chunk in dirs.chunks_exact(8) {
-            let (rows, cols) = g.cells(Float3::<8>::from_lanes(chunk.try_into().unwrap()));
+            let (rows, cols) = g.cells(Float3::<8>::from_vecs(chunk.try_into().unwrap()));
             for k in 0..8 {
                 assert_eq!((rows[k], cols[k]), g.cell(chunk[k]), "{:?}", chunk[k]);
             }
@@ -289,7 +293,16 @@ mod tests {
         let (mut given, mut wrong) = (0, 0);
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let (d, cell) = grid.sample_directions_with([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL, margins.0, margins.1, margins.2).map(|(d, c)| (d.lane(0), c[0])).unwrap();
+            let (d, cell) = grid
+                .sample_directions_with(
+                    [Float::<1>::splat(u.x), Float::splat(u.y)],
+                    Mask::ALL,
+                    margins.0,
+                    margins.1,
+                    margins.2,
+                )
+                .map(|(d, c)| (d.lane(0), c[0]))
+                .unwrap();
             if let Some(i) = cell {
                 given += 1;
                 let (r, c) = grid.cell(inv * (rot * d).normalize());

@@ -121,7 +121,7 @@ mod tests {
 
     /// `Float::<8>::atan2` is the one-lane `atan2` lane by lane, bit for bit (NaN where it is NaN).
     #[test]
-    fn atan2_eight_lanes_are_one_lane() {
+    fn atan2_eight_wide_is_one_wide() {
         let mut rng = TestRng::new(9);
         for _ in 0..100_000 {
             let m = |rng: &mut TestRng| (rng.next_f32() * 2.0 - 1.0) * 10f32.powf(rng.next_f32() * 8.0 - 4.0);
@@ -140,7 +140,7 @@ mod tests {
     /// for the baseline and for x86-64-v3.
     #[test]
     #[ignore]
-    fn atan2_lanes_instruction_count_workload() {
+    fn atan2_instruction_count_workload() {
         const N: u32 = 1 << 16;
         let arg = |i: u32| ((i as f32 * 0.618).sin(), (i as f32 * 0.377).cos());
         #[inline(never)]

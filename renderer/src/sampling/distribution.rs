@@ -331,7 +331,11 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
     /// more) run over all lanes, in SIMD registers inside the x86-64-v3 copy of the render's tile
     /// loop; the cutpoint walks (whose lengths depend on the table) and their loads run lane by lane.
     #[inline(always)]
-    pub fn sample_points<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> ([Float<N>; 2], [usize; N], [usize; N]) {
+    pub fn sample_points<const N: usize>(
+        &self,
+        u: [Float<N>; 2],
+        want: Mask<N>,
+    ) -> ([Float<N>; 2], [usize; N], [usize; N]) {
         let marginal = &self.marginal.entries;
         let nm = marginal.len() - 1;
         // The marginal (rows): `sample_entries` split at its walk.

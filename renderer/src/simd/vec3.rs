@@ -31,7 +31,7 @@ impl<const N: usize> Float3<N> {
 
     /// Lane k holds `v[k]`.
     #[inline(always)]
-    pub fn from_lanes(v: &[Vec3; N]) -> Self {
+    pub fn from_vecs(v: &[Vec3; N]) -> Self {
         let mut out = Self::ZERO;
         for (k, v) in v.iter().enumerate() {
             out.set_lane(k, *v);
