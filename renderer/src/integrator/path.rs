@@ -155,10 +155,11 @@ impl<'a> PathTracer<'a> {
     /// next vertex. The lat-long light samples ([`DistantLight::sample_each`]), the lat-long
     /// lookups of the BRDF directions ([`DistantLight::locate_each`]), a single sphere's
     /// intersections ([`crate::geometry::Sphere::intersect_ts`]) and, where every planned
-    /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Brdf::sample_at_lanes`])
-    /// run in SIMD lanes; a BVH's camera rays are walked as one packet
-    /// ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the live lanes
-    /// with the one-sample code. The lanes keep their own place in their
+    /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Bxdf::sample_at`], every
+    /// model) run in SIMD lanes, each written once over the lane type ([`crate::simd`]); where the
+    /// lanes' BRDFs differ each lane calls the same code at one lane. A BVH's camera rays are walked
+    /// as one packet ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the
+    /// live lanes with the one-sample code. The lanes keep their own place in their
     /// sample's sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
@@ -283,8 +284,8 @@ impl<'a> PathTracer<'a> {
                     let brdf = &scene.brdfs[object as usize];
                     outgoing = brdf.outgoing(outgoing.wo);
                     let mut u = [Float::ZERO; 2];
-                    for k in 0..LANES {
-                        (u[0].0[k], u[1].0[k]) = (u_brdf[k].x, u_brdf[k].y);
+                    for (k, uk) in u_brdf.iter().enumerate() {
+                        (u[0].0[k], u[1].0[k]) = (uk.x, uk.y);
                     }
                     let s = brdf.sample_at(&outgoing, Float(u_lobe), u);
                     for k in 0..LANES {
@@ -342,8 +343,8 @@ impl<'a> PathTracer<'a> {
                 u_light[k] = plan[k].u_light;
             }
             let mut u = [Float::ZERO; 2];
-            for k in 0..LANES {
-                (u[0].0[k], u[1].0[k]) = (u_light[k].x, u_light[k].y);
+            for (k, uk) in u_light.iter().enumerate() {
+                (u[0].0[k], u[1].0[k]) = (uk.x, uk.y);
             }
             let light_samples = scene.light.sample_each(u, Mask(nee_wanted));
             // The BRDF's value for each light sample (in SIMD lanes where the BRDF is shared).
@@ -479,9 +480,9 @@ impl<'a> PathTracer<'a> {
                 t_max.0[k] = r.rays[k].t_max;
             }
             let (t, hit) = sphere.intersect_ts(origin, dir, t_max);
-            for k in 0..LANES {
+            for (k, h) in hits.iter_mut().enumerate() {
                 if r.want[k] && hit.lane(k) {
-                    hits[k] = Some(sphere.hit_at(&r.rays[k], t.lane(k), 0));
+                    *h = Some(sphere.hit_at(&r.rays[k], t.lane(k), 0));
                 }
             }
             return hits;

@@ -297,9 +297,9 @@ impl DistantLight for Envmap {
     fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
         let mut out = [None; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
-            for k in 0..N {
+            for (k, o) in out.iter_mut().enumerate() {
                 if want.0[k] {
-                    out[k] = self.sample_angular(Vec2::new(u[0].0[k], u[1].0[k]));
+                    *o = self.sample_angular(Vec2::new(u[0].0[k], u[1].0[k]));
                 }
             }
             return out;
@@ -336,11 +336,11 @@ impl DistantLight for Envmap {
     fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
         let mut out = [Located::NONE; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
-            for k in 0..N {
+            for (k, o) in out.iter_mut().enumerate() {
                 if want.0[k] {
                     let (index, theta) = self.texel_index(wi.lane(k));
                     prefetch_read(self.texel(index));
-                    out[k] = Located { wi: wi.lane(k), index, theta };
+                    *o = Located { wi: wi.lane(k), index, theta };
                 }
             }
             return out;
@@ -563,7 +563,9 @@ mod tests {
                         let at = e.locate(dirs[k]);
                         assert_eq!((located[k].index, located[k].theta.to_bits()), (at.index, at.theta.to_bits()));
                         if let EnvSampler::LatLong(grid) = &e.sampler {
-                            let cell = grid.sample_direction_cell(u[k]).and_then(|(_, c)| c);
+                            let cell = grid
+                                .sample_directions([Float::<1>::splat(u[k].x), Float::splat(u[k].y)], Mask::ALL)
+                                .and_then(|(_, c)| c[0]);
                             if cell.is_some() { given += 1 } else { near_edge += 1 }
                         }
                     }

@@ -14,7 +14,7 @@ use crate::math::{PI, Vec2, Vec3};
 use crate::sampling::distribution::{PiecewiseConstant2D, index_below, len_f32};
 use crate::simd::{Float, Float3, Mask};
 
-/// Margins of [`LatLongGrid::sample_direction_cell`], each a few times the error it covers. In z:
+/// Margins of [`LatLongGrid::sample_directions`], each a few times the error it covers. In z:
 /// the row edges' f32 rounding (6e-8) plus sinθ × the error of `cell`'s θ, which is below 2e-6 rad
 /// (its atan2, 4e-7; the rounding of θ·H/π, 3π·2⁻²⁴ ≈ 6e-7; a rotation and its inverse in f32 and a
 /// normalize, < 1e-6 on the components).
@@ -123,9 +123,9 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         Some((d.lane(0), self.dist.pdf_index(iu[0], iv[0]) * self.inv_jacobian[r[0]]))
     }
 
-    /// The direction of `sample(u)` without its density (which is not read: a caller that looks the
-    /// density up from the direction saves a cache miss), or None if nothing can be sampled: the
-    /// one-lane [`LatLongGrid::sample_directions`].
+    /// The direction of `sample(u)` in each lane `k` with `want[k]`, without its density (which is
+    /// not read: a caller that looks the density up from the direction saves a cache miss), or None
+    /// in every lane if nothing can be sampled (the other lanes' values are unspecified).
     ///
     /// With it, the cell index (row · W + column) when the direction is provably in the cell it was
     /// drawn from *as [`LatLongGrid::cell`] sees it*, also after a rotation ρ applied to it and undone
@@ -135,15 +135,8 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// `cell`'s arctangents) may move it across; a caller then looks the direction up. A caller
     /// given the index can read the cell's data without the lookup (two arctangents) and gets the
     /// bits `cell` would give.
-    #[inline(always)]
-    pub fn sample_direction_cell(&self, u: Vec2) -> Option<(Vec3, Option<usize>)> {
-        let (d, cell) = self.sample_directions([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL)?;
-        Some((d.lane(0), cell[0]))
-    }
-
-    /// [`LatLongGrid::sample_direction_cell`] of each lane `k` with `want[k]` (`None` in every lane
-    /// when nothing can be sampled; the other lanes' values are unspecified). The cutpoint walk of
-    /// each lane runs on its own (its loop length depends on the table;
+    ///
+    /// The cutpoint walk of each lane runs on its own (its loop length depends on the table;
     /// [`PiecewiseConstant2D::sample_points`] runs the rest over the lanes); the warp to the sphere
     /// and the in-cell tests run over all lanes, in SIMD registers inside the x86-64-v3 copy of the
     /// render's tile loop.
@@ -180,8 +173,8 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         // direction's components moves φ by ε / sinθ.
         let w = len_f32(self.width);
         let mut fiu = Float::<N>::ZERO;
-        for k in 0..N {
-            fiu.0[k] = len_f32(iu[k]);
+        for (f, &i) in fiu.0.iter_mut().zip(&iu) {
+            *f = len_f32(i);
         }
         let tu = pu * w - fiu;
         let col_inside =

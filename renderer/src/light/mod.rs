@@ -72,9 +72,9 @@ pub trait DistantLight {
     #[inline(always)]
     fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
         let mut out = [None; N];
-        for k in 0..N {
+        for (k, o) in out.iter_mut().enumerate() {
             if want.0[k] {
-                out[k] = self.sample(Vec2::new(u[0].0[k], u[1].0[k]));
+                *o = self.sample(Vec2::new(u[0].0[k], u[1].0[k]));
             }
         }
         out
@@ -85,9 +85,9 @@ pub trait DistantLight {
     #[inline(always)]
     fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
         let mut out = [Located::NONE; N];
-        for k in 0..N {
+        for (k, o) in out.iter_mut().enumerate() {
             if want.0[k] {
-                out[k] = self.locate(wi.lane(k));
+                *o = self.locate(wi.lane(k));
             }
         }
         out
@@ -98,9 +98,9 @@ pub trait DistantLight {
     #[inline(always)]
     fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
         let mut out = [Rgb::ZERO; N];
-        for k in 0..N {
+        for (k, o) in out.iter_mut().enumerate() {
             if want.0[k] {
-                out[k] = self.eval(wi.lane(k));
+                *o = self.eval(wi.lane(k));
             }
         }
         out

@@ -342,8 +342,8 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         let uy = u[1].clamp(0.0, ONE_MINUS_EPSILON);
         let scaled = uy * len_f32(nm);
         let mut guide = [0usize; N];
-        for k in 0..N {
-            guide[k] = index_below(scaled.0[k], nm);
+        for (g, &x) in guide.iter_mut().zip(&scaled.0) {
+            *g = index_below(x, nm);
         }
         let (mut iv, mut c0, mut c1) = ([0usize; N], Float::<N>::ZERO, Float::<N>::ZERO);
         for k in 0..N {
@@ -359,8 +359,8 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         let dv = width.gt(Float::ZERO).select(((uy - c0) / width).clamp(0.0, ONE_MINUS_EPSILON), Float::ZERO);
         let ux = u[0].clamp(0.0, ONE_MINUS_EPSILON);
         let scaled = ux * len_f32(self.nu);
-        for k in 0..N {
-            guide[k] = index_below(scaled.0[k], self.nu);
+        for (g, &x) in guide.iter_mut().zip(&scaled.0) {
+            *g = index_below(x, self.nu);
         }
         // The row's cell the same way (the entries of a row hold cdf[i + 1] in entry i).
         let mut iu = [0usize; N];
@@ -458,9 +458,9 @@ mod tests {
         for _ in 0..4000 {
             let mut u = [Float::<8>::ZERO; 2];
             let mut want = [false; 8];
-            for k in 0..8 {
+            for (k, w) in want.iter_mut().enumerate() {
                 (u[0].0[k], u[1].0[k]) = (pick(&mut rng), pick(&mut rng));
-                want[k] = rng.next_f32() < 0.8;
+                *w = rng.next_f32() < 0.8;
             }
             let ([pu, pv], iu, iv) = d.sample_points(u, Mask(want));
             for k in 0..8 {

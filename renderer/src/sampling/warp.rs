@@ -23,7 +23,7 @@ fn from_cos_and_phi(cos_t: f32, u_phi: f32) -> Vec3 {
     cos_and_phi(Float::<1>::splat(cos_t), Float::splat(u_phi)).lane(0)
 }
 
-/// [`from_cos_and_phi`] in each lane.
+/// The unit vector of each lane with z = `cos_t` and azimuth φ = 2π `u_phi`.
 #[inline(always)]
 pub fn cos_and_phi<const N: usize>(cos_t: Float<N>, u_phi: Float<N>) -> Float3<N> {
     let sin_t = (1.0 - cos_t * cos_t).max(Float::ZERO).sqrt();

@@ -7,6 +7,9 @@
 //! for x86-64-v3 (`render::render_tile`) LLVM turns the loops at `N = 8` into AVX2 instructions;
 //! nothing here fuses a multiply and an add (`mul_add` rounds twice), so the baseline and the
 //! x86-64-v3 copies agree bit for bit.
+// Lane loops index every operand by the lane: the form LLVM vectorizes.
+#![allow(clippy::needless_range_loop)]
+
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// `N` f32 lanes.
