@@ -128,7 +128,7 @@ def stage_of_callee(name, f):
         return "intersection (analytic sphere)"
     if "brdf/" in f:
         # `sample_at` etc. are `sample` given the vertex's precomputed terms of ω_o (`outgoing`).
-        # The batch's lane versions (`sample_at_lanes`, …) count as the one-vertex method.
+        # The batch's lane versions (formerly `sample_at_lanes`, …) count as the one-vertex method.
         name = name.removesuffix("_lanes").removesuffix("_at")
         for k in ("sample", "eval", "pdf"):
             if name.endswith(k):
@@ -137,7 +137,8 @@ def stage_of_callee(name, f):
             return "BRDF terms of ω_o (outgoing)"
         return "BRDF other"
     if "light/" in f or f.endswith("distribution.rs"):
-        name = name.removesuffix("_lanes")
+        # The batch's lane bodies (`sample_each`, …) count as the one-lane method.
+        name = name.removesuffix("_lanes").removesuffix("_each")
         if name in ("sample", "prefetch_sample"):
             return "light sample (cutpoint walk, warp, its texel)"
         if name in ("locate", "eval_pdf_located", "eval", "eval_pdf", "pdf"):

@@ -31,6 +31,7 @@ pub mod rounds;
 pub mod sampling;
 pub mod scene;
 pub mod shard;
+pub mod simd;
 pub mod texture;
 
 /// The one user-facing error type of the project (shared with `analysis`): it names the file and

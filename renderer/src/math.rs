@@ -60,15 +60,12 @@ pub struct Frame {
 }
 
 impl Frame {
-    /// Builds a frame around unit `n` without branches on the pole (Duff et al. 2017).
+    /// Builds a frame around unit `n` without branches on the pole (Duff et al. 2017): the one-lane
+    /// [`crate::simd::Frames::from_normal`].
     #[inline]
     pub fn from_normal(n: Vec3) -> Self {
-        let sign = 1.0f32.copysign(n.z);
-        let a = -1.0 / (sign + n.z);
-        let b = n.x * n.y * a;
-        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-        Frame { s, t, n }
+        let f = crate::simd::Frames::<1>::from_normal(crate::simd::Float3::splat(n));
+        Frame { s: f.s.lane(0), t: f.t.lane(0), n }
     }
 
     #[inline]

@@ -5,17 +5,31 @@
 //! - `conductor(c, η, k)`: the exact unpolarised reflectance of a conductor with complex relative
 //!   index η + ik (the average of R_s and R_p, in the closed form of pbrt's `FrConductor`), per channel.
 use crate::math::Rgb;
+use crate::simd::{Float, Float3};
 
+/// Schlick's reflectance of one cosine.
 #[inline]
 pub fn schlick(cos_i: f32, f0: Rgb) -> Rgb {
-    let m = (1.0 - cos_i.clamp(0.0, 1.0)).max(0.0);
+    schlick_of(Float::<1>::splat(cos_i), f0).lane(0)
+}
+
+/// Schlick's reflectance of each lane's cosine.
+#[inline(always)]
+pub fn schlick_of<const N: usize>(cos_i: Float<N>, f0: Rgb) -> Float3<N> {
+    let m = (1.0 - cos_i.clamp(0.0, 1.0)).max(Float::ZERO);
     let m2 = m * m;
-    f0 + (Rgb::ONE - f0) * (m2 * m2 * m)
+    Float3::splat(f0) + (Rgb::ONE - f0) * (m2 * m2 * m)
 }
 
 /// Exact conductor Fresnel for one wavelength.
 #[inline]
 pub fn conductor_scalar(cos_i: f32, eta: f32, k: f32) -> f32 {
+    conductor_channel(Float::<1>::splat(cos_i), eta, k).lane(0)
+}
+
+/// Exact conductor Fresnel for one wavelength, each lane's cosine.
+#[inline(always)]
+pub fn conductor_channel<const N: usize>(cos_i: Float<N>, eta: f32, k: f32) -> Float<N> {
     let c = cos_i.clamp(0.0, 1.0);
     let c2 = c * c;
     let s2 = 1.0 - c2;
@@ -25,7 +39,7 @@ pub fn conductor_scalar(cos_i: f32, eta: f32, k: f32) -> f32 {
     // a² + b² = |(η + ik)² − sin²θ|, with a = Re sqrt((η + ik)² − sin²θ).
     let a2b2 = (t0 * t0 + 4.0 * eta2 * k2).sqrt();
     let t1 = a2b2 + c2;
-    let a = (0.5 * (a2b2 + t0)).max(0.0).sqrt();
+    let a = (0.5 * (a2b2 + t0)).max(Float::ZERO).sqrt();
     let t2 = 2.0 * c * a;
     let rs = (t1 - t2) / (t1 + t2);
     let t3 = c2 * a2b2 + s2 * s2;
@@ -34,12 +48,19 @@ pub fn conductor_scalar(cos_i: f32, eta: f32, k: f32) -> f32 {
     0.5 * (rp + rs)
 }
 
+/// Exact conductor Fresnel, per channel, of one cosine.
 #[inline]
 pub fn conductor(cos_i: f32, eta: Rgb, k: Rgb) -> Rgb {
-    Rgb::new(
-        conductor_scalar(cos_i, eta.x, k.x),
-        conductor_scalar(cos_i, eta.y, k.y),
-        conductor_scalar(cos_i, eta.z, k.z),
+    conductor_of(Float::<1>::splat(cos_i), eta, k).lane(0)
+}
+
+/// Exact conductor Fresnel, per channel, of each lane's cosine.
+#[inline(always)]
+pub fn conductor_of<const N: usize>(cos_i: Float<N>, eta: Rgb, k: Rgb) -> Float3<N> {
+    Float3::new(
+        conductor_channel(cos_i, eta.x, k.x),
+        conductor_channel(cos_i, eta.y, k.y),
+        conductor_channel(cos_i, eta.z, k.z),
     )
 }
 

@@ -3,9 +3,10 @@
 //!
 //! Parameters: `albedo` (RGB, the directional albedo at every θ_o). Sampling: cosine-weighted
 //! hemisphere, pdf = cosθ_i/π, so every sample carries weight = albedo exactly.
-use super::{BrdfSample, Bxdf};
-use crate::math::{INV_PI, Rgb, Vec2, Vec3};
+use super::{BrdfSamples, Bxdf, Outgoing};
+use crate::math::{INV_PI, Rgb};
 use crate::sampling::warp;
+use crate::simd::{Float, Float3, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Lambert {
@@ -17,31 +18,22 @@ impl Lambert {
     }
 }
 impl Bxdf for Lambert {
-    #[inline]
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        self.albedo * (wi.z * INV_PI)
+    #[inline(always)]
+    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+        let zero = o.wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO);
+        Float3::select(zero, Float3::ZERO, self.albedo * (wi.z * INV_PI))
     }
-    #[inline]
-    fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let wi = warp::square_to_cosine_hemisphere(u);
-        if wi.z <= 0.0 {
-            // On the rim the density is zero: refuse rather than return an infinite weight.
-            return None;
-        }
-        Some(BrdfSample { wi, weight: self.albedo, pdf: wi.z * INV_PI, delta: false })
+    #[inline(always)]
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+        let wi = warp::cosine_hemisphere(u);
+        // On the rim the density is zero: refuse rather than return an infinite weight.
+        let valid = !(o.wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO));
+        BrdfSamples { wi, weight: Float3::splat(self.albedo), pdf: wi.z * INV_PI, delta: Mask::NONE, valid }
     }
-    #[inline]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        wi.z * INV_PI
+    #[inline(always)]
+    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+        let zero = o.wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO);
+        zero.select(Float::ZERO, wi.z * INV_PI)
     }
 }
 
@@ -49,6 +41,7 @@ impl Bxdf for Lambert {
 mod tests {
     use super::*;
     use crate::brdf::testutil::*;
+    use crate::math::{Vec2, Vec3};
 
     fn wos() -> [Vec3; 3] {
         [dir_theta_deg(0.0), dir_theta_deg(30.0), dir_theta_deg(70.0)]

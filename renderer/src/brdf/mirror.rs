@@ -4,8 +4,9 @@
 //! Parameters: `kr` (RGB reflectance). In the local frame R = (−ω_o.x, −ω_o.y, ω_o.z). The lobe is
 //! a Dirac: `eval` and `pdf` are zero, `sample` returns ω_i = R with weight k_r, pdf 1 and
 //! `delta = true`.
-use super::{BrdfSample, Bxdf};
-use crate::math::{Rgb, Vec2, Vec3};
+use super::{BrdfSamples, Bxdf, Outgoing};
+use crate::math::Rgb;
+use crate::simd::{Float, Float3, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Mirror {
@@ -17,21 +18,25 @@ impl Mirror {
     }
 }
 impl Bxdf for Mirror {
-    #[inline]
-    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
+    #[inline(always)]
+    fn eval_at<const N: usize>(&self, _o: &Outgoing<N>, _wi: Float3<N>) -> Float3<N> {
         // A Dirac has no finite value: it is reached only through `sample`.
-        Rgb::ZERO
+        Float3::ZERO
     }
-    #[inline]
-    fn sample(&self, wo: Vec3, _u_lobe: f32, _u: Vec2) -> Option<BrdfSample> {
-        if wo.z <= 0.0 {
-            return None;
+    #[inline(always)]
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, _u: [Float<N>; 2]) -> BrdfSamples<N> {
+        let wo = o.wo;
+        BrdfSamples {
+            wi: Float3::new(-wo.x, -wo.y, wo.z),
+            weight: Float3::splat(self.kr),
+            pdf: Float::ONE,
+            delta: Mask::ALL,
+            valid: !wo.z.le(Float::ZERO),
         }
-        Some(BrdfSample { wi: Vec3::new(-wo.x, -wo.y, wo.z), weight: self.kr, pdf: 1.0, delta: true })
     }
-    #[inline]
-    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        0.0
+    #[inline(always)]
+    fn pdf_at<const N: usize>(&self, _o: &Outgoing<N>, _wi: Float3<N>) -> Float<N> {
+        Float::ZERO
     }
     #[inline]
     fn is_delta(&self) -> bool {
@@ -42,7 +47,7 @@ impl Bxdf for Mirror {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::reflect;
+    use crate::math::{Vec2, Vec3, reflect};
 
     #[test]
     fn sample_is_exact_reflection() {

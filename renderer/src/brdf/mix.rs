@@ -11,8 +11,8 @@
 //! `eval`/`pdf`; their draws come back with `delta = true`, weight = w_j·k_r / p_j and pdf = p_j
 //! (times the layer's own delta pdf). `is_delta` holds only if every layer is a Dirac;
 //! `ignores_horizon` if any layer ignores it.
-use super::{Brdf, BrdfSample, Bxdf};
-use crate::math::{Rgb, Vec2, Vec3};
+use super::{BrdfSamples, Bxdf, Outgoing};
+use crate::simd::{Float, Float3, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Mix {
@@ -37,58 +37,80 @@ impl Mix {
         w.max(0.0) * self.inv_total
     }
 
-    /// Picks a layer with probability p_j from u ∈ [0,1); returns it, p_j and u remapped to [0,1).
+    /// Picks a layer with probability p_j from u ∈ [0,1); returns its index, p_j and u remapped to
+    /// [0,1).
     #[inline]
-    fn choose(&self, u: f32) -> Option<(f32, &Brdf, f32)> {
+    fn choose(&self, u: f32) -> Option<(usize, f32, f32)> {
         let mut cdf = 0.0;
         let mut last = None;
-        for (w, b) in &self.layers {
+        for (j, (w, _)) in self.layers.iter().enumerate() {
             let p = self.prob(*w);
             if p <= 0.0 {
                 continue;
             }
             if u < cdf + p {
-                return Some((p, b, ((u - cdf) / p).clamp(0.0, 1.0 - f32::EPSILON * 0.5)));
+                return Some((j, p, ((u - cdf) / p).clamp(0.0, 1.0 - f32::EPSILON * 0.5)));
             }
             cdf += p;
-            last = Some((p, b, cdf - p));
+            last = Some((j, p, cdf - p));
         }
         // Rounding left u just above the last cdf: give it to the last selectable layer.
-        last.map(|(p, b, c)| (p, b, ((u - c) / p).clamp(0.0, 1.0 - f32::EPSILON * 0.5)))
+        last.map(|(j, p, c)| (j, p, ((u - c) / p).clamp(0.0, 1.0 - f32::EPSILON * 0.5)))
     }
 }
 impl Bxdf for Mix {
     #[inline]
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.layers.iter().fold(Rgb::ZERO, |acc, (w, b)| acc + *w * b.eval(wo, wi))
+    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+        let mut acc = Float3::ZERO;
+        for (w, b) in &self.layers {
+            acc = acc + b.eval_at(&b.outgoing(o.wo), wi) * *w;
+        }
+        acc
+    }
+
+    /// Each lane draws from the layer its `u_lobe` chooses: every layer chosen by some lane samples
+    /// all lanes, and each lane keeps its own layer's draw.
+    #[inline]
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+        let wo = o.wo;
+        let (mut layer, mut p, mut u_sub) = ([usize::MAX; N], [0.0f32; N], [0.0f32; N]);
+        for k in 0..N {
+            if let Some((j, pj, us)) = self.choose(u_lobe.0[k]) {
+                (layer[k], p[k], u_sub[k]) = (j, pj, us);
+            }
+        }
+        let (p, u_sub) = (Float(p), Float(u_sub));
+        let mut s = BrdfSamples::NONE;
+        for (j, (_, b)) in self.layers.iter().enumerate() {
+            let mut chosen = [false; N];
+            for k in 0..N {
+                chosen[k] = layer[k] == j;
+            }
+            let chosen = Mask(chosen);
+            if chosen.any() {
+                s = BrdfSamples::select(chosen, &b.sample_at(&b.outgoing(wo), u_sub, u), &s);
+            }
+        }
+        // A Dirac layer: w_j k_r / p_j = k_r Σw. The others: the mixture's ρ̂ and density.
+        let pdf = self.pdf_at(o, s.wi);
+        let weight = self.eval_at(o, s.wi) / pdf;
+        let continuous = pdf.is_finite() & pdf.gt(Float::ZERO);
+        BrdfSamples {
+            wi: s.wi,
+            weight: Float3::select(s.delta, s.weight * (1.0 / self.inv_total), weight),
+            pdf: s.delta.select(s.pdf * p, pdf),
+            delta: s.delta,
+            valid: !wo.z.le(Float::ZERO) & s.valid & (s.delta | continuous),
+        }
     }
 
     #[inline]
-    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        if wo.z <= 0.0 {
-            return None;
+    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+        let mut acc = Float::ZERO;
+        for (w, b) in &self.layers {
+            acc = acc + self.prob(*w) * b.pdf_at(&b.outgoing(o.wo), wi);
         }
-        let (p, layer, u_sub) = self.choose(u_lobe)?;
-        let s = layer.sample(wo, u_sub, u)?;
-        if s.delta {
-            // w_j k_r / p_j = k_r Σw.
-            return Some(BrdfSample {
-                wi: s.wi,
-                weight: s.weight * (1.0 / self.inv_total),
-                pdf: s.pdf * p,
-                delta: true,
-            });
-        }
-        let pdf = self.pdf(wo, s.wi);
-        if !pdf.is_finite() || pdf <= 0.0 {
-            return None;
-        }
-        Some(BrdfSample { wi: s.wi, weight: self.eval(wo, s.wi) / pdf, pdf, delta: false })
-    }
-
-    #[inline]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.layers.iter().fold(0.0, |acc, (w, b)| acc + self.prob(*w) * b.pdf(wo, wi))
+        acc
     }
 
     #[inline]
@@ -110,8 +132,10 @@ impl Bxdf for Mix {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::brdf::Brdf;
     use crate::brdf::testutil::*;
     use crate::brdf::{Horizon, Lambert, Microfacet, MicrofacetDistribution, Mirror, Phong, TorranceSparrow};
+    use crate::math::{Rgb, Vec2, Vec3};
     use crate::sampling::chi2::chi2_sphere;
 
     const THETAS: [f32; 3] = [0.0, 30.0, 70.0];
@@ -266,10 +290,10 @@ mod tests {
     #[test]
     fn lobe_selection_remap() {
         let m = diffuse_glossy();
-        let (p, _, u) = m.choose(0.3).unwrap();
-        assert!((p - 0.6).abs() < 1e-6 && (u - 0.5).abs() < 1e-6);
-        let (p, _, u) = m.choose(0.8).unwrap();
-        assert!((p - 0.4).abs() < 1e-6 && (u - 0.5).abs() < 1e-5);
+        let (j, p, u) = m.choose(0.3).unwrap();
+        assert!(j == 0 && (p - 0.6).abs() < 1e-6 && (u - 0.5).abs() < 1e-6);
+        let (j, p, u) = m.choose(0.8).unwrap();
+        assert!(j == 1 && (p - 0.4).abs() < 1e-6 && (u - 0.5).abs() < 1e-5);
         let (_, _, u) = m.choose(1.0 - 1e-7).unwrap();
         assert!(u < 1.0);
     }

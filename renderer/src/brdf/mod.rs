@@ -24,8 +24,8 @@ pub use phong::Phong;
 pub use torrance_sparrow::TorranceSparrow;
 
 use crate::math::{Rgb, Vec2, Vec3};
-use crate::sampling::LANES;
 use crate::scene::build::color;
+use crate::simd::{Float, Float3, Mask};
 use vocab::FresnelKind;
 use vocab::scene::BrdfSection;
 
@@ -46,34 +46,97 @@ pub struct BrdfSample {
     pub delta: bool,
 }
 
-/// What the sample, eval and pdf of one vertex share: ω_o and the BRDF's terms of ω_o alone,
-/// computed once per vertex by [`Bxdf::outgoing`] (a memo: the `*_at` methods return the bits of
-/// `sample`, `eval` and `pdf`).
+/// `N` draws of a BRDF, one per lane ([`Bxdf::sample_at`]); lane k is a [`BrdfSample`] where
+/// `valid` holds and no sample elsewhere (its other fields are then unspecified).
 #[derive(Clone, Copy, Debug)]
-pub struct Outgoing {
-    /// ω_o, local frame.
-    pub wo: Vec3,
-    /// Smith's Λ(ω_o) of a microfacet BRDF (Beckmann's costs an f64 erfc and exp; the vertex's
-    /// sample and its next-event eval both need it); 0 for the others, which do not read it.
-    pub lambda_o: f32,
+pub struct BrdfSamples<const N: usize> {
+    pub wi: Float3<N>,
+    pub weight: Float3<N>,
+    pub pdf: Float<N>,
+    pub delta: Mask<N>,
+    pub valid: Mask<N>,
 }
 
-impl Outgoing {
+impl<const N: usize> BrdfSamples<N> {
+    /// No sample in any lane.
+    pub const NONE: Self =
+        BrdfSamples { wi: Float3::ZERO, weight: Float3::ZERO, pdf: Float::ZERO, delta: Mask::NONE, valid: Mask::NONE };
+
+    /// Lane `k`.
+    #[inline(always)]
+    pub fn lane(&self, k: usize) -> Option<BrdfSample> {
+        self.valid.lane(k).then(|| BrdfSample {
+            wi: self.wi.lane(k),
+            weight: self.weight.lane(k),
+            pdf: self.pdf.lane(k),
+            delta: self.delta.lane(k),
+        })
+    }
+
+    /// `a`'s lanes where `m` holds, `b`'s elsewhere.
+    #[inline(always)]
+    pub fn select(m: Mask<N>, a: &Self, b: &Self) -> Self {
+        BrdfSamples {
+            wi: Float3::select(m, a.wi, b.wi),
+            weight: Float3::select(m, a.weight, b.weight),
+            pdf: m.select(a.pdf, b.pdf),
+            delta: (m & a.delta) | (!m & b.delta),
+            valid: (m & a.valid) | (!m & b.valid),
+        }
+    }
+}
+
+/// What the sample, eval and pdf of one vertex share: ω_o and the BRDF's terms of ω_o alone,
+/// computed once per vertex by [`Bxdf::outgoing`], for `N` vertices (one per lane).
+#[derive(Clone, Copy, Debug)]
+pub struct Outgoing<const N: usize> {
+    /// ω_o, local frame.
+    pub wo: Float3<N>,
+    /// Smith's Λ(ω_o) of a microfacet BRDF (the vertex's sample and its next-event eval both
+    /// need it); 0 for the others, which do not read it.
+    pub lambda_o: Float<N>,
+}
+
+impl<const N: usize> Outgoing<N> {
     /// ω_o with no precomputed terms.
-    #[inline]
-    pub fn plain(wo: Vec3) -> Self {
-        Outgoing { wo, lambda_o: 0.0 }
+    #[inline(always)]
+    pub fn plain(wo: Float3<N>) -> Self {
+        Outgoing { wo, lambda_o: Float::ZERO }
+    }
+
+    /// Lane `k` as one vertex.
+    #[inline(always)]
+    pub fn lane(&self, k: usize) -> Outgoing<1> {
+        Outgoing { wo: Float3::splat(self.wo.lane(k)), lambda_o: Float::splat(self.lambda_o.lane(k)) }
+    }
+
+    /// Writes one vertex into lane `k`.
+    #[inline(always)]
+    pub fn set_lane(&mut self, k: usize, o: &Outgoing<1>) {
+        self.wo.set_lane(k, o.wo.lane(0));
+        self.lambda_o.0[k] = o.lambda_o.0[0];
     }
 }
 
 /// The interface every BRDF implements (local frame, normal = +z).
+///
+/// Each model writes its terms of ω_o, sample, eval and pdf once, over `N` lanes
+/// ([`crate::simd`]): the batched path tracer calls them at `N` = [`crate::sampling::LANES`], the
+/// one-sample methods (`sample`, `eval`, `pdf`: the tests and the reference path tracer) at
+/// `N = 1`, and lane k of a call has the bits of the one-lane call on lane k's inputs.
 pub trait Bxdf {
-    /// Transfer function ρ̂ = BRDF·cosθ'_i (zero for Dirac components).
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
-    /// Draws ω_i given ω_o. `u_lobe` selects among lobes (mix), `u` drives the warp.
-    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>;
-    /// Solid-angle density with which `sample` draws `wi` (non-Dirac part only).
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// The terms of ω_o that `sample_at`, `eval_at` and `pdf_at` share at one vertex.
+    #[inline(always)]
+    fn outgoing<const N: usize>(&self, wo: Float3<N>) -> Outgoing<N> {
+        Outgoing::plain(wo)
+    }
+    /// Draws ω_i given ω_o in each lane. `u_lobe` selects among lobes (mix), `u` drives the warp.
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N>;
+    /// Transfer function ρ̂ = BRDF·cosθ'_i of each lane (zero for Dirac components).
+    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N>;
+    /// Solid-angle density with which `sample_at` draws `wi` (non-Dirac part only), each lane.
+    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N>;
+
     /// True when the BRDF gathers light below the horizon (horizon = "ignore"): the integrator then
     /// does not test those directions for self-occlusion.
     fn ignores_horizon(&self) -> bool {
@@ -89,25 +152,22 @@ pub trait Bxdf {
     fn uses_lobe_choice(&self) -> bool {
         false
     }
-    /// The terms of ω_o that `sample_at`, `eval_at` and `pdf_at` share at one vertex.
+
+    /// Transfer function ρ̂ of one pair of directions: `eval_at` at one lane.
     #[inline]
-    fn outgoing(&self, wo: Vec3) -> Outgoing {
-        Outgoing::plain(wo)
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_at(&self.outgoing::<1>(Float3::splat(wo)), Float3::splat(wi)).lane(0)
     }
-    /// `sample(o.wo, u_lobe, u)`, bit for bit, with `o = self.outgoing(wo)`.
+    /// One draw: `sample_at` at one lane.
     #[inline]
-    fn sample_at(&self, o: &Outgoing, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        self.sample(o.wo, u_lobe, u)
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        let o = self.outgoing::<1>(Float3::splat(wo));
+        self.sample_at(&o, Float::splat(u_lobe), [Float::splat(u.x), Float::splat(u.y)]).lane(0)
     }
-    /// `eval(o.wo, wi)`, bit for bit, with `o = self.outgoing(wo)`.
+    /// One density: `pdf_at` at one lane.
     #[inline]
-    fn eval_at(&self, o: &Outgoing, wi: Vec3) -> Rgb {
-        self.eval(o.wo, wi)
-    }
-    /// `pdf(o.wo, wi)`, bit for bit, with `o = self.outgoing(wo)`.
-    #[inline]
-    fn pdf_at(&self, o: &Outgoing, wi: Vec3) -> f32 {
-        self.pdf(o.wo, wi)
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.pdf_at(&self.outgoing::<1>(Float3::splat(wo)), Float3::splat(wi)).lane(0)
     }
 }
 
@@ -137,18 +197,6 @@ macro_rules! dispatch {
 
 impl Bxdf for Brdf {
     #[inline]
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        dispatch!(self, b => b.eval(wo, wi))
-    }
-    #[inline]
-    fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        dispatch!(self, b => b.sample(wo, u_lobe, u))
-    }
-    #[inline]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        dispatch!(self, b => b.pdf(wo, wi))
-    }
-    #[inline]
     fn ignores_horizon(&self) -> bool {
         dispatch!(self, b => b.ignores_horizon())
     }
@@ -160,102 +208,21 @@ impl Bxdf for Brdf {
     fn uses_lobe_choice(&self) -> bool {
         dispatch!(self, b => b.uses_lobe_choice())
     }
-    #[inline]
-    fn outgoing(&self, wo: Vec3) -> Outgoing {
+    #[inline(always)]
+    fn outgoing<const N: usize>(&self, wo: Float3<N>) -> Outgoing<N> {
         dispatch!(self, b => b.outgoing(wo))
     }
-    #[inline]
-    fn sample_at(&self, o: &Outgoing, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+    #[inline(always)]
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
         dispatch!(self, b => b.sample_at(o, u_lobe, u))
     }
-    #[inline]
-    fn eval_at(&self, o: &Outgoing, wi: Vec3) -> Rgb {
+    #[inline(always)]
+    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
         dispatch!(self, b => b.eval_at(o, wi))
     }
-    #[inline]
-    fn pdf_at(&self, o: &Outgoing, wi: Vec3) -> f32 {
+    #[inline(always)]
+    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
         dispatch!(self, b => b.pdf_at(o, wi))
-    }
-}
-
-/// The one-vertex methods over [`LANES`] vertices that all have this BRDF (the path tracer's
-/// batch, where every live lane hit the same object): each lane gets the bits of the one-vertex
-/// method. Beckmann microfacets compute in SIMD lanes (`Microfacet::sample_at_lanes` and the
-/// rest); every other model runs its one-vertex method lane by lane. `live` marks the lanes to
-/// compute; the others return `None`, zero, or a plain [`Outgoing`].
-impl Brdf {
-    /// [`Bxdf::outgoing`] of each live lane.
-    #[inline(always)]
-    pub fn outgoing_lanes(&self, wo: &[Vec3; LANES], live: &[bool; LANES]) -> [Outgoing; LANES] {
-        if let Brdf::Microfacet(m) = self
-            && m.has_lanes()
-        {
-            return m.outgoing_lanes(wo, live);
-        }
-        let mut out = [Outgoing::plain(Vec3::ZERO); LANES];
-        for k in 0..LANES {
-            if live[k] {
-                out[k] = self.outgoing(wo[k]);
-            }
-        }
-        out
-    }
-
-    /// [`Bxdf::sample_at`] of each live lane.
-    #[inline(always)]
-    pub fn sample_at_lanes(
-        &self,
-        o: &[Outgoing; LANES],
-        u_lobe: &[f32; LANES],
-        u: &[Vec2; LANES],
-        live: &[bool; LANES],
-    ) -> [Option<BrdfSample>; LANES] {
-        if let Brdf::Microfacet(m) = self
-            && m.has_lanes()
-        {
-            return m.sample_at_lanes(o, u, live);
-        }
-        let mut out = [None; LANES];
-        for k in 0..LANES {
-            if live[k] {
-                out[k] = self.sample_at(&o[k], u_lobe[k], u[k]);
-            }
-        }
-        out
-    }
-
-    /// [`Bxdf::eval_at`] of each live lane (zero elsewhere).
-    #[inline(always)]
-    pub fn eval_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [Rgb; LANES] {
-        if let Brdf::Microfacet(m) = self
-            && m.has_lanes()
-        {
-            return m.eval_at_lanes(o, wi, live);
-        }
-        let mut out = [Rgb::ZERO; LANES];
-        for k in 0..LANES {
-            if live[k] {
-                out[k] = self.eval_at(&o[k], wi[k]);
-            }
-        }
-        out
-    }
-
-    /// [`Bxdf::pdf_at`] of each live lane (zero elsewhere).
-    #[inline(always)]
-    pub fn pdf_at_lanes(&self, o: &[Outgoing; LANES], wi: &[Vec3; LANES], live: &[bool; LANES]) -> [f32; LANES] {
-        if let Brdf::Microfacet(m) = self
-            && m.has_lanes()
-        {
-            return m.pdf_at_lanes(o, wi, live);
-        }
-        let mut out = [0.0f32; LANES];
-        for k in 0..LANES {
-            if live[k] {
-                out[k] = self.pdf_at(&o[k], wi[k]);
-            }
-        }
-        out
     }
 }
 
@@ -306,4 +273,115 @@ pub fn build_brdf(b: &BrdfSection) -> std::result::Result<Brdf, String> {
             Brdf::Mix(Mix::new(v))
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::TestRng;
+
+    /// f32 bits, every NaN alike.
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    fn same3(a: Vec3, b: Vec3) -> bool {
+        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
+    }
+
+    /// One model of each kind (both horizons, both microfacet distributions, every Fresnel, a mix
+    /// with a Dirac layer).
+    fn models() -> Vec<Brdf> {
+        let mut v =
+            vec![Brdf::Lambert(Lambert::new(Rgb::new(0.8, 0.5, 0.2))), Brdf::Mirror(Mirror::new(Rgb::splat(0.9)))];
+        for h in [Horizon::Clamp, Horizon::Ignore] {
+            v.push(Brdf::Phong(Phong::new(Rgb::ONE, 12.0, h)));
+            v.push(Brdf::TorranceSparrow(TorranceSparrow::new(Rgb::ONE, 0.3, h)));
+        }
+        let fresnels = [
+            Fresnel::None,
+            Fresnel::Schlick { f0: Rgb::new(0.04, 0.5, 0.9) },
+            Fresnel::Conductor { eta: Rgb::new(0.2, 0.9, 1.1), k: Rgb::new(3.9, 2.4, 2.2) },
+        ];
+        for alpha in [0.02f32, 0.2, 1.6] {
+            for f in fresnels {
+                v.push(Brdf::Microfacet(Microfacet::new(MicrofacetDistribution::Beckmann, alpha, f)));
+                v.push(Brdf::Microfacet(Microfacet::new(MicrofacetDistribution::Ggx, alpha, f)));
+            }
+        }
+        v.push(Brdf::Mix(Mix::new(vec![
+            (0.5, Brdf::Lambert(Lambert::new(Rgb::ONE))),
+            (0.3, Brdf::Microfacet(Microfacet::new(MicrofacetDistribution::Beckmann, 0.3, Fresnel::None))),
+            (0.2, Brdf::Mirror(Mirror::new(Rgb::new(0.9, 0.8, 0.7)))),
+        ])));
+        v
+    }
+
+    /// One body, every width: lane k of the eight-lane `outgoing`, `sample_at`, `eval_at` and
+    /// `pdf_at` has the bits of the one-lane call on lane k's inputs, for every model, on random
+    /// directions and numbers plus the edge cases (below and on the horizon, the normal itself,
+    /// u = 0 and u → 1).
+    #[test]
+    fn eight_wide_is_one_wide() {
+        let mut rng = TestRng::new(21);
+        let special = [
+            Vec3::Z,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.6, 0.0, -0.8),
+            Vec3::new(0.0, 0.999_999, 0.001_414_2),
+            Vec3::new(0.0, 0.0, -1.0),
+        ];
+        let dir = |rng: &mut TestRng| -> Vec3 {
+            if rng.next_f32() < 0.1 {
+                return special[(rng.next_u64() % special.len() as u64) as usize];
+            }
+            let z = 2.0 * rng.next_f32() - 1.0;
+            let (s, p) = ((1.0 - z * z).max(0.0).sqrt(), 2.0 * std::f32::consts::PI * rng.next_f32());
+            Vec3::new(s * p.cos(), s * p.sin(), z).normalize()
+        };
+        let pick = |rng: &mut TestRng| match rng.next_u64() % 10 {
+            0 => 0.0,
+            1 => 1.0 - f32::EPSILON / 2.0,
+            _ => rng.next_f32(),
+        };
+        let (mut samples, mut values) = (0usize, 0usize);
+        for brdf in &models() {
+            for _ in 0..300 {
+                let wo: [Vec3; 8] = std::array::from_fn(|_| dir(&mut rng));
+                let wi: [Vec3; 8] = std::array::from_fn(|_| dir(&mut rng));
+                let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(pick(&mut rng), pick(&mut rng)));
+                let u_lobe: [f32; 8] = std::array::from_fn(|_| pick(&mut rng));
+                let o = brdf.outgoing(Float3::from_vecs(&wo));
+                let s = brdf.sample_at(&o, Float(u_lobe), [Float(u.map(|u| u.x)), Float(u.map(|u| u.y))]);
+                let f = brdf.eval_at(&o, Float3::from_vecs(&wi));
+                let p = brdf.pdf_at(&o, Float3::from_vecs(&wi));
+                for k in 0..8 {
+                    let o1 = brdf.outgoing::<1>(Float3::splat(wo[k]));
+                    assert!(same(o.lambda_o.lane(k), o1.lambda_o.lane(0)), "{brdf:?} outgoing {:?}", wo[k]);
+                    match (s.lane(k), brdf.sample(wo[k], u_lobe[k], u[k])) {
+                        (None, None) => {}
+                        (Some(a), Some(b)) => {
+                            assert!(
+                                same3(a.wi, b.wi)
+                                    && same3(a.weight, b.weight)
+                                    && same(a.pdf, b.pdf)
+                                    && a.delta == b.delta,
+                                "{brdf:?} sample wo {:?} u {:?}: {a:?} against {b:?}",
+                                wo[k],
+                                u[k]
+                            );
+                            samples += 1;
+                        }
+                        (a, b) => panic!("{brdf:?} sample wo {:?} u {:?}: {a:?} against {b:?}", wo[k], u[k]),
+                    }
+                    assert!(same3(f.lane(k), brdf.eval(wo[k], wi[k])), "{brdf:?} eval {:?} {:?}", wo[k], wi[k]);
+                    assert!(same(p.lane(k), brdf.pdf(wo[k], wi[k])), "{brdf:?} pdf {:?} {:?}", wo[k], wi[k]);
+                    values += (f.lane(k) != Rgb::ZERO) as usize;
+                }
+            }
+        }
+        // Not vacuous: about half the ω_o are above the horizon and a quarter of the pairs both.
+        let n = models().len() * 300 * 8;
+        assert!(samples > n / 5 && values > n / 10, "{samples} samples, {values} values of {n}");
+    }
 }

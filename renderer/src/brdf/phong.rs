@@ -8,9 +8,10 @@
 //! - `Ignore`: the whole lobe (paper sec. 3.6, eq. 43 exactly); the albedo is exactly k_s.
 //!
 //! Sampling is exact: cos α = u^{1/(s+1)} about R, pdf = (s+1)/(2π) cos^s α, weight = k_s.
-use super::{BrdfSample, Bxdf, Horizon};
-use crate::math::{Frame, INV_2PI, Rgb, Vec2, Vec3};
+use super::{BrdfSamples, Bxdf, Horizon, Outgoing};
+use crate::math::{INV_2PI, Rgb};
 use crate::sampling::warp;
+use crate::simd::{Float, Float3, Frames, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Phong {
@@ -27,45 +28,40 @@ impl Phong {
         Phong { ks, s, horizon, norm: (s + 1.0) * INV_2PI, inv_s_plus_1: 1.0 / (s + 1.0) }
     }
 
+    /// Lanes where `wi` is cut by the horizon (clamp) or ω_o is below it.
+    #[inline(always)]
+    fn below<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> Mask<N> {
+        let clamp = Mask::splat(self.horizon == Horizon::Clamp);
+        wo.z.le(Float::ZERO) | (clamp & wi.z.le(Float::ZERO))
+    }
+
     /// Lobe density (s+1)/(2π) max(R·ω_i, 0)^s, after the horizon test; shared by eval and pdf.
-    #[inline]
-    fn lobe(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || (self.horizon == Horizon::Clamp && wi.z <= 0.0) {
-            return 0.0;
-        }
-        let c = wi.dot(Vec3::new(-wo.x, -wo.y, wo.z));
-        if c <= 0.0 {
-            return 0.0;
-        }
-        self.norm * c.powf(self.s)
+    #[inline(always)]
+    fn lobe<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> Float<N> {
+        let c = wi.dot(Float3::new(-wo.x, -wo.y, wo.z));
+        let zero = self.below(wo, wi) | c.le(Float::ZERO);
+        zero.select(Float::ZERO, self.norm * c.powf(self.s))
     }
 }
 impl Bxdf for Phong {
-    #[inline]
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.ks * self.lobe(wo, wi)
+    #[inline(always)]
+    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+        self.ks * self.lobe(o.wo, wi)
     }
-    #[inline]
-    fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let r = Vec3::new(-wo.x, -wo.y, wo.z);
-        let local = warp::square_to_cos_power_lobe(u, self.inv_s_plus_1);
-        // Rotate the +z lobe onto R (warp::square_to_cos_power_lobe_about, keeping cos α = local.z).
-        let wi = Frame::from_normal(r).to_world(local);
-        if self.horizon == Horizon::Clamp && wi.z <= 0.0 {
-            return None;
-        }
+    #[inline(always)]
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+        let wo = o.wo;
+        let r = Float3::new(-wo.x, -wo.y, wo.z);
+        let local = warp::cos_power_lobe(u, self.inv_s_plus_1);
+        // Rotate the +z lobe onto R (keeping cos α = local.z).
+        let wi = Frames::from_normal(r).to_world(local);
         let pdf = self.norm * local.z.powf(self.s);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BrdfSample { wi, weight: self.ks, pdf, delta: false })
+        let valid = !(self.below(wo, wi) | pdf.le(Float::ZERO));
+        BrdfSamples { wi, weight: Float3::splat(self.ks), pdf, delta: Mask::NONE, valid }
     }
-    #[inline]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.lobe(wo, wi)
+    #[inline(always)]
+    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+        self.lobe(o.wo, wi)
     }
     #[inline]
     fn ignores_horizon(&self) -> bool {
@@ -77,6 +73,7 @@ impl Bxdf for Phong {
 mod tests {
     use super::*;
     use crate::brdf::testutil::*;
+    use crate::math::{Vec2, Vec3};
 
     const SS: [f32; 3] = [1.0, 8.0, 128.0];
     const THETAS: [f32; 3] = [0.0, 30.0, 70.0];

@@ -16,8 +16,9 @@
 //! ω_i = reflect(ω_o, h); draws with ω_o·h ≤ 0 are refused (they do not map back to h).
 //! Densities: p_h(h) = p(θ)/(2π sinθ) per steradian, p(ω_i) = p_h / (4 ω_o·h) (the reflection
 //! Jacobian), and weight = ρ̂/p = k_s Z (sinθ/θ)(ω_o·h)/cosθ_o.
-use super::{BrdfSample, Bxdf, Horizon};
-use crate::math::{PI, Rgb, Vec2, Vec3};
+use super::{BrdfSamples, Bxdf, Horizon, Outgoing};
+use crate::math::{PI, Rgb};
+use crate::simd::{Float, Float3, Mask};
 
 #[derive(Clone, Debug)]
 pub struct TorranceSparrow {
@@ -34,27 +35,20 @@ pub struct TorranceSparrow {
     pdf_norm: f32,
 }
 
-/// Half-vector geometry shared by eval and pdf: (θ_h, θ_h/sinθ_h, ω_o·h), or None when h is
-/// undefined (ω_i = −ω_o) or at the antipode θ_h = π (zero density).
-#[inline]
-fn half_angle(wo: Vec3, wi: Vec3) -> Option<(f32, f32, f32)> {
+/// Half-vector geometry shared by eval and pdf, each lane: (θ_h, θ_h/sinθ_h, ω_o·h, defined), where
+/// `defined` is false when h is undefined (ω_i = −ω_o) or at the antipode θ_h = π (zero density).
+#[inline(always)]
+fn half_angle<const N: usize>(wo: Float3<N>, wi: Float3<N>) -> (Float<N>, Float<N>, Float<N>, Mask<N>) {
     let hs = wo + wi;
-    let l2 = hs.length_squared();
-    if l2 < 1e-12 {
-        return None;
-    }
-    let h = hs * l2.sqrt().recip();
+    let l2 = hs.dot(hs);
+    let h = hs * (1.0 / l2.sqrt());
     let sin_t = (h.x * h.x + h.y * h.y).sqrt();
     // atan2 keeps full precision near θ_h = 0, where acos(h.z) does not.
     let theta = sin_t.atan2(h.z);
-    let ratio = if sin_t > 1e-6 {
-        theta / sin_t
-    } else if h.z > 0.0 {
-        1.0
-    } else {
-        return None;
-    };
-    Some((theta, ratio, wo.dot(h)))
+    let off_axis = sin_t.gt(Float::splat(1e-6));
+    let ratio = off_axis.select(theta / sin_t, Float::ONE);
+    let defined = !l2.lt(Float::splat(1e-12)) & (off_axis | h.z.gt(Float::ZERO));
+    (theta, ratio, wo.dot(h), defined)
 }
 
 impl TorranceSparrow {
@@ -66,65 +60,59 @@ impl TorranceSparrow {
         TorranceSparrow { ks, sigma, horizon, inv_sigma2, norm, z_trunc, pdf_norm: norm / z_trunc }
     }
 
-    #[inline]
-    fn below(&self, wo: Vec3, wi: Vec3) -> bool {
-        wo.z <= 0.0 || (self.horizon == Horizon::Clamp && wi.z <= 0.0)
+    /// Lanes where ω_o is below the horizon, or ω_i is and the lobe is clamped.
+    #[inline(always)]
+    fn below<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> Mask<N> {
+        wo.z.le(Float::ZERO) | (Mask::splat(self.horizon == Horizon::Clamp) & wi.z.le(Float::ZERO))
+    }
+
+    /// p(ω_i) of each lane from its half-vector geometry, and the lanes where it is defined.
+    #[inline(always)]
+    fn pdf_of<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> (Float<N>, Float<N>, Float<N>, Mask<N>) {
+        let (theta, ratio, woh, defined) = half_angle(wo, wi);
+        let clamp = Mask::splat(self.horizon == Horizon::Clamp);
+        let ok = !self.below(wo, wi) & defined & !(woh.le(Float::ZERO) | (clamp & theta.ge(Float::splat(0.5 * PI))));
+        let pdf = self.pdf_norm * (-theta * theta * self.inv_sigma2).exp() * ratio / woh;
+        (pdf, ratio, woh, ok)
     }
 }
 
 impl Bxdf for TorranceSparrow {
-    #[inline]
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if self.below(wo, wi) {
-            return Rgb::ZERO;
-        }
-        let Some((theta, _, _)) = half_angle(wo, wi) else { return Rgb::ZERO };
-        self.ks * (self.norm * crate::math::fast::exp(-theta * theta * self.inv_sigma2) / wo.z)
+    #[inline(always)]
+    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+        let wo = o.wo;
+        let (theta, _, _, defined) = half_angle(wo, wi);
+        let v = self.norm * (-theta * theta * self.inv_sigma2).exp() / wo.z;
+        self.ks * (!self.below(wo, wi) & defined).select(v, Float::ZERO)
     }
 
-    #[inline]
-    fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        if wo.z <= 0.0 {
-            return None;
-        }
+    #[inline(always)]
+    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+        let wo = o.wo;
         // Inverse CDF of the truncated Rayleigh density; ln_1p keeps precision for small uZ.
-        let theta = self.sigma * (-crate::math::fast::ln_1p(-u.x * self.z_trunc)).max(0.0).sqrt();
+        let theta = self.sigma * (-(-u[0] * self.z_trunc).ln_1p()).max(Float::ZERO).sqrt();
         let (st, ct) = theta.sin_cos();
-        let (sp, cp) = crate::math::fast::sincos_2pi(u.y);
-        let h = Vec3::new(st * cp, st * sp, ct);
-        let woh = wo.dot(h);
-        if woh <= 0.0 {
-            return None;
-        }
-        let wi = (2.0 * woh * h - wo).normalize();
-        if self.horizon == Horizon::Clamp && wi.z <= 0.0 {
-            return None;
-        }
-        // Re-derive (θ_h, ω_o·h) from the returned ω_i exactly as `pdf`/`eval` do: near ω_o·h → 0
-        // the drawn h and the recomputed one differ in the last bits, and MIS needs sample.pdf ==
-        // pdf(ω_o, ω_i) and weight == eval/pdf to the rounding.
-        let (theta, ratio, woh) = half_angle(wo, wi)?;
-        if woh <= 0.0 {
-            return None;
-        }
-        let pdf = self.pdf_norm * crate::math::fast::exp(-theta * theta * self.inv_sigma2) * ratio / woh;
-        if !pdf.is_finite() || pdf <= 0.0 {
-            return None;
-        }
+        let (sp, cp) = u[1].sincos_2pi();
+        let h = Float3::new(st * cp, st * sp, ct);
+        let woh_drawn = wo.dot(h);
+        let wi = (h * (2.0 * woh_drawn) - wo).normalize();
+        // Re-derive (θ_h, ω_o·h) from the returned ω_i exactly as `pdf_at`/`eval_at` do: near
+        // ω_o·h → 0 the drawn h and the recomputed one differ in the last bits, and MIS needs
+        // sample.pdf == pdf(ω_o, ω_i) and weight == eval/pdf to the rounding.
+        let (theta, ratio, woh, defined) = half_angle(wo, wi);
+        let pdf = self.pdf_norm * (-theta * theta * self.inv_sigma2).exp() * ratio / woh;
+        let valid = !(self.below(wo, wi) | woh_drawn.le(Float::ZERO) | woh.le(Float::ZERO))
+            & defined
+            & pdf.is_finite()
+            & pdf.gt(Float::ZERO);
         let weight = self.ks * (self.z_trunc * woh / (wo.z * ratio));
-        Some(BrdfSample { wi, weight, pdf, delta: false })
+        BrdfSamples { wi, weight, pdf, delta: Mask::NONE, valid }
     }
 
-    #[inline]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.below(wo, wi) {
-            return 0.0;
-        }
-        let Some((theta, ratio, woh)) = half_angle(wo, wi) else { return 0.0 };
-        if woh <= 0.0 || (self.horizon == Horizon::Clamp && theta >= 0.5 * PI) {
-            return 0.0;
-        }
-        self.pdf_norm * crate::math::fast::exp(-theta * theta * self.inv_sigma2) * ratio / woh
+    #[inline(always)]
+    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+        let (pdf, _, _, ok) = self.pdf_of(o.wo, wi);
+        ok.select(pdf, Float::ZERO)
     }
 
     #[inline]
@@ -137,6 +125,7 @@ impl Bxdf for TorranceSparrow {
 mod tests {
     use super::*;
     use crate::brdf::testutil::*;
+    use crate::math::Vec3;
 
     const SIGMAS: [f32; 3] = [0.05, 0.2, 0.5];
     const THETAS: [f32; 3] = [0.0, 30.0, 70.0];

@@ -22,6 +22,7 @@
 
 use super::{Hit, Ray};
 use crate::math::Vec3;
+use crate::simd::{Float, Float3, Mask};
 
 /// Accepted roots exceed `ROOT_ULPS`·u·(|f|² + r²)/|q|: the error of c = |f|² − r² (three products
 /// and two sums for |f|², one product for r², the difference: under 5 ulps of |f|² + r²), with a
@@ -57,38 +58,12 @@ impl Sphere {
         self.center.abs().max_element() + self.radius > SINGLE_PRECISION_EXTENT
     }
 
-    /// Distance of the closest hit in (round-off bound, t_max), or `None` (see the module notes).
+    /// Distance of the closest hit in (round-off bound, t_max), or `None` (see the module notes):
+    /// the one-lane [`Sphere::intersect_ts`].
     #[inline]
     pub fn intersect_t(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
-        if self.is_large() {
-            return self.intersect_t_f64(origin, dir, t_max);
-        }
-        let r = self.radius;
-        let f = origin - self.center;
-        // b' = −f·d (the half-b of a quadratic with a = |d|² = 1).
-        let b = -f.dot(dir);
-        let ff = f.length_squared();
-        let c = ff - r * r;
-        // Δ = r² − |f + b'd|² (RTG eq. 7.12): the perpendicular distance from c to the ray, squared.
-        let perp = f + b * dir;
-        let disc = r * r - perp.length_squared();
-        if disc < 0.0 {
-            return None;
-        }
-        let q = b + disc.sqrt().copysign(b);
-        // Roots c/q and q (RTG eq. 7.10 with a = 1); q = 0 only when b = Δ = 0 (tangent through c).
-        let (mut t0, mut t1) = (c / q, q);
-        if t0 > t1 {
-            std::mem::swap(&mut t0, &mut t1);
-        }
-        let t_min = ROOT_ULPS * f32::EPSILON * 0.5 * (ff + r * r) / q.abs();
-        if t0 > t_min && t0 < t_max {
-            Some(t0)
-        } else if t1 > t_min && t1 < t_max {
-            Some(t1)
-        } else {
-            None
-        }
+        let (t, hit) = self.intersect_ts(Float3::<1>::splat(origin), Float3::splat(dir), Float::splat(t_max));
+        hit.lane(0).then_some(t.lane(0))
     }
 
     /// [`Sphere::intersect_t`] in double precision (the same formulas; f = o − c is exact for f32
@@ -126,41 +101,43 @@ impl Sphere {
         (t32 > 0.0 && t32 < t_max as f32).then_some(t32)
     }
 
-    /// [`Sphere::intersect_t`] of `N` rays at once: lane k is `Some(t)` of `intersect_t(rays[k].origin,
-    /// rays[k].dir, rays[k].t_max)` where `hit[k]`, `None` where not (the same operations lane by
-    /// lane, so the same bits; a test compares them). Branch-free lane loops, which LLVM runs in
-    /// SIMD registers inside the x86-64-v3 copy of the render's tile loop: where Δ < 0 the square
-    /// root is NaN and every comparison below fails, as the scalar early return does.
+    /// The closest hits of `N` rays (origins, unit directions, t_max): lane k's distance where
+    /// `hit[k]` (unspecified elsewhere). Branch-free over the lanes, in SIMD registers inside the
+    /// x86-64-v3 copy of the render's tile loop: where Δ < 0 the square root is NaN and every
+    /// comparison below fails, so the lane has no hit.
     #[inline(always)]
-    pub fn intersect_t_lanes<const N: usize>(&self, rays: &[Ray; N]) -> ([f32; N], [bool; N]) {
-        let r = self.radius;
-        let (mut t, mut hit) = ([0.0; N], [false; N]);
+    pub fn intersect_ts<const N: usize>(
+        &self,
+        origin: Float3<N>,
+        dir: Float3<N>,
+        t_max: Float<N>,
+    ) -> (Float<N>, Mask<N>) {
         if self.is_large() {
+            let (mut t, mut hit) = (Float::ZERO, Mask::NONE);
             for k in 0..N {
-                let found = self.intersect_t_f64(rays[k].origin, rays[k].dir, rays[k].t_max);
-                (t[k], hit[k]) = (found.unwrap_or(0.0), found.is_some());
+                let found = self.intersect_t_f64(origin.lane(k), dir.lane(k), t_max.0[k]);
+                (t.0[k], hit.0[k]) = (found.unwrap_or(0.0), found.is_some());
             }
             return (t, hit);
         }
-        for k in 0..N {
-            let (o, d) = (rays[k].origin, rays[k].dir);
-            let (fx, fy, fz) = (o.x - self.center.x, o.y - self.center.y, o.z - self.center.z);
-            let b = -((fx * d.x) + (fy * d.y) + (fz * d.z));
-            let ff = (fx * fx) + (fy * fy) + (fz * fz);
-            let c = ff - r * r;
-            let (px, py, pz) = (fx + b * d.x, fy + b * d.y, fz + b * d.z);
-            let disc = r * r - ((px * px) + (py * py) + (pz * pz));
-            let q = b + disc.sqrt().copysign(b);
-            let (a0, a1) = (c / q, q);
-            let (t0, t1) = if a0 > a1 { (a1, a0) } else { (a0, a1) };
-            let t_min = ROOT_ULPS * f32::EPSILON * 0.5 * (ff + r * r) / q.abs();
-            let t_max = rays[k].t_max;
-            let near = t0 > t_min && t0 < t_max;
-            let far = t1 > t_min && t1 < t_max;
-            t[k] = if near { t0 } else { t1 };
-            hit[k] = near || far;
-        }
-        (t, hit)
+        let r = self.radius;
+        let f = origin - Float3::splat(self.center);
+        // b' = −f·d (the half-b of a quadratic with a = |d|² = 1).
+        let b = -f.dot(dir);
+        let ff = f.dot(f);
+        let c = ff - r * r;
+        // Δ = r² − |f + b'd|² (RTG eq. 7.12): the perpendicular distance from c to the ray, squared.
+        let perp = f + dir * b;
+        let disc = r * r - perp.dot(perp);
+        let q = b + disc.sqrt().copysign(b);
+        // Roots c/q and q (RTG eq. 7.10 with a = 1); q = 0 only when b = Δ = 0 (tangent through c).
+        let (a0, a1) = (c / q, q);
+        let swap = a0.gt(a1);
+        let (t0, t1) = (swap.select(a1, a0), swap.select(a0, a1));
+        let t_min = ROOT_ULPS * f32::EPSILON * 0.5 * (ff + r * r) / q.abs();
+        let near = t0.gt(t_min) & t0.lt(t_max);
+        let far = t1.gt(t_min) & t1.lt(t_max);
+        (near.select(t0, t1), near | far)
     }
 
     /// The full hit record for a hit at distance `t` (from [`Sphere::intersect_t`]).
@@ -197,10 +174,17 @@ impl Sphere {
 mod tests {
     use super::*;
 
-    /// `intersect_t_lanes` gives `intersect_t`'s bits: rays from outside, inside, on the surface,
-    /// tangent, missing, behind, with short t_max and a NaN direction.
+    fn intersect8(s: &Sphere, rays: &[Ray; 8]) -> ([f32; 8], [bool; 8]) {
+        let t_max = Float(rays.map(|r| r.t_max));
+        let (t, hit) =
+            s.intersect_ts(Float3::from_vecs(&rays.map(|r| r.origin)), Float3::from_vecs(&rays.map(|r| r.dir)), t_max);
+        (t.0, hit.0)
+    }
+
+    /// `intersect_ts` at eight lanes gives its one-lane call's bits (`intersect_t`): rays from
+    /// outside, inside, on the surface, tangent, missing, behind, with short t_max and a NaN direction.
     #[test]
-    fn lanes_give_the_scalar_bits() {
+    fn eight_wide_is_one_wide() {
         let s = unit();
         let mut state = 0x1234_5678_9abc_def0u64;
         let mut next = || {
@@ -228,7 +212,7 @@ mod tests {
         let mut hits = 0;
         for chunk in rays.chunks_exact(8) {
             let batch: [Ray; 8] = chunk.try_into().unwrap();
-            let (t, hit) = s.intersect_t_lanes(&batch);
+            let (t, hit) = intersect8(&s, &batch);
             for k in 0..8 {
                 let scalar = s.intersect_t(batch[k].origin, batch[k].dir, batch[k].t_max);
                 assert_eq!(scalar.map(f32::to_bits), hit[k].then_some(t[k].to_bits()), "{:?}", batch[k]);
@@ -369,15 +353,15 @@ mod tests {
         }
     }
 
-    /// Single-sphere scenes hit a huge sphere through the lanes as through the scalar test.
+    /// Single-sphere scenes hit a huge sphere through eight lanes as through one.
     #[test]
-    fn huge_sphere_lanes_give_the_scalar_bits() {
+    fn huge_sphere_eight_wide_is_one_wide() {
         let s = Sphere::new(Vec3::new(0.0, 0.0, -1e6 - 1.0), 1e6);
         let rays: [Ray; 8] = std::array::from_fn(|k| {
             let o = Vec3::new(5.0, k as f32 - 4.0, 1.0);
             Ray::new(o, (Vec3::new(-3.0 * k as f32, 1.0, -1.0) - o).normalize())
         });
-        let (t, hit) = s.intersect_t_lanes(&rays);
+        let (t, hit) = intersect8(&s, &rays);
         for k in 0..8 {
             let scalar = s.intersect_t(rays[k].origin, rays[k].dir, rays[k].t_max);
             assert!(scalar.is_some());

@@ -20,6 +20,7 @@ use crate::light::{DistantLight, LightSample, Located};
 use crate::math::{Frame, Rgb, Vec2, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
+use crate::simd::{Float, Float3, Mask};
 
 /// Russian roulette starts after this many vertices (the first bounces are never cut).
 pub(super) const RR_START: u32 = 3;
@@ -98,7 +99,6 @@ impl PathState {
 #[derive(Clone, Copy, Debug)]
 struct VertexPlan {
     frame: Frame,
-    outgoing: Outgoing,
     u_light: Vec2,
     /// The BRDF's sample (`None`: no sample, or a zero weight).
     bs: Option<BrdfSample>,
@@ -109,7 +109,6 @@ struct VertexPlan {
 impl VertexPlan {
     const NONE: VertexPlan = VertexPlan {
         frame: Frame { s: Vec3::ZERO, t: Vec3::ZERO, n: Vec3::ZERO },
-        outgoing: Outgoing { wo: Vec3::ZERO, lambda_o: 0.0 },
         u_light: Vec2::ZERO,
         bs: None,
         located: Located::NONE,
@@ -153,13 +152,14 @@ impl<'a> PathTracer<'a> {
     /// numbers and the BRDF's sample, with the loads of the light's data for that direction and of
     /// the light's sampling tables for u_light all issued before any is read; next-event
     /// estimation; the batch's shadow rays; the batch's bounce rays; then the escaped light or the
-    /// next vertex. The lat-long light samples ([`DistantLight::sample_lanes`]), the lat-long
-    /// lookups of the BRDF directions ([`DistantLight::locate_lanes`]), a single sphere's
-    /// intersections ([`crate::geometry::Sphere::intersect_t_lanes`]) and, where every planned
-    /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Brdf::sample_at_lanes`])
-    /// run in SIMD lanes; a BVH's camera rays are walked as one packet
-    /// ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the live lanes
-    /// with the one-sample code. The lanes keep their own place in their
+    /// next vertex. The lat-long light samples ([`DistantLight::sample_each`]), the lat-long
+    /// lookups of the BRDF directions ([`DistantLight::locate_each`]), a single sphere's
+    /// intersections ([`crate::geometry::Sphere::intersect_ts`]) and, where every planned
+    /// lane has the same BRDF, its sample, eval and pdf ([`crate::brdf::Bxdf::sample_at`], every
+    /// model) run in SIMD lanes, each written once over the lane type ([`crate::simd`]); where the
+    /// lanes' BRDFs differ each lane calls the same code at one lane. A BVH's camera rays are walked
+    /// as one packet ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the
+    /// live lanes with the one-sample code. The lanes keep their own place in their
     /// sample's sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
@@ -228,7 +228,11 @@ impl<'a> PathTracer<'a> {
             miss_dirs[k] = camera.rays[k].dir;
             any_missed |= missed[k];
         }
-        let background = if any_missed { scene.light.eval_lanes(&miss_dirs, &missed) } else { [Rgb::ZERO; LANES] };
+        let background = if any_missed {
+            scene.light.eval_each(Float3::from_vecs(&miss_dirs), Mask(missed))
+        } else {
+            [Rgb::ZERO; LANES]
+        };
         for k in 0..n {
             if camera.want[k] {
                 match hits[k] {
@@ -270,33 +274,41 @@ impl<'a> PathTracer<'a> {
                     cursor[k] = sampler.cursor();
                 }
             }
-            // The BRDF's terms of ω_o and its sample: in SIMD lanes where every planned lane has
-            // the same BRDF (`Brdf::sample_at_lanes`), else lane by lane.
+            // The BRDF's terms of ω_o and its sample: all lanes at once where every planned lane
+            // has the same BRDF, else each lane with its own BRDF (the same code at one lane).
             let shared = shared_object(&st, &planned);
-            let samples = match shared {
+            let mut outgoing = Outgoing::plain(Float3::from_vecs(&wo));
+            let mut samples = [None; LANES];
+            match shared {
                 Some(object) => {
                     let brdf = &scene.brdfs[object as usize];
-                    let outgoing = brdf.outgoing_lanes(&wo, &planned);
-                    for k in 0..LANES {
-                        plan[k].outgoing = outgoing[k];
+                    outgoing = brdf.outgoing(outgoing.wo);
+                    let mut u = [Float::ZERO; 2];
+                    for (k, uk) in u_brdf.iter().enumerate() {
+                        (u[0].0[k], u[1].0[k]) = (uk.x, uk.y);
                     }
-                    brdf.sample_at_lanes(&outgoing, &u_lobe, &u_brdf, &planned)
+                    let s = brdf.sample_at(&outgoing, Float(u_lobe), u);
+                    for k in 0..LANES {
+                        if planned[k] {
+                            samples[k] = s.lane(k);
+                        }
+                    }
                 }
                 None => {
-                    let mut samples = [None; LANES];
                     for k in 0..LANES {
                         if planned[k] {
                             let brdf = &scene.brdfs[st[k].object as usize];
-                            plan[k].outgoing = brdf.outgoing(wo[k]);
-                            samples[k] = brdf.sample_at(&plan[k].outgoing, u_lobe[k], u_brdf[k]);
+                            let o = brdf.outgoing::<1>(Float3::splat(wo[k]));
+                            outgoing.set_lane(k, &o);
+                            let u = [Float::splat(u_brdf[k].x), Float::splat(u_brdf[k].y)];
+                            samples[k] = brdf.sample_at(&o, Float::splat(u_lobe[k]), u).lane(0);
                         }
                     }
-                    samples
                 }
-            };
+            }
             for k in 0..LANES {
                 if planned[k] {
-                    // The direction is located in the light after this stage (`locate_lanes`: an
+                    // The direction is located in the light after this stage (`locate_each`: an
                     // environment map's texel found once, its load started); `eval_pdf_located`
                     // reads it in stage 4.
                     plan[k].bs = match samples[k] {
@@ -316,7 +328,7 @@ impl<'a> PathTracer<'a> {
                 sampled[k] = planned[k] && plan[k].bs.is_some();
                 dirs[k] = plan[k].located.wi;
             }
-            let located = scene.light.locate_lanes(&dirs, &sampled);
+            let located = scene.light.locate_each(Float3::from_vecs(&dirs), Mask(sampled));
             for k in 0..LANES {
                 if sampled[k] {
                     plan[k].located = located[k];
@@ -330,7 +342,11 @@ impl<'a> PathTracer<'a> {
                 nee_wanted[k] = planned[k] && !scene.brdfs[st[k].object as usize].is_delta();
                 u_light[k] = plan[k].u_light;
             }
-            let light_samples = scene.light.sample_lanes(&u_light, &nee_wanted);
+            let mut u = [Float::ZERO; 2];
+            for (k, uk) in u_light.iter().enumerate() {
+                (u[0].0[k], u[1].0[k]) = (uk.x, uk.y);
+            }
+            let light_samples = scene.light.sample_each(u, Mask(nee_wanted));
             // The BRDF's value for each light sample (in SIMD lanes where the BRDF is shared).
             let mut wi_local = [Vec3::Z; LANES];
             let mut evaluate = [false; LANES];
@@ -340,17 +356,23 @@ impl<'a> PathTracer<'a> {
                     evaluate[k] = true;
                 }
             }
-            let mut outgoing = [Outgoing::plain(Vec3::Z); LANES];
-            for k in 0..LANES {
-                outgoing[k] = plan[k].outgoing;
-            }
             let f = match shared {
-                Some(object) => scene.brdfs[object as usize].eval_at_lanes(&outgoing, &wi_local, &evaluate),
+                Some(object) => {
+                    let f = scene.brdfs[object as usize].eval_at(&outgoing, Float3::from_vecs(&wi_local));
+                    let mut out = [Rgb::ZERO; LANES];
+                    for k in 0..LANES {
+                        if evaluate[k] {
+                            out[k] = f.lane(k);
+                        }
+                    }
+                    out
+                }
                 None => {
                     let mut f = [Rgb::ZERO; LANES];
                     for k in 0..LANES {
                         if evaluate[k] {
-                            f[k] = scene.brdfs[st[k].object as usize].eval_at(&outgoing[k], wi_local[k]);
+                            let brdf = &scene.brdfs[st[k].object as usize];
+                            f[k] = brdf.eval_at(&outgoing.lane(k), Float3::splat(wi_local[k])).lane(0);
                         }
                     }
                     f
@@ -378,12 +400,22 @@ impl<'a> PathTracer<'a> {
                 weigh[k] = matches!((planned[k], &nee[k], occluded[k]), (true, Some(p), false) if !p.ls.delta);
             }
             let brdf_pdf = match shared {
-                Some(object) => scene.brdfs[object as usize].pdf_at_lanes(&outgoing, &wi_local, &weigh),
+                Some(object) => {
+                    let p = scene.brdfs[object as usize].pdf_at(&outgoing, Float3::from_vecs(&wi_local));
+                    let mut out = [0.0f32; LANES];
+                    for k in 0..LANES {
+                        if weigh[k] {
+                            out[k] = p.lane(k);
+                        }
+                    }
+                    out
+                }
                 None => {
                     let mut pdf = [0.0f32; LANES];
                     for k in 0..LANES {
                         if weigh[k] {
-                            pdf[k] = scene.brdfs[st[k].object as usize].pdf_at(&outgoing[k], wi_local[k]);
+                            let brdf = &scene.brdfs[st[k].object as usize];
+                            pdf[k] = brdf.pdf_at(&outgoing.lane(k), Float3::splat(wi_local[k])).lane(0);
                         }
                     }
                     pdf
@@ -440,11 +472,17 @@ impl<'a> PathTracer<'a> {
         let mut hits = [None; LANES];
         let geometry = &self.scene.geometry;
         if let Some(sphere) = geometry.single_sphere() {
-            // One sphere (object 0): its roots in SIMD lanes, then the hit records.
-            let (t, hit) = sphere.intersect_t_lanes(&r.rays);
+            // One sphere (object 0): its roots over the lanes, then the hit records.
+            let (mut origin, mut dir, mut t_max) = (Float3::<LANES>::ZERO, Float3::<LANES>::ZERO, Float::<LANES>::ZERO);
             for k in 0..LANES {
-                if r.want[k] && hit[k] {
-                    hits[k] = Some(sphere.hit_at(&r.rays[k], t[k], 0));
+                origin.set_lane(k, r.rays[k].origin);
+                dir.set_lane(k, r.rays[k].dir);
+                t_max.0[k] = r.rays[k].t_max;
+            }
+            let (t, hit) = sphere.intersect_ts(origin, dir, t_max);
+            for (k, h) in hits.iter_mut().enumerate() {
+                if r.want[k] && hit.lane(k) {
+                    *h = Some(sphere.hit_at(&r.rays[k], t.lane(k), 0));
                 }
             }
             return hits;

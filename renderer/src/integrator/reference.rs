@@ -69,8 +69,6 @@ impl PathTracer<'_> {
                 break;
             }
             let ignores = brdf.ignores_horizon();
-            // The BRDF's terms of ω_o (a microfacet's Smith Λ(ω_o)), shared by its sample, eval and pdf.
-            let outgoing = brdf.outgoing(wo);
 
             let u_light = sampler.next_2d();
             // Only a mix reads u_lobe; for the others its dimension is skipped, not drawn (the
@@ -90,15 +88,15 @@ impl PathTracer<'_> {
             // next-event estimation runs; it is used only after NEE, as before.
             // `locate` finds its texel once (an environment map's lookup costs two arctangents)
             // and starts the load; `eval_pdf_located` uses it below.
-            let bs = brdf.sample_at(&outgoing, u_lobe, u_brdf).filter(|bs| bs.weight != Rgb::ZERO);
+            let bs = brdf.sample(wo, u_lobe, u_brdf).filter(|bs| bs.weight != Rgb::ZERO);
             let located = bs.map(|bs| light.locate(frame.to_world(bs.wi).normalize()));
 
             // Next-event estimation: one direction from the light.
             if let Some(ls) = light.sample(u_light).filter(|_| !brdf.is_delta()) {
                 let wi = frame.to_local(ls.wi);
-                let f = brdf.eval_at(&outgoing, wi);
+                let f = brdf.eval(wo, wi);
                 if f != Rgb::ZERO && self.visible(p, ng, n, ls.wi, ignores, &mut out.rays) {
-                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, brdf.pdf_at(&outgoing, wi)) };
+                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, brdf.pdf(wo, wi)) };
                     radiance += beta * f * ls.value * w;
                 }
             }

@@ -21,8 +21,8 @@
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample, Located};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
-use crate::sampling::LANES;
 use crate::sampling::distribution::PiecewiseConstant2D;
+use crate::simd::{Float, Float3, Mask};
 use rayon::prelude::*;
 use std::path::Path;
 use vocab::image::RgbImage;
@@ -70,12 +70,12 @@ struct Texel {
 /// m · v with the operations of glam's `Mat3 * Vec3` (x_axis·vx + y_axis·vy + z_axis·vz, added in
 /// that order: the same bits), as plain f32 arithmetic for the lane loops.
 #[inline(always)]
-fn mat3_mul(m: &glam::Mat3, v: Vec3) -> [f32; 3] {
-    [
+fn mat3_mul<const N: usize>(m: &glam::Mat3, v: Float3<N>) -> Float3<N> {
+    Float3::new(
         m.x_axis.x * v.x + m.y_axis.x * v.y + m.z_axis.x * v.z,
         m.x_axis.y * v.x + m.y_axis.y * v.y + m.z_axis.y * v.z,
         m.x_axis.z * v.x + m.y_axis.z * v.y + m.z_axis.z * v.z,
-    ]
+    )
 }
 
 /// sinθ/θ, → 1 at θ = 0 (the angular map's solid-angle factor).
@@ -206,6 +206,33 @@ impl Envmap {
         (r, c, theta)
     }
 
+    /// The angular map's sample: a point of the unit square drawn from its table, lifted to the
+    /// probe's disc and the sphere; value and density from the lookup of the direction, so that they
+    /// agree exactly with `pdf(wi)` and `eval(wi)`.
+    #[inline]
+    fn sample_angular(&self, u: Vec2) -> Option<LightSample> {
+        let EnvSampler::Angular(dist) = &self.sampler else { return None };
+        if dist.integral() <= 0.0 {
+            return None;
+        }
+        let (uv, _) = dist.sample_point_cell(u);
+        let (a, b) = (2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y);
+        let rho2 = a * a + b * b;
+        if rho2 > 1.0 {
+            // The part of a rim pixel outside the probe's disc: no direction maps there.
+            return None;
+        }
+        let rho = rho2.sqrt();
+        let (st, ct) = (PI * rho).sin_cos();
+        let d = if rho > 0.0 { Vec3::new(st * a / rho, st * b / rho, ct) } else { Vec3::Z };
+        let wi = (self.rotation * d).normalize();
+        let (value, pdf) = self.eval_pdf(wi);
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(LightSample { wi, value: value / pdf, pdf, delta: false })
+    }
+
     /// ∫ L dω over the sphere (the scalar irradiance, 4π × the mean radiance), per channel, as the
     /// pixel sum with the per-pixel solid angles of docs/src/conventions.md §2 (exact for lat-long; the
     /// midpoint value (2π/W)² sinθ/θ for the angular map, whose pixels outside the disc count 0).
@@ -255,104 +282,87 @@ fn angular_pixel_theta(r: usize, c: usize, w: usize) -> Option<f32> {
 impl DistantLight for Envmap {
     #[inline]
     fn eval(&self, wi: Vec3) -> Rgb {
-        let (i, _) = self.texel_index(wi);
-        Rgb::from(self.texel(i).radiance)
+        self.eval_each(Float3::<1>::splat(wi), Mask::ALL)[0]
     }
 
     #[inline]
     fn locate(&self, wi: Vec3) -> Located {
-        let (index, theta) = self.texel_index(wi);
-        prefetch_read(self.texel(index));
-        Located { wi, index, theta }
+        self.locate_each(Float3::<1>::splat(wi), Mask::ALL)[0]
     }
 
-    /// Lat-long: the grid's warp and in-cell tests, the rotation to the world and the normalize in
-    /// SIMD lanes (the operations of `sample`, lane by lane: the same bits), then each lane's texel
-    /// or, near a pixel edge, its lookup.
+    /// Lat-long: the grid's warp and in-cell tests, the rotation to the world and the normalize
+    /// over the lanes, then each lane's texel or, near a pixel edge, its lookup. Angular: lane by
+    /// lane.
     #[inline(always)]
-    fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
-        let mut out = [None; LANES];
+    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
+        let mut out = [None; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
-            for k in 0..LANES {
-                if want[k] {
-                    out[k] = self.sample(u[k]);
+            for (k, o) in out.iter_mut().enumerate() {
+                if want.0[k] {
+                    *o = self.sample_angular(Vec2::new(u[0].0[k], u[1].0[k]));
                 }
             }
             return out;
         };
-        let Some((d, cell)) = grid.sample_direction_cell_lanes(u, want) else { return out };
-        // wi = normalize(rotation · d) as glam computes `(Mat3 * Vec3).normalize()`.
-        let mut wi = [Vec3::ZERO; LANES];
-        for k in 0..LANES {
-            let [x, y, z] = mat3_mul(&self.rotation, d[k]);
-            let r = 1.0 / ((x * x + y * y) + z * z).sqrt();
-            wi[k] = Vec3::new(x * r, y * r, z * r);
-        }
-        for k in 0..LANES {
-            if !want[k] {
+        let Some((d, cell)) = grid.sample_directions(u, want) else { return out };
+        let wi = mat3_mul(&self.rotation, d).normalize();
+        for k in 0..N {
+            if !want.0[k] {
                 continue;
             }
-            // As `sample`: the drawn pixel's texel where the direction is provably in it, else the
-            // lookup from wi.
+            let wi = wi.lane(k);
+            // Where the direction is provably in the pixel it was drawn from as `eval_pdf(wi)`
+            // would find it (`sample_directions`), that pixel's texel is the one the lookup would
+            // read (same bits, without its two arctangents; the texel is in the line the search
+            // just read). Near a pixel edge the lookup from wi, so that (pdf, value) agree exactly
+            // with pdf(wi) and eval(wi), also where rounding puts wi across the edge.
             let (value, pdf) = match cell[k] {
                 Some(index) => {
                     let t = self.texel(index);
                     (Rgb::from(t.radiance), t.pdf)
                 }
-                None => self.eval_pdf(wi[k]),
+                None => self.eval_pdf(wi),
             };
             if pdf > 0.0 && pdf.is_finite() {
-                out[k] = Some(LightSample { wi: wi[k], value: value / pdf, pdf, delta: false });
+                out[k] = Some(LightSample { wi, value: value / pdf, pdf, delta: false });
             }
         }
         out
     }
 
-    /// Lat-long: the rotation to the map's frame and the grid's `cell` in SIMD lanes (the
-    /// operations of `locate`, lane by lane: the same bits), then each texel's load starts.
+    /// Lat-long: the rotation to the map's frame and the grid's `cells` over the lanes, then each
+    /// texel's load starts. Angular: lane by lane.
     #[inline(always)]
-    fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
+    fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
+        let mut out = [Located::NONE; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
-            let mut out = [Located::NONE; LANES];
-            for k in 0..LANES {
-                if want[k] {
-                    out[k] = self.locate(wi[k]);
+            for (k, o) in out.iter_mut().enumerate() {
+                if want.0[k] {
+                    let (index, theta) = self.texel_index(wi.lane(k));
+                    prefetch_read(self.texel(index));
+                    *o = Located { wi: wi.lane(k), index, theta };
                 }
             }
             return out;
         };
-        // d = rotationᵀ · wi.
-        let (mut x, mut y, mut z) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-        for k in 0..LANES {
-            [x[k], y[k], z[k]] = mat3_mul(&self.inv_rotation, wi[k]);
-        }
-        let index = grid.cell_index_lanes(&x, &y, &z);
-        let mut out = [Located::NONE; LANES];
-        for k in 0..LANES {
-            if want[k] {
-                prefetch_read(self.texel(index[k]));
-                out[k] = Located { wi: wi[k], index: index[k], theta: 0.0 };
+        let (r, c) = grid.cells(mat3_mul(&self.inv_rotation, wi));
+        for k in 0..N {
+            if want.0[k] {
+                let index = r[k] * self.image.width + c[k];
+                prefetch_read(self.texel(index));
+                out[k] = Located { wi: wi.lane(k), index, theta: 0.0 };
             }
         }
         out
     }
 
-    /// Lat-long: the lookups of `locate_lanes` (SIMD lanes), then each texel's radiance, which is
-    /// what `eval` reads.
+    /// The lookups of `locate_each`, then each texel's radiance.
     #[inline(always)]
-    fn eval_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Rgb; LANES] {
-        let mut out = [Rgb::ZERO; LANES];
-        if !matches!(self.sampler, EnvSampler::LatLong(_)) {
-            for k in 0..LANES {
-                if want[k] {
-                    out[k] = self.eval(wi[k]);
-                }
-            }
-            return out;
-        }
-        let located = self.locate_lanes(wi, want);
-        for k in 0..LANES {
-            if want[k] {
+    fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
+        let mut out = [Rgb::ZERO; N];
+        let located = self.locate_each(wi, want);
+        for k in 0..N {
+            if want.0[k] {
                 out[k] = Rgb::from(self.texel(located[k].index).radiance);
             }
         }
@@ -385,47 +395,7 @@ impl DistantLight for Envmap {
 
     #[inline(always)]
     fn sample(&self, u: Vec2) -> Option<LightSample> {
-        let d = match &self.sampler {
-            EnvSampler::LatLong(grid) => {
-                let (d, cell) = grid.sample_direction_cell(u)?;
-                let wi = (self.rotation * d).normalize();
-                // Where the direction is provably in the pixel it was drawn from as `eval_pdf(wi)`
-                // would find it (`sample_direction_cell`), that pixel's texel is the one the lookup
-                // below would read (same bits, without its two arctangents; the texel is in the
-                // line the search just read).
-                if let Some(index) = cell {
-                    let t = self.texel(index);
-                    if !(t.pdf > 0.0 && t.pdf.is_finite()) {
-                        return None;
-                    }
-                    return Some(LightSample { wi, value: Rgb::from(t.radiance) / t.pdf, pdf: t.pdf, delta: false });
-                }
-                d
-            }
-            EnvSampler::Angular(dist) => {
-                if dist.integral() <= 0.0 {
-                    return None;
-                }
-                let (uv, _) = dist.sample_point_cell(u);
-                let (a, b) = (2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y);
-                let rho2 = a * a + b * b;
-                if rho2 > 1.0 {
-                    // The part of a rim pixel outside the probe's disc: no direction maps there.
-                    return None;
-                }
-                let rho = rho2.sqrt();
-                let (st, ct) = (PI * rho).sin_cos();
-                if rho > 0.0 { Vec3::new(st * a / rho, st * b / rho, ct) } else { Vec3::Z }
-            }
-        };
-        let wi = (self.rotation * d).normalize();
-        // Recomputed from wi (one joint lookup), near a pixel edge and for the angular map, so that (pdf, value) agree exactly with pdf(wi)
-        // and eval(wi), also where rounding puts wi across a pixel edge from the sampled point.
-        let (value, pdf) = self.eval_pdf(wi);
-        if !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
-        }
-        Some(LightSample { wi, value: value / pdf, pdf, delta: false })
+        self.sample_each([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL)[0]
     }
 
     #[inline]
@@ -558,8 +528,10 @@ mod tests {
 
     /// `locate` + `eval_pdf_located` (the path tracer's lookup of a BRDF-sampled direction) returns
     /// each pixel's radiance and density at its rotated centre, with the bits of `eval` and `pdf`.
+    /// Eight lanes of `sample_each` and `locate_each` are their one-lane calls (`sample`,
+    /// `locate`) lane by lane, bit for bit, with and without a rotation, for both mappings.
     #[test]
-    fn lanes_give_the_scalar_samples_and_lookups() {
+    fn eight_wide_samples_and_lookups_are_one_wide() {
         let rotation = rotation_xyz_deg([20.0, -35.0, 110.0]);
         for (mapping, w, h) in [(Mapping::LatLong, 64, 32), (Mapping::Angular, 64, 64)] {
             for rot in [glam::Mat3::IDENTITY, rotation] {
@@ -567,12 +539,12 @@ mod tests {
                 let mut rng = crate::sampling::chi2::TestRng::new(11);
                 let (mut near_edge, mut given) = (0, 0);
                 for batch in 0..512 {
-                    let u: [Vec2; LANES] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
-                    let want: [bool; LANES] = std::array::from_fn(|k| (batch + k) % 5 != 0);
-                    let lanes = e.sample_lanes(&u, &want);
-                    let dirs: [Vec3; LANES] = std::array::from_fn(|k| lanes[k].map_or(Vec3::Z, |s| s.wi));
-                    let located = e.locate_lanes(&dirs, &want);
-                    for k in 0..LANES {
+                    let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
+                    let want: [bool; 8] = std::array::from_fn(|k| (batch + k) % 5 != 0);
+                    let lanes = e.sample_each([Float(u.map(|u| u.x)), Float(u.map(|u| u.y))], Mask(want));
+                    let dirs: [Vec3; 8] = std::array::from_fn(|k| lanes[k].map_or(Vec3::Z, |s| s.wi));
+                    let located = e.locate_each(Float3::from_vecs(&dirs), Mask(want));
+                    for k in 0..8 {
                         if !want[k] {
                             assert!(lanes[k].is_none());
                             continue;
@@ -591,7 +563,9 @@ mod tests {
                         let at = e.locate(dirs[k]);
                         assert_eq!((located[k].index, located[k].theta.to_bits()), (at.index, at.theta.to_bits()));
                         if let EnvSampler::LatLong(grid) = &e.sampler {
-                            let cell = grid.sample_direction_cell(u[k]).and_then(|(_, c)| c);
+                            let cell = grid
+                                .sample_directions([Float::<1>::splat(u[k].x), Float::splat(u[k].y)], Mask::ALL)
+                                .and_then(|(_, c)| c[0]);
                             if cell.is_some() { given += 1 } else { near_edge += 1 }
                         }
                     }

@@ -10,10 +10,11 @@
 //! p(ω) = p_uv / (2π H Δz_r) = g / Σ g ΔΩ: piecewise constant on the sphere, proportional to g,
 //! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
 
-use crate::math::{PI, Vec2, Vec3, fast};
+use crate::math::{PI, Vec2, Vec3};
 use crate::sampling::distribution::{PiecewiseConstant2D, index_below, len_f32};
+use crate::simd::{Float, Float3, Mask};
 
-/// Margins of [`LatLongGrid::sample_direction_cell`], each a few times the error it covers. In z:
+/// Margins of [`LatLongGrid::sample_directions`], each a few times the error it covers. In z:
 /// the row edges' f32 rounding (6e-8) plus sinθ × the error of `cell`'s θ, which is below 2e-6 rad
 /// (its atan2, 4e-7; the rounding of θ·H/π, 3π·2⁻²⁴ ≈ 6e-7; a rotation and its inverse in f32 and a
 /// normalize, < 1e-6 on the components).
@@ -85,44 +86,30 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         self.dist.integral() > 0.0
     }
 
-    /// (row, column) of the cell containing unit direction `d`.
+    /// (row, column) of the cell containing unit direction `d`: the one-lane [`LatLongGrid::cells`].
     #[inline]
     pub fn cell(&self, d: Vec3) -> (usize, usize) {
+        let (r, c) = self.cells(Float3::<1>::splat(d));
+        (r[0], c[0])
+    }
+
+    /// The rows and columns of the cells containing each lane's unit direction.
+    #[inline(always)]
+    pub fn cells<const N: usize>(&self, d: Float3<N>) -> ([usize; N], [usize; N]) {
         // atan2 keeps θ accurate near the poles, where acos(z) loses precision in f32. The
         // polynomial atan2 (error ≤ 4e-7 rad, `math::fast`) can put a direction within that of a
         // pixel edge in the neighbouring pixel; eval and pdf both use this function, so they agree.
-        // Both angles in one two-lane evaluation (the bits of two `fast::atan2` calls).
-        let [theta, mut phi] = fast::atan2_x2([(d.x * d.x + d.y * d.y).sqrt(), d.y], [d.z, d.x]);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
+        let theta = (d.x * d.x + d.y * d.y).sqrt().atan2(d.z);
+        let phi = d.y.atan2(d.x);
+        let phi = phi.lt(Float::ZERO).select(phi + 2.0 * PI, phi);
+        let fr = theta * (1.0 / PI) * len_f32(self.height);
+        let fc = phi * (0.5 / PI) * len_f32(self.width);
+        let (mut r, mut c) = ([0usize; N], [0usize; N]);
+        for k in 0..N {
+            r[k] = index_below(fr.0[k], self.height);
+            c[k] = index_below(fc.0[k], self.width);
         }
-        let r = index_below(theta * (1.0 / PI) * len_f32(self.height), self.height);
-        let c = index_below(phi * (0.5 / PI) * len_f32(self.width), self.width);
         (r, c)
-    }
-
-    /// [`LatLongGrid::cell`] of `N` unit directions given as structure of arrays (`x`, `y`, `z`), as
-    /// the index row · W + column: lane k is exactly `cell` of direction k (the same operations, a
-    /// test compares them). A lane loop of branch-free code, which LLVM runs in SIMD registers
-    /// inside the x86-64-v3 copy of the render's tile loop (the batched integrator's stage that
-    /// locates its BRDF samples in the map).
-    #[inline(always)]
-    pub fn cell_index_lanes<const N: usize>(&self, x: &[f32; N], y: &[f32; N], z: &[f32; N]) -> [usize; N] {
-        let mut s = [0.0; N];
-        for k in 0..N {
-            s[k] = (x[k] * x[k] + y[k] * y[k]).sqrt();
-        }
-        let theta = fast::atan2_lanes(&s, z);
-        let phi = fast::atan2_lanes(y, x);
-        let (h, w) = (len_f32(self.height), len_f32(self.width));
-        let mut index = [0usize; N];
-        for k in 0..N {
-            let phi = if phi[k] < 0.0 { phi[k] + 2.0 * PI } else { phi[k] };
-            let r = index_below(theta[k] * (1.0 / PI) * h, self.height);
-            let c = index_below(phi * (0.5 / PI) * w, self.width);
-            index[k] = r * self.width + c;
-        }
-        index
     }
 
     /// Draws a direction; returns it with its solid-angle density, or None if nothing can be sampled.
@@ -131,13 +118,14 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         if !self.can_sample() {
             return None;
         }
-        let (uv, (iu, iv)) = self.dist.sample_point_cell(u);
-        let (d, r, _) = self.warp(uv);
-        Some((d, self.dist.pdf_index(iu, iv) * self.inv_jacobian[r]))
+        let ([pu, pv], iu, iv) = self.dist.sample_points([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL);
+        let (d, r, ..) = self.warp(pu, pv);
+        Some((d.lane(0), self.dist.pdf_index(iu[0], iv[0]) * self.inv_jacobian[r[0]]))
     }
 
-    /// The direction of `sample(u)` without its density (which is not read: a caller that looks the
-    /// density up from the direction saves a cache miss), or None if nothing can be sampled.
+    /// The direction of `sample(u)` in each lane `k` with `want[k]`, without its density (which is
+    /// not read: a caller that looks the density up from the direction saves a cache miss), or None
+    /// in every lane if nothing can be sampled (the other lanes' values are unspecified).
     ///
     /// With it, the cell index (row · W + column) when the direction is provably in the cell it was
     /// drawn from *as [`LatLongGrid::cell`] sees it*, also after a rotation ρ applied to it and undone
@@ -147,84 +135,82 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// `cell`'s arctangents) may move it across; a caller then looks the direction up. A caller
     /// given the index can read the cell's data without the lookup (two arctangents) and gets the
     /// bits `cell` would give.
+    ///
+    /// The cutpoint walk of each lane runs on its own (its loop length depends on the table;
+    /// [`PiecewiseConstant2D::sample_points`] runs the rest over the lanes); the warp to the sphere
+    /// and the in-cell tests run over all lanes, in SIMD registers inside the x86-64-v3 copy of the
+    /// render's tile loop.
     #[inline(always)]
-    pub fn sample_direction_cell(&self, u: Vec2) -> Option<(Vec3, Option<usize>)> {
-        self.sample_direction_cell_with(u, Z_MARGIN, PHI_MARGIN, PHI_ROUNDING)
+    pub fn sample_directions<const N: usize>(
+        &self,
+        u: [Float<N>; 2],
+        want: Mask<N>,
+    ) -> Option<(Float3<N>, [Option<usize>; N])> {
+        self.sample_directions_with(u, want, Z_MARGIN, PHI_MARGIN, PHI_ROUNDING)
     }
 
-    /// [`LatLongGrid::sample_direction_cell`] of the lanes `k` with `want[k]` (the same results, bit
-    /// for bit; `None` in every lane when nothing can be sampled; the other lanes' values are
-    /// unspecified). The cutpoint walk of each lane runs on its own (its loop length depends on the
-    /// table; [`PiecewiseConstant2D::sample_point_cell_lanes`] runs the rest in lanes); the warp to
-    /// the sphere and the in-cell tests run as branch-free lane loops, in SIMD registers inside
-    /// the x86-64-v3 copy of the render's tile loop.
+    /// [`LatLongGrid::sample_directions`] with its margins as arguments (the tests show that zero
+    /// margins give wrong cells).
     #[inline(always)]
-    pub fn sample_direction_cell_lanes<const N: usize>(
+    fn sample_directions_with<const N: usize>(
         &self,
-        u: &[Vec2; N],
-        want: &[bool; N],
-    ) -> Option<([Vec3; N], [Option<usize>; N])> {
-        if !self.can_sample() {
-            return None;
-        }
-        let (ux, uy, iu) = self.dist.sample_point_cell_lanes(u, want);
-        let (hf, wf) = (len_f32(self.height), len_f32(self.width));
-        let (mut d, mut cell) = ([Vec3::ZERO; N], [None; N]);
-        for k in 0..N {
-            // `warp`, then the tests of `sample_direction_cell_with` at the shipped margins.
-            let fv = uy[k] * hf;
-            let r = index_below(fv, self.height);
-            let t = (fv - len_f32(r)).clamp(0.0, 1.0);
-            let (z0, z1) = (self.z_edge[r], self.z_edge[r + 1]);
-            let z = z0 + t * (z1 - z0);
-            let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
-            let (sp, cp) = fast::sincos_2pi(ux[k]);
-            d[k] = Vec3::new(sin_theta * cp, sin_theta * sp, z);
-            let row_inside = z0 - z > Z_MARGIN && z - z1 > Z_MARGIN;
-            let tu = ux[k] * wf - len_f32(iu[k]);
-            let col_inside = (tu.min(1.0 - tu) - PHI_ROUNDING * wf) * sin_theta > PHI_MARGIN * wf * (0.5 / PI);
-            cell[k] = if row_inside && col_inside { Some(r * self.width + iu[k]) } else { None };
-        }
-        Some((d, cell))
-    }
-
-    /// [`LatLongGrid::sample_direction_cell`] with its margins as arguments (the tests show that
-    /// zero margins give wrong cells).
-    #[inline(always)]
-    fn sample_direction_cell_with(
-        &self,
-        u: Vec2,
+        u: [Float<N>; 2],
+        want: Mask<N>,
         z_margin: f32,
         phi_margin: f32,
         phi_rounding: f32,
-    ) -> Option<(Vec3, Option<usize>)> {
+    ) -> Option<(Float3<N>, [Option<usize>; N])> {
         if !self.can_sample() {
             return None;
         }
-        let (uv, (iu, _)) = self.dist.sample_point_cell(u);
-        let (d, r, sin_theta) = self.warp(uv);
+        let ([pu, pv], iu, _) = self.dist.sample_points(u, want);
+        let (d, r, sin_theta, z0, z1) = self.warp(pu, pv);
         // Row: z against the row's stored edges (which are within 6e-8 of cos(πr/H)).
-        let row_inside = self.z_edge[r] - d.z > z_margin && d.z - self.z_edge[r + 1] > z_margin;
+        let margin = Float::splat(z_margin);
+        let row_inside = (z0 - d.z).gt(margin) & (d.z - z1).gt(margin);
         // Column: the distance of u·W from the column's edges, in cells (f32 rounding of the
         // product is below one ulp of W, inside `phi_rounding`); an angular error ε of the
         // direction's components moves φ by ε / sinθ.
         let w = len_f32(self.width);
-        let tu = uv.x * w - len_f32(iu);
-        let col_inside = (tu.min(1.0 - tu) - phi_rounding * w) * sin_theta > phi_margin * w * (0.5 / PI);
-        Some((d, (row_inside && col_inside).then_some(r * self.width + iu)))
+        let mut fiu = Float::<N>::ZERO;
+        for (f, &i) in fiu.0.iter_mut().zip(&iu) {
+            *f = len_f32(i);
+        }
+        let tu = pu * w - fiu;
+        let col_inside =
+            ((tu.min(1.0 - tu) - phi_rounding * w) * sin_theta).gt(Float::splat(phi_margin * w * (0.5 / PI)));
+        let inside = row_inside & col_inside;
+        let mut cell = [None; N];
+        for k in 0..N {
+            if inside.0[k] {
+                cell[k] = Some(r[k] * self.width + iu[k]);
+            }
+        }
+        Some((d, cell))
     }
 
-    /// The direction of unit-square point `uv` (uniform in solid angle within its cell), its row
-    /// and its sinθ.
+    /// The direction of each lane's unit-square point (u, v) (uniform in solid angle within its
+    /// cell), its row, its sinθ and its row's z edges.
     #[inline(always)]
-    fn warp(&self, uv: Vec2) -> (Vec3, usize, f32) {
-        let fv = uv.y * len_f32(self.height);
-        let r = index_below(fv, self.height);
-        let t = (fv - len_f32(r)).clamp(0.0, 1.0);
-        let z = self.z_edge[r] + t * (self.z_edge[r + 1] - self.z_edge[r]);
-        let sin_theta = ((1.0 - z) * (1.0 + z)).max(0.0).sqrt();
-        let (sp, cp) = fast::sincos_2pi(uv.x);
-        (Vec3::new(sin_theta * cp, sin_theta * sp, z), r, sin_theta)
+    #[allow(clippy::type_complexity)]
+    fn warp<const N: usize>(
+        &self,
+        pu: Float<N>,
+        pv: Float<N>,
+    ) -> (Float3<N>, [usize; N], Float<N>, Float<N>, Float<N>) {
+        let fv = pv * len_f32(self.height);
+        let (mut r, mut fr, mut ir, mut ir1) = ([0usize; N], Float::<N>::ZERO, [0u32; N], [0u32; N]);
+        for k in 0..N {
+            r[k] = index_below(fv.0[k], self.height);
+            fr.0[k] = len_f32(r[k]);
+            (ir[k], ir1[k]) = (r[k] as u32, r[k] as u32 + 1);
+        }
+        let t = (fv - fr).clamp(0.0, 1.0);
+        let (z0, z1) = (Float::gather(&self.z_edge, ir), Float::gather(&self.z_edge, ir1));
+        let z = z0 + t * (z1 - z0);
+        let sin_theta = ((1.0 - z) * (1.0 + z)).max(Float::ZERO).sqrt();
+        let (sp, cp) = pu.sincos_2pi();
+        (Float3::new(sin_theta * cp, sin_theta * sp, z), r, sin_theta, z0, z1)
     }
 
     /// A hint that `sample(u)` follows soon (starts loading its table entries; no effect on results).
@@ -254,10 +240,10 @@ mod tests {
     use crate::sampling::chi2::TestRng;
 
     /// A 2048 × 1024 grid with cells of very different weights, and the rotations the tests apply.
-    /// `cell_index_lanes` is `cell` lane by lane: random unit directions, the poles, the seam φ = 0
+    /// `cells` at eight lanes is its one-lane call `cell` lane by lane: random unit directions, the poles, the seam φ = 0
     /// from both sides, and ±0 components.
     #[test]
-    fn cell_lanes_give_the_scalar_cells() {
+    fn eight_wide_cells_are_one_wide_cells() {
         let g = grid();
         let mut dirs: Vec<Vec3> = (0..4096)
             .map(|i| {
@@ -278,14 +264,9 @@ mod tests {
             dirs.push(Vec3::Y);
         }
         for chunk in dirs.chunks_exact(8) {
-            let (mut x, mut y, mut z) = ([0.0; 8], [0.0; 8], [0.0; 8]);
+            let (rows, cols) = g.cells(Float3::<8>::from_vecs(chunk.try_into().unwrap()));
             for k in 0..8 {
-                (x[k], y[k], z[k]) = (chunk[k].x, chunk[k].y, chunk[k].z);
-            }
-            let lanes = g.cell_index_lanes(&x, &y, &z);
-            for k in 0..8 {
-                let (r, c) = g.cell(chunk[k]);
-                assert_eq!(lanes[k], r * g.width + c, "{:?}", chunk[k]);
+                assert_eq!((rows[k], cols[k]), g.cell(chunk[k]), "{:?}", chunk[k]);
             }
         }
     }
@@ -305,7 +286,16 @@ mod tests {
         let (mut given, mut wrong) = (0, 0);
         for _ in 0..n {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            let (d, cell) = grid.sample_direction_cell_with(u, margins.0, margins.1, margins.2).unwrap();
+            let (d, cell) = grid
+                .sample_directions_with(
+                    [Float::<1>::splat(u.x), Float::splat(u.y)],
+                    Mask::ALL,
+                    margins.0,
+                    margins.1,
+                    margins.2,
+                )
+                .map(|(d, c)| (d.lane(0), c[0]))
+                .unwrap();
             if let Some(i) = cell {
                 given += 1;
                 let (r, c) = grid.cell(inv * (rot * d).normalize());

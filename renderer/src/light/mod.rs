@@ -16,7 +16,7 @@ pub use sh::ShLight;
 pub use uniform::Uniform;
 
 use crate::math::{Rgb, Vec2, Vec3};
-use crate::sampling::LANES;
+use crate::simd::{Float, Float3, Mask};
 
 /// A direction drawn from a light.
 #[derive(Clone, Copy, Debug)]
@@ -66,39 +66,41 @@ pub trait DistantLight {
     fn locate(&self, wi: Vec3) -> Located {
         Located { wi, index: 0, theta: 0.0 }
     }
-    /// [`DistantLight::sample`] of the lanes `k` with `want[k]` (the same results; the other lanes'
-    /// are `None`). An environment map warps its lat-long samples in SIMD lanes.
+    /// [`DistantLight::sample`] of each lane `k` with `want[k]` (the same results; the other lanes'
+    /// are `None`). An environment map writes its sample once, over the lanes (its `sample` is the
+    /// one-lane call); the other lights run their `sample` lane by lane.
     #[inline(always)]
-    fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
-        let mut out = [None; LANES];
-        for k in 0..LANES {
-            if want[k] {
-                out[k] = self.sample(u[k]);
+    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
+        let mut out = [None; N];
+        for (k, o) in out.iter_mut().enumerate() {
+            if want.0[k] {
+                *o = self.sample(Vec2::new(u[0].0[k], u[1].0[k]));
             }
         }
         out
     }
-    /// [`DistantLight::locate`] of the lanes `k` with `want[k]` (the same results; the other lanes'
-    /// are unspecified). An environment map locates lat-long directions in SIMD lanes.
+    /// [`DistantLight::locate`] of each lane `k` with `want[k]` (the same results; the other lanes'
+    /// are unspecified). An environment map locates over the lanes (its `locate` is the one-lane
+    /// call).
     #[inline(always)]
-    fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
-        let mut out = [Located::NONE; LANES];
-        for k in 0..LANES {
-            if want[k] {
-                out[k] = self.locate(wi[k]);
+    fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
+        let mut out = [Located::NONE; N];
+        for (k, o) in out.iter_mut().enumerate() {
+            if want.0[k] {
+                *o = self.locate(wi.lane(k));
             }
         }
         out
     }
-    /// [`DistantLight::eval`] of the lanes `k` with `want[k]` (the same bits; zero elsewhere): the
-    /// light seen by a batch's camera rays that miss. An environment map looks its lat-long
-    /// directions up in SIMD lanes.
+    /// [`DistantLight::eval`] of each lane `k` with `want[k]` (the same bits; zero elsewhere): the
+    /// light seen by a batch's camera rays that miss. An environment map looks its directions up
+    /// over the lanes (its `eval` is the one-lane call).
     #[inline(always)]
-    fn eval_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Rgb; LANES] {
-        let mut out = [Rgb::ZERO; LANES];
-        for k in 0..LANES {
-            if want[k] {
-                out[k] = self.eval(wi[k]);
+    fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
+        let mut out = [Rgb::ZERO; N];
+        for (k, o) in out.iter_mut().enumerate() {
+            if want.0[k] {
+                *o = self.eval(wi.lane(k));
             }
         }
         out
@@ -166,16 +168,16 @@ impl DistantLight for Light {
         dispatch!(self, l => l.locate(wi))
     }
     #[inline(always)]
-    fn locate_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Located; LANES] {
-        dispatch!(self, l => l.locate_lanes(wi, want))
+    fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
+        dispatch!(self, l => l.locate_each(wi, want))
     }
     #[inline(always)]
-    fn sample_lanes(&self, u: &[Vec2; LANES], want: &[bool; LANES]) -> [Option<LightSample>; LANES] {
-        dispatch!(self, l => l.sample_lanes(u, want))
+    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
+        dispatch!(self, l => l.sample_each(u, want))
     }
     #[inline(always)]
-    fn eval_lanes(&self, wi: &[Vec3; LANES], want: &[bool; LANES]) -> [Rgb; LANES] {
-        dispatch!(self, l => l.eval_lanes(wi, want))
+    fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
+        dispatch!(self, l => l.eval_each(wi, want))
     }
     #[inline(always)]
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {

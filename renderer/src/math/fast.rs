@@ -3,26 +3,11 @@
 //! out-of-line call with branches on the octant and special cases, and was 20–34 % of the
 //! instructions of a lat-long environment render).
 //!
-//! Each function states its maximum error against f64 libm over its domain; the tests below
+//! Each function is written once over the lane type ([`crate::simd::fast`]); these are its one-lane
+//! calls. Each function states its maximum error against f64 libm over its domain; the tests below
 //! measure it on a dense grid plus random points and assert the stated bound.
 
-use super::PI;
-use std::f32::consts::FRAC_PI_2;
-
-/// Coefficients c_k of atan(a) ≈ a · Σ c_k (a²)^k on a ∈ [0, 1] (degree 15 in a, odd), fitted by
-/// iteratively reweighted least squares toward the minimax absolute error (≈ 1.3e-7 for the
-/// polynomial alone in f32 Horner form). Plain multiply-adds: `mul_add` would be a call to
-/// `fmaf` on targets built without FMA.
-const ATAN_COEFFS: [f32; 8] = [
-    0.999_999_34,
-    -0.333_298_62,
-    0.199_465_77,
-    -0.139_086_47,
-    0.096_421_99,
-    -0.055_912_063,
-    0.021_862_669,
-    -0.004_054_471,
-];
+use crate::simd::Float;
 
 /// atan2(y, x) ∈ [−π, π], like `f32::atan2` including the signs of zeros (atan2(±0, x < 0) = ±π,
 /// atan2(0, 0) = 0).
@@ -33,81 +18,16 @@ const ATAN_COEFFS: [f32; 8] = [
 /// inputs are not handled like libm (∞/∞ gives NaN); callers pass finite directions.
 #[inline(always)]
 pub fn atan2(y: f32, x: f32) -> f32 {
-    let (ax, ay) = (x.abs(), y.abs());
-    let (mn, mx) = (ax.min(ay), ax.max(ay));
-    let a = if mx > 0.0 { mn / mx } else { 0.0 };
-    let s = a * a;
-    let c = &ATAN_COEFFS;
-    let p = c[7];
-    let p = p * s + c[6];
-    let p = p * s + c[5];
-    let p = p * s + c[4];
-    let p = p * s + c[3];
-    let p = p * s + c[2];
-    let p = p * s + c[1];
-    let p = p * s + c[0];
-    let mut r = a * p;
-    if ay > ax {
-        r = FRAC_PI_2 - r;
-    }
-    if x.is_sign_negative() {
-        r = PI - r;
-    }
-    // min/max drop a NaN operand: (x + y)·0 brings it back (r ≥ 0 here, so adding ±0 keeps it).
-    r += (x + y) * 0.0;
-    r.copysign(y)
+    Float::<1>::splat(y).atan2(Float::splat(x)).0[0]
 }
 
-/// Two [`atan2`]s at once: `[atan2(y[0], x[0]), atan2(y[1], x[1])]`, computed in two lanes of one
-/// SSE register (glam's `Vec4`) by exactly the operations of [`atan2`] (IEEE single-precision
-/// multiplies, adds and a divide, no fused multiply-add), so each result has the **same bits** as
-/// the scalar call for finite inputs (and is NaN where the scalar one is; see the tests). The lat-long
-/// lookup needs θ and φ of one direction: one evaluation instead of two.
+/// Two [`atan2`]s at once: `[atan2(y[0], x[0]), atan2(y[1], x[1])]`, the same body at two lanes,
+/// so each result has the **same bits** as the one-lane call (see the tests). The lat-long lookup
+/// needs θ and φ of one direction: one evaluation instead of two.
 #[inline(always)]
 pub fn atan2_x2(y: [f32; 2], x: [f32; 2]) -> [f32; 2] {
-    use glam::Vec4;
-    // Lanes z, w compute atan2(0, 1) and are dropped.
-    let y = Vec4::new(y[0], y[1], 0.0, 0.0);
-    let x = Vec4::new(x[0], x[1], 1.0, 1.0);
-    let (ax, ay) = (x.abs(), y.abs());
-    let (mn, mx) = (ax.min(ay), ax.max(ay));
-    let a = Vec4::select(mx.cmpgt(Vec4::ZERO), mn / mx, Vec4::ZERO);
-    let s = a * a;
-    let c = ATAN_COEFFS.map(Vec4::splat);
-    let p = c[7];
-    let p = p * s + c[6];
-    let p = p * s + c[5];
-    let p = p * s + c[4];
-    let p = p * s + c[3];
-    let p = p * s + c[2];
-    let p = p * s + c[1];
-    let p = p * s + c[0];
-    let mut r = a * p;
-    r = Vec4::select(ay.cmpgt(ax), Vec4::splat(FRAC_PI_2) - r, r);
-    // x.is_sign_negative() lane by lane (−0.0 included).
-    r = Vec4::select(Vec4::ONE.copysign(x).cmplt(Vec4::ZERO), Vec4::splat(PI) - r, r);
-    r += (x + y) * 0.0;
-    let r = r.copysign(y);
-    [r.x, r.y]
+    Float(y).atan2(Float(x)).0
 }
-
-/// [`atan2`] of `N` lanes (structure of arrays): lane k is `atan2(y[k], x[k])`, the same bits (one
-/// definition; a test compares them). Written as a lane loop of branch-free code, which LLVM runs
-/// in SIMD registers: 8 lanes in AVX2 inside a function compiled for x86-64-v3 (the render's tile
-/// loop copy, `render::render_tile`), so that the batched integrator's lat-long lookups cost a
-/// fraction of a scalar call each (guide "Performance notes and their history", round seven, counts them).
-#[inline(always)]
-pub fn atan2_lanes<const N: usize>(y: &[f32; N], x: &[f32; N]) -> [f32; N] {
-    let mut r = [0.0; N];
-    for k in 0..N {
-        r[k] = atan2(y[k], x[k]);
-    }
-    r
-}
-
-/// 1.5 · 2²³: adding and subtracting it rounds an f32 of magnitude < 2²² to the nearest integer
-/// (ties to even) with plain IEEE adds (`f32::round` is a call to `roundf` without SSE4.1).
-const ROUND_MAGIC: f32 = 12_582_912.0;
 
 /// (sin 2πu, cos 2πu), the azimuth of a warp from a uniform number u.
 ///
@@ -120,18 +40,8 @@ const ROUND_MAGIC: f32 = 12_582_912.0;
 /// is still exact but q no longer fits the rounding trick: callers pass u ∈ [0, 1].
 #[inline(always)]
 pub fn sincos_2pi(u: f32) -> (f32, f32) {
-    let t = 4.0 * u;
-    let q = (t + ROUND_MAGIC) - ROUND_MAGIC;
-    let x = (t - q) * FRAC_PI_2;
-    let x2 = x * x;
-    let s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
-    let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0))));
-    let q = q as i32;
-    // Quarter turns: (s, c) → (c, −s) → (−s, −c) → (−c, s).
-    let (s, c) = if q & 1 != 0 { (c, s) } else { (s, c) };
-    let s = if q & 2 != 0 { -s } else { s };
-    let c = if (q + 1) & 2 != 0 { -c } else { c };
-    (s, c)
+    let (s, c) = Float::<1>::splat(u).sincos_2pi();
+    (s.0[0], c.0[0])
 }
 
 /// 1.5 · 2⁵²: adding and subtracting it rounds an f64 of magnitude < 2⁵¹ to the nearest integer.
@@ -182,22 +92,7 @@ pub fn exp_f64(x: f64) -> f64 {
 /// below 0.347⁸/8! = 5.2e-9), scaled by 2^k built in the exponent bits. Plain multiply-adds.
 #[inline(always)]
 pub fn exp(x: f32) -> f32 {
-    const LN2_HI: f32 = 0.693_145_75; // 0x3f317200
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    let xc = x.clamp(-87.3, 88.0);
-    let k = (xc * std::f32::consts::LOG2_E + ROUND_MAGIC) - ROUND_MAGIC;
-    let r = (xc - k * LN2_HI) - k * LN2_LO;
-    let p = 1.0 / 5040.0;
-    let p = p * r + 1.0 / 720.0;
-    let p = p * r + 1.0 / 120.0;
-    let p = p * r + 1.0 / 24.0;
-    let p = p * r + 1.0 / 6.0;
-    let p = p * r + 0.5;
-    let p = p * r + 1.0;
-    let p = p * r + 1.0;
-    let scale = f32::from_bits(((k as i32 + 127) as u32) << 23);
-    let y = p * scale;
-    if x < -87.3 { 0.0 } else { y }
+    Float::<1>::splat(x).exp().0[0]
 }
 
 /// ln(1 + x) in f32 for x ∈ (−1, 10⁶], accurate near x = 0 like libm's `log1pf` (the inverse CDFs
@@ -211,43 +106,28 @@ pub fn exp(x: f32) -> f32 {
 /// is produced there, just an unspecified number).
 #[inline(always)]
 pub fn ln_1p(x: f32) -> f32 {
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    const SQRT_HALF_BITS: i32 = 0x3f35_04f3;
-    let w = 1.0 + x;
-    let bits = w.to_bits() as i32;
-    let e = (bits - SQRT_HALF_BITS) >> 23;
-    let m = f32::from_bits((bits - (e << 23)) as u32);
-    let s = (m - 1.0) / (m + 1.0);
-    let s2 = s * s;
-    let q = 1.0 / 9.0;
-    let q = q * s2 + 1.0 / 7.0;
-    let q = q * s2 + 0.2;
-    let q = q * s2 + 1.0 / 3.0;
-    let q = q * s2 + 1.0;
-    let ef = e as f32;
-    let ln_w = ef * LN2_HI + (ef * LN2_LO + 2.0 * s * q);
-    let d = w - 1.0;
-    if d == 0.0 { x } else { ln_w * (x / d) }
+    Float::<1>::splat(x).ln_1p().0[0]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::PI;
     use crate::sampling::chi2::TestRng;
+    use std::f32::consts::FRAC_PI_2;
 
     /// The stated bound; the reference is f64 libm.
     const ATAN2_MAX_ERR: f64 = 4e-7;
 
-    /// `atan2_lanes` is `atan2` lane by lane, bit for bit (NaN where it is NaN), on the test grid.
+    /// `Float::<8>::atan2` is the one-lane `atan2` lane by lane, bit for bit (NaN where it is NaN).
     #[test]
-    fn atan2_lanes_is_atan2() {
+    fn atan2_eight_wide_is_one_wide() {
         let mut rng = TestRng::new(9);
         for _ in 0..100_000 {
             let m = |rng: &mut TestRng| (rng.next_f32() * 2.0 - 1.0) * 10f32.powf(rng.next_f32() * 8.0 - 4.0);
             let y: [f32; 8] = std::array::from_fn(|_| m(&mut rng));
             let x: [f32; 8] = std::array::from_fn(|k| if k == 3 { 0.0 } else { m(&mut rng) });
-            let r = atan2_lanes(&y, &x);
+            let r = Float(y).atan2(Float(x)).0;
             for k in 0..8 {
                 let want = atan2(y[k], x[k]);
                 assert!(r[k].to_bits() == want.to_bits() || (r[k].is_nan() && want.is_nan()));
@@ -260,7 +140,7 @@ mod tests {
     /// for the baseline and for x86-64-v3.
     #[test]
     #[ignore]
-    fn atan2_lanes_instruction_count_workload() {
+    fn atan2_instruction_count_workload() {
         const N: u32 = 1 << 16;
         let arg = |i: u32| ((i as f32 * 0.618).sin(), (i as f32 * 0.377).cos());
         #[inline(never)]
@@ -269,7 +149,7 @@ mod tests {
         }
         #[inline(always)]
         fn lanes_body(ys: &[[f32; 8]], xs: &[[f32; 8]]) -> f32 {
-            ys.iter().zip(xs).map(|(y, x)| atan2_lanes(y, x).iter().sum::<f32>()).sum()
+            ys.iter().zip(xs).map(|(y, x)| Float(*y).atan2(Float(*x)).0.iter().sum::<f32>()).sum()
         }
         #[inline(never)]
         fn lanes_base(ys: &[[f32; 8]], xs: &[[f32; 8]]) -> f32 {
@@ -326,7 +206,8 @@ mod tests {
         // The harness sees a planted error: the polynomial without its last term.
         let truncated = |y: f32, x: f32| {
             let a = (x.abs().min(y.abs()) / x.abs().max(y.abs())) as f64;
-            atan2(y, x) + (ATAN_COEFFS[7] as f64 * a.powi(15)) as f32 * (if y < 0.0 { 1.0 } else { -1.0 })
+            atan2(y, x)
+                + (crate::simd::fast::ATAN_COEFFS[7] as f64 * a.powi(15)) as f32 * (if y < 0.0 { 1.0 } else { -1.0 })
         };
         assert!(atan2_max_error(truncated) > ATAN2_MAX_ERR);
     }

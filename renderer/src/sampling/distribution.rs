@@ -31,6 +31,7 @@
 //! CDFs are accumulated in f64 and stored in f32 (rounding is monotone, so they stay sorted).
 
 use crate::math::Vec2;
+use crate::simd::{Float, Mask};
 use rayon::prelude::*;
 
 /// Largest f32 below 1: random numbers are clamped to it so `u = 1` cannot select past the end.
@@ -133,28 +134,6 @@ fn sample_entries(entries: &[CdfEntry], u: f32) -> (usize, f32) {
     let u = u.clamp(0.0, ONE_MINUS_EPSILON);
     let i = find(entries, u);
     let (c0, c1) = (entries[i].cdf, entries[i + 1].cdf);
-    let width = c1 - c0;
-    let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, ONE_MINUS_EPSILON) } else { 0.0 };
-    (i, remapped)
-}
-
-/// [`find`] on a 2D distribution's row (n entries, cdf[i + 1] stored in entry i): the same cell.
-#[inline(always)]
-fn find_cell<P>(row: &[CellEntry<P>], u: f32) -> usize {
-    let n = row.len();
-    let mut i = row[index_below(u * len_f32(n), n)].guide as usize;
-    while i + 1 < n && row[i].cdf_next <= u {
-        i += 1;
-    }
-    i
-}
-
-/// [`sample_entries`] on a 2D distribution's row: the same cell and the same remapped `u`, bit for bit.
-#[inline(always)]
-fn sample_cells<P>(row: &[CellEntry<P>], u: f32) -> (usize, f32) {
-    let u = u.clamp(0.0, ONE_MINUS_EPSILON);
-    let i = find_cell(row, u);
-    let (c0, c1) = (row[i].cdf, row[i].cdf_next);
     let width = c1 - c0;
     let remapped = if width > 0.0 { ((u - c0) / width).clamp(0.0, ONE_MINUS_EPSILON) } else { 0.0 };
     (i, remapped)
@@ -339,74 +318,73 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
 
     /// Draws (u, v) ∈ [0, 1)² with density f/∫∫f. Returns the point and its cell (column, row),
     /// without reading the density (callers that recompute it from the point save a cache miss).
+    /// The one-lane [`PiecewiseConstant2D::sample_points`].
     #[inline(always)]
     pub fn sample_point_cell(&self, u: Vec2) -> (Vec2, (usize, usize)) {
-        let (iv, dv) = sample_entries(&self.marginal.entries, u.y);
-        let (iu, du) = sample_cells(self.row(iv), u.x);
-        (Vec2::new(continuous(iu, du, self.nu), continuous(iv, dv, self.nv)), (iu, iv))
+        let ([pu, pv], iu, iv) = self.sample_points([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL);
+        (Vec2::new(pu.lane(0), pv.lane(0)), (iu[0], iv[0]))
     }
 
-    /// [`PiecewiseConstant2D::sample_point_cell`] of the lanes `k` with `want[k]`, bit for bit:
-    /// the points' coordinates (u, v) and columns (the others' are unspecified). The clamps, the
+    /// [`PiecewiseConstant2D::sample_point_cell`] of each lane `k` with `want[k]`: the points
+    /// (u, v), their columns and their rows (the other lanes' are unspecified). The clamps, the
     /// guide indices, the remaps into the cells (two divisions) and the continuous points (two
-    /// more) run as lane loops of the same operations, in SIMD registers inside the x86-64-v3
-    /// copy of the render's tile loop; the cutpoint walks (whose lengths depend on the table) and
-    /// their loads run lane by lane.
+    /// more) run over all lanes, in SIMD registers inside the x86-64-v3 copy of the render's tile
+    /// loop; the cutpoint walks (whose lengths depend on the table) and their loads run lane by lane.
     #[inline(always)]
-    pub fn sample_point_cell_lanes<const N: usize>(
+    pub fn sample_points<const N: usize>(
         &self,
-        u: &[Vec2; N],
-        want: &[bool; N],
-    ) -> ([f32; N], [f32; N], [usize; N]) {
+        u: [Float<N>; 2],
+        want: Mask<N>,
+    ) -> ([Float<N>; 2], [usize; N], [usize; N]) {
         let marginal = &self.marginal.entries;
         let nm = marginal.len() - 1;
         // The marginal (rows): `sample_entries` split at its walk.
-        let (mut uy, mut guide) = ([0.0f32; N], [0usize; N]);
-        for k in 0..N {
-            uy[k] = u[k].y.clamp(0.0, ONE_MINUS_EPSILON);
-            guide[k] = index_below(uy[k] * len_f32(nm), nm);
+        let uy = u[1].clamp(0.0, ONE_MINUS_EPSILON);
+        let scaled = uy * len_f32(nm);
+        let mut guide = [0usize; N];
+        for (g, &x) in guide.iter_mut().zip(&scaled.0) {
+            *g = index_below(x, nm);
         }
-        let (mut iv, mut c0, mut c1) = ([0usize; N], [0.0f32; N], [0.0f32; N]);
+        let (mut iv, mut c0, mut c1) = ([0usize; N], Float::<N>::ZERO, Float::<N>::ZERO);
         for k in 0..N {
-            if want[k] {
+            if want.0[k] {
                 let mut i = marginal[guide[k]].guide as usize;
-                while i + 1 < nm && marginal[i + 1].cdf <= uy[k] {
+                while i + 1 < nm && marginal[i + 1].cdf <= uy.0[k] {
                     i += 1;
                 }
-                (iv[k], c0[k], c1[k]) = (i, marginal[i].cdf, marginal[i + 1].cdf);
+                (iv[k], c0.0[k], c1.0[k]) = (i, marginal[i].cdf, marginal[i + 1].cdf);
             }
         }
-        let mut dv = [0.0f32; N];
-        let mut ux = [0.0f32; N];
-        for k in 0..N {
-            let width = c1[k] - c0[k];
-            let remapped = ((uy[k] - c0[k]) / width).clamp(0.0, ONE_MINUS_EPSILON);
-            dv[k] = if width > 0.0 { remapped } else { 0.0 };
-            ux[k] = u[k].x.clamp(0.0, ONE_MINUS_EPSILON);
-            guide[k] = index_below(ux[k] * len_f32(self.nu), self.nu);
+        let width = c1 - c0;
+        let dv = width.gt(Float::ZERO).select(((uy - c0) / width).clamp(0.0, ONE_MINUS_EPSILON), Float::ZERO);
+        let ux = u[0].clamp(0.0, ONE_MINUS_EPSILON);
+        let scaled = ux * len_f32(self.nu);
+        for (g, &x) in guide.iter_mut().zip(&scaled.0) {
+            *g = index_below(x, self.nu);
         }
-        // The row: `sample_cells` split the same way.
+        // The row's cell the same way (the entries of a row hold cdf[i + 1] in entry i).
         let mut iu = [0usize; N];
         for k in 0..N {
-            if want[k] {
+            if want.0[k] {
                 let row = self.row(iv[k]);
                 let n = row.len();
                 let mut i = row[guide[k]].guide as usize;
-                while i + 1 < n && row[i].cdf_next <= ux[k] {
+                while i + 1 < n && row[i].cdf_next <= ux.0[k] {
                     i += 1;
                 }
-                (iu[k], c0[k], c1[k]) = (i, row[i].cdf, row[i].cdf_next);
+                (iu[k], c0.0[k], c1.0[k]) = (i, row[i].cdf, row[i].cdf_next);
             }
         }
-        let (mut pu, mut pv) = ([0.0f32; N], [0.0f32; N]);
+        let width = c1 - c0;
+        let du = width.gt(Float::ZERO).select(((ux - c0) / width).clamp(0.0, ONE_MINUS_EPSILON), Float::ZERO);
+        // `continuous` of each lane's cell and offset.
+        let (mut fu, mut fv) = (Float::<N>::ZERO, Float::<N>::ZERO);
         for k in 0..N {
-            let width = c1[k] - c0[k];
-            let remapped = ((ux[k] - c0[k]) / width).clamp(0.0, ONE_MINUS_EPSILON);
-            let du = if width > 0.0 { remapped } else { 0.0 };
-            pu[k] = continuous(iu[k], du, self.nu);
-            pv[k] = continuous(iv[k], dv[k], self.nv);
+            (fu.0[k], fv.0[k]) = (len_f32(iu[k]), len_f32(iv[k]));
         }
-        (pu, pv, iu)
+        let pu = ((fu + du) / len_f32(self.nu)).min(Float::splat(ONE_MINUS_EPSILON));
+        let pv = ((fv + dv) / len_f32(self.nv)).min(Float::splat(ONE_MINUS_EPSILON));
+        ([pu, pv], iu, iv)
     }
 
     /// Draws (u, v) ∈ [0, 1)² with density f/∫∫f. Returns the point, its density with respect to
@@ -459,10 +437,11 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
 mod tests {
     use super::*;
 
-    /// `sample_point_cell_lanes` is `sample_point_cell` lane by lane, bit for bit, on a table
-    /// with zero rows, zero cells and heavy cells, at random numbers and the ends of [0, 1].
+    /// `sample_points` at eight lanes is its one-lane call (`sample_point_cell`) lane by lane, bit
+    /// for bit, on a table with zero rows, zero cells and heavy cells, at random numbers and the
+    /// ends of [0, 1].
     #[test]
-    fn point_cell_lanes_are_the_scalar_bits() {
+    fn eight_lane_points_are_one_lane_points() {
         let mut rng = crate::sampling::chi2::TestRng::new(17);
         let (nu, nv) = (37, 23);
         let f: Vec<f32> = (0..nu * nv)
@@ -477,21 +456,21 @@ mod tests {
         };
         let mut compared = 0;
         for _ in 0..4000 {
-            let mut u = [Vec2::ZERO; 8];
+            let mut u = [Float::<8>::ZERO; 2];
             let mut want = [false; 8];
-            for k in 0..8 {
-                u[k] = Vec2::new(pick(&mut rng), pick(&mut rng));
-                want[k] = rng.next_f32() < 0.8;
+            for (k, w) in want.iter_mut().enumerate() {
+                (u[0].0[k], u[1].0[k]) = (pick(&mut rng), pick(&mut rng));
+                *w = rng.next_f32() < 0.8;
             }
-            let (pu, pv, iu) = d.sample_point_cell_lanes(&u, &want);
+            let ([pu, pv], iu, iv) = d.sample_points(u, Mask(want));
             for k in 0..8 {
                 if want[k] {
-                    let (p, (c, _)) = d.sample_point_cell(u[k]);
+                    let (p, (c, r)) = d.sample_point_cell(Vec2::new(u[0].0[k], u[1].0[k]));
                     assert_eq!(
-                        (pu[k].to_bits(), pv[k].to_bits(), iu[k]),
-                        (p.x.to_bits(), p.y.to_bits(), c),
+                        (pu.0[k].to_bits(), pv.0[k].to_bits(), iu[k], iv[k]),
+                        (p.x.to_bits(), p.y.to_bits(), c, r),
                         "u {:?}",
-                        u[k]
+                        (u[0].0[k], u[1].0[k])
                     );
                     compared += 1;
                 }

@@ -14,14 +14,21 @@
 //!   normalised Phong lobe of eq. 40, sampled exactly by cos α = u^{1/(s+1)}.
 //! - `cos_power_lobe_about(axis, s)`: the same lobe about an arbitrary unit axis (e.g. R).
 
-use crate::math::{Frame, INV_2PI, INV_4PI, INV_PI, PI, Vec2, Vec3};
+use crate::math::{Frame, INV_2PI, INV_4PI, INV_PI, Vec2, Vec3};
+use crate::simd::{Float, Float3};
 
 /// Unit vector with z = `cos_t` and azimuth φ = 2π `u_phi` (sinθ ≥ 0 from cosθ).
 #[inline]
 fn from_cos_and_phi(cos_t: f32, u_phi: f32) -> Vec3 {
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (sp, cp) = crate::math::fast::sincos_2pi(u_phi);
-    Vec3::new(sin_t * cp, sin_t * sp, cos_t)
+    cos_and_phi(Float::<1>::splat(cos_t), Float::splat(u_phi)).lane(0)
+}
+
+/// The unit vector of each lane with z = `cos_t` and azimuth φ = 2π `u_phi`.
+#[inline(always)]
+pub fn cos_and_phi<const N: usize>(cos_t: Float<N>, u_phi: Float<N>) -> Float3<N> {
+    let sin_t = (1.0 - cos_t * cos_t).max(Float::ZERO).sqrt();
+    let (sp, cp) = u_phi.sincos_2pi();
+    Float3::new(sin_t * cp, sin_t * sp, cos_t)
 }
 
 /// Uniform direction on the whole sphere (z = 1 − 2u₀, φ = 2πu₁).
@@ -49,22 +56,36 @@ pub fn uniform_hemisphere_pdf(d: Vec3) -> f32 {
 /// Shirley–Chiu concentric map of the square onto the unit disk (area preserving, low distortion).
 #[inline]
 pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
-    let a = 2.0 * u.x - 1.0;
-    let b = 2.0 * u.y - 1.0;
-    if a == 0.0 && b == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, phi) = if a.abs() > b.abs() { (a, (PI / 4.0) * (b / a)) } else { (b, PI / 2.0 - (PI / 4.0) * (a / b)) };
-    let (s, c) = phi.sin_cos();
-    Vec2::new(r * c, r * s)
+    let [x, y] = concentric_disk([Float::<1>::splat(u.x), Float::splat(u.y)]);
+    Vec2::new(x.lane(0), y.lane(0))
+}
+
+/// [`square_to_concentric_disk`] in each lane: the point (x, y) of the disk. The angle is taken in
+/// turns, π/4 · b/a = 2π · (b/a)/8, so that its sine and cosine are `sincos_2pi`'s.
+#[inline(always)]
+pub fn concentric_disk<const N: usize>(u: [Float<N>; 2]) -> [Float<N>; 2] {
+    let a = 2.0 * u[0] - 1.0;
+    let b = 2.0 * u[1] - 1.0;
+    let wide = a.abs().gt(b.abs());
+    let r = wide.select(a, b);
+    let turns = wide.select(0.125 * (b / a), 0.25 - 0.125 * (a / b));
+    let (s, c) = turns.sincos_2pi();
+    let centre = a.eq(Float::ZERO) & b.eq(Float::ZERO);
+    [centre.select(Float::ZERO, r * c), centre.select(Float::ZERO, r * s)]
 }
 
 /// Cosine-weighted upper hemisphere (Malley: a uniform disk point lifted to the hemisphere).
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let p = square_to_concentric_disk(u);
-    let z = (1.0 - p.length_squared()).max(0.0).sqrt();
-    Vec3::new(p.x, p.y, z)
+    cosine_hemisphere([Float::<1>::splat(u.x), Float::splat(u.y)]).lane(0)
+}
+
+/// [`square_to_cosine_hemisphere`] in each lane.
+#[inline(always)]
+pub fn cosine_hemisphere<const N: usize>(u: [Float<N>; 2]) -> Float3<N> {
+    let [x, y] = concentric_disk(u);
+    let z = (1.0 - (x * x + y * y)).max(Float::ZERO).sqrt();
+    Float3::new(x, y, z)
 }
 
 #[inline]
@@ -87,8 +108,14 @@ pub fn uniform_cone_pdf(d: Vec3, cos_max: f32) -> f32 {
 /// cos α = u₀^{1/(s+1)}. `inv_s_plus_1` = 1/(s+1) is passed precomputed (hot path).
 #[inline]
 pub fn square_to_cos_power_lobe(u: Vec2, inv_s_plus_1: f32) -> Vec3 {
+    cos_power_lobe([Float::<1>::splat(u.x), Float::splat(u.y)], inv_s_plus_1).lane(0)
+}
+
+/// [`square_to_cos_power_lobe`] in each lane.
+#[inline(always)]
+pub fn cos_power_lobe<const N: usize>(u: [Float<N>; 2], inv_s_plus_1: f32) -> Float3<N> {
     // 1 − u₀ ∈ (0, 1]: avoids cos α = 0 exactly (a direction with zero density).
-    from_cos_and_phi((1.0 - u.x).powf(inv_s_plus_1), u.y)
+    cos_and_phi((1.0 - u[0]).powf(inv_s_plus_1), u[1])
 }
 
 /// Density of [`square_to_cos_power_lobe`] for exponent `s`: (s+1)/(2π) cos^s α on z > 0.

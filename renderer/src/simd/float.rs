@@ -1,0 +1,313 @@
+//! [`Float`] and [`Mask`]: `N` lanes of f32 and of bool, the kernel's value types.
+//!
+//! Every operation is the IEEE single-precision operation of `f32` applied lane by lane (the same
+//! `min`, `max`, `clamp`, `sqrt`, `/` …, in the same order), written as a loop over a fixed-size
+//! array. So lane k of any computation has the bits the same computation has at `N = 1`, whatever
+//! `N` is: the one-sample case is the same code, not a twin. Inside the render's tile loop compiled
+//! for x86-64-v3 (`render::render_tile`) LLVM turns the loops at `N = 8` into AVX2 instructions;
+//! nothing here fuses a multiply and an add (`mul_add` rounds twice), so the baseline and the
+//! x86-64-v3 copies agree bit for bit.
+// Lane loops index every operand by the lane: the form LLVM vectorizes.
+#![allow(clippy::needless_range_loop)]
+
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+
+/// `N` f32 lanes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Float<const N: usize>(pub [f32; N]);
+
+/// `N` boolean lanes: which lanes a condition holds in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mask<const N: usize>(pub [bool; N]);
+
+/// Lane-by-lane application of a unary f32 expression (a loop LLVM vectorizes).
+macro_rules! lanes1 {
+    ($a:expr, |$v:ident| $e:expr) => {{
+        let a = $a;
+        let mut out = [0.0f32; N];
+        for k in 0..N {
+            let $v = a.0[k];
+            out[k] = $e;
+        }
+        Float(out)
+    }};
+}
+
+/// Lane-by-lane application of a binary f32 expression.
+macro_rules! lanes2 {
+    ($a:expr, $b:expr, |$x:ident, $y:ident| $e:expr) => {{
+        let (a, b) = ($a, $b);
+        let mut out = [0.0f32; N];
+        for k in 0..N {
+            let ($x, $y) = (a.0[k], b.0[k]);
+            out[k] = $e;
+        }
+        Float(out)
+    }};
+}
+
+/// Lane-by-lane comparison.
+macro_rules! compare {
+    ($a:expr, $b:expr, |$x:ident, $y:ident| $e:expr) => {{
+        let (a, b) = ($a, $b);
+        let mut out = [false; N];
+        for k in 0..N {
+            let ($x, $y) = (a.0[k], b.0[k]);
+            out[k] = $e;
+        }
+        Mask(out)
+    }};
+}
+
+impl<const N: usize> Float<N> {
+    pub const ZERO: Self = Float([0.0; N]);
+    pub const ONE: Self = Float([1.0; N]);
+
+    /// Every lane `v`.
+    #[inline(always)]
+    pub fn splat(v: f32) -> Self {
+        Float([v; N])
+    }
+
+    /// Lane `k`.
+    #[inline(always)]
+    pub fn lane(self, k: usize) -> f32 {
+        self.0[k]
+    }
+
+    /// `table[index[k]]` in lane k (a gather); panics where an index is out of the table.
+    #[inline(always)]
+    pub fn gather(table: &[f32], index: [u32; N]) -> Self {
+        let mut out = [0.0f32; N];
+        for k in 0..N {
+            out[k] = table[index[k] as usize];
+        }
+        Float(out)
+    }
+
+    #[inline(always)]
+    pub fn sqrt(self) -> Self {
+        lanes1!(self, |v| v.sqrt())
+    }
+
+    #[inline(always)]
+    pub fn abs(self) -> Self {
+        lanes1!(self, |v| v.abs())
+    }
+
+    /// `f32::min` lane by lane (a NaN operand gives the other one).
+    #[inline(always)]
+    pub fn min(self, o: Self) -> Self {
+        lanes2!(self, o, |x, y| x.min(y))
+    }
+
+    /// `f32::max` lane by lane (a NaN operand gives the other one).
+    #[inline(always)]
+    pub fn max(self, o: Self) -> Self {
+        lanes2!(self, o, |x, y| x.max(y))
+    }
+
+    /// `f32::clamp` lane by lane (NaN stays NaN).
+    #[inline(always)]
+    pub fn clamp(self, lo: f32, hi: f32) -> Self {
+        lanes1!(self, |v| v.clamp(lo, hi))
+    }
+
+    /// Each lane with the sign of `sign`'s lane.
+    #[inline(always)]
+    pub fn copysign(self, sign: Self) -> Self {
+        lanes2!(self, sign, |x, s| x.copysign(s))
+    }
+
+    /// a·b + c, rounded after the multiply and after the add (not fused: the same bits in every
+    /// instruction-set copy, and no `fmaf` call where the build has no FMA).
+    #[inline(always)]
+    pub fn mul_add(self, b: Self, c: Self) -> Self {
+        self * b + c
+    }
+
+    /// `f32::powf` lane by lane (libm: a call per lane).
+    #[inline(always)]
+    pub fn powf(self, e: f32) -> Self {
+        lanes1!(self, |v| v.powf(e))
+    }
+
+    /// `f32::sin_cos` lane by lane (libm: a call per lane).
+    #[inline(always)]
+    pub fn sin_cos(self) -> (Self, Self) {
+        (lanes1!(self, |v| v.sin()), lanes1!(self, |v| v.cos()))
+    }
+
+    /// 2^k for lanes holding integers k ∈ [−126, 127] (built in the exponent bits).
+    #[inline(always)]
+    pub fn exp2_int(self) -> Self {
+        lanes1!(self, |v| f32::from_bits(((v as i32 + 127) as u32) << 23))
+    }
+
+    #[inline(always)]
+    pub fn lt(self, o: Self) -> Mask<N> {
+        compare!(self, o, |x, y| x < y)
+    }
+
+    #[inline(always)]
+    pub fn le(self, o: Self) -> Mask<N> {
+        compare!(self, o, |x, y| x <= y)
+    }
+
+    #[inline(always)]
+    pub fn gt(self, o: Self) -> Mask<N> {
+        compare!(self, o, |x, y| x > y)
+    }
+
+    #[inline(always)]
+    pub fn ge(self, o: Self) -> Mask<N> {
+        compare!(self, o, |x, y| x >= y)
+    }
+
+    #[inline(always)]
+    pub fn eq(self, o: Self) -> Mask<N> {
+        compare!(self, o, |x, y| x == y)
+    }
+
+    /// Lanes that are neither infinite nor NaN.
+    #[inline(always)]
+    pub fn is_finite(self) -> Mask<N> {
+        compare!(self, self, |x, _y| x.is_finite())
+    }
+
+    /// Lanes with the sign bit set (−0.0 included).
+    #[inline(always)]
+    pub fn is_sign_negative(self) -> Mask<N> {
+        compare!(self, self, |x, _y| x.is_sign_negative())
+    }
+
+    /// Each lane widened to f64.
+    #[inline(always)]
+    pub fn to_f64(self) -> [f64; N] {
+        let mut out = [0.0f64; N];
+        for k in 0..N {
+            out[k] = self.0[k] as f64;
+        }
+        out
+    }
+
+    /// Lanes of f64 rounded to f32.
+    #[inline(always)]
+    pub fn from_f64(v: [f64; N]) -> Self {
+        let mut out = [0.0f32; N];
+        for k in 0..N {
+            out[k] = v[k] as f32;
+        }
+        Float(out)
+    }
+}
+
+impl<const N: usize> Mask<N> {
+    pub const NONE: Self = Mask([false; N]);
+    pub const ALL: Self = Mask([true; N]);
+
+    #[inline(always)]
+    pub fn splat(v: bool) -> Self {
+        Mask([v; N])
+    }
+
+    /// `a` where the mask holds, `b` elsewhere.
+    #[inline(always)]
+    pub fn select(self, a: Float<N>, b: Float<N>) -> Float<N> {
+        let mut out = [0.0f32; N];
+        for k in 0..N {
+            out[k] = if self.0[k] { a.0[k] } else { b.0[k] };
+        }
+        Float(out)
+    }
+
+    /// Whether any lane holds.
+    #[inline(always)]
+    pub fn any(self) -> bool {
+        let mut any = false;
+        for k in 0..N {
+            any |= self.0[k];
+        }
+        any
+    }
+
+    /// Lane `k`.
+    #[inline(always)]
+    pub fn lane(self, k: usize) -> bool {
+        self.0[k]
+    }
+}
+
+macro_rules! binary {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl<const N: usize> $tr for Float<N> {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                lanes2!(self, o, |x, y| x $op y)
+            }
+        }
+        impl<const N: usize> $tr<f32> for Float<N> {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: f32) -> Self {
+                lanes1!(self, |x| x $op o)
+            }
+        }
+        impl<const N: usize> $tr<Float<N>> for f32 {
+            type Output = Float<N>;
+            #[inline(always)]
+            fn $f(self, o: Float<N>) -> Float<N> {
+                lanes1!(o, |y| self $op y)
+            }
+        }
+    };
+}
+binary!(Add, add, +);
+binary!(Sub, sub, -);
+binary!(Mul, mul, *);
+binary!(Div, div, /);
+
+impl<const N: usize> Neg for Float<N> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        lanes1!(self, |v| -v)
+    }
+}
+
+impl<const N: usize> BitAnd for Mask<N> {
+    type Output = Self;
+    #[inline(always)]
+    fn bitand(self, o: Self) -> Self {
+        let mut out = [false; N];
+        for k in 0..N {
+            out[k] = self.0[k] & o.0[k];
+        }
+        Mask(out)
+    }
+}
+
+impl<const N: usize> BitOr for Mask<N> {
+    type Output = Self;
+    #[inline(always)]
+    fn bitor(self, o: Self) -> Self {
+        let mut out = [false; N];
+        for k in 0..N {
+            out[k] = self.0[k] | o.0[k];
+        }
+        Mask(out)
+    }
+}
+
+impl<const N: usize> Not for Mask<N> {
+    type Output = Self;
+    #[inline(always)]
+    fn not(self) -> Self {
+        let mut out = [false; N];
+        for k in 0..N {
+            out[k] = !self.0[k];
+        }
+        Mask(out)
+    }
+}
