@@ -356,3 +356,64 @@ fn invert_brdf_verdict_passes_the_model_and_flags_another_brdf() {
         assert_eq!(&line[2..], doc["verdict"]["line"].as_str().unwrap());
     }
 }
+
+/// `invert lighting`'s verdict on normal-probe renders (64 × 32): the orders the told BRDF does not
+/// pass (a Lambertian sphere's odd l ≥ 3) must hold nothing but noise and what the pixel grid puts
+/// there from the passed orders. Lambert probes agree: of 4 seeds at 64 spp at most one may be
+/// flagged (α = 0.01 each: P(≥ 2 of 4) = 6e-4), and one at 16384 spp, where the grid's share is
+/// ≈ 10σ, must be consistent (its χ² is 15–19 per channel for ν 18 with it subtracted); a Phong sphere (s = 4) told to be
+/// Lambertian contradicts it, with exit status 0 and the text's `# verdict:` line the JSON's.
+/// Planted errors the test failed on: the grid's share not subtracted (the 16384-spp probe
+/// contradicts, χ² ≈ 180 for ν 18 per channel); a verdict that is always consistent (the Phong
+/// sphere passes).
+#[test]
+fn invert_lighting_verdict_tests_the_orders_the_brdf_blocks() {
+    let dir = temp_dir("verdict-invert-lighting");
+    let probe = |brdf: &str, seed: u64, spp: u32| {
+        lambert_scene(0.0, 1.05, seed)
+            .replace(&format!("width = {N}\nheight = {N}"), "width = 64\nheight = 32")
+            .replace("spp = 16", &format!("spp = {spp}"))
+            .replace(
+                "type = \"orthographic\"\nfrom = [3.0, 0.0, 1.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05",
+                "type = \"normal-probe\"",
+            )
+            .replace("brdf = { type = \"lambert\", albedo = [0.8, 0.8, 0.8] }", brdf)
+    };
+    let lambert = "brdf = { type = \"lambert\", albedo = [0.8, 0.8, 0.8] }";
+    let invert = |img: &Path, extra: &[&str]| {
+        let mut args = vec!["invert", "lighting", img.to_str().unwrap(), "--lmax", "6"];
+        args.extend_from_slice(extra);
+        let (code, out, err) = reflect_out(&[args.as_slice(), &["--json"]].concat());
+        assert_eq!(code, 0, "{err}");
+        let doc: Value = serde_json::from_str(&out).unwrap();
+        let (code, text, err) = reflect_out(&args);
+        assert_eq!(code, 0, "{err}");
+        let line = text.lines().find(|l| l.starts_with("# verdict: ")).unwrap_or_else(|| panic!("{text}"));
+        assert_eq!(&line[2..], doc["verdict"]["line"].as_str().unwrap());
+        doc
+    };
+    let mut flagged = Vec::new();
+    for (seed, spp) in [(50, 64), (51, 64), (52, 64), (53, 64), (54, 16384)] {
+        let p = render_text(&dir, &format!("lambert{seed}"), &probe(lambert, seed, spp));
+        let doc = invert(&p, &[]);
+        assert_eq!(doc["verdict"]["dof"], 3 * (7 + 11), "l = 3, 5 in R, G, B: {}", doc["verdict"]);
+        if spp > 64 {
+            assert_eq!(status(&doc), "consistent", "{}", doc["verdict"]["line"]);
+        } else if status(&doc) != "consistent" {
+            flagged.push(doc["verdict"]["line"].to_string());
+        }
+    }
+    assert!(flagged.len() <= 1, "{flagged:#?}");
+    let phong = render_text(
+        &dir,
+        "phong",
+        &probe("brdf = { type = \"phong\", ks = [0.8, 0.8, 0.8], s = 4.0, horizon = \"ignore\" }", 60, 256),
+    );
+    let mut img = read_image(&phong).unwrap();
+    img.attributes.remove("reflect:objects");
+    let told = dir.join("told-lambert.exr");
+    write_exr(&told, &img).unwrap();
+    let doc = invert(&told, &["--brdf", "lambert", "--albedo", "0.8"]);
+    assert_eq!(status(&doc), "contradicts", "{}", doc["verdict"]["line"]);
+    assert!(doc["verdict"]["line"].as_str().unwrap().contains("CONTRADICTS the lambert BRDF"), "{doc}");
+}

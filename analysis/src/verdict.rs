@@ -384,9 +384,88 @@ pub fn of_model_fit(fits: &[(&str, f64, i64)], model: &str, alpha: f64, have_sig
     })
 }
 
+/// The verdict of `invert lighting` on a projection that is one (a normal-probe quadrature): the
+/// orders the BRDF does not pass (`unpassed`: Λ_l ρ̂_l = 0, e.g. a Lambertian sphere's odd l ≥ 3)
+/// must be 0 in the image's B_lm (eq. 15), whatever the lighting; everywhere else the lighting
+/// absorbs any B_lm, so nothing else can contradict it. Per channel χ²_c = Σ (B_lm / σ_lm)² over
+/// those orders (`b`, `stderr` in index order k), ν = Σ (2l + 1); p combined over the channels by
+/// Šidák as in [`verdict`]. `brdf` names the BRDF in the line. `None` when no order is unpassed or
+/// no channel has an error bar there.
+pub fn of_unpassed_orders(
+    b: &[[f64; 3]],
+    stderr: &[[f64; 3]],
+    unpassed: &[usize],
+    brdf: &str,
+    alpha: f64,
+) -> Option<Verdict> {
+    let channels: Vec<ChannelTest> = (0..3)
+        .filter_map(|c| {
+            let (mut chi2, mut dof) = (0.0, 0usize);
+            for &l in unpassed {
+                for k in l * l..(l + 1) * (l + 1) {
+                    let (v, s) = (b.get(k)?[c], stderr.get(k)?[c]);
+                    if s > 0.0 && s.is_finite() && v.is_finite() {
+                        chi2 += (v / s).powi(2);
+                        dof += 1;
+                    }
+                }
+            }
+            (dof > 0).then(|| ChannelTest { chi2, dof, p_value: chi2_survival(chi2, dof as f64) })
+        })
+        .collect();
+    if channels.is_empty() {
+        return None;
+    }
+    let (chi2, dof, p_value) = combine(&channels);
+    let consistent = p_value >= alpha;
+    let orders = unpassed.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
+    let head = format!(
+        "the orders a {brdf} BRDF does not pass (l = {orders}) hold χ² {chi2:.1} for ν {dof} (σ from the stderr \
+         layer), p {p_value:.2e} (Šidák over {} channels; α {alpha})",
+        channels.len()
+    );
+    let line = if consistent {
+        format!("verdict: consistent with the {brdf} BRDF it was told — {head}")
+    } else {
+        format!(
+            "verdict: the image CONTRADICTS the {brdf} BRDF it was told — {head}: light reached orders this BRDF \
+             blocks, so the sphere's BRDF is another (a glossy one passes them) or the camera is not the one described"
+        )
+    };
+    Some(Verdict {
+        status: if consistent { "consistent" } else { "contradicts" }.into(),
+        alpha,
+        chi2,
+        dof,
+        p_value,
+        channels,
+        sigma_from: "stderr-layer".into(),
+        suspect: None,
+        alternatives: Vec::new(),
+        line,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unpassed_orders_must_be_zero_within_their_errors() {
+        // l ≤ 3, σ = 0.1 everywhere; the 7 coefficients of l = 3 at ±0.1 (χ² 7 per channel, p 0.43)
+        // are consistent, at ±1 (χ² 700) a contradiction; no unpassed order, or no error bar there:
+        // no verdict.
+        let stderr = vec![[0.1; 3]; 16];
+        let mut b = vec![[5.0; 3]; 16];
+        b[9..16].iter_mut().enumerate().for_each(|(i, v)| *v = [if i % 2 == 0 { 0.1 } else { -0.1 }; 3]);
+        let v = of_unpassed_orders(&b, &stderr, &[3], "lambert", DEFAULT_ALPHA).unwrap();
+        assert!(v.consistent() && v.dof == 21 && (v.chi2 - 21.0).abs() < 1e-9, "{}", v.line);
+        b[9..16].iter_mut().for_each(|v| *v = [1.0; 3]);
+        let v = of_unpassed_orders(&b, &stderr, &[3], "lambert", DEFAULT_ALPHA).unwrap();
+        assert!(!v.consistent() && v.line.contains("CONTRADICTS the lambert BRDF"), "{}", v.line);
+        assert!(of_unpassed_orders(&b, &stderr, &[], "lambert", DEFAULT_ALPHA).is_none());
+        assert!(of_unpassed_orders(&b, &[[0.0; 3]; 16], &[3], "lambert", DEFAULT_ALPHA).is_none());
+    }
 
     #[test]
     fn sidak_holds_the_family_rate() {

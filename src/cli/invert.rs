@@ -28,7 +28,7 @@ use super::sh::check_lmax;
 use analysis::filter::{ChannelFit, OrderStatus, PixelFilterFit, PixelOrder, fit_filter_pixels};
 use analysis::image::{Image, write_exr};
 use analysis::inverse::brdf::{BrdfFit, Model, estimate_transfer, fit_model, fit_model_gls, transfer_covariance_probe};
-use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, invert_lighting};
+use analysis::inverse::lighting::{DEFAULT_MAX_AMPLIFICATION, Rule, Status, invert_lighting};
 use analysis::inverse::views::invert_lighting_views;
 use analysis::lighting::Lighting;
 use analysis::observation::pixels::PixelNoise;
@@ -325,6 +325,11 @@ pub struct InvertLightingReport {
     /// Orthographic views: the correlation of neighbouring pixels' noise (a reconstruction filter
     /// wider than a pixel) and the variance inflation applied to the noise part of every error bar.
     pub pixel_noise: Option<PixelNoise>,
+    /// A normal-probe image against the BRDF it was told: the orders the BRDF does not pass must be
+    /// 0 (`analysis::verdict::of_unpassed_orders`); null when every order is passed (the lighting
+    /// absorbs any B_lm), for views that see part of the sphere (their B_lm alias the orders above
+    /// l_max), or without a stderr layer.
+    pub verdict: Option<analysis::verdict::Verdict>,
     pub warnings: Vec<String>,
 }
 
@@ -379,6 +384,34 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
             status: o.status.name().into(),
         })
         .collect();
+    let unpassed: Vec<usize> = inv.orders.iter().filter(|o| o.status == Status::Unobservable).map(|o| o.l).collect();
+    let verdict = match (&p.stderr, p.probe) {
+        (Some(se), true) if !unpassed.is_empty() => {
+            // The pixel grid puts O(pixel²) of the passed orders into the unpassed ones: measured at
+            // many samples per pixel that is far beyond the noise, so the image's unpassed B_lm are
+            // compared with what the grid puts there from its own passed orders (to twice l_max
+            // and more, as far as the grid carries).
+            let lsyn = p.lmax_carried.min(2 * a.lmax + 8).max(a.lmax);
+            let (mut passed, _) = project_normal_probe(&p.first, lsyn).map_err(|e| e.in_file(&a.images[0]))?;
+            let syn_filter = model.lambda_rho(lsyn);
+            for o in analysis::inverse::lighting::classify(&syn_filter, a.max_amplification) {
+                if o.status == Status::Unobservable {
+                    passed[o.l * o.l..(o.l + 1) * (o.l + 1)].iter_mut().for_each(|v| *v = [0.0; 3]);
+                }
+            }
+            let leak = analysis::projection::normal_probe::probe_pixelization(
+                &passed,
+                p.first.width,
+                p.first.height,
+                a.lmax,
+            )
+            .map_err(|e| e.in_file(&a.images[0]))?;
+            let b: Vec<[f64; 3]> =
+                p.b.iter().zip(&leak).map(|(b, l)| [b[0] - l[0], b[1] - l[1], b[2] - l[2]]).collect();
+            analysis::verdict::of_unpassed_orders(&b, se, &unpassed, &name, analysis::verdict::DEFAULT_ALPHA)
+        }
+        _ => None,
+    };
     let (mut coefficients, mut stderr) = (inv.coefficients, inv.stderr);
     let (mut stderr_noise, mut truncation, mut coefficient_amplification, mut channel_fits) = (None, None, None, None);
     let mut truncation_bound = None;
@@ -462,6 +495,7 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
         },
         output: a.output.as_ref().map(|p| p.display().to_string()),
         pixel_noise: p.noise,
+        verdict,
         warnings,
     })
 }
@@ -844,6 +878,9 @@ impl std::fmt::Display for InvertLightingReport {
         )?;
         if let Some(n) = &self.pixel_noise {
             writeln!(f, "{}", n.line())?;
+        }
+        if let Some(v) = &self.verdict {
+            writeln!(f, "# {}", v.line)?;
         }
         Ok(())
     }

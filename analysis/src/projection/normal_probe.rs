@@ -42,6 +42,58 @@ pub fn project_normal_probe(img: &Image, lmax: usize) -> Result<(RgbCoeffs, Opti
     Ok((c, v.map(|v| v.iter().map(|x| [x[0].sqrt(), x[1].sqrt(), x[2].sqrt()]).collect())))
 }
 
+/// What the pixelization of a W × H `normal-probe` image puts at each order l ≤ `lmax` when the
+/// radiance is B = Σ_k c_k Y_k (`coeffs`, RGB, index order): B averaged over each pixel's footprint
+/// uniformly in (θ, φ), as the renderer's box pixel filter samples the image plane (4 × 4
+/// Gauss–Legendre points per pixel), then projected as [`project_normal_probe`] projects. Orders
+/// that B does not hold come out non-zero by O(pixel²): this is how much, to compare an image's
+/// B_lm with. Errors as [`project_normal_probe`] (a grid that is not W = 2H, an `lmax` it does not
+/// carry).
+pub fn probe_pixelization(coeffs: &[[f64; 3]], width: usize, height: usize, lmax: usize) -> Result<RgbCoeffs> {
+    use rayon::prelude::*;
+    const GL4: [(f64, f64); 4] = [
+        (0.069_431_844_202_973_7, 0.173_927_422_568_726_9),
+        (0.330_009_478_207_571_9, 0.326_072_577_431_273_1),
+        (0.669_990_521_792_428_1, 0.326_072_577_431_273_1),
+        (0.930_568_155_797_026_3, 0.173_927_422_568_726_9),
+    ];
+    let lsyn = crate::sh::lmax_of(coeffs.len()).ok_or_else(|| Error::new("not a full set of SH coefficients"))?;
+    let (w, h) = (width, height);
+    let pixels: Vec<[f32; 3]> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|r| {
+            let basis = crate::sh::ShBasis::new(lsyn);
+            let mut y = vec![0.0; coeffs.len()];
+            (0..w)
+                .map(|c| {
+                    let mut acc = [0.0f64; 3];
+                    for (fy, wy) in GL4 {
+                        let theta = std::f64::consts::PI * (r as f64 + fy) / h as f64;
+                        for (fx, wx) in GL4 {
+                            let phi = 2.0 * std::f64::consts::PI * (c as f64 + fx) / w as f64;
+                            basis.eval_into(
+                                [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()],
+                                &mut y,
+                            );
+                            for (k, yk) in y.iter().enumerate() {
+                                for ch in 0..3 {
+                                    acc[ch] += wy * wx * coeffs[k][ch] * yk;
+                                }
+                            }
+                        }
+                    }
+                    acc.map(|v| v as f32)
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let mut img = Image { width: w, height: h, ..Default::default() };
+    for (ch, name) in ["R", "G", "B"].into_iter().enumerate() {
+        img.channels.insert(name.into(), pixels.iter().map(|p| p[ch]).collect());
+    }
+    Ok(project_normal_probe(&img, lmax)?.0)
+}
+
 /// The pixels of a `normal-probe` image as fit samples: direction the pixel's normal (docs/src/conventions.md
 /// §2 lat-long grid), weight its exact solid angle, RGB radiance and variance (from the `stderr`
 /// layer, else 1), and whether the image has that layer. Errors as [`project_normal_probe`].
