@@ -142,6 +142,7 @@ fn report_schemas_are_pinned() {
             ("pixel_noise", "object|null"),
             ("regularised", "object"),
             ("output", "string|null"),
+            ("verdict", "object|null"),
             ("warnings", "array"),
         ],
         "invert lighting",

@@ -364,7 +364,7 @@ fn invert_brdf_verdict_passes_the_model_and_flags_another_brdf() {
 /// ≈ 10σ, must be consistent (its χ² is 15–19 per channel for ν 18 with it subtracted); a Phong sphere (s = 4) told to be
 /// Lambertian contradicts it, with exit status 0 and the text's `# verdict:` line the JSON's.
 /// Planted errors the test failed on: the grid's share not subtracted (the 16384-spp probe
-/// contradicts, χ² ≈ 180 for ν 18 per channel); a verdict that is always consistent (the Phong
+/// contradicts: χ² 151 for ν 54); a verdict that is always consistent (the Phong
 /// sphere passes).
 #[test]
 fn invert_lighting_verdict_tests_the_orders_the_brdf_blocks() {

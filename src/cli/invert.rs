@@ -399,13 +399,9 @@ pub fn invert_lighting_report(a: &LightingArgs) -> Result<InvertLightingReport, 
                     passed[o.l * o.l..(o.l + 1) * (o.l + 1)].iter_mut().for_each(|v| *v = [0.0; 3]);
                 }
             }
-            let leak = analysis::projection::normal_probe::probe_pixelization(
-                &passed,
-                p.first.width,
-                p.first.height,
-                a.lmax,
-            )
-            .map_err(|e| e.in_file(&a.images[0]))?;
+            let leak =
+                analysis::projection::normal_probe::probe_pixelization(&passed, p.first.width, p.first.height, a.lmax)
+                    .map_err(|e| e.in_file(&a.images[0]))?;
             let b: Vec<[f64; 3]> =
                 p.b.iter().zip(&leak).map(|(b, l)| [b[0] - l[0], b[1] - l[1], b[2] - l[2]]).collect();
             analysis::verdict::of_unpassed_orders(&b, se, &unpassed, &name, analysis::verdict::DEFAULT_ALPHA)

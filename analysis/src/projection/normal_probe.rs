@@ -71,10 +71,7 @@ pub fn probe_pixelization(coeffs: &[[f64; 3]], width: usize, height: usize, lmax
                         let theta = std::f64::consts::PI * (r as f64 + fy) / h as f64;
                         for (fx, wx) in GL4 {
                             let phi = 2.0 * std::f64::consts::PI * (c as f64 + fx) / w as f64;
-                            basis.eval_into(
-                                [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()],
-                                &mut y,
-                            );
+                            basis.eval_into([theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()], &mut y);
                             for (k, yk) in y.iter().enumerate() {
                                 for ch in 0..3 {
                                     acc[ch] += wy * wx * coeffs[k][ch] * yk;
