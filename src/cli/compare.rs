@@ -115,15 +115,6 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
             predicted.lmax_check,
             predicted.max_relative_systematic()
         );
-        // Pixels not predicted carry no estimate in B: say so, rather than "fewer than 2 samples".
-        let unpredicted = predicted.predicted.iter().filter(|p| !**p).count();
-        let in_a = report.pixels.no_estimate.saturating_sub(unpredicted);
-        report.warnings.retain(|w| !w.contains("pixels without error estimate (stderr +inf"));
-        if in_a > 0 {
-            report
-                .warnings
-                .push(format!("{in_a} pixels without error estimate (stderr +inf: fewer than 2 samples) are left out"));
-        }
         report.warnings.splice(0..0, warnings);
         (report, Vec::new())
     } else {

@@ -67,7 +67,9 @@ pub struct CompareParams {
     /// A bound on B's systematic error per pixel and channel (row-major, `width × height`), as a
     /// prediction's truncation ([`crate::predict::PredictedImage::systematic`]): it is not noise
     /// and does not average down, so it is added in quadrature to each pixel's standard error and,
-    /// summed over the pixels (as if all of one sign), to each block mean's and channel sum's.
+    /// summed over the pixels (as if all of one sign), to each block mean's and channel sum's. With
+    /// it B is a prediction, whose +inf error marks the pixels it does not predict: left out and
+    /// counted in `no_estimate`, without the warning about too few samples.
     pub b_systematic: Option<Vec<[f64; 3]>>,
 }
 
@@ -380,9 +382,16 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
     };
     let mut in_background = 0;
     let (mut flagged, mut no_estimate, mut near_edges) = (0, 0, 0);
+    // A prediction (B with a systematic bound) has no estimate where it predicts nothing (+inf):
+    // those pixels are left out as well, but not for want of samples.
+    let prediction = params.b_systematic.is_some();
+    let mut unpredicted = 0;
     let mut used = vec![false; n];
     for i in 0..n {
         match (ea.excluded[i], eb.excluded[i]) {
+            (_, Some(Excluded::NoEstimate)) if prediction => {
+                (no_estimate, unpredicted) = (no_estimate + 1, unpredicted + 1)
+            }
             (Some(Excluded::NoEstimate), _) | (_, Some(Excluded::NoEstimate)) => no_estimate += 1,
             _ if near_edge[i] => near_edges += 1,
             _ if background.as_ref().is_some_and(|b| b[i]) => in_background += 1,
@@ -401,10 +410,10 @@ pub fn compare(a: &Image, b: &[Image], params: &CompareParams) -> Result<Compare
             "{flagged} compared pixels are flagged (stderr_flag.Y = 1: a rare heavy sample dominates their own error bar); they are not left out, which would bias the comparison towards the side whose flags removed its low pixels"
         ));
     }
-    if no_estimate > 0 {
-        warnings.push(format!(
-            "{no_estimate} pixels without error estimate (stderr +inf: fewer than 2 samples) are left out"
-        ));
+    let without = no_estimate - unpredicted;
+    if without > 0 {
+        warnings
+            .push(format!("{without} pixels without error estimate (stderr +inf: fewer than 2 samples) are left out"));
     }
 
     // Pixels.
