@@ -15,8 +15,8 @@
 //! Able to fail: the same comparisons with the error bars halved give 23 % / 67 % (one view) and
 //! 34 % / 62 % (two views), all outside the bounds.
 //!
-//! The 40 analyses run in this process (`reflect::cli::analyze::analyze`, what `reflect analyze
-//! --json` prints), so that the Grace probe is projected once per order and mapping
+//! The 40 analyses run in this process (`analysis::analyze::analyze` on the images the CLI reads,
+//! what `reflect analyze --json` prints), so that the Grace probe is projected once per order and mapping
 //! (`analysis::lighting` keeps a process's projections of a map file), not once per analysis.
 
 mod common;
@@ -54,7 +54,8 @@ fn analyze_json(args: &[&str]) -> Value {
     use clap::Parser;
     let cli = reflect::cli::Cli::try_parse_from(std::iter::once("reflect").chain(args.iter().copied())).unwrap();
     let reflect::cli::Command::Analyze(a) = cli.command else { panic!("not an analyze command: {args:?}") };
-    serde_json::to_value(reflect::cli::analyze::analyze(&a).unwrap()).unwrap()
+    let (images, observed) = reflect::cli::header::load(&a.images, &a.view, "analysed").unwrap();
+    serde_json::to_value(analysis::analyze::analyze(&a.params(), images, &a.images, &observed).unwrap()).unwrap()
 }
 
 #[test]

@@ -20,15 +20,21 @@
 //!   assumption most likely is wrong;
 //! - [`separate`]: diffuse + specular separation (sec. 3.5) as parameters → report;
 //! - [`compare`]: is image A image B up to noise (per-pixel z, scale, blocks, a Šidák verdict);
+//! - [`analyze`]: projection into SH and comparison with the lighting and eq. 15, as parameters →
+//!   report (`reflect analyze`);
+//! - [`invert`]: inverse lighting and inverse BRDF as parameters → reports (`reflect invert lighting |
+//!   brdf`), on the linear algebra of [`inverse`];
 //! - [`lsq`], [`quadrature`]: numerical building blocks.
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN. Index loops mirror the equations' indices.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
+pub mod analyze;
 pub mod compare;
 pub mod filter;
 pub mod fit;
 pub mod inverse;
+pub mod invert;
 pub mod lighting;
 pub mod lsq;
 pub mod noise;

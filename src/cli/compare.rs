@@ -129,7 +129,7 @@ pub fn run(a: CompareArgs) -> Result<ExitCode, Error> {
             }
             // Flagged pixels are compared, with the error bars near them bounded as every analysis
             // reads a render (leaving them out would select on the image's values).
-            super::header::bound_near_flags(&mut img);
+            crate::images::bound_near_flags(&mut img);
             images.push(img);
         }
         let report = analysis::compare::compare(&images[0], &images[1..], &params).map_err(|e| error_of(e, &paths))?;

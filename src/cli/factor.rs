@@ -261,7 +261,7 @@ pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
 fn probe_angles(img: &Image, cam: &ViewCamera, view: &ImageArgs, p: &Path) -> Result<(f64, f64), Error> {
     let header = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?.camera;
     let scene = match &view.scene {
-        Some(s) => Some(super::header::read_scene(s)?.camera),
+        Some(s) => Some(crate::images::read_scene(s)?.camera),
         None => None,
     };
     let jittered = |c: &Option<CameraSection>| matches!(c, Some(CameraSection::NormalProbe { jitter: true, .. }));

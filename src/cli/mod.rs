@@ -82,26 +82,6 @@ pub fn print_warnings(warnings: &[String]) {
     }
 }
 
-/// A JSON value (a scene's BRDF table) for a text report, its numbers with the precision they have:
-/// a value stored as f32 (0.800000011920929) is printed as that f32's shortest decimal (0.8).
-pub fn shown_json(v: &serde_json::Value) -> String {
-    fn tidy(v: &serde_json::Value) -> serde_json::Value {
-        use serde_json::Value;
-        match v {
-            Value::Number(n) => match n.as_f64() {
-                Some(x) if n.is_f64() && (x as f32) as f64 == x => {
-                    format!("{}", x as f32).parse::<f64>().map_or(v.clone(), |y| serde_json::json!(y))
-                }
-                _ => v.clone(),
-            },
-            Value::Array(a) => Value::Array(a.iter().map(tidy).collect()),
-            Value::Object(o) => Value::Object(o.iter().map(|(k, x)| (k.clone(), tidy(x))).collect()),
-            _ => v.clone(),
-        }
-    }
-    tidy(v).to_string()
-}
-
 /// A path in this process's scratch folder for a CLI module's unit tests (created on demand).
 #[cfg(test)]
 pub fn test_path(module: &str, name: &str) -> std::path::PathBuf {

@@ -20,9 +20,8 @@ use std::fmt;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Largest l_max accepted on the command line (the basis is accurate far beyond; this guards
-/// against accidental huge allocations).
-pub const MAX_LMAX: usize = 200;
+/// Largest l_max accepted on the command line: the analysis's.
+pub use analysis::sh::MAX_LMAX;
 
 #[derive(clap::Subcommand, Debug)]
 pub enum ShCommand {

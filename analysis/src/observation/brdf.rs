@@ -8,12 +8,42 @@ use vocab::BrdfKind;
 
 /// The explicit BRDF of the sphere: a kind plus its parameters, each named as the key of a scene
 /// file's `brdf` table (`s` for Phong, `sigma` for Torrance–Sparrow, …), and the albedo / k_s / k_r
-/// scale. The CLI's `--brdf`, `--s`, `--sigma`, `--brdf-param`, `--albedo`.
+/// scale. The CLI's `--brdf`, `--s`, `--sigma`, `--brdf-param`, `--albedo`; Python's `brdf=`,
+/// `s=`, `sigma=`, `brdf_params=`, `albedo=` (`spelling` says which, for messages).
 #[derive(Clone, Debug, Default)]
 pub struct BrdfValues {
     pub kind: Option<BrdfKind>,
     pub params: Vec<(String, ParamValue)>,
     pub albedo: Option<[f64; 3]>,
+    /// How the front-end that gave these values names them in messages.
+    pub spelling: Spelling,
+}
+
+/// How a front-end names its parameters in messages: the CLI's flags (`--albedo 0.5,0.5,0.5`) or
+/// Python's keywords (`albedo=0.5,0.5,0.5`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Spelling {
+    #[default]
+    Flags,
+    Keywords,
+}
+
+impl Spelling {
+    /// The parameter `key` (a flag's name without `--`, e.g. `brdf-param`) given `value`.
+    pub fn given(self, key: &str, value: impl std::fmt::Display) -> String {
+        match self {
+            Spelling::Flags => format!("--{key} {value}"),
+            Spelling::Keywords => format!("{}={value}", key.replace('-', "_")),
+        }
+    }
+
+    /// The parameter `key` alone (`--albedo`, `albedo=`).
+    pub fn name(self, key: &str) -> String {
+        match self {
+            Spelling::Flags => format!("--{key}"),
+            Spelling::Keywords => format!("{}=", key.replace('-', "_")),
+        }
+    }
 }
 
 /// A BRDF's transfer model, scale and kind, and the table it came from (for the report).
@@ -44,7 +74,7 @@ impl Observation {
         };
         let params = !given.params.is_empty();
         if table.is_none() && given.kind.is_none() && (params || given.albedo.is_some()) {
-            return Err(Error::BrdfParamsWithoutKind);
+            return Err(Error::BrdfParamsWithoutKind { spelling: given.spelling });
         }
         // Parameters without a kind are parameters of the table's kind, checked against it below.
         let kind = match (given.kind, &table) {
@@ -75,7 +105,7 @@ impl Observation {
             let agrees = b.kind() == kind && t.is_none_or(|t| same_model(&t.model, &model));
             if !agrees {
                 return Err(Error::Contradiction {
-                    one: format!("--brdf {kind}{}", param_text(given)),
+                    one: format!("{}{}", given.spelling.given("brdf", kind), param_text(given)),
                     other: format!("{src} gives the BRDF {}", serde_json::to_string(b).unwrap_or_default()),
                 });
             }
@@ -102,7 +132,7 @@ impl Observation {
             && !(0..3).all(|i| close(a[i], t.scale[i], 1.0))
         {
             return Err(Error::Contradiction {
-                one: format!("--albedo {}", v3(a)),
+                one: given.spelling.given("albedo", v3(a)),
                 other: format!("{src} gives {}", v3(t.scale)),
             });
         }
@@ -123,11 +153,14 @@ fn same_model(a: &TransferModel, b: &TransferModel) -> bool {
     }
 }
 
-/// The explicit parameters as the CLI's flags that give them, for a message.
+/// The explicit parameters as the front-end's parameters that give them, for a message.
 fn param_text(given: &BrdfValues) -> String {
-    let flag = |k: &str, x: &ParamValue| match k {
-        "s" | "sigma" => format!(" --{k} {x}"),
-        _ => format!(" --brdf-param {k}={x}"),
+    let sp = given.spelling;
+    let sep = if sp == Spelling::Flags { " " } else { ", " };
+    let flag = |k: &str, x: &ParamValue| match (k, sp) {
+        ("s" | "sigma", _) => format!("{sep}{}", sp.given(k, x)),
+        (_, Spelling::Flags) => format!(" --brdf-param {k}={x}"),
+        (_, Spelling::Keywords) => format!(", brdf_params['{k}']={x}"),
     };
     given.params.iter().map(|(k, x)| flag(k, x)).collect()
 }

@@ -64,8 +64,12 @@ pub enum Error {
     #[error("{src}: {message}")]
     BrdfTable { src: String, message: String },
     /// BRDF parameters or an albedo without a BRDF kind, where no header or scene names one.
-    #[error("--s, --sigma, --brdf-param and --albedo need --brdf (no header or scene names the BRDF)")]
-    BrdfParamsWithoutKind,
+    #[error("{} need {} (no header or scene names the BRDF)", if *spelling == super::brdf::Spelling::Flags {
+        "--s, --sigma, --brdf-param and --albedo"
+    } else {
+        "s=, sigma=, brdf_params= and albedo="
+    }, spelling.name("brdf"))]
+    BrdfParamsWithoutKind { spelling: super::brdf::Spelling },
     /// The sphere's silhouette in an orthographic view is not where the camera and sphere put it:
     /// what was measured, the camera and sphere told (`told`), what they predict, and the
     /// assumption most likely wrong.

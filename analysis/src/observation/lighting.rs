@@ -5,7 +5,17 @@ use super::error::Error;
 use super::{Observation, num, v3};
 use crate::lighting::Lighting;
 use crate::projection::Mapping;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// A lighting given explicitly, in place of the observed one.
+#[derive(Clone, Debug)]
+pub enum LightingInput {
+    /// A scene TOML file (its `[lighting]` table) or an environment map file (read with the
+    /// mapping passed beside it, else one inferred from its aspect ratio).
+    File(PathBuf),
+    /// A lighting held in memory, with its name for the report and messages (`<lighting dict>`).
+    Value { lighting: Lighting, name: String },
+}
 
 /// The lighting to compare with: `lighting` (a scene TOML's `[lighting]` table, or an environment
 /// map with `mapping` or a mapping inferred from its aspect ratio), else the observed lighting
@@ -16,11 +26,27 @@ pub fn lighting_of(
     mapping: Option<Mapping>,
     observed: &Observation,
 ) -> Result<Option<(Lighting, String)>, Error> {
-    if let Some(p) = lighting {
-        let given = if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
-            Lighting::from_scene_file(p)?
-        } else {
-            Lighting::from_envmap_file(p, mapping)
+    lighting_given(lighting.map(|p| LightingInput::File(p.to_path_buf())).as_ref(), mapping, observed)
+}
+
+/// [`lighting_of`] with the explicit lighting a file or a value ([`LightingInput`]); `mapping`
+/// applies to a map file only.
+pub fn lighting_given(
+    lighting: Option<&LightingInput>,
+    mapping: Option<Mapping>,
+    observed: &Observation,
+) -> Result<Option<(Lighting, String)>, Error> {
+    if let Some(input) = lighting {
+        let (given, name) = match input {
+            LightingInput::File(p) => {
+                let given = if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
+                    Lighting::from_scene_file(p)?
+                } else {
+                    Lighting::from_envmap_file(p, mapping)
+                };
+                (given, p.display().to_string())
+            }
+            LightingInput::Value { lighting, name } => (lighting.clone(), name.clone()),
         };
         // Unlike the camera, sphere and BRDF (the image's description, where a contradiction is an
         // error), the lighting is what the image is compared with: `--lighting` replaces the
@@ -32,15 +58,14 @@ pub fn lighting_of(
             let d = Lighting::from_section(s, file.parent()).ok();
             if !d.as_ref().is_some_and(|d| same_lighting(&given, d).unwrap_or(false)) {
                 let shown = format!(
-                    "{} ({}), in place of the {source} ({})",
-                    p.display(),
+                    "{name} ({}), in place of the {source} ({})",
                     lighting_text(&given),
                     d.as_ref().map_or_else(|| "not analysable".to_string(), lighting_text)
                 );
                 return Ok(Some((given, shown)));
             }
         }
-        return Ok(Some((given, p.display().to_string())));
+        return Ok(Some((given, name)));
     }
     if mapping.is_some() {
         return Err(Error::MappingWithoutLighting);

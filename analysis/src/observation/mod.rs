@@ -31,10 +31,10 @@ pub mod lighting;
 pub mod pixels;
 pub mod sphere;
 
-pub use brdf::{BrdfValues, Resolved};
+pub use brdf::{BrdfValues, Resolved, Spelling};
 pub use camera::{Camera, CameraValues};
 pub use error::Error;
-pub use lighting::lighting_of;
+pub use lighting::{LightingInput, lighting_given, lighting_of};
 
 use crate::image::Image;
 use crate::projection::{Sphere, camera_of_matrices};
@@ -230,6 +230,44 @@ pub fn describe(images: &[Image], paths: &[PathBuf], given: &Given) -> Result<Ob
         stderr_notes: Vec::new(),
         notes,
     })
+}
+
+/// Describes `images` held in memory ([`describe`]) and makes them ready for every analysis
+/// command, as each front-end must: an image whose `worldToNDC` camera sees the mirror image of
+/// ours has its columns mirrored, once ([`crate::projection::mirror_columns`]; a note says so), and
+/// an orthographic camera not from the image's own `reflect:camera` is checked against the sphere's
+/// silhouette ([`pixels::check_silhouette`] with the radiance `layer` and the renderer's pixel
+/// `filter`: a mismatch is an error naming the file; an image with nothing to check against gives a
+/// warning in [`Observation::warnings`]). The notes (`note: FILE: …` lines) are in
+/// [`Observation::notes`]; [`Observation::stderr_notes`] is left for the reader of the files.
+pub fn observe(
+    images: &mut [Image],
+    paths: &[PathBuf],
+    given: &Given,
+    layer: Option<&str>,
+    filter: Option<crate::noise::PixelFilter>,
+) -> Result<Observation, Error> {
+    let mut d = describe(images, paths, given)?;
+    for ((img, p), mirrored) in images.iter_mut().zip(paths).zip(&d.mirrored) {
+        if *mirrored {
+            crate::projection::mirror_columns(img);
+            d.notes.push(format!(
+                "note: {}: the worldToNDC camera sees the mirror image of ours (a left-handed camera, as pbrt-v4's LookAt builds); columns mirrored",
+                p.display()
+            ));
+        }
+    }
+    for ((img, p), cam) in images.iter().zip(paths).zip(&d.cameras) {
+        // Our own renders' header camera is the one that made the image; any other camera (explicit
+        // values, a sidecar scene, worldToNDC) is checked against the sphere's silhouette.
+        if let Camera::Ortho(c) = cam
+            && !img.attributes.contains_key("reflect:camera")
+            && let Some(w) = pixels::check_silhouette(img, layer, c, &d.sphere, filter).map_err(|e| e.in_file(p))?
+        {
+            d.warnings.push(format!("{}: {w}", p.display()));
+        }
+    }
+    Ok(d)
 }
 
 #[cfg(test)]

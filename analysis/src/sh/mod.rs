@@ -9,6 +9,10 @@ pub use basis::{ShBasis, index, lm, num_coefficients};
 pub use reconstruct::{Reconstructor, latlong_direction, lmax_of, reconstruct_latlong};
 pub use rotation::{Rotation, rotate_coefficients, rotation_matrices};
 
+/// Largest l_max the analysis commands accept (the basis is accurate far beyond; this guards
+/// against accidental huge allocations).
+pub const MAX_LMAX: usize = 200;
+
 /// RGB coefficients in index order k.
 pub type RgbCoeffs = Vec<[f64; 3]>;
 
