@@ -5,8 +5,10 @@ theory of reflection, with NumPy arrays in and out.
   ``reflect render`` does: same scene and seed, same bits.
 - :mod:`reflect.sh`: project environments into spherical harmonics, evaluate, transfer
   coefficients Λ_l ρ̂_l, rotation.
-- :func:`analyze`, :mod:`reflect.invert`, :func:`verify`: the CLI's ``--json`` documents as
-  dicts, with numeric lists as NumPy arrays.
+- :func:`analyze`, :mod:`reflect.invert`: the analyses on paths, renders or NumPy arrays, called
+  directly (no files written), returning report objects (:class:`AnalyzeReport`, …) whose
+  attributes are NumPy arrays and whose ``to_dict()`` is the CLI's ``--json`` document.
+- :func:`verify`: the CLI's ``--json`` document as a dict, with numeric lists as NumPy arrays.
 
 - :mod:`reflect.brdf` and :mod:`reflect.light`: the renderer's BRDFs and lights as objects with
   ``eval``, ``sample`` and ``pdf`` over NumPy batches.
@@ -26,6 +28,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _args, _reflect
+from ._analysis import AnalyzeReport, InvertBrdfReport, InvertLightingReport, InvertSeparateReport, Report
 from ._errors import Error, FileError, InputError, MissingFileError
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
@@ -33,7 +36,12 @@ from ._scene import Scene, SceneLike, load_scene
 ImageLike = Union[str, "os.PathLike[str]", RenderResult, np.ndarray]
 
 __all__ = [
+    "AnalyzeReport",
     "Error",
+    "InvertBrdfReport",
+    "InvertLightingReport",
+    "InvertSeparateReport",
+    "Report",
     "FileError",
     "Image",
     "InputError",
@@ -255,51 +263,70 @@ def analyze(
     lighting: Any = None,
     mapping: Optional[str] = None,
     param: Optional[str] = None,
+    brdf: Optional[str] = None,
+    s: Optional[float] = None,
+    sigma: Optional[float] = None,
+    brdf_params: Optional[Dict[str, Any]] = None,
+    albedo: Any = None,
     camera: Union[None, Dict[str, Any], Sequence[Dict[str, Any]]] = None,
     sphere: Optional[Dict[str, Any]] = None,
     scene: Any = None,
     stderr: Any = None,
-    **flags: Any,
-) -> Dict[str, Any]:
-    """Projects images of a sphere into SH and compares them with the lighting: ``reflect analyze --json``.
+    layer: Optional[str] = None,
+    pixel_filter: Optional[str] = None,
+    no_diagnosis: bool = False,
+) -> "AnalyzeReport":
+    """Projects images of a sphere into SH and compares them with the lighting and eq. 15: the
+    analysis of ``reflect analyze``, called directly (no file is written).
 
     ``images``: one image or a list: ``.exr`` paths, :class:`RenderResult` objects, or (H, W, 3)
     arrays of linear radiance (one normal-probe image, or orthographic views of one sphere). An
     array has no header, so say what it shows: ``camera`` (a scene-file camera table, e.g.
     ``{"type": "orthographic", "from": [3, 0, 0], "to": [0, 0, 0], "extent": 1.05}`` or
     ``{"type": "normal-probe"}``; a list gives one per array), ``sphere`` (``{"center": [x, y,
-    z], "radius": r, "brdf": {...}}``; without a BRDF, the CLI's ``--center`` / ``--radius``) and/or ``scene`` (the scene it was rendered from: a path,
-    TOML text, dict or :class:`Scene`; its camera, lighting and objects), and optionally
-    ``stderr`` (an (H, W, 3) array per array image: the per-pixel standard error that weights the
-    fit). The array is then analysed as the render of that scene would be (it is written, with
-    that header, as the EXR the command reads).
+    z], "radius": r, "brdf": {...}}``, world units; without ``brdf`` only the sphere's place)
+    and/or ``scene`` (the scene it was rendered from: a path, TOML text, dict or :class:`Scene`;
+    its camera, lighting and objects), and optionally ``stderr`` (an (H, W, 3) array per array
+    image: the per-pixel standard error that weights the fits). Beside files, ``scene`` is the path
+    of the scene they are renders of (for files whose header does not say it).
 
-    ``lighting``: a scene file or environment map path (``--lighting``), a scene ``[lighting]``
-    table as a dict, SH coefficients ((L+1)², 3), or an environment-map array (H, W, 3) (with
-    ``mapping`` "latlong" | "angular", default from the aspect ratio); default: the header's.
-    ``param``: "normal" | "reflection" (default from the BRDF). Further keyword arguments are
-    the command's flags (``name=value`` → ``--name value``).
+    ``lighting``: a scene file or environment-map path, a scene ``[lighting]`` table as a dict, SH
+    coefficients ((L+1)², 3), or an environment-map array (H, W, 3) (``mapping`` "latlong" |
+    "angular", default from the aspect ratio); default: the images' own. ``param``: "normal" |
+    "reflection" (default from the BRDF). ``brdf`` (a kind, "lambert", "phong", …), ``s``,
+    ``sigma``, ``brdf_params`` (other keys of the brdf table) and ``albedo`` (one number or r, g,
+    b): the sphere's BRDF where the images do not say it. ``layer``: the radiance layer of a
+    multi-layer EXR; ``pixel_filter``: the reconstruction filter of another renderer
+    ("gaussian:0.5", …); ``no_diagnosis``: skip the refits that name what is wrong.
 
-    Returns the ``--json`` document as a dict; lists of numbers become NumPy arrays (float64, null
-    → NaN; int64 when all integers): ``coefficients`` B_lm ((lmax+1)², 3), ``stderr`` (same or
-    absent), ``lm`` ((lmax+1)², 2) int64 (k = l(l+1) + m), ``lighting["coefficients"]`` L_lm,
-    ``filter`` (list of per-order dicts: A_l = albedo · Λ_l ρ̂_l fitted in pixel space,
-    ``estimate``/``stderr`` (3,) per channel), ``lambda_rho_analytic`` (lmax+1, 3),
-    ``predicted`` (eq. 15 B_lm), ``lmax_carried``, ``pixels_used``, ``warnings`` (list of str).
-    Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with the CLI's
-    one-line message, its flags named as this API's keywords (``--lmax`` → ``lmax=``).
+    Returns an :class:`AnalyzeReport`: ``coefficients`` B_lm ((lmax+1)², 3), ``stderr`` (same or
+    None), ``lm`` ((lmax+1)², 2) int64 (k = l(l+1) + m), ``lighting["coefficients"]`` L_lm,
+    ``filter`` (per order: A_l = albedo · Λ_l ρ̂_l fitted in pixel space, ``estimate``/``stderr``
+    (3,)), ``lambda_rho_analytic`` (lmax+1, 3), ``predicted`` (eq. 15 B_lm), ``verdict``,
+    ``warnings``; ``to_dict()`` is the CLI's ``--json`` document. Bad input raises
+    :class:`InputError` (a ``ValueError``; :class:`MissingFileError` for a missing file) naming the
+    keyword or the image. The GIL is released while the analysis runs.
     """
-    from ._commands import run
+    from ._analysis import analyze as run
 
     return run(
-        ["analyze"],
         images,
-        dict(lmax=lmax, mapping=mapping, param=param, **flags),
+        lmax=lmax,
+        lighting=lighting,
+        mapping=mapping,
+        param=param,
+        brdf=brdf,
+        s=s,
+        sigma=sigma,
+        brdf_params=brdf_params,
+        albedo=albedo,
         camera=camera,
         sphere=sphere,
         scene=scene,
         stderr=stderr,
-        lighting=lighting,
+        layer=layer,
+        pixel_filter=pixel_filter,
+        no_diagnosis=no_diagnosis,
     )
 
 
@@ -330,7 +357,7 @@ def verify(
     render within one tile and raises ``KeyboardInterrupt``. A failed check is a result (``passed`` false), not an exception.
     Lists of numbers are NumPy arrays, as in :func:`analyze`.
     """
-    from ._commands import _arrays
+    from ._analysis import _arrays
 
     quick = _args.boolean("quick", quick)
     seed = _args.optional_integer("seed", seed)

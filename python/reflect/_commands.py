@@ -1,4 +1,5 @@
-"""The analysis commands (``reflect analyze``, ``reflect invert …``) on files, renders and arrays.
+"""``reflect.invert.factor`` through the command line (the one analysis not yet in the ``analysis``
+library as parameters → report; :mod:`reflect._analysis` is how the others are called).
 
 Each function builds the command's argument list and runs the command's own library code in this
 process (``_reflect.report``): the CLI's parser, defaults, checks and numbers. Images that are not
@@ -31,9 +32,9 @@ import numpy as np
 
 from . import _args, _reflect
 from ._reflect import RenderResult
+from ._analysis import ImageLike  # noqa: F401  (re-exported for reflect.invert.factor)
 
 PathLike = Union[str, "os.PathLike[str]"]
-ImageLike = Union[PathLike, RenderResult, np.ndarray]
 
 # Flags whose repeated occurrences are one value per image (ViewArgs' --extent), not one vector.
 _PER_IMAGE_SCALARS = {"extent"}
@@ -163,28 +164,6 @@ class _Inputs:
             raise ValueError(f"image {i} (array): {e}") from None
         return str(p)
 
-    def lighting(self, lighting: Any) -> str:
-        """--lighting: a file as given; a dict (a scene's [lighting] table) or an SH coefficient
-        array ((L+1)², 3) as a scene file; an (H, W, 3) environment map as an EXR."""
-        if isinstance(lighting, (str, os.PathLike)):
-            return os.fspath(lighting)
-        if isinstance(lighting, dict):
-            p = self._new("lighting.toml", "<lighting dict>")
-            p.write_text(_reflect.lighting_toml(_absolute_file(lighting)))
-            return str(p)
-        a = np.asarray(lighting, dtype=np.float64)
-        if a.ndim == 2:
-            p = self._new("lighting.toml", "<lighting coefficients>")
-            p.write_text(_reflect.lighting_toml({"type": "sh", "coefficients": a.tolist()}))
-            return str(p)
-        a = _rgb_array(a, "lighting map")
-        p = self._new("lighting.exr", "<lighting map>")
-        try:
-            _reflect.write_image(str(p), {c: np.ascontiguousarray(a[..., k]) for k, c in enumerate("RGB")}, {})
-        except ValueError as e:
-            raise ValueError(f"lighting map (array): {e}") from None
-        return str(p)
-
     def relabel(self, v: Any) -> Any:
         """Temporary paths → labels in every string of a report (or a message)."""
         if not self.labels:
@@ -298,7 +277,6 @@ def run(
     sphere: Optional[Dict[str, Any]] = None,
     scene: Any = None,
     stderr: Any = None,
-    lighting: Any = None,
 ) -> Dict[str, Any]:
     """Runs ``reflect COMMAND … --flags`` in this process and returns its ``--json`` document."""
     imgs = _image_list(images)
@@ -326,11 +304,9 @@ def run(
                 header = _header(arrays.index(i), cams if cams is not None else camera, sphere, scene)
             paths.append(inputs.image(i, img, header, stderrs[i]))
         argv = list(command) + paths
-        if lighting is not None:
-            argv += ["--lighting", inputs.lighting(lighting)]
         argv += _flags(options)
         try:
-            doc = _reflect.report(argv)
+            doc = _reflect.factor_report(argv[2:])
         except FileNotFoundError as e:
             raise FileNotFoundError(_keywords(inputs.relabel(str(e)))) from None
         except ValueError as e:

@@ -139,11 +139,80 @@ def sh_transfer(
 def sh_rotate(coeffs: npt.NDArray[np.float64], rotation: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Coefficients of f(Rᵀω) for coefficients ((L+1)², 3) and a 3 × 3 rotation R: ((L+1)², 3) float64."""
 
-def report(argv: List[str]) -> Dict[str, Any]:
-    """Parses ``reflect ARGV…`` with the CLI's parser and runs ``analyze`` or ``invert
-    lighting | brdf | separate | factor`` in this process (GIL released), returning the document its
-    ``--json`` prints as plain Python objects (dicts, lists, floats, ints, str, None for null).
-    A usage error raises ``ValueError`` with the binary's one line (without ``error: ``)."""
+# The analyses: ``images`` are paths (str), RenderResult objects, or ``{"channels": {name: (H, W)
+# float32}, "attributes": {str: str}}`` (an array's layers and the header of what it shows);
+# ``names`` one name per image for reports and messages (a path, "<array i>", "<RenderResult i>");
+# ``view`` ``{"scene": path | None (the sidecar scene of files), "center": [x, y, z] | None,
+# "radius": float | None, "layer": str | None, "pixel_filter": str | None}``. Each returns
+# ``(doc, notes)``: the ``--json`` document as plain Python objects (null → None) and the CLI's
+# ``note: …`` lines. No file is written; the GIL is released while the analysis runs.
+
+Images = List[Any]
+Report = Tuple[Dict[str, Any], List[str]]
+
+def analyze(
+    images: Images,
+    names: List[str],
+    view: Dict[str, Any],
+    *,
+    lmax: int,
+    lighting: Any = None,
+    mapping: Optional[str] = None,
+    param: Optional[str] = None,
+    brdf: Optional[str] = None,
+    brdf_params: List[Tuple[str, Union[float, str]]] = ...,
+    albedo: Optional[List[float]] = None,
+    no_diagnosis: bool = False,
+) -> Report:
+    """``analysis::analyze::analyze``. ``lighting``: a path, a ``[lighting]`` dict, SH coefficients
+    ((L+1)², 3) float64 or a map (H, W, 3) float32 (projected here, with ``mapping``)."""
+
+def invert_lighting(
+    images: Images,
+    names: List[str],
+    view: Dict[str, Any],
+    *,
+    lmax: int,
+    brdf: Optional[str] = None,
+    brdf_params: List[Tuple[str, Union[float, str]]] = ...,
+    albedo: Optional[List[float]] = None,
+    max_amplification: float = 10.0,
+    discrepancy: bool = False,
+) -> Report:
+    """``analysis::invert::lighting`` (λ by GCV, or the discrepancy principle)."""
+
+def invert_brdf(
+    images: Images,
+    names: List[str],
+    view: Dict[str, Any],
+    *,
+    model: str,
+    lmax: int,
+    lighting: Any = None,
+    mapping: Optional[str] = None,
+    distribution: Optional[str] = None,
+    min: Optional[float] = None,
+    max: Optional[float] = None,
+) -> Report:
+    """``analysis::invert::brdf``; ``model`` "phong" | "torrance-sparrow" | "microfacet"."""
+
+def invert_separate(
+    images: Images,
+    names: List[str],
+    view: Dict[str, Any],
+    *,
+    lmax: int,
+    kd: Optional[List[float]] = None,
+    ks: Optional[List[float]] = None,
+    channel: Optional[int] = None,
+    scan: bool = False,
+) -> Report:
+    """``analysis::separate::separate``; ``channel`` 0, 1, 2 for R, G, B (None: all three)."""
+
+def factor_report(argv: List[str]) -> Dict[str, Any]:
+    """Parses ``reflect invert factor ARGV…`` with the CLI's parser and runs it in this process
+    (GIL released), returning the document its ``--json`` prints as plain Python objects. A usage
+    error raises ``ValueError`` with the binary's one line (without ``error: ``)."""
 
 def write_image(path: str, channels: Dict[str, npt.NDArray[np.float32]], attributes: Dict[str, str]) -> None:
     """Writes a 32-bit float OpenEXR: each C-contiguous (H, W) float32 array of ``channels`` (one
@@ -153,9 +222,6 @@ def header_attributes(scene: Dict[str, Any]) -> Dict[str, str]:
     """``reflect:camera``, ``reflect:lighting``, ``reflect:objects`` as a render of ``scene`` (a dict
     with ``camera``, ``lighting`` and ``objects`` tables of the scene vocabulary) writes them:
     checked with the scene file's types, defaults filled, numbers as float32 (as the renderer holds them)."""
-
-def lighting_toml(table: Dict[str, Any]) -> str:
-    """A scene file holding only this ``[lighting]`` table (checked with the scene types), for ``--lighting``."""
 
 def compare(
     images: List[Union[str, Dict[str, Any]]],

@@ -1,25 +1,25 @@
-"""Inverse rendering from images of a sphere (paper sec. 2.2 and 3): ``reflect invert …`` in Python.
+"""Inverse rendering from images of a sphere (paper sec. 2.2 and 3): the analyses of ``reflect
+invert …``, called directly.
 
-Each function runs the command's own code in this process and returns the document its
-``--json`` prints, as a dict with NumPy arrays for the lists of numbers (see
-:func:`reflect.analyze` for the conversion and for the image arguments: paths, renders, or
-(H, W, 3) arrays with ``camera`` / ``sphere`` / ``scene`` describing them). Keyword arguments are
-the command's flags (``max_amplification=20`` is ``--max-amplification 20``, ``from_=…`` is
-``--from``; True is a bare flag;
-vectors and RGB triples are sequences; one value per image is a list); a flag the CLI gains is
-accepted here too. Bad input raises ``ValueError`` (``FileNotFoundError`` for a missing file) with
-the command's one-line message, its flags named as keywords (``--from`` → ``from_=``).
+:func:`lighting`, :func:`brdf` and :func:`separate` take images as :func:`reflect.analyze` does
+(paths, renders, or (H, W, 3) arrays with ``camera`` / ``sphere`` / ``scene`` / ``stderr``
+describing them), write no file, and return report objects (:class:`reflect.InvertLightingReport`,
+…) whose attributes are NumPy arrays and whose ``to_dict()`` is the CLI's ``--json`` document. Bad
+input raises :class:`reflect.InputError` (a ``ValueError``; :class:`reflect.MissingFileError` for
+a missing file) naming the keyword or the image.
+
+:func:`factor` still runs the command line in this process (``reflect invert factor``, arrays
+written to temporary files first) and returns the ``--json`` document as a dict.
 """
 
 from __future__ import annotations
 
 from typing import Any, Dict, Optional, Sequence, Union
 
-from ._commands import ImageLike, run
+from . import _analysis
+from ._analysis import Images, InvertBrdfReport, InvertLightingReport, InvertSeparateReport
 
 __all__ = ["brdf", "factor", "lighting", "separate"]
-
-Images = Union[ImageLike, Sequence[ImageLike]]
 
 
 def lighting(
@@ -29,35 +29,50 @@ def lighting(
     brdf: Optional[str] = None,
     s: Optional[float] = None,
     sigma: Optional[float] = None,
+    brdf_params: Optional[Dict[str, Any]] = None,
     albedo: Union[None, float, Sequence[float]] = None,
+    max_amplification: float = 10.0,
+    lambda_rule: str = "gcv",
     camera: Any = None,
     sphere: Optional[Dict[str, Any]] = None,
     scene: Any = None,
     stderr: Any = None,
-    **flags: Any,
-) -> Dict[str, Any]:
-    """The lighting L_lm from images of a sphere of known BRDF (eq. 17): ``reflect invert lighting --json``.
+    layer: Optional[str] = None,
+    pixel_filter: Optional[str] = None,
+) -> InvertLightingReport:
+    """The lighting L_lm from images of a sphere of known BRDF (eq. 17): ``reflect invert lighting``.
 
     L_lm = B_lm / (albedo Λ_l ρ̂_l) per order (a normal-probe image), or fitted in pixel space over
     the visible normals (orthographic views), with standard errors, the noise amplification and
     status of each order (``recovered`` / ``ill-conditioned`` / ``unobservable``: NaN rows in
-    ``coefficients``), and the Tikhonov-regularised lighting (``regularised``). ``brdf``, ``s``,
-    ``sigma``, ``albedo``: the BRDF (default: the image header's). Other flags:
-    ``max_amplification``, ``lambda_rule`` ("gcv" | "discrepancy"), ``output`` (a lat-long EXR
-    of the regularised lighting) and ``width``.
+    ``coefficients``), and the Tikhonov-regularised lighting (``regularised``, λ by
+    ``lambda_rule`` "gcv" or "discrepancy"). ``brdf``, ``s``, ``sigma``, ``brdf_params``,
+    ``albedo`` (one number or r, g, b): the BRDF where the images do not say it (a value that
+    contradicts theirs is an error naming both). ``max_amplification`` (≥ 1): the noise
+    amplification above which an order is ill-conditioned.
 
-    Returns e.g. ``coefficients`` ((lmax+1)², 3) float64 (NaN where unobservable), ``stderr``
-    likewise, ``lm`` ((lmax+1)², 2) int64, ``lambda_rho`` (lmax+1,), ``orders`` (list of dicts),
-    ``regularised["coefficients"]`` ((lmax+1)², 3), ``warnings`` (list of str).
+    Returns an :class:`reflect.InvertLightingReport`: ``coefficients`` ((lmax+1)², 3) float64
+    (radiance; NaN where unobservable), ``stderr`` likewise, ``lm`` ((lmax+1)², 2) int64,
+    ``lambda_rho`` (lmax+1,), ``albedo`` (3,), ``orders`` (list of dicts),
+    ``regularised["coefficients"]`` ((lmax+1)², 3), ``warnings`` (list of str). Evaluate the
+    regularised lighting on directions with :func:`reflect.sh.evaluate`.
     """
-    return run(
-        ["invert", "lighting"],
+    return _analysis.invert_lighting(
         images,
-        dict(lmax=lmax, brdf=brdf, s=s, sigma=sigma, albedo=albedo, **flags),
+        lmax=lmax,
+        brdf=brdf,
+        s=s,
+        sigma=sigma,
+        brdf_params=brdf_params,
+        albedo=albedo,
+        max_amplification=max_amplification,
+        lambda_rule=lambda_rule,
         camera=camera,
         sphere=sphere,
         scene=scene,
         stderr=stderr,
+        layer=layer,
+        pixel_filter=pixel_filter,
     )
 
 
@@ -68,61 +83,68 @@ def brdf(
     lmax: int,
     lighting: Any = None,
     mapping: Optional[str] = None,
+    distribution: Optional[str] = None,
+    min: Optional[float] = None,
+    max: Optional[float] = None,
     camera: Any = None,
     sphere: Optional[Dict[str, Any]] = None,
     scene: Any = None,
     stderr: Any = None,
-    **flags: Any,
-) -> Dict[str, Any]:
-    """Λ_l ρ̂_l per order (eq. 16) and the fitted Phong s or Torrance–Sparrow σ: ``reflect invert brdf --json``.
+    layer: Optional[str] = None,
+    pixel_filter: Optional[str] = None,
+) -> InvertBrdfReport:
+    """Λ_l ρ̂_l per order (eq. 16) and the fitted model parameter: ``reflect invert brdf``.
 
-    ``model``: "phong" (exponent s, eq. 43) or "torrance-sparrow" (roughness σ in radians, eq. 50
-    / 59). ``lighting``: as in :func:`reflect.analyze` (a file, a ``[lighting]`` dict, SH
-    coefficients or an environment-map array; default the image header's). Flags ``min`` and
-    ``max``: the parameter's search range. Returns e.g. ``estimate`` (float), ``interval`` (2,)
-    float64 (NaN: unbounded within the range), ``filter`` (list of per-order dicts with
-    ``estimate`` / ``stderr`` (3,) arrays), ``profile`` (N, 2) float64 of (parameter, Δχ²).
+    ``model``: "phong" (exponent s, eq. 43), "torrance-sparrow" (roughness σ in radians, eq. 50 /
+    59) or "microfacet" (roughness α; ``distribution`` "beckmann" (default) or "ggx").
+    ``lighting``: as in :func:`reflect.analyze` (a file, a ``[lighting]`` dict, SH coefficients or
+    an environment-map array; default the images' own). ``min``, ``max``: the parameter's search
+    range. Returns an :class:`reflect.InvertBrdfReport`: ``estimate`` (float), ``interval`` (2,)
+    float64 (NaN: unbounded within the range), ``filter`` (per order: ``estimate`` / ``stderr``
+    (3,)), ``profile`` (N, 2) float64 of (parameter, Δχ²).
     """
-    return run(
-        ["invert", "brdf"],
+    return _analysis.invert_brdf(
         images,
-        dict(model=model, lmax=lmax, mapping=mapping, **flags),
+        model=model,
+        lmax=lmax,
+        lighting=lighting,
+        mapping=mapping,
+        distribution=distribution,
+        min=min,
+        max=max,
         camera=camera,
         sphere=sphere,
         scene=scene,
         stderr=stderr,
-        lighting=lighting,
+        layer=layer,
+        pixel_filter=pixel_filter,
     )
 
 
 def separate(
     images: Images,
     *,
+    lmax: int = 8,
     kd: Union[None, float, Sequence[float]] = None,
     ks: Union[None, float, Sequence[float]] = None,
-    lmax: Optional[int] = None,
+    channel: Optional[str] = None,
+    scan: bool = False,
     camera: Any = None,
-    sphere: Optional[Dict[str, Any]] = None,
     scene: Any = None,
     stderr: Any = None,
-    **flags: Any,
-) -> Dict[str, Any]:
-    """Diffuse + specular separation (sec. 3.5): ``reflect invert separate --json``.
+    layer: Optional[str] = None,
+) -> InvertSeparateReport:
+    """Diffuse + specular separation (sec. 3.5): ``reflect invert separate``.
 
     ``images``: normal-probe views of a k_d · lambert + k_s · mirror sphere, the diffuse view
     (θ_o = 0) first, then specular views (θ_o > 0, φ_o 0 or 180). Arrays need ``camera`` (one
-    ``{"type": "normal-probe", "theta_o_deg": …, "phi_o_deg": …}`` per array). ``kd``, ``ks``:
-    one number or RGB (default: the header's mix). Flags: ``channel`` ("r" | "g" | "b"), ``scan``
-    (True), ``output``, ``width``.
+    ``{"type": "normal-probe", "theta_o_deg": …, "phi_o_deg": …}`` per array) or ``scene``.
+    ``kd``, ``ks``: one number or r, g, b (default: the header's mix). ``lmax`` ≤ 32;
+    ``channel`` ("r" | "g" | "b"; default all three); ``scan``: scan the diffuse fraction for the
+    consistency χ² minimum. Returns an :class:`reflect.InvertSeparateReport`.
     """
-    return run(
-        ["invert", "separate"],
-        images,
-        dict(kd=kd, ks=ks, lmax=lmax, **flags),
-        camera=camera,
-        sphere=sphere,
-        scene=scene,
-        stderr=stderr,
+    return _analysis.invert_separate(
+        images, lmax=lmax, kd=kd, ks=ks, channel=channel, scan=scan, camera=camera, scene=scene, stderr=stderr, layer=layer
     )
 
 
@@ -144,4 +166,6 @@ def factor(
     "pixel"), ``max_amplification``. Returns e.g. ``orders`` (list of dicts), ``lighting``
     ((lmax+1)²,) float64 (L_lm / P, NaN where ambiguous).
     """
+    from ._commands import run
+
     return run(["invert", "factor"], images, dict(lmax=lmax, **flags), camera=camera, sphere=sphere, stderr=stderr)

@@ -1,59 +1,397 @@
-//! `reflect.analyze` and `reflect.invert.*`: the reports of `reflect analyze` and `reflect invert
-//! lighting | brdf | separate | factor`, computed by the commands' own library functions on
-//! arguments parsed by the CLI's own parser, so the options, their defaults, their checks and the
-//! numbers are those of the command line (and a flag added there is one here too). Images given
-//! as arrays are written by the Python side as the EXR files the commands read
-//! ([`write_image`], [`header_attributes`]).
+//! `reflect.analyze` and `reflect.invert.lighting | brdf | separate`: the analysis library's own
+//! functions ([`analysis::analyze`], [`analysis::invert`], [`analysis::separate`]) called on images
+//! held in memory: files read as the CLI reads them ([`reflect::images`]), renders as the image
+//! their saved file holds ([`renderer::render_file::film_image`]), arrays as the layers and header
+//! attributes the Python side built. No file is written and no command line is built; the
+//! arguments arrive checked and typed by the Python side (`reflect/_commands.py`), which names its
+//! keywords in every message it raises.
+//!
+//! Each function returns `(doc, notes)`: the report as the document `--json` prints (through
+//! `serde_json`, so non-finite numbers are null there and here) and the `note: …` lines the CLI
+//! prints on stderr. The GIL is released while the analysis runs; a panic becomes `RuntimeError`.
 
-use crate::convert::{IntoPy, to_python};
-use analysis::Error;
-use analysis::image::{Image, write_exr};
-use clap::Parser;
-use numpy::PyReadonlyArray2;
-use pyo3::exceptions::PyValueError;
+use crate::convert::{input_error, py_err, to_python};
+use crate::render::RenderResult;
+use analysis::image::{Image, RgbImage};
+use analysis::lighting::Lighting;
+use analysis::observation::{BrdfValues, CameraValues, Given, LightingInput, Observation, Spelling};
+use analysis::projection::{Mapping, Param};
+use analysis::transfer::ParamValue;
+use numpy::{PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
-use reflect::cli::invert::InvertCommand;
-use reflect::cli::{Cli, Command};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use vocab::scene::SceneFile;
 
-fn json<T: serde::Serialize>(r: Result<T, Error>) -> Result<serde_json::Value, Error> {
-    serde_json::to_value(r?).map_err(|e| Error::new(format!("JSON output: {e}")))
+/// One image argument: a file's path, a render, or the layers and header of an array.
+enum Input {
+    File(PathBuf),
+    Memory(Image),
 }
 
-/// `report(argv)`: parses `reflect ARGV…` with the CLI's parser and runs `analyze` or one of the
-/// `invert` subcommands, returning the document its `--json` prints (through `serde_json`, so
-/// exactly that document: non-finite numbers are null there and here). The GIL is released while
-/// the command runs.
-#[pyfunction]
-pub fn report<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, PyAny>> {
-    let cli = Cli::try_parse_from(std::iter::once("reflect".to_string()).chain(argv)).map_err(|e| {
-        // One line, as the binary prints it (src/main.rs): clap's message up to its usage block,
-        // continuation lines joined on (without the "error: " every Python message goes without).
-        let text = e.render().to_string();
-        let msg: Vec<&str> = text
-            .lines()
-            .map(str::trim)
-            .skip_while(|l| l.is_empty())
-            .take_while(|l| !l.is_empty() && !l.starts_with("Usage:"))
-            .collect();
-        PyValueError::new_err(msg.join(" ").trim_start_matches("error: ").to_string())
-    })?;
-    // A panic (a bug) becomes RuntimeError here, as in a render, rather than pyo3's PanicException.
-    let run = || match cli.command {
-        Command::Analyze(a) => json(reflect::cli::analyze::analyze(&a)),
-        Command::Invert(InvertCommand::Lighting(a)) => json(reflect::cli::invert::invert_lighting_report(&a)),
-        Command::Invert(InvertCommand::Brdf(a)) => json(reflect::cli::invert::invert_brdf_report(&a)),
-        Command::Invert(InvertCommand::Separate(a)) => json(reflect::cli::separate::separate_report(&a)),
-        Command::Invert(InvertCommand::Factor(a)) => json(reflect::cli::factor::factor_report(&a)),
-        _ => Err(Error::new("only analyze and invert lighting|brdf|separate|factor return a report here")),
+/// The image arguments of a call, in order (`names`: each one's name in reports and messages).
+fn inputs(images: &[Bound<'_, PyAny>]) -> PyResult<Vec<Input>> {
+    let mut out = Vec::with_capacity(images.len());
+    for img in images {
+        if let Ok(r) = img.cast::<RenderResult>() {
+            out.push(Input::Memory(r.get().image()));
+        } else if let Ok(p) = img.extract::<PathBuf>() {
+            out.push(Input::File(p));
+        } else {
+            let channels: BTreeMap<String, PyReadonlyArray2<'_, f32>> = img.get_item("channels")?.extract()?;
+            let attributes: BTreeMap<String, String> = img.get_item("attributes")?.extract()?;
+            let mut image = Image { attributes, ..Default::default() };
+            for (name, a) in &channels {
+                let a = a.as_array();
+                (image.height, image.width) = a.dim();
+                image.channels.insert(name.clone(), a.iter().copied().collect());
+            }
+            out.push(Input::Memory(image));
+        }
+    }
+    Ok(out)
+}
+
+/// How images are described besides their headers (the CLI's view flags, in Python's terms).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct View {
+    /// The sidecar scene of files (`scene=` beside files).
+    scene: Option<PathBuf>,
+    center: Option<[f64; 3]>,
+    radius: Option<f64>,
+    layer: Option<String>,
+    pixel_filter: Option<String>,
+}
+
+/// Reads and describes the images (as the CLI's `load`): files read with their radiance layer,
+/// error bars bounded near flagged pixels, everything described and made ready by
+/// [`analysis::observation::observe`]. `what` is the command's verb for refusals.
+fn load(
+    inputs: Vec<Input>,
+    names: &[PathBuf],
+    view: &View,
+    what: &str,
+    probe_only: bool,
+) -> Result<(Vec<Image>, Observation, Vec<String>), analysis::Error> {
+    let files: Vec<PathBuf> =
+        inputs.iter().filter_map(|i| if let Input::File(p) = i { Some(p.clone()) } else { None }).collect();
+    let (read, mut notes) = reflect::images::read(&files, view.layer.as_deref())?;
+    let mut read = read.into_iter();
+    let mut images = Vec::with_capacity(inputs.len());
+    for (input, name) in inputs.into_iter().zip(names) {
+        images.push(match input {
+            Input::File(_) => read.next().unwrap_or_default(),
+            Input::Memory(img) => {
+                let (img, note) = img.select_layer(view.layer.as_deref()).map_err(|e| e.in_file(name))?;
+                notes.extend(note.map(|n| format!("note: {}: {n}", name.display())));
+                img
+            }
+        });
+    }
+    let stderr_notes = reflect::images::bound_flagged(&mut images, names);
+    let scene: Option<(PathBuf, SceneFile)> =
+        view.scene.as_ref().map(|p| reflect::images::read_scene(p).map(|s| (p.clone(), s))).transpose()?;
+    let cameras = vec![CameraValues::default(); images.len()];
+    let given = Given {
+        scene: scene.as_ref().map(|(p, s)| (p.as_path(), s)),
+        cameras: &cameras,
+        center: view.center,
+        radius: view.radius,
+        probe_only,
+        what,
     };
-    let doc = py
-        .detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)))
-        .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("the command panicked (a bug in reflect)"))?
-        .py()?;
-    to_python(py, &doc)
+    let filter = pixel_filter(view)?;
+    let mut d = analysis::observation::observe(&mut images, names, &given, view.layer.as_deref(), filter)
+        .map_err(no_camera_in_keywords)?;
+    notes.append(&mut d.notes);
+    d.stderr_notes = stderr_notes;
+    Ok((images, d, notes))
+}
+
+/// A file with no camera in its header: what to pass, in Python's terms (the observation's own
+/// message names the CLI's flags).
+fn no_camera_in_keywords(e: analysis::observation::Error) -> analysis::Error {
+    use analysis::observation::Error as O;
+    match e {
+        O::InFile { path, error } if matches!(*error, O::NoCamera { .. }) => analysis::Error::file(
+            path,
+            "no reflect:camera in the header: pass scene= (the scene this image is a render of), or its pixels as \
+             an array with camera=",
+        ),
+        e => e.into(),
+    }
+}
+
+fn pixel_filter(view: &View) -> Result<Option<analysis::noise::PixelFilter>, analysis::Error> {
+    view.pixel_filter
+        .as_deref()
+        .map(|s| s.parse().map_err(|e: String| analysis::Error::new(format!("pixel_filter=: {e}"))))
+        .transpose()
+}
+
+/// A closed set's member by name, an unknown name named with its keyword.
+fn parse<T: std::str::FromStr<Err = vocab::Error>>(keyword: &str, v: Option<String>) -> PyResult<Option<T>> {
+    v.map(|s| s.parse::<T>().map_err(|e| input_error(format!("{keyword}=: {}", e.message)))).transpose()
+}
+
+/// The lighting argument: a file path, a `[lighting]` table (dict), SH coefficients ((L+1)², 3)
+/// or an environment map (H, W, 3) projected here to the order the fits read (`lmax` + 2 and the
+/// truncation sequence's), with `mapping`.
+fn lighting_input(
+    v: Option<&Bound<'_, PyAny>>,
+    mapping: Option<Mapping>,
+    lmax: usize,
+) -> PyResult<Option<LightingInput>> {
+    let Some(v) = v else { return Ok(None) };
+    if let Ok(p) = v.extract::<PathBuf>() {
+        return Ok(Some(LightingInput::File(p)));
+    }
+    if v.is_instance_of::<pyo3::types::PyDict>() {
+        let section: vocab::LightingSection = pythonize::depythonize(v)
+            .map_err(|e| input_error(format!("lighting=: {}", e.to_string().replace('\n', " "))))?;
+        let cwd = std::env::current_dir().ok();
+        let lighting =
+            Lighting::from_section(&section, cwd.as_deref()).map_err(|e| input_error(format!("lighting=: {e}")))?;
+        return Ok(Some(LightingInput::Value { lighting, name: "<lighting dict>".into() }));
+    }
+    if let Ok(c) = v.extract::<PyReadonlyArray2<'_, f64>>() {
+        let coefficients: Vec<[f64; 3]> = c.as_array().outer_iter().map(|r| [r[0], r[1], r[2]]).collect();
+        return Ok(Some(LightingInput::Value {
+            lighting: Lighting::Sh { coefficients },
+            name: "<lighting coefficients>".into(),
+        }));
+    }
+    let a: PyReadonlyArray3<'_, f32> = v.extract()?;
+    let a = a.as_array();
+    let (h, w, _) = a.dim();
+    let pixels: Vec<[f32; 3]> =
+        a.outer_iter().flat_map(|row| row.outer_iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>()).collect();
+    let img = RgbImage { width: w, height: h, pixels };
+    let mapping = match mapping {
+        Some(m) => m,
+        None => Mapping::infer(w, h).map_err(|e| input_error(format!("lighting= (map array): {}", e.message)))?,
+    };
+    let coefficients = analysis::projection::project_envmap(&img, mapping, analysis::truncation::truncation_lmax(lmax))
+        .map_err(|e| input_error(format!("lighting= (map array): {}", e.message)))?;
+    Ok(Some(LightingInput::Value { lighting: Lighting::Sh { coefficients }, name: "<lighting map>".into() }))
+}
+
+/// The explicit BRDF (`brdf=`, `s=`, `sigma=`, `brdf_params=`, `albedo=`).
+fn brdf_values(
+    brdf: Option<String>,
+    params: Vec<(String, Bound<'_, PyAny>)>,
+    albedo: Option<[f64; 3]>,
+) -> PyResult<BrdfValues> {
+    let params = params
+        .into_iter()
+        .map(|(k, v)| {
+            let value = match v.extract::<f64>() {
+                Ok(x) => ParamValue::Number(x),
+                Err(_) => v
+                    .extract::<String>()?
+                    .parse()
+                    .map_err(|e: analysis::Error| input_error(format!("brdf_params['{k}']: {}", e.message)))?,
+            };
+            Ok((k, value))
+        })
+        .collect::<PyResult<_>>()?;
+    Ok(BrdfValues { kind: parse("brdf", brdf)?, params, albedo, spelling: Spelling::Keywords })
+}
+
+/// Runs `work` without the GIL; a panic (a bug) becomes `RuntimeError`.
+fn detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> Result<T, analysis::Error> + Send) -> PyResult<T> {
+    py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)))
+        .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("the analysis panicked (a bug in reflect)"))?
+        .map_err(py_err)
+}
+
+/// `(doc, notes)` of a report.
+fn result<'py, R: serde::Serialize>(
+    py: Python<'py>,
+    r: &R,
+    notes: Vec<String>,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    let doc = serde_json::to_value(r).map_err(|e| input_error(format!("JSON output: {e}")))?;
+    Ok((to_python(py, &doc)?, notes))
+}
+
+fn paths(names: Vec<String>) -> Vec<PathBuf> {
+    names.into_iter().map(PathBuf::from).collect()
+}
+
+/// `analyze(images, names, view, lmax, …)` → `(doc, notes)`: [`analysis::analyze::analyze`].
+#[pyfunction]
+#[pyo3(signature = (images, names, view, *, lmax, lighting=None, mapping=None, param=None, brdf=None, brdf_params=Vec::new(), albedo=None, no_diagnosis=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn analyze<'py>(
+    py: Python<'py>,
+    images: Vec<Bound<'py, PyAny>>,
+    names: Vec<String>,
+    view: View,
+    lmax: usize,
+    lighting: Option<Bound<'py, PyAny>>,
+    mapping: Option<String>,
+    param: Option<String>,
+    brdf: Option<String>,
+    brdf_params: Vec<(String, Bound<'py, PyAny>)>,
+    albedo: Option<[f64; 3]>,
+    no_diagnosis: bool,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    let mapping: Option<Mapping> = parse("mapping", mapping)?;
+    let params = analysis::analyze::AnalyzeParams {
+        lmax,
+        lighting: lighting_input(lighting.as_ref(), mapping, lmax)?,
+        mapping: mapping.filter(|_| lighting.as_ref().is_some_and(|l| l.extract::<PathBuf>().is_ok())),
+        param: match param.as_deref() {
+            None => None,
+            Some("normal") => Some(Param::Normal),
+            Some("reflection") => Some(Param::Reflection),
+            Some(p) => return Err(input_error(format!("param= must be \"normal\" or \"reflection\", got {p:?}"))),
+        },
+        brdf: brdf_values(brdf, brdf_params, albedo)?,
+        pixel_filter: pixel_filter(&view).map_err(py_err)?,
+        no_diagnosis,
+    };
+    let inputs = inputs(&images)?;
+    let names = paths(names);
+    let (r, notes) = detached(py, || {
+        params.validate()?;
+        let (images, observed, mut notes) = load(inputs, &names, &view, "analysed", false)?;
+        let r = analysis::analyze::analyze(&params, images, &names, &observed)?;
+        notes.extend(r.notes.iter().cloned());
+        Ok((r, notes))
+    })?;
+    result(py, &r, notes)
+}
+
+/// `invert_lighting(images, names, view, lmax, …)` → `(doc, notes)`: [`analysis::invert::lighting()`].
+#[pyfunction]
+#[pyo3(signature = (images, names, view, *, lmax, brdf=None, brdf_params=Vec::new(), albedo=None, max_amplification=analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION, discrepancy=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn invert_lighting<'py>(
+    py: Python<'py>,
+    images: Vec<Bound<'py, PyAny>>,
+    names: Vec<String>,
+    view: View,
+    lmax: usize,
+    brdf: Option<String>,
+    brdf_params: Vec<(String, Bound<'py, PyAny>)>,
+    albedo: Option<[f64; 3]>,
+    max_amplification: f64,
+    discrepancy: bool,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    use analysis::inverse::lighting::Rule;
+    let params = analysis::invert::LightingParams {
+        lmax,
+        brdf: brdf_values(brdf, brdf_params, albedo)?,
+        max_amplification,
+        rule: if discrepancy { Rule::Discrepancy } else { Rule::Gcv },
+        map: None,
+        pixel_filter: pixel_filter(&view).map_err(py_err)?,
+    };
+    let inputs = inputs(&images)?;
+    let names = paths(names);
+    let (r, notes) = detached(py, || {
+        analysis::invert::lighting::validate(&params)?;
+        let (images, observed, mut notes) = load(inputs, &names, &view, "inverted", false)?;
+        let r = analysis::invert::lighting(&params, images, &names, &observed)?;
+        notes.extend(r.notes.iter().cloned());
+        Ok((r, notes))
+    })?;
+    result(py, &r, notes)
+}
+
+/// `invert_brdf(images, names, view, model, lmax, …)` → `(doc, notes)`: [`analysis::invert::brdf()`].
+#[pyfunction]
+#[pyo3(signature = (images, names, view, *, model, lmax, lighting=None, mapping=None, distribution=None, min=None, max=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn invert_brdf<'py>(
+    py: Python<'py>,
+    images: Vec<Bound<'py, PyAny>>,
+    names: Vec<String>,
+    view: View,
+    model: &str,
+    lmax: usize,
+    lighting: Option<Bound<'py, PyAny>>,
+    mapping: Option<String>,
+    distribution: Option<String>,
+    min: Option<f64>,
+    max: Option<f64>,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    use analysis::invert::FitModel;
+    let mapping: Option<Mapping> = parse("mapping", mapping)?;
+    let model = match model {
+        "phong" => FitModel::Phong,
+        "torrance-sparrow" => FitModel::TorranceSparrow,
+        "microfacet" => FitModel::Microfacet { distribution: parse("distribution", distribution)?.unwrap_or_default() },
+        m => {
+            return Err(input_error(format!(
+                "model= must be \"phong\", \"torrance-sparrow\" or \"microfacet\", got {m:?}"
+            )));
+        }
+    };
+    let params = analysis::invert::BrdfParams {
+        lmax,
+        lighting: lighting_input(lighting.as_ref(), mapping, lmax)?,
+        mapping: mapping.filter(|_| lighting.as_ref().is_some_and(|l| l.extract::<PathBuf>().is_ok())),
+        model,
+        min,
+        max,
+        pixel_filter: pixel_filter(&view).map_err(py_err)?,
+    };
+    let inputs = inputs(&images)?;
+    let names = paths(names);
+    let (r, notes) = detached(py, || {
+        analysis::invert::brdf::validate(&params)?;
+        let (images, observed, mut notes) = load(inputs, &names, &view, "inverted", false)?;
+        let r = analysis::invert::brdf(&params, images, &names, &observed)?;
+        notes.extend(r.notes.iter().cloned());
+        Ok((r, notes))
+    })?;
+    result(py, &r, notes)
+}
+
+/// `invert_separate(images, names, view, lmax, …)` → `(doc, notes)`: [`analysis::separate::separate`].
+#[pyfunction]
+#[pyo3(signature = (images, names, view, *, lmax, kd=None, ks=None, channel=None, scan=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn invert_separate<'py>(
+    py: Python<'py>,
+    images: Vec<Bound<'py, PyAny>>,
+    names: Vec<String>,
+    view: View,
+    lmax: usize,
+    kd: Option<[f64; 3]>,
+    ks: Option<[f64; 3]>,
+    channel: Option<usize>,
+    scan: bool,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    let params = analysis::separate::SeparateParams { kd, ks, lmax, channel, scan, map: None };
+    let inputs = inputs(&images)?;
+    let names = paths(names);
+    let (r, notes) = detached(py, || {
+        analysis::separate::validate(&params, inputs.len())?;
+        let (images, observed, notes) = load(inputs, &names, &view, "separated", true)?;
+        let r = analysis::separate::separate(&params, &images, &names, &observed)?;
+        Ok((r, notes))
+    })?;
+    result(py, &r, notes)
+}
+
+/// `header_attributes(scene)` → the `reflect:camera`, `reflect:lighting` and `reflect:objects`
+/// attributes a render of `scene` (a dict with `camera`, `lighting` and `objects` tables in the
+/// scene vocabulary) carries in its header: the same serde types as a scene file (unknown keys and
+/// bad values are errors, defaults filled in, numbers as the renderer holds them).
+#[pyfunction]
+pub fn header_attributes(scene: &Bound<'_, PyAny>) -> PyResult<BTreeMap<String, String>> {
+    let file: SceneFile = pythonize::depythonize(scene)
+        .map_err(|e| input_error(format!("scene: {}", e.to_string().replace('\n', " "))))?;
+    let keep = [vocab::header::CAMERA, vocab::header::LIGHTING, vocab::header::OBJECTS];
+    Ok(vocab::header::attributes(&file, renderer::output::INTEGRATOR)
+        .into_iter()
+        .filter(|(k, _)| keep.contains(&k.as_str()))
+        .collect())
 }
 
 /// `write_image(path, channels, attributes)`: writes an OpenEXR file (32-bit float) with the
@@ -72,46 +410,17 @@ pub fn write_image(
         let a = a.as_array();
         let (h, w) = a.dim();
         if *shape.get_or_insert((h, w)) != (h, w) {
-            return Err(PyValueError::new_err(format!(
+            return Err(input_error(format!(
                 "channel {name} has shape ({h}, {w}), the others {:?}",
                 shape.unwrap_or_default()
             )));
         }
         if let Some(((r, c), v)) = a.indexed_iter().find(|(_, v)| !v.is_finite()) {
-            return Err(PyValueError::new_err(format!("channel {name}: non-finite value {v} at row {r}, column {c}")));
+            return Err(input_error(format!("channel {name}: non-finite value {v} at row {r}, column {c}")));
         }
         img.channels.insert(name.clone(), a.iter().copied().collect());
     }
-    let (h, w) = shape.ok_or_else(|| PyValueError::new_err("an image needs at least one channel"))?;
+    let (h, w) = shape.ok_or_else(|| input_error("an image needs at least one channel"))?;
     (img.height, img.width) = (h, w);
-    py.detach(|| write_exr(&path, &img)).py()
-}
-
-/// `header_attributes(scene)` → the `reflect:camera`, `reflect:lighting` and `reflect:objects`
-/// attributes a render of `scene` (a dict with `camera`, `lighting` and `objects` tables in the
-/// scene vocabulary) carries in its header: the same serde types as a scene file (unknown keys and
-/// bad values are errors, defaults filled in, numbers as the renderer holds them).
-#[pyfunction]
-pub fn header_attributes(scene: &Bound<'_, PyAny>) -> PyResult<BTreeMap<String, String>> {
-    let file: SceneFile = pythonize::depythonize(scene)
-        .map_err(|e| PyValueError::new_err(format!("scene: {}", e.to_string().replace('\n', " "))))?;
-    let keep = [vocab::header::CAMERA, vocab::header::LIGHTING, vocab::header::OBJECTS];
-    Ok(vocab::header::attributes(&file, renderer::output::INTEGRATOR)
-        .into_iter()
-        .filter(|(k, _)| keep.contains(&k.as_str()))
-        .collect())
-}
-
-/// `lighting_toml(table)` → a scene file holding only this `[lighting]` table (the scene
-/// vocabulary, checked with its serde types), for a command's `--lighting`, which reads only that
-/// table of a `.toml` file.
-#[pyfunction]
-pub fn lighting_toml(table: &Bound<'_, PyAny>) -> PyResult<String> {
-    #[derive(serde::Serialize)]
-    struct OnlyLighting {
-        lighting: vocab::LightingSection,
-    }
-    let lighting: vocab::LightingSection = pythonize::depythonize(table)
-        .map_err(|e| PyValueError::new_err(format!("lighting: {}", e.to_string().replace('\n', " "))))?;
-    toml::to_string(&OnlyLighting { lighting }).map_err(|e| PyValueError::new_err(format!("lighting: {e}")))
+    py.detach(|| analysis::image::write_exr(&path, &img)).map_err(py_err)
 }

@@ -111,7 +111,7 @@ pub fn compare<'py>(
             let mut img = image_of_dict(d, &input_name(i))?;
             // As for a file: flagged pixels compared with the error bars near them bounded (when
             // the dict carries `stderr_own`, as a RenderResult does).
-            reflect::cli::header::bound_near_flags(&mut img);
+            reflect::images::bound_near_flags(&mut img);
             imgs.push(img);
             paths.push(None);
             continue;
@@ -126,7 +126,7 @@ pub fn compare<'py>(
             reflect::cli::compare::to_our_image_axes(&mut img);
             // As `reflect compare`: flagged pixels are compared with the error bars near them
             // bounded.
-            reflect::cli::header::bound_near_flags(&mut img);
+            reflect::images::bound_near_flags(&mut img);
             Ok(img)
         };
         match py.detach(read) {

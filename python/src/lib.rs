@@ -1,7 +1,8 @@
 //! The native half of the Python package `reflect` (module `reflect._reflect`).
 //!
 //! Thin bindings over the workspace's libraries: [`renderer`] for rendering, [`analysis`] for the
-//! SH tools, and the root crate's commands (`reflect::cli`, `reflect::verify`) for the reports, so
+//! SH tools and the analyses (`analyze`, `invert`: parameters → reports on images in memory), and
+//! the root crate's image reading (`reflect::images`) and verifier (`reflect::verify`), so
 //! Python gets the same numbers, the same files and the same one-line errors as the CLI. The
 //! public API, with argument handling and documentation, is the Python package beside this crate
 //! (`python/reflect/`); its stub `reflect/_reflect.pyi` documents this module.
@@ -14,6 +15,7 @@
 mod commands;
 mod compare;
 mod convert;
+mod factor;
 mod objects;
 mod render;
 mod sh;
@@ -36,10 +38,13 @@ fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sh::sh_transfer, m)?)?;
     m.add_function(wrap_pyfunction!(sh::sh_rotate, m)?)?;
     m.add_function(wrap_pyfunction!(sh::read_image, m)?)?;
-    m.add_function(wrap_pyfunction!(commands::report, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::analyze, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::invert_lighting, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::invert_brdf, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::invert_separate, m)?)?;
+    m.add_function(wrap_pyfunction!(factor::factor_report, m)?)?;
     m.add_function(wrap_pyfunction!(commands::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(commands::header_attributes, m)?)?;
-    m.add_function(wrap_pyfunction!(commands::lighting_toml, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(verify::verify, m)?)?;
     m.add_function(wrap_pyfunction!(verify::verify_checks, m)?)?;

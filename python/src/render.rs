@@ -303,6 +303,11 @@ fn layer<'py, const N: usize>(
 }
 
 impl RenderResult {
+    /// The image a reader of the file [`RenderResult::save`] writes gets: its layers and header.
+    pub fn image(&self) -> analysis::image::Image {
+        renderer::render_file::film_image(&self.film, &self.attributes)
+    }
+
     fn new(py: Python<'_>, scene: &Scene, film: Film, stats: &RenderStats) -> PyResult<Self> {
         let (h, w) = (film.height as usize, film.width as usize);
         let rgb3 = |f: fn(&Pixel) -> [f32; 3]| -> PyResult<Py<PyArray3<f32>>> {

@@ -91,11 +91,12 @@ def tiny_exr(tmp_path):
         (lambda f: reflect.analyze(f, lmax=-1), "lmax"),
         (lambda f: reflect.analyze(f, lmax=True), "lmax"),
         (lambda f: reflect.analyze(f, lmax=math.nan), "lmax"),
-        (lambda f: reflect.analyze(f, lmax=2, extent=math.nan), "extent"),
-        (lambda f: reflect.analyze(f, lmax=2, radius=True), "radius"),
-        (lambda f: reflect.analyze(f, lmax=2, center=[0, "a", 0]), "center"),
+        (lambda f: reflect.analyze(f, lmax=2, albedo=math.nan), "albedo"),
+        (lambda f: reflect.analyze(f, lmax=2, param="normals"), "param"),
+        (lambda f: reflect.analyze(f, lmax=2, brdf="blinn"), "brdf"),
         (lambda f: invert.lighting(f, lmax=1.5), "lmax"),
-        (lambda f: invert.lighting(f, lmax=1, width=64.0), "width"),
+        (lambda f: invert.lighting(f, lmax=1, max_amplification=0.5), "max_amplification"),
+        (lambda f: invert.brdf(f, model="blinn", lmax=2), "model"),
         (lambda f: invert.brdf(f, model="phong", lmax=2, min=math.inf), "min"),
     ],
 )
@@ -107,7 +108,7 @@ def test_command_keywords(tiny_exr, call, kw):
 def test_json_null_becomes_nan_in_float_arrays():
     """The reports' JSON → NumPy rule (how-to/python.md): a list of numbers with a null is float64 with NaN
     there; integers alone are int64; lists of strings, and ragged lists, are not arrays."""
-    from reflect._commands import _arrays
+    from reflect._analysis import _arrays
 
     out = _arrays(
         {

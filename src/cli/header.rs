@@ -36,13 +36,8 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
         probe_only: view.probe_only,
         what,
     };
-    let mut d = analysis::observation::observe(
-        &mut images,
-        paths,
-        &given,
-        view.image.layer.as_deref(),
-        view.pixel_filter,
-    )?;
+    let mut d =
+        analysis::observation::observe(&mut images, paths, &given, view.image.layer.as_deref(), view.pixel_filter)?;
     notes.append(&mut d.notes);
     d.stderr_notes = stderr_notes;
     notes.iter().for_each(|n| eprintln!("{n}"));

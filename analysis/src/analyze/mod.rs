@@ -147,8 +147,8 @@ pub fn analyze(
 
     let n_probe = cameras.iter().filter(|c| matches!(c, Camera::NormalProbe { .. })).count();
     let mut brdf = brdf;
-    let (pixel_noise_report, notes) =
-        pixel_noise_of(&mut images, cameras, &sphere, param, lmax, params.pixel_filter).map_err(|e| in_first(e.into()))?;
+    let (pixel_noise_report, notes) = pixel_noise_of(&mut images, cameras, &sphere, param, lmax, params.pixel_filter)
+        .map_err(|e| in_first(e.into()))?;
     let (b, b_se, method, pixels, se_source, rms, carried, samples) = if n_probe > 0 {
         if images.len() != 1 {
             return Err(Error::ProbeNotAlone { what: "analysed" });
@@ -253,10 +253,14 @@ pub fn analyze(
         ));
     }
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
-        br.model.map(|m| m.lambda_rho(lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect())
+        br.model.map(|m| {
+            m.lambda_rho(lmax).into_iter().map(|f| [f * br.scale[0], f * br.scale[1], f * br.scale[2]]).collect()
+        })
     });
     let predicted = match (&l_coeffs, &brdf) {
-        (Some(l), Some(Brdf { model: Some(m), scale, .. })) => Some(crate::predict::predict(l, &m.lambda_rho(lmax), *scale)),
+        (Some(l), Some(Brdf { model: Some(m), scale, .. })) => {
+            Some(crate::predict::predict(l, &m.lambda_rho(lmax), *scale))
+        }
         _ => None,
     };
     if let Some(br) = &brdf {

@@ -154,11 +154,8 @@ pub fn brdf(
     // estimates: they are correlated (≈ 0.85 between adjacent orders under a directional source),
     // and so are the channels (the same paths), so each channel is fitted by generalised least
     // squares on its own and the channel with the narrowest interval is reported.
-    let cov = if p.probe {
-        transfer_covariance_probe(&p.first, &l, lmax).map_err(|e| e.in_file(&paths[0]))?
-    } else {
-        None
-    };
+    let cov =
+        if p.probe { transfer_covariance_probe(&p.first, &l, lmax).map_err(|e| e.in_file(&paths[0]))? } else { None };
     let (fit, how, per_channel) = match cov {
         Some(cov) => {
             let mut fits = Vec::new();
@@ -188,8 +185,17 @@ pub fn brdf(
     let filter =
         est.iter().map(|o| BrdfOrder { l: o.l, estimate: o.estimate, stderr: o.stderr, observable: o.observable() });
     let warnings = observed.stderr_notes.clone();
-    let mut r =
-        brdf_report(lmax, paths, (p.lmax_carried, p.method, source), &fit, how, per_channel, filter.collect(), None, warnings);
+    let mut r = brdf_report(
+        lmax,
+        paths,
+        (p.lmax_carried, p.method, source),
+        &fit,
+        how,
+        per_channel,
+        filter.collect(),
+        None,
+        warnings,
+    );
     r.notes = notes;
     Ok(r)
 }
@@ -357,7 +363,17 @@ fn brdf_report_from_pixel_fit(
     });
     let filter = filter.collect();
     let filter_fit = Some(FilterFitReport { orders: pf.orders, channels: pf.channels });
-    Ok(brdf_report(lmax, paths, (lmax_carried, method, source), &fit, how, channel_fits(&fits), filter, filter_fit, warnings))
+    Ok(brdf_report(
+        lmax,
+        paths,
+        (lmax_carried, method, source),
+        &fit,
+        how,
+        channel_fits(&fits),
+        filter,
+        filter_fit,
+        warnings,
+    ))
 }
 
 /// The pixel-space filter fit behind `invert brdf` on orthographic views (the one `analyze`

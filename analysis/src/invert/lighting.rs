@@ -195,8 +195,9 @@ pub fn lighting(
                     passed[o.l * o.l..(o.l + 1) * (o.l + 1)].iter_mut().for_each(|v| *v = [0.0; 3]);
                 }
             }
-            let leak = crate::projection::normal_probe::probe_pixelization(&passed, p.first.width, p.first.height, lmax)
-                .map_err(|e| e.in_file(&paths[0]))?;
+            let leak =
+                crate::projection::normal_probe::probe_pixelization(&passed, p.first.width, p.first.height, lmax)
+                    .map_err(|e| e.in_file(&paths[0]))?;
             let b: Vec<[f64; 3]> =
                 p.b.iter().zip(&leak).map(|(b, l)| [b[0] - l[0], b[1] - l[1], b[2] - l[2]]).collect();
             crate::verdict::of_unpassed_orders(&b, se, &unpassed, &name, crate::verdict::DEFAULT_ALPHA)
@@ -302,8 +303,10 @@ impl InvertLightingReport {
         for (ch, n) in CHANNELS.iter().enumerate() {
             img.channels.insert(n.to_string(), px.iter().map(|p| p[ch] as f32).collect());
         }
-        img.attributes
-            .insert("reflect:lighting-source".into(), format!("invert lighting, {} regularisation", self.regularised.rule));
+        img.attributes.insert(
+            "reflect:lighting-source".into(),
+            format!("invert lighting, {} regularisation", self.regularised.rule),
+        );
         img
     }
 }

@@ -20,7 +20,9 @@ use crate::image::Image;
 use crate::noise::PixelFilter;
 use crate::observation::pixels::PixelNoise;
 use crate::observation::{Camera, Observation};
-use crate::projection::{OrthoView, Param, Sample, fit_orthographic, latlong_max_order, ortho_samples, project_normal_probe};
+use crate::projection::{
+    OrthoView, Param, Sample, fit_orthographic, latlong_max_order, ortho_samples, project_normal_probe,
+};
 use std::path::PathBuf;
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
