@@ -240,9 +240,12 @@ fn render_tile_body(
             // The pixel's samples in batches of LANES (the last one partial), each traced stage by
             // stage (`PathTracer::li_lanes`) and accumulated in sample order, so that the
             // statistics keep their bits.
+            // A range that starts inside an aligned octet takes that octet's rest first, so that
+            // the following batches are aligned octets the film sums in registers (`film`, "Blocks
+            // of lanes"); the batching changes no sample's numbers.
             let mut i = start;
             while i < end {
-                let n = (end - i).min(LANES as u64) as usize;
+                let n = (end - i).min(LANES as u64 - i % LANES as u64) as usize;
                 let results = tracer.li_lanes(&mut sampler, pixel_id, row, col, i, n, jitter);
                 for r in &results[..n] {
                     rays += r.rays as u64;
