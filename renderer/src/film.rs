@@ -923,9 +923,8 @@ mod tests {
         for (bl, reps) in [(0u32, REPLICATES), (0, 1), (2, 1), (4, REPLICATES)] {
             for spp in [8usize, 16, 40, 64, 203] {
                 // Some −0.0 and heavy samples.
-                let xs: Vec<f32> = (0..spp)
-                    .map(|_| if rng.next_f32() < 0.1 { -0.0 } else { rng.next_f32().powi(6) * 50.0 })
-                    .collect();
+                let xs: Vec<f32> =
+                    (0..spp).map(|_| if rng.next_f32() < 0.1 { -0.0 } else { rng.next_f32().powi(6) * 50.0 }).collect();
                 let single = partial_lanes(&xs, 0, spp, bl, reps);
                 let mut one_by_one = PixelAccumulator::new(0, bl, reps);
                 for (i, &x) in xs.iter().enumerate() {

@@ -566,11 +566,16 @@ mod tests {
                 let stat: f64 = cells.iter().map(|&c| (c as f64 - e).powi(2) / e).sum();
                 chi2_survival(stat, 255.0)
             };
-            for (a, b, net) in [(0, 1, true), (2, 3, true), (5, 6, true), (0, 2, false), (3, 5, false), (4, 6, false), (7, 2, false)] {
+            for (a, b, net) in
+                [(0, 1, true), (2, 3, true), (5, 6, true), (0, 2, false), (3, 5, false), (4, 6, false), (7, 2, false)]
+            {
                 let p = chi2(a, b);
                 assert!(p > alpha / 2.0, "pixel {pixel} dims ({a}, {b}): p = {p}");
                 if !net {
-                    assert!(p < 1.0 - alpha / 2.0, "pixel {pixel} dims ({a}, {b}): p = {p}, too uniform for independent draws");
+                    assert!(
+                        p < 1.0 - alpha / 2.0,
+                        "pixel {pixel} dims ({a}, {b}): p = {p}, too uniform for independent draws"
+                    );
                 }
             }
         }
