@@ -488,6 +488,8 @@ impl PixelAccumulator {
 /// themselves (+ 0.0, as in `Stats::sample`): within an aligned octet every sample has its own
 /// replicate, and a join adds +0.0 to them.
 #[inline(always)]
+// Lane loops index every operand by the lane: the form LLVM vectorizes.
+#[allow(clippy::needless_range_loop)]
 pub fn octet_stats(
     radiance: &[Rgb; 8],
     normal: &[Vec3; 8],

@@ -28,6 +28,9 @@
 //! ([`sobol1_reversed`]). No per-lane key cache and no table gathers are needed: the seeds cost
 //! less to compute in lanes than to look up.
 
+// Lane loops index every operand by the lane: the form LLVM vectorizes.
+#![allow(clippy::needless_range_loop)]
+
 use crate::math::Vec2;
 use crate::simd::{Float, U32};
 
