@@ -882,7 +882,7 @@ mod tests {
         let mut acc = PixelAccumulator::new(a as u64, bl, reps);
         let sample = |i: usize| {
             let x = xs[i];
-            (Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), (i * 7) % 3 != 0)
+            (Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), !(i * 7).is_multiple_of(3))
         };
         let mut i = a;
         while i < b {
@@ -930,7 +930,7 @@ mod tests {
                 let single = partial_lanes(&xs, 0, spp, bl, reps);
                 let mut one_by_one = PixelAccumulator::new(0, bl, reps);
                 for (i, &x) in xs.iter().enumerate() {
-                    one_by_one.add(Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), (i * 7) % 3 != 0);
+                    one_by_one.add(Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), !(i * 7).is_multiple_of(3));
                 }
                 let tree: Vec<u64> = one_by_one.blocks().flat_map(|(_, s)| s.0.map(f64::to_bits)).collect();
                 let fast: Vec<u64> = single.stats.iter().flat_map(|s| s.0.map(f64::to_bits)).collect();

@@ -228,7 +228,7 @@ fn render_tile_body(
     end: u64,
 ) -> (Vec<Stats>, u64) {
     let s = &scene.settings;
-    let mut sampler = Sampler::new(s.sampler, s.seed);
+    let sampler = Sampler::new(s.sampler, s.seed);
     let jitter = scene.camera.jitters();
     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize * 2);
     let mut rays = 0u64;
@@ -246,7 +246,7 @@ fn render_tile_body(
             let mut i = start;
             while i < end {
                 let n = (end - i).min(LANES as u64 - i % LANES as u64) as usize;
-                let results = tracer.li_lanes(&mut sampler, pixel_id, row, col, i, n, jitter);
+                let results = tracer.li_lanes(&sampler, pixel_id, row, col, i, n, jitter);
                 for r in &results[..n] {
                     rays += r.rays as u64;
                 }

@@ -81,11 +81,11 @@ fn to_unit_f32(x: u32) -> f32 {
 /// dimension key and replicate. u32 multiplications only, so it runs in SIMD lanes.
 #[inline(always)]
 fn hash32<const N: usize>(x: U32<N>) -> U32<N> {
-    let x = x ^ x.shr(16);
+    let x = x ^ x.shift_right(16);
     let x = x.wrapping_mul(0x7feb_352d);
-    let x = x ^ x.shr(15);
+    let x = x ^ x.shift_right(15);
     let x = x.wrapping_mul(0x846c_a68b);
-    x ^ x.shr(16)
+    x ^ x.shift_right(16)
 }
 
 /// Laine–Karras style hash that only lets bits influence more significant ones (when applied to
@@ -117,11 +117,11 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
 #[inline(always)]
 fn sobol1_reversed<const N: usize>(i: U32<N>) -> U32<N> {
     let mut x = i;
-    x = x ^ x.shr(1).and(0x5555_5555);
-    x = x ^ x.shr(2).and(0x3333_3333);
-    x = x ^ x.shr(4).and(0x0f0f_0f0f);
-    x = x ^ x.shr(8).and(0x00ff_00ff);
-    x ^ x.shr(16)
+    x = x ^ x.shift_right(1).and(0x5555_5555);
+    x = x ^ x.shift_right(2).and(0x3333_3333);
+    x = x ^ x.shift_right(4).and(0x0f0f_0f0f);
+    x = x ^ x.shift_right(8).and(0x00ff_00ff);
+    x ^ x.shift_right(16)
 }
 
 /// `N` samples of one pixel, drawn together: lane k is sample `index[k]`. Every draw is a pure
@@ -150,7 +150,7 @@ impl<const N: usize> SampleLanes<N> {
             pixel_key: hash2(seed, pixel),
             index,
             replicate_mix: index.and(REPLICATES - 1).wrapping_mul(REPLICATE_MIX),
-            point_reversed: index.shr(REPLICATES.trailing_zeros()).reverse_bits(),
+            point_reversed: index.shift_right(REPLICATES.trailing_zeros()).reverse_bits(),
         }
     }
 

@@ -59,7 +59,7 @@ impl<const N: usize> U32<N> {
 
     /// `self >> s` (logical).
     #[inline(always)]
-    pub fn shr(self, s: u32) -> Self {
+    pub fn shift_right(self, s: u32) -> Self {
         lanes!(|k| self.0[k] >> s)
     }
 
@@ -116,7 +116,7 @@ mod tests {
             let one = U32::<1>([x.0[k]]);
             assert_eq!(x.reverse_bits().0[k], x.0[k].reverse_bits());
             assert_eq!(x.wrapping_mul(0x6c50_b47c).0[k], x.0[k].wrapping_mul(0x6c50_b47c));
-            assert_eq!(x.shr(7).0[k], one.shr(7).0[0]);
+            assert_eq!(x.shift_right(7).0[k], one.shift_right(7).0[0]);
             assert_eq!((x ^ U32::splat(5)).0[k], x.0[k] ^ 5);
             assert_eq!(x.to_unit_f32().0[k], (x.0[k] >> 8) as f32 / 16_777_216.0);
             assert!(x.to_unit_f32().0[k] < 1.0);
