@@ -25,7 +25,7 @@
 //! runs in u32 lanes only: each lane's three scrambling seeds are a 32-bit hash (`hash32`) of
 //! that key's parts and the lane's replicate, the Laine–Karras permutations and bit reversals are
 //! u32 operations, and the second Sobol dimension is the bit-parallel form of its generator matrix
-//! ([`sobol1_reversed`]). No per-lane key cache and no table gathers are needed: the seeds cost
+//! (`sobol1_reversed`). No per-lane key cache and no table gathers are needed: the seeds cost
 //! less to compute in lanes than to look up.
 
 // Lane loops index every operand by the lane: the form LLVM vectorizes.
