@@ -14,6 +14,22 @@
 //! `[0, spp)` ([`Partial::finish`]). A single render does exactly the same, so a merge of any
 //! partition of `[0, spp)` into ranges, in any order, equals the single render in every bit.
 //!
+//! # Blocks of lanes (where renders may split)
+//!
+//! The renderer traces a pixel's samples 8 at a time (the batch's lanes) and hands each batch
+//! that is an aligned block `[8 j, 8 j + 8)` to the film at once ([`PixelAccumulator::add_8`]):
+//! its statistics are computed in registers ([`octet_stats`], a fixed order: the tree's own 4
+//! pairs, 2 quadruples and octet) and joined to the pixel's stack once, with no per-sample block
+//! records. That computation *is* the tree's: the same operations on the same operands in the same
+//! order, so an octet's statistics are the bits that 8 single samples joined one by one give.
+//! Hence the rule: **a render may split anywhere.** A range whose start or end falls inside an
+//! octet (`--shard` ranges, checkpoint and progressive passes that are not multiples of 8) adds
+//! the samples of that partial octet one at a time ([`PixelAccumulator::add`], the exact
+//! per-sample path), and the octets inside the range in registers; both give the tree's bits, so
+//! the merge of any partition still equals the single render in every bit. (Splitting at
+//! multiples of 8, as whole Sobol rounds of [`REPLICATES`] = 16 are, keeps every octet on the
+//! fast path.) Tested by `add_8_is_eight_adds` and `shards_split_inside_octets_merge_bit_exactly`.
+//!
 //! # Standard error and its reliability flag
 //!
 //! Each block carries M2, the sum of squared deviations of its *batch sums*, where batches are the
@@ -421,11 +437,10 @@ impl PixelAccumulator {
     }
 
     /// Adds the next 8 samples (`radiance[k]`, `normal[k]`, `hit[k]` in sample order): the same
-    /// statistics, bit for bit, as 8 calls of [`PixelAccumulator::add`]. Where the next sample's
-    /// index is a multiple of 8 the 8 samples are one aligned block, and their joins (4 pairs, 2
-    /// quadruples, the octet: exactly the joins the 8 `add`s would make, in the same order of
-    /// operands) run on local values before the octet joins the stack once; elsewhere this is the
-    /// 8 `add`s.
+    /// statistics, bit for bit, as 8 calls of [`PixelAccumulator::add`] (module docs, "Blocks of
+    /// lanes"). Where the next sample's index is a multiple of 8 the 8 samples are one aligned block,
+    /// summed in registers ([`octet_stats`]) and joined to the stack once; elsewhere this is the 8
+    /// `add`s.
     #[inline(always)]
     pub fn add_8(&mut self, radiance: &[Rgb; 8], normal: &[Vec3; 8], hit: &[bool; 8]) {
         if !self.next.is_multiple_of(8) {
@@ -434,33 +449,8 @@ impl PixelAccumulator {
             }
             return;
         }
-        let b = self.batch_log2;
-        // The pairs straight from the samples: no array of 8 to fill first (a 960-byte memset per
-        // batch). A function, not a closure, which LLVM may leave out of line and compiled for the
-        // baseline (see `render::render_tile`).
-        #[inline(always)]
-        fn pair(
-            radiance: &[Rgb; 8],
-            normal: &[Vec3; 8],
-            hit: &[bool; 8],
-            k: usize,
-            b: u32,
-            rep: Option<usize>,
-        ) -> Stats {
-            let (l, r) = (2 * k, 2 * k + 1);
-            Stats::sample(radiance[l], normal[l], hit[l], b, rep.map(|x| x + l)).join(
-                &Stats::sample(radiance[r], normal[r], hit[r], b, rep.map(|x| x + r)),
-                0,
-                b,
-            )
-        }
         // The octet is aligned and 8 divides REPLICATES: its replicates are rep, rep + 1, …, rep + 7.
-        let rep = self.replicate_of(self.next);
-        let p0 = pair(radiance, normal, hit, 0, b, rep);
-        let p1 = pair(radiance, normal, hit, 1, b, rep);
-        let p2 = pair(radiance, normal, hit, 2, b, rep);
-        let p3 = pair(radiance, normal, hit, 3, b, rep);
-        let octet = p0.join(&p1, 1, b).join(&p2.join(&p3, 1, b), 2, b);
+        let octet = octet_stats(radiance, normal, hit, self.batch_log2, self.replicate_of(self.next));
         let block = Block { start: self.next, log2: 3 };
         self.next += 8;
         self.push(block, octet);
@@ -488,6 +478,83 @@ impl PixelAccumulator {
     pub fn blocks(&self) -> impl Iterator<Item = (Block, &Stats)> {
         self.blocks[..self.len].iter().copied().zip(&self.stats[..self.len])
     }
+}
+
+/// The statistics of an aligned block of 8 samples (`radiance[k]`, `normal[k]`, `hit[k]` of
+/// samples `8 j + k`; `replicate`: that of sample 8 j, or `None`), computed in registers: the same
+/// bits as the tree of [`Stats::sample`] and [`Stats::join`] over the block (4 pairs, 2 quadruples,
+/// the octet), because it makes the same operations on the same operands in the same order, only
+/// on the fields a block of 8 can make non-zero. The replicate sums of the block are its samples
+/// themselves (+ 0.0, as in `Stats::sample`): within an aligned octet every sample has its own
+/// replicate, and a join adds +0.0 to them.
+#[inline(always)]
+// Lane loops index every operand by the lane: the form LLVM vectorizes.
+#[allow(clippy::needless_range_loop)]
+pub fn octet_stats(
+    radiance: &[Rgb; 8],
+    normal: &[Vec3; 8],
+    hit: &[bool; 8],
+    batch_log2: u32,
+    replicate: Option<usize>,
+) -> Stats {
+    let bl = batch_log2;
+    let mut s = [0.0; NSTAT];
+    // Per channel: a sum, M2 and the extreme batch sums of each node of the tree, level by level,
+    // node j of a level from nodes 2 j and 2 j + 1 of the level below (in place: j ≤ 2 j).
+    for c in 0..3 {
+        let mut sum = [0.0f64; 8];
+        for k in 0..8 {
+            sum[k] = radiance[k][c] as f64;
+        }
+        let leaf_batch = if bl == 0 { sum } else { [0.0; 8] };
+        let (mut m2, mut maxb, mut minb) = ([0.0f64; 8], leaf_batch, leaf_batch);
+        for level in 0..3u32 {
+            for j in 0..(4 >> level) {
+                let (a, b) = (2 * j, 2 * j + 1);
+                let parent = sum[a] + sum[b];
+                // `Stats::join`'s three cases, in its expressions.
+                if level + 1 == bl {
+                    (m2[j], maxb[j], minb[j]) = (0.0, parent, parent);
+                } else if level >= bl {
+                    let k = (1u64 << (level - bl)) as f64;
+                    let d = sum[a] - sum[b];
+                    m2[j] = m2[a] + m2[b] + d * d / (2.0 * k);
+                    maxb[j] = maxb[a].max(maxb[b]);
+                    minb[j] = minb[a].min(minb[b]);
+                } else {
+                    (m2[j], maxb[j], minb[j]) = (0.0, 0.0, 0.0);
+                }
+                sum[j] = parent;
+            }
+        }
+        s[SUM + c] = sum[0];
+        s[M2 + c] = m2[0];
+        s[MAXB + c] = maxb[0];
+        s[MINB + c] = minb[0];
+        if let Some(r) = replicate {
+            for k in 0..8 {
+                s[REP + 3 * (r + k) + c] = radiance[k][c] as f64 + 0.0;
+            }
+        }
+        // The normals of the hits and the hit count: plain pairwise sums.
+        let mut nsum = [0.0f64; 8];
+        for k in 0..8 {
+            nsum[k] = if hit[k] { normal[k][c] as f64 } else { 0.0 };
+        }
+        s[NORMAL + c] = pairwise_8(nsum);
+    }
+    let mut hits = [0.0f64; 8];
+    for k in 0..8 {
+        hits[k] = if hit[k] { 1.0 } else { 0.0 };
+    }
+    s[HITS] = pairwise_8(hits);
+    Stats(s)
+}
+
+/// ((x0 + x1) + (x2 + x3)) + ((x4 + x5) + (x6 + x7)): the order of the film's tree.
+#[inline(always)]
+fn pairwise_8(x: [f64; 8]) -> f64 {
+    ((x[0] + x[1]) + (x[2] + x[3])) + ((x[4] + x[5]) + (x[6] + x[7]))
 }
 
 /// The finished value of one pixel.
@@ -806,6 +873,81 @@ mod tests {
             acc.add(Rgb::new(x, 2.0 * x, 0.5), Vec3::Z, x > 2.0);
         }
         acc.blocks().map(|(b, s)| (b, *s)).collect()
+    }
+
+    /// A pixel's range `[a, b)` as the renderer hands it to the film: the rest of an octet the
+    /// range starts in one sample at a time, then whole aligned octets through `add_8`, then the
+    /// samples of an octet the range ends in one at a time.
+    fn partial_lanes(xs: &[f32], a: usize, b: usize, bl: u32, reps: u32) -> Partial {
+        let mut acc = PixelAccumulator::new(a as u64, bl, reps);
+        let sample = |i: usize| {
+            let x = xs[i];
+            (Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), !(i * 7).is_multiple_of(3))
+        };
+        let mut i = a;
+        while i < b {
+            let n = (b - i).min(8 - i % 8);
+            if n == 8 {
+                let (mut r, mut nl, mut h) = ([Rgb::ZERO; 8], [Vec3::ZERO; 8], [false; 8]);
+                for k in 0..8 {
+                    (r[k], nl[k], h[k]) = sample(i + k);
+                }
+                acc.add_8(&r, &nl, &h);
+            } else {
+                for k in i..i + n {
+                    let (r, nl, h) = sample(k);
+                    acc.add(r, nl, h);
+                }
+            }
+            i += n;
+        }
+        let v: Vec<(Block, Stats)> = acc.blocks().map(|(b, s)| (b, *s)).collect();
+        Partial {
+            width: 1,
+            height: 1,
+            spp: xs.len() as u32,
+            batch_log2: bl,
+            replicates: reps,
+            start: a as u64,
+            end: b as u64,
+            blocks: v.iter().map(|x| x.0).collect(),
+            stats: v.iter().map(|x| x.1).collect(),
+        }
+    }
+
+    /// The film's rule "a render may split anywhere" (module docs, "Blocks of lanes"): shards whose
+    /// ends fall inside octets (per-sample path there, octets in registers elsewhere) merge to the
+    /// bits of the single render, whose octets all take the register path; and those bits are the
+    /// per-sample tree's. Batch sizes below, at and above 8, with and without replicates.
+    #[test]
+    fn shards_split_inside_octets_merge_bit_exactly() {
+        let mut rng = crate::sampling::chi2::TestRng::new(21);
+        for (bl, reps) in [(0u32, REPLICATES), (0, 1), (2, 1), (4, REPLICATES)] {
+            for spp in [8usize, 16, 40, 64, 203] {
+                // Some −0.0 and heavy samples.
+                let xs: Vec<f32> =
+                    (0..spp).map(|_| if rng.next_f32() < 0.1 { -0.0 } else { rng.next_f32().powi(6) * 50.0 }).collect();
+                let single = partial_lanes(&xs, 0, spp, bl, reps);
+                let mut one_by_one = PixelAccumulator::new(0, bl, reps);
+                for (i, &x) in xs.iter().enumerate() {
+                    one_by_one.add(Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), !(i * 7).is_multiple_of(3));
+                }
+                let tree: Vec<u64> = one_by_one.blocks().flat_map(|(_, s)| s.0.map(f64::to_bits)).collect();
+                let fast: Vec<u64> = single.stats.iter().flat_map(|s| s.0.map(f64::to_bits)).collect();
+                assert_eq!(fast, tree, "bl {bl}, {reps} replicates, spp {spp}: octets in registers");
+                let single = single.finish_own();
+                for _ in 0..10 {
+                    let mut cuts: Vec<usize> =
+                        (0..1 + rng.next_u64() % 4).map(|_| (rng.next_u64() as usize) % (spp + 1)).collect();
+                    cuts.extend([0, spp]);
+                    cuts.sort();
+                    let parts = cuts.windows(2).map(|c| partial_lanes(&xs, c[0], c[1], bl, reps)).collect();
+                    let merged = Partial::merge(parts).unwrap().finish_own();
+                    let bits = |f: &Film| f.pixels.iter().map(|p| format!("{p:?}")).collect::<Vec<_>>();
+                    assert_eq!(bits(&merged), bits(&single), "bl {bl}, spp {spp}, cuts {cuts:?}");
+                }
+            }
+        }
     }
 
     fn partial(xs: &[f32], a: usize, b: usize) -> Partial {
