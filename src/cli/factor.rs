@@ -167,9 +167,7 @@ pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
         (Some(_), true) if probe_flags => Err(Error::new(
             "--theta-o, --phi-o and --layer describe IMAGES; without IMAGES --scene renders the light field",
         )),
-        (None, true) => {
-            Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI"))
-        }
+        (None, true) => Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI")),
         (Some(scene), true) => {
             if a.normal.is_some() {
                 return Err(Error::new("--normal applies to IMAGES; with --scene the θ_o = 0 view is rendered"));
@@ -194,7 +192,8 @@ fn from_images(a: &FactorArgs, params: &FactorParams) -> Result<InvertFactorRepo
             // The normal view is at θ_o = 0 by definition: a headerless one needs no angle flags
             // (those of IMAGES are one per node image), a header's camera is checked by the library.
             let has_camera = read_image(p)?.attributes.contains_key("reflect:camera");
-            let nv = ImageArgs { theta_o: if has_camera { vec![] } else { vec![0.0] }, phi_o: vec![], ..a.view.clone() };
+            let nv =
+                ImageArgs { theta_o: if has_camera { vec![] } else { vec![0.0] }, phi_o: vec![], ..a.view.clone() };
             let (mut imgs, d) = super::header::load(std::slice::from_ref(p), &nv.view(), "factored")?;
             Some((p.as_path(), imgs.remove(0), d.cameras[0]))
         }
@@ -250,9 +249,15 @@ fn check_nodes_of(params: &FactorParams) -> Result<(), Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use analysis::image::write_exr;
+    use analysis::factor::toml_float;
+    use analysis::image::{Image, write_exr};
+    use analysis::inverse::factorization::{hemisphere_nodes, node_degrees};
+    use analysis::sh::lm;
     use analysis::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
+    use renderer::render::{RenderOptions, render};
+    use renderer::scene::Scene;
     use serde_json::{Value, json};
+    use std::f64::consts::PI;
 
     /// The report as the JSON document `--json` prints.
     fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {
@@ -505,24 +510,6 @@ mod tests {
         assert!(parse_size("1x1").is_err() && parse_size("96x48").is_ok());
         // The complete set passes.
         assert!(factor_doc(&args(paths, 2)).is_ok());
-    }
-
-    #[test]
-    fn printed_nodes_survive_f32_headers() {
-        assert_eq!(toml_float(120.0 - 1e-14), "120.0");
-        assert_eq!(toml_float(77.79999595818678), "77.7999959582");
-        // --print-nodes prints f64 degrees; the renderer stores f32 (relative 6e-8, ≤ 5e-6° below
-        // 90°), well inside NODE_TOL_DEG, so the f32 angles still match the rule exactly once.
-        for (n_mu, n_phi) in [(8, 16), (16, 48), (64, 64)] {
-            let nodes = hemisphere_nodes(n_mu, n_phi).unwrap();
-            // As printed, then parsed as f32 by the scene file.
-            let f32_of = |x: f64| toml_float(x).parse::<f32>().unwrap() as f64;
-            let angles: Vec<(f64, f64)> = nodes.iter().map(node_degrees).map(|(t, p)| (f32_of(t), f32_of(p))).collect();
-            let names: Vec<String> = (0..angles.len()).map(|i| format!("n{i}")).collect();
-            let (got, _, idx) = match_nodes(&angles, &names, None).unwrap();
-            assert_eq!(got, (n_mu, n_phi));
-            assert_eq!(idx, (0..angles.len()).collect::<Vec<_>>());
-        }
     }
 
     const SCENE: &str = r#"

@@ -16,8 +16,8 @@ mod report;
 
 pub use error::Error;
 pub use report::{
-    AlbedoRing, FactorInput, FactorNodesReport, InvertFactorReport, NodeReport, NormalFilter, OrderReport,
-    RenderCount, SourceReport,
+    AlbedoRing, FactorInput, FactorNodesReport, InvertFactorReport, NodeReport, NormalFilter, OrderReport, RenderCount,
+    SourceReport, toml_float,
 };
 
 use crate::image::Image;
@@ -216,7 +216,8 @@ pub fn factor_rendered(
 ) -> Result<InvertFactorReport, Error> {
     validate(params)?;
     let lmax = params.lmax;
-    let (n_mu, n_phi) = params.nodes.ok_or(Error::Vocab(vocab::Error::new("a rendered light field needs its node rule")))?;
+    let (n_mu, n_phi) =
+        params.nodes.ok_or(Error::Vocab(vocab::Error::new("a rendered light field needs its node rule")))?;
     check_latlong(lmax, width, height, "normal-probe grid (--size)")?;
     let mut view = |t: f64, p: f64| -> Result<(Vec<f64>, f64), Error> {
         let v = render(t, p).map_err(|e| e.in_file(scene))?;

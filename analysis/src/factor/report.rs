@@ -6,7 +6,7 @@ use crate::sh::lm;
 /// A TOML float with 10 decimals (1e-10°, far below f32 headers and
 /// [`crate::inverse::factorization::NODE_TOL_DEG`]), trailing zeros trimmed but one decimal kept,
 /// e.g. `77.7999959582`, `120.0`.
-fn toml_float(x: f64) -> String {
+pub fn toml_float(x: f64) -> String {
     let s = format!("{x:.10}");
     let s = s.trim_end_matches('0');
     if s.ends_with('.') { format!("{s}0") } else { s.to_string() }
@@ -220,3 +220,26 @@ impl std::fmt::Display for InvertFactorReport {
     }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inverse::factorization::{hemisphere_nodes, match_nodes, node_degrees};
+
+    #[test]
+    fn printed_nodes_survive_f32_headers() {
+        assert_eq!(toml_float(120.0 - 1e-14), "120.0");
+        assert_eq!(toml_float(77.79999595818678), "77.7999959582");
+        // --print-nodes prints f64 degrees; the renderer stores f32 (relative 6e-8, ≤ 5e-6° below
+        // 90°), well inside NODE_TOL_DEG, so the f32 angles still match the rule exactly once.
+        for (n_mu, n_phi) in [(8, 16), (16, 48), (64, 64)] {
+            let nodes = hemisphere_nodes(n_mu, n_phi).unwrap();
+            // As printed, then parsed as f32 by the scene file.
+            let f32_of = |x: f64| toml_float(x).parse::<f32>().unwrap() as f64;
+            let angles: Vec<(f64, f64)> = nodes.iter().map(node_degrees).map(|(t, p)| (f32_of(t), f32_of(p))).collect();
+            let names: Vec<String> = (0..angles.len()).map(|i| format!("n{i}")).collect();
+            let (got, _, idx) = match_nodes(&angles, &names, None).unwrap();
+            assert_eq!(got, (n_mu, n_phi));
+            assert_eq!(idx, (0..angles.len()).collect::<Vec<_>>());
+        }
+    }
+}
