@@ -19,6 +19,7 @@
 //! - [`verdict`]: whether an image contradicts the lighting, BRDF and camera it was told, and which
 //!   assumption most likely is wrong;
 //! - [`separate`]: diffuse + specular separation (sec. 3.5) as parameters → report;
+//! - [`factor`]: light-field factorization into lighting and BRDF (eq. 18) as parameters → report;
 //! - [`compare`]: is image A image B up to noise (per-pixel z, scale, blocks, a Šidák verdict);
 //! - [`analyze`]: projection into SH and comparison with the lighting and eq. 15, as parameters →
 //!   report (`reflect analyze`);
@@ -31,6 +32,7 @@
 
 pub mod analyze;
 pub mod compare;
+pub mod factor;
 pub mod filter;
 pub mod fit;
 pub mod inverse;

@@ -12,7 +12,8 @@
 //! - [`camera`], [`film`], [`integrator`], [`scene`], [`render`]: from a scene file to an image;
 //!   [`progressive`]: renders in passes (target error, time limit, checkpoints, shards, continuation);
 //!   [`rounds`]: the decisions of a render to a target error in rounds of shards.
-//! - [`shard`]: partial renders on disk; [`render_file`]: any file a render leaves (a state too) as its image.
+//! - [`shard`]: partial renders on disk; [`render_file`]: any file a render leaves (a state too) as its image;
+//!   [`light_field`]: a sphere's reflected light field, one normal-probe view per outgoing direction.
 
 pub mod brdf;
 pub mod camera;
@@ -20,6 +21,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod light_field;
 pub mod math;
 pub mod memory;
 pub mod noise;

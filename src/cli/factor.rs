@@ -1,7 +1,8 @@
 //! `reflect invert factor`: factor a sphere's reflected light field into lighting and BRDF, up to
-//! the global scale P = ∫ L dω (eq. 18; sec. 3.1, eq. 23), with the library
-//! `analysis::inverse::factorization` (its module doc has the derivation), as the `factorization`
-//! check does (`src/verify/factorization.rs`).
+//! the global scale P = ∫ L dω (eq. 18; sec. 3.1, eq. 23). The factorization is the library's
+//! ([`analysis::factor`], on `analysis::inverse::factorization`, whose module doc has the
+//! derivation), the rendered light field the renderer's ([`renderer::light_field`]); this command
+//! turns its flags into [`FactorParams`], reads or renders the views and prints the report.
 //!
 //! The light field B(n; θ'_o, φ'_o) is sampled by `normal-probe` images (docs/src/conventions.md §6), one per
 //! node of a product rule over the outgoing hemisphere: n_μ Gauss–Legendre nodes in μ = cos θ'_o on
@@ -41,22 +42,15 @@
 use super::Error;
 use super::args::{Channel, ImageArgs, Quadrature};
 use super::sh::check_lmax;
-use analysis::image::{Image, read_image};
-use analysis::inverse::factorization::{
-    DEFAULT_MAX_AMPLIFICATION, Factorization, LightField, NormalRule, check_nodes, directional_lighting,
-    filter_from_lighting, fmt_node, hemisphere_nodes, match_nodes, node_degrees, project,
-};
-use analysis::observation::Camera as ViewCamera;
-use analysis::projection::latlong_max_order;
-use analysis::projection::resolution::{LATLONG_RULE, check_latlong};
-use analysis::sh::lm;
-use renderer::camera::{Camera, NormalProbe};
-use renderer::render::{RenderOptions, render};
-use renderer::scene::file::{CameraSection, ObjectSection};
-use renderer::scene::{Scene, SceneFile};
-use std::f64::consts::PI;
+use analysis::factor::{FactorInput, FactorParams, ProbeImage, RenderedView};
+use analysis::image::read_image;
+use analysis::inverse::factorization::{DEFAULT_MAX_AMPLIFICATION, NormalRule, check_nodes};
+use renderer::light_field::LightFieldViews;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use vocab::scene::SceneFile;
+
+pub use analysis::factor::{FactorNodesReport, InvertFactorReport, nodes_report};
 
 pub use analysis::inverse::factorization::NODE_TOL_DEG;
 /// Largest accepted `--size` side.
@@ -137,54 +131,6 @@ pub fn run(a: &FactorArgs) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// A TOML float with 10 decimals (1e-10°, far below f32 headers and [`NODE_TOL_DEG`]), trailing
-/// zeros trimmed but one decimal kept, e.g. `77.7999959582`, `120.0`.
-fn toml_float(x: f64) -> String {
-    let s = format!("{x:.10}");
-    let s = s.trim_end_matches('0');
-    if s.ends_with('.') { format!("{s}0") } else { s.to_string() }
-}
-
-/// One outgoing node of `--print-nodes`.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct OutgoingNode {
-    pub theta_o_deg: f64,
-    pub phi_o_deg: f64,
-    /// Quadrature weight of the node (μ × φ product rule).
-    pub weight: f64,
-}
-
-/// The report of `reflect invert factor --print-nodes N_MUxN_PHI` (`--json` prints this struct;
-/// the text form is one `THETA_O_DEG PHI_O_DEG` line per node, TOML floats).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct FactorNodesReport {
-    pub command: String,
-    pub nodes: [usize; 2],
-    pub outgoing: Vec<OutgoingNode>,
-}
-
-impl std::fmt::Display for FactorNodesReport {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        for n in &self.outgoing {
-            writeln!(f, "{} {}", toml_float(n.theta_o_deg), toml_float(n.phi_o_deg))?;
-        }
-        Ok(())
-    }
-}
-
-/// The nodes of an n_μ × n_φ rule to render (errors: a rule [`check_nodes`] refuses).
-pub fn nodes_report(n_mu: usize, n_phi: usize) -> Result<FactorNodesReport, Error> {
-    check_nodes(n_mu, n_phi)?;
-    let outgoing = hemisphere_nodes(n_mu, n_phi)?
-        .iter()
-        .map(|n| {
-            let (theta_o_deg, phi_o_deg) = node_degrees(n);
-            OutgoingNode { theta_o_deg, phi_o_deg, weight: n.weight }
-        })
-        .collect();
-    Ok(FactorNodesReport { command: "invert factor --print-nodes".into(), nodes: [n_mu, n_phi], outgoing })
-}
-
 fn print_nodes(n_mu: usize, n_phi: usize, json_out: bool) -> Result<(), Error> {
     let r = nodes_report(n_mu, n_phi)?;
     if json_out {
@@ -200,558 +146,118 @@ fn print_nodes(n_mu: usize, n_phi: usize, json_out: bool) -> Result<(), Error> {
     Ok(())
 }
 
-fn rule_of(r: Quadrature) -> NormalRule {
-    match r {
-        Quadrature::Fejer => NormalRule::Fejer,
-        Quadrature::Pixel => NormalRule::PixelSolidAngle,
-    }
-}
-
-/// What both modes hand to the report: the sampled light field and the optional normal view.
-struct Measured {
-    lf: LightField,
-    nodes: (usize, usize),
-    /// B_lm at θ_o = 0 (l ≤ lmax), if a normal view was given or rendered.
-    normal_b: Option<Vec<f64>>,
-    /// Largest per-pixel standard error of the factored channel over all images (if recorded).
-    max_stderr: Option<f64>,
-    input: FactorInput,
-    renders: Option<(usize, f64)>,
-}
-
 /// The factorization of `a` (see the module docs; `--print-nodes` is [`nodes_report`]): the report
 /// `--json` prints. Errors: bad input (named file and problem) or flags that do not fit together.
 pub fn factor_report(a: &FactorArgs) -> Result<InvertFactorReport, Error> {
     let lmax = a.lmax.ok_or_else(|| Error::new("--lmax is required (except with --print-nodes)"))?;
     check_lmax(lmax)?;
-    let ch = a.channel.index();
-    let rule = rule_of(a.quadrature);
-    if !(a.max_amplification.is_finite() && a.max_amplification >= 1.0) {
-        return Err(Error::new(format!(
-            "--max-amplification must be a finite number ≥ 1, got {}",
-            a.max_amplification
-        )));
-    }
+    let params = FactorParams {
+        lmax,
+        channel: a.channel.index(),
+        rule: match a.quadrature {
+            Quadrature::Fejer => NormalRule::Fejer,
+            Quadrature::Pixel => NormalRule::PixelSolidAngle,
+        },
+        max_amplification: a.max_amplification,
+        nodes: a.nodes,
+    };
+    analysis::factor::validate(&params)?;
     let probe_flags = !a.view.theta_o.is_empty() || !a.view.phi_o.is_empty() || a.view.layer.is_some();
-    let m = match (&a.view.scene, a.images.is_empty()) {
-        (Some(_), true) if probe_flags => {
-            return Err(Error::new(
-                "--theta-o, --phi-o and --layer describe IMAGES; without IMAGES --scene renders the light field",
-            ));
-        }
-        (None, true) => {
-            return Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI"));
-        }
+    match (&a.view.scene, a.images.is_empty()) {
+        (Some(_), true) if probe_flags => Err(Error::new(
+            "--theta-o, --phi-o and --layer describe IMAGES; without IMAGES --scene renders the light field",
+        )),
+        (None, true) => Err(Error::new("no input: give normal-probe IMAGES, or --scene SCENE.toml --nodes N_MUxN_PHI")),
         (Some(scene), true) => {
             if a.normal.is_some() {
                 return Err(Error::new("--normal applies to IMAGES; with --scene the θ_o = 0 view is rendered"));
             }
-            let nodes = a.nodes.ok_or_else(|| Error::new("--scene needs --nodes N_MUxN_PHI (e.g. 8x16)"))?;
-            from_scene(scene, nodes, a.size, ch, rule, lmax)?
-        }
-        (_, false) => from_images(&a.images, a.normal.as_deref(), &a.view, a.nodes, ch, rule, lmax)?,
-    };
-    let f = m.lf.factorize(lmax, a.max_amplification)?;
-    Ok(report(a, &m, &f, lmax, rule))
-}
-
-/// (θ_o°, φ_o°) of an image's described camera ([`super::header::load`]), checked to be a
-/// pixel-centre normal-probe: a `jitter = true` camera in its header or in the `--scene` sidecar is
-/// refused.
-fn probe_angles(img: &Image, cam: &ViewCamera, view: &ImageArgs, p: &Path) -> Result<(f64, f64), Error> {
-    let header = vocab::header::Header::read(&img.attributes).map_err(|e| e.in_file(p))?.camera;
-    let scene = match &view.scene {
-        Some(s) => Some(crate::images::read_scene(s)?.camera),
-        None => None,
-    };
-    let jittered = |c: &Option<CameraSection>| matches!(c, Some(CameraSection::NormalProbe { jitter: true, .. }));
-    if jittered(&header) || (header.is_none() && jittered(&scene)) {
-        return Err(Error::file(
-            p,
-            "a jittered normal-probe render holds pixel averages, not the pixel-centre samples the quadrature needs (render with jitter = false)",
-        ));
-    }
-    match *cam {
-        ViewCamera::NormalProbe { theta_o_deg, phi_o_deg } => Ok((theta_o_deg, phi_o_deg)),
-        ViewCamera::Ortho(_) => Err(Error::file(
-            p,
-            "an orthographic camera cannot be factored (normal-probe renders only; describe a headerless one with --theta-o/--phi-o)",
-        )),
-    }
-}
-
-/// The factored channel of an image as f64, and its largest standard error (if the layer exists).
-fn channel_of(img: &Image, ch: usize, p: &Path) -> Result<(Vec<f64>, Option<f64>), Error> {
-    let name = ["R", "G", "B"][ch];
-    let v = img.channel(name).ok_or_else(|| Error::file(p, format!("image has no {name} channel")))?;
-    // The layer is only reported here, but it is validated as everywhere (finite, ≥ 0, not all zero).
-    let layer = img.stderr_layer().map_err(|e| e.in_file(p))?;
-    let se = layer.map(|s| s.pixels.iter().fold(0.0f64, |m, x| m.max(x[ch] as f64)));
-    Ok((v.iter().map(|x| *x as f64).collect(), se))
-}
-
-const SCENE_KEYS: [&str; 2] = ["reflect:lighting", "reflect:objects"];
-
-/// The headers that identify the scene of a render (absent when not written by reflect).
-fn scene_of(img: &Image) -> [Option<String>; 2] {
-    SCENE_KEYS.map(|k| img.attributes.get(k).cloned())
-}
-
-/// All renders must be of one scene: the lighting and objects headers agree with the first image's.
-fn same_scene(first: &[Option<String>; 2], first_path: &Path, img: &Image, p: &Path) -> Result<(), Error> {
-    let s = scene_of(img);
-    match (0..2).find(|&k| first[k] != s[k]) {
-        Some(k) => Err(Error::file(
-            p,
-            format!(
-                "header {} differs from {}'s (all renders must be of one scene)",
-                SCENE_KEYS[k],
-                first_path.display()
-            ),
-        )),
-        None => Ok(()),
-    }
-}
-
-fn from_images(
-    paths: &[PathBuf],
-    normal: Option<&Path>,
-    view: &ImageArgs,
-    given: Option<(usize, usize)>,
-    ch: usize,
-    rule: NormalRule,
-    lmax: usize,
-) -> Result<Measured, Error> {
-    let mut angles = Vec::with_capacity(paths.len());
-    let mut data = Vec::with_capacity(paths.len());
-    let mut size = None;
-    let mut max_se: Option<f64> = None;
-    let mut first_scene = None;
-    let (images, described) = super::header::load(paths, &view.view(), "factored")?;
-    for ((p, img), cam) in paths.iter().zip(images).zip(&described.cameras) {
-        let (t, ph) = probe_angles(&img, cam, view, p)?;
-        if t.abs() <= NODE_TOL_DEG {
-            return Err(Error::file(
-                p,
-                "θ_o = 0 is not a node of the outgoing rule: pass a normal-exitance view with --normal",
-            ));
-        }
-        match size {
-            None => size = Some((img.width, img.height, p)),
-            Some((w, h, first)) if (w, h) != (img.width, img.height) => {
-                return Err(Error::file(
-                    p,
-                    format!(
-                        "image is {}×{}, but {} is {w}×{h} (all node images must share one grid)",
-                        img.width,
-                        img.height,
-                        first.display()
-                    ),
-                ));
+            if a.nodes.is_none() {
+                return Err(Error::new("--scene needs --nodes N_MUxN_PHI (e.g. 8x16)"));
             }
-            _ => {}
+            from_scene(scene, &params, a.size)
         }
-        match &first_scene {
-            None => first_scene = Some((scene_of(&img), p)),
-            Some((s0, p0)) => same_scene(s0, p0, &img, p)?,
-        }
-        let (v, se) = channel_of(&img, ch, p)?;
-        if let Some(s) = se {
-            max_se = Some(max_se.map_or(s, |m: f64| m.max(s)));
-        }
-        angles.push((t, ph));
-        // f32 storage: half the memory of the f64 channel while waiting for the node inference.
-        data.push(v.into_iter().map(|x| x as f32).collect::<Vec<f32>>());
+        (_, false) => from_images(a, &params),
     }
-    let Some((w, h, _)) = size else { return Err(Error::new("no images")) };
-    check_latlong(lmax, w, h, "normal-probe grid").map_err(|e| e.in_file(&paths[0]))?;
-    let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
-    let (nodes_n, nodes, idx) = match_nodes(&angles, &names, given)?;
-    let mut lf = LightField::new(w, h, rule)?;
-    for ((img, &j), p) in data.iter().zip(&idx).zip(paths) {
-        let v: Vec<f64> = img.iter().map(|x| *x as f64).collect();
-        lf.add(nodes[j], &v).map_err(|e| e.in_file(p))?;
-    }
-    let normal_b = match normal {
+}
+
+/// IMAGES mode: the node images and the `--normal` view read and described as in every analysis
+/// command ([`super::header::load`]), then factored by the library.
+fn from_images(a: &FactorArgs, params: &FactorParams) -> Result<InvertFactorReport, Error> {
+    let (images, described) = super::header::load(&a.images, &a.view.view(), "factored")?;
+    let sidecar = a.view.scene.as_deref().map(crate::images::read_scene).transpose()?;
+    let normal = match &a.normal {
         None => None,
         Some(p) => {
             // The normal view is at θ_o = 0 by definition: a headerless one needs no angle flags
-            // (those of IMAGES are one per node image), a header's camera is checked below.
+            // (those of IMAGES are one per node image), a header's camera is checked by the library.
             let has_camera = read_image(p)?.attributes.contains_key("reflect:camera");
-            let nv = ImageArgs { theta_o: if has_camera { vec![] } else { vec![0.0] }, phi_o: vec![], ..view.clone() };
-            let (mut imgs, d) = super::header::load(std::slice::from_ref(&p.to_path_buf()), &nv.view(), "factored")?;
-            let img = imgs.remove(0);
-            let (t, _) = probe_angles(&img, &d.cameras[0], view, p)?;
-            if let Some((s0, p0)) = &first_scene {
-                same_scene(s0, p0, &img, p)?;
-            }
-            if t.abs() > NODE_TOL_DEG {
-                return Err(Error::file(
-                    p,
-                    format!("--normal needs a θ_o = 0 normal-probe render, this one is at θ_o = {t}°"),
-                ));
-            }
-            check_latlong(lmax, img.width, img.height, "normal-probe image").map_err(|e| e.in_file(p))?;
-            let (v, se) = channel_of(&img, ch, p)?;
-            if let Some(s) = se {
-                max_se = Some(max_se.map_or(s, |m: f64| m.max(s)));
-            }
-            Some(project(&v, img.width, img.height, rule, lmax).map_err(|e| e.in_file(p))?)
+            let nv =
+                ImageArgs { theta_o: if has_camera { vec![] } else { vec![0.0] }, phi_o: vec![], ..a.view.clone() };
+            let (mut imgs, d) = super::header::load(std::slice::from_ref(p), &nv.view(), "factored")?;
+            Some((p.as_path(), imgs.remove(0), d.cameras[0]))
         }
     };
-    Ok(Measured {
-        lf,
-        nodes: nodes_n,
-        normal_b,
-        max_stderr: max_se,
-        input: FactorInput::Images { images: names, normal: normal.map(|p| p.display().to_string()) },
-        renders: None,
-    })
-}
-
-/// Renders one normal-probe view of `scene` at (θ_o°, φ_o°) and returns the channel and its
-/// largest standard error. A renderer panic is reported as an error (as `verify` does).
-fn render_view(
-    scene: &mut Scene,
-    sphere: (glam::Vec3, f32),
-    theta_deg: f64,
-    phi_deg: f64,
-    ch: usize,
-) -> Result<(Vec<f64>, f64), Error> {
-    let (w, h) = (scene.settings.width, scene.settings.height);
-    let cam =
-        NormalProbe::new(theta_deg as f32, phi_deg as f32, false, sphere.0, sphere.1, w, h).map_err(Error::new)?;
-    scene.camera = Camera::NormalProbe(cam);
-    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        render(scene, &RenderOptions { progress: false, ..Default::default() })
-    }));
-    let (film, _) =
-        out.map_err(|_| Error::new(format!("the renderer panicked at {}", fmt_node(theta_deg, phi_deg))))?;
-    let v = film.pixels.iter().map(|p| p.rgb[ch] as f64).collect();
-    let se = film.pixels.iter().fold(0.0f64, |m, p| m.max(p.stderr[ch] as f64));
-    Ok((v, se))
-}
-
-fn from_scene(
-    path: &Path,
-    (n_mu, n_phi): (usize, usize),
-    (w, h): (u32, u32),
-    ch: usize,
-    rule: NormalRule,
-    lmax: usize,
-) -> Result<Measured, Error> {
-    check_nodes(n_mu, n_phi)?;
-    check_latlong(lmax, w as usize, h as usize, "normal-probe grid (--size)")?;
-    let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
-    let mut file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
-    let sphere = match file.objects.first() {
-        Some(ObjectSection::Sphere { center, radius, .. }) => (glam::Vec3::from(*center), *radius),
-        Some(_) => return Err(Error::file(path, "objects[0] must be a sphere (the normal-probe camera looks at it)")),
-        None => return Err(Error::file(path, "the scene has no objects (objects[0] must be a sphere)")),
-    };
-    let n_objects = file.objects.len();
-    let (spp, sampler, max_depth) = (file.render.spp, file.render.sampler, file.render.max_depth);
-    file.render.width = w;
-    file.render.height = h;
-    // Pixel centres (jitter off): the normal quadrature's nodes are the pixel centres.
-    file.camera = CameraSection::NormalProbe { theta_o_deg: 0.0, phi_o_deg: 0.0, jitter: false };
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut scene = Scene::build(file, &base).map_err(|e| e.in_file(path))?;
-    let t0 = std::time::Instant::now();
-    let mut lf = LightField::new(w as usize, h as usize, rule)?;
-    let mut max_se = 0.0f64;
-    let nodes = hemisphere_nodes(n_mu, n_phi)?;
-    for node in &nodes {
-        let (t, p) = node_degrees(node);
-        let (v, se) = render_view(&mut scene, sphere, t, p, ch).map_err(|e| e.in_file(path))?;
-        max_se = max_se.max(se);
-        lf.add(*node, &v).map_err(|e| e.in_file(path))?;
-    }
-    let (v0, se0) = render_view(&mut scene, sphere, 0.0, 0.0, ch).map_err(|e| e.in_file(path))?;
-    max_se = max_se.max(se0);
-    let normal_b = project(&v0, w as usize, h as usize, rule, lmax)?;
-    let secs = t0.elapsed().as_secs_f64();
-    Ok(Measured {
-        lf,
-        nodes: (n_mu, n_phi),
-        normal_b: Some(normal_b),
-        // +inf: renders of 1 spp, which have no error estimate.
-        max_stderr: Some(max_se).filter(|s| s.is_finite()),
-        input: FactorInput::Scene {
-            scene: path.display().to_string(),
-            size: [w, h],
-            spp,
-            sampler,
-            max_depth,
-            objects: n_objects,
-        },
-        renders: Some((nodes.len() + 1, secs)),
-    })
-}
-
-fn ratios(x: &[Option<f64>]) -> Vec<Option<f64>> {
-    let x0 = x.first().copied().flatten();
-    x.iter().map(|v| Some((*v)? / x0?).filter(|r| r.is_finite())).collect()
-}
-
-/// Where the light field came from.
-#[derive(Clone, Debug, serde::Serialize)]
-#[serde(untagged)]
-pub enum FactorInput {
-    /// IMAGES mode: the node renders and the optional `--normal` view.
-    Images { images: Vec<String>, normal: Option<String> },
-    /// `--scene` mode: the scene file and the render settings used at every node.
-    Scene { scene: String, size: [u32; 2], spp: u32, sampler: vocab::Sampler, max_depth: u32, objects: usize },
-}
-
-/// One order l of the factorization.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct FactorOrder {
-    pub l: usize,
-    pub kappa: f64,
-    /// κ_l / κ_0 = ρ̃_l00 / ρ̃_000 (the BRDF up to scale); `None` when not finite.
-    pub kappa_ratio: Option<f64>,
-    /// g_l = |Λ_l κ_l| / |Λ_0 κ_0|.
-    pub gain: f64,
-    /// 1 / g_l; `None` when g_l = 0.
-    pub amplification: Option<f64>,
-    /// `recovered`, `ill-conditioned` or `ambiguous`.
-    pub status: String,
-}
-
-/// The direction of the order-1 lighting (meaningful only for a single directional source).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct SourceReport {
-    pub direction: [f64; 3],
-    pub theta_deg: f64,
-    pub phi_deg: f64,
-    /// |L_1| / √(3/4π): 1 for a single directional source.
-    pub directionality: f64,
-}
-
-/// P a(θ'_o) of one node ring.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct AlbedoRing {
-    pub theta_o_deg: f64,
-    pub p_albedo: f64,
-}
-
-/// The normal-exitance filter ratios Λ_l ρ̂_l / Λ_0 ρ̂_0 (eq. 16), index l.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct NormalFilter {
-    /// With the factored lighting; `None` where it is ambiguous.
-    pub factored_lighting: Vec<Option<f64>>,
-    /// With Y_lm(ŝ) of the recovered source direction (a single directional source only).
-    pub directional_source: Option<Vec<Option<f64>>>,
-}
-
-/// Render count and wall time of `--scene` mode.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct RenderCount {
-    pub count: usize,
-    pub wall_seconds: f64,
-}
-
-/// The report of `reflect invert factor` (`--json` prints this struct).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct InvertFactorReport {
-    pub command: String,
-    /// `images` or `scene`.
-    pub mode: String,
-    pub input: FactorInput,
-    /// n_μ × n_φ.
-    pub nodes: [usize; 2],
-    /// W × H of the normal grid.
-    pub grid: [usize; 2],
-    /// `fejer` or `pixel`.
-    pub rule: String,
-    pub channel: String,
-    pub lmax: usize,
-    pub lmax_carried: Option<usize>,
-    pub lmax_carried_rule: String,
-    pub max_amplification: f64,
-    pub renders: Option<RenderCount>,
-    /// Largest per-pixel standard error of the factored channel; null when not recorded and when the
-    /// renders have no error estimate (1 spp).
-    pub max_stderr: Option<f64>,
-    pub orders: Vec<FactorOrder>,
-    /// L_lm / P in index order; `None` where ambiguous.
-    pub lighting: Vec<Option<f64>>,
-    /// L_00 / P = 1/√(4π), the gauge.
-    pub gauge_l00: f64,
-    pub source: Option<SourceReport>,
-    pub source_note: String,
-    pub albedo_profile: Vec<AlbedoRing>,
-    pub filter: Option<NormalFilter>,
-    /// Warnings, each one sentence (printed once on stderr as `warning: …`, not in the text report).
-    pub warnings: Vec<String>,
-}
-
-fn report(a: &FactorArgs, m: &Measured, f: &Factorization, lmax: usize, rule: NormalRule) -> InvertFactorReport {
-    let kr = f.brdf_ratios();
-    let orders = f
-        .orders
+    let views: Vec<ProbeImage<'_>> = a
+        .images
         .iter()
-        .map(|o| FactorOrder {
-            l: o.l,
-            kappa: o.kappa,
-            kappa_ratio: Some(kr[o.l]).filter(|r| r.is_finite()),
-            gain: o.gain,
-            amplification: (o.gain > 0.0).then(|| 1.0 / o.gain),
-            status: o.status.name().into(),
-        })
+        .zip(&images)
+        .zip(&described.cameras)
+        .map(|((path, image), camera)| ProbeImage { path, image, camera })
         .collect();
-    let source = f.source_direction().map(|s| {
-        let [x, y, z] = s.direction;
-        SourceReport {
-            direction: s.direction,
-            theta_deg: z.clamp(-1.0, 1.0).acos().to_degrees(),
-            phi_deg: y.atan2(x).to_degrees(),
-            directionality: s.directionality,
-        }
-    });
-    let albedo_profile =
-        m.lf.albedo_profile().iter().map(|(t, v)| AlbedoRing { theta_o_deg: t.to_degrees(), p_albedo: *v }).collect();
-    let filter = m.normal_b.as_ref().map(|b| NormalFilter {
-        factored_lighting: ratios(&filter_from_lighting(b, &f.lighting, lmax)),
-        directional_source: f.source_direction().map(|s| {
-            let y: Vec<Option<f64>> = directional_lighting(s.direction, lmax).into_iter().map(Some).collect();
-            ratios(&filter_from_lighting(b, &y, lmax))
-        }),
-    });
-    let (w, h) = (m.lf.width, m.lf.height);
-    let mut warnings = Vec::new();
-    if let FactorInput::Scene { objects, .. } = &m.input
-        && *objects > 1
-    {
-        warnings
-            .push("only objects[0] is factored; the other objects may shadow it or appear in its reflections".into());
-    }
-    InvertFactorReport {
-        command: "invert factor".into(),
-        mode: if a.view.scene.is_some() && a.images.is_empty() { "scene" } else { "images" }.into(),
-        input: m.input.clone(),
-        nodes: [m.nodes.0, m.nodes.1],
-        grid: [w, h],
-        rule: match rule {
-            NormalRule::Fejer => "fejer",
-            NormalRule::PixelSolidAngle => "pixel",
-        }
-        .into(),
-        channel: a.channel.layer().to_string(),
-        lmax,
-        lmax_carried: latlong_max_order(w, h),
-        lmax_carried_rule: LATLONG_RULE.into(),
-        max_amplification: a.max_amplification,
-        renders: m.renders.map(|(count, wall_seconds)| RenderCount { count, wall_seconds }),
-        max_stderr: m.max_stderr,
-        orders,
-        lighting: f.lighting.clone(),
-        gauge_l00: 1.0 / (4.0 * PI).sqrt(),
-        source,
-        source_note: "direction of the order-1 lighting (L_11, L_1-1, L_10)/|.|; meaningful only for a single \
-                      directional source, whose directionality |L_1|/sqrt(3/4pi) is 1"
-            .into(),
-        albedo_profile,
-        filter,
-        warnings,
-    }
+    let normal = normal.as_ref().map(|(path, image, camera)| ProbeImage { path, image, camera });
+    Ok(analysis::factor::factor_images(params, &views, normal, sidecar.as_ref())?)
 }
 
-fn fmt_num(v: Option<f64>) -> String {
-    v.map_or("—".to_string(), |x| format!("{x:.5e}"))
+/// `--scene` mode: the scene's light field rendered in memory, view by view
+/// ([`renderer::light_field`]), and factored by the library.
+fn from_scene(path: &Path, params: &FactorParams, (w, h): (u32, u32)) -> Result<InvertFactorReport, Error> {
+    check_nodes_of(params)?;
+    // Before the scene is built (its maps read): a grid too coarse for --lmax is the flag's error.
+    analysis::projection::resolution::check_latlong(params.lmax, w as usize, h as usize, "normal-probe grid (--size)")?;
+    let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
+    let file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
+    let input = FactorInput::Scene {
+        scene: path.display().to_string(),
+        size: [w, h],
+        spp: file.render.spp,
+        sampler: file.render.sampler,
+        max_depth: file.render.max_depth,
+        objects: file.objects.len(),
+    };
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut views = LightFieldViews::new(file, &base, w, h).map_err(|e| e.in_file(path))?;
+    let ch = params.channel;
+    let render = |t: f64, p: f64| -> Result<RenderedView, analysis::factor::Error> {
+        let film = views.render(t, p)?;
+        Ok(RenderedView {
+            radiance: film.pixels.iter().map(|px| px.rgb[ch] as f64).collect(),
+            stderr: film.pixels.iter().map(|px| px.stderr[ch] as f64).collect(),
+        })
+    };
+    Ok(analysis::factor::factor_rendered(params, path, (w as usize, h as usize), input, render)?)
 }
 
-impl std::fmt::Display for InvertFactorReport {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(
-            f,
-            "# invert factor (eq. 18) — {}x{} outgoing nodes (Gauss–Legendre μ × trapezoid φ), {}×{} normals ({}), channel {}",
-            self.nodes[0], self.nodes[1], self.grid[0], self.grid[1], self.rule, self.channel
-        )?;
-        writeln!(
-            f,
-            "# l_max {}; the grid carries l <= {} ({})",
-            self.lmax,
-            self.lmax_carried.map_or("—".to_string(), |l| l.to_string()),
-            self.lmax_carried_rule
-        )?;
-        if let FactorInput::Scene { scene, spp, sampler, max_depth, objects, .. } = &self.input {
-            writeln!(f, "# scene {scene}: {spp} spp, sampler {sampler}, max_depth {max_depth}, {objects} object(s)")?;
-        }
-        if let Some(r) = &self.renders {
-            writeln!(
-                f,
-                "# renders: {} ({} nodes + 1 at θ_o = 0), wall time {:.2} s",
-                r.count,
-                r.count.saturating_sub(1),
-                r.wall_seconds
-            )?;
-        }
-        if let Some(se) = self.max_stderr {
-            writeln!(f, "# largest per-pixel standard error of the renders: {se:.3e}")?;
-        }
-        writeln!(
-            f,
-            "# orders with amplification 1/gain > {} are ill-conditioned; κ_l = 0 is ambiguous (0/0)",
-            self.max_amplification
-        )?;
-        writeln!(f, "{:>4} {:>14} {:>12} {:>16}", "l", "κ_l/κ_0", "gain", "status")?;
-        for o in &self.orders {
-            writeln!(f, "{:>4} {:>14} {:>12} {:>16}", o.l, fmt_num(o.kappa_ratio), fmt_num(Some(o.gain)), o.status)?;
-        }
-        writeln!(
-            f,
-            "\n# lighting L_lm/P up to the global scale P = ∫L dω (L_00/P = 1/√(4π) = {:.6} is the gauge)",
-            self.gauge_l00
-        )?;
-        writeln!(f, "{:>4} {:>4} {:>14}", "l", "m", "L_lm/P")?;
-        for (k, v) in self.lighting.iter().enumerate() {
-            let (l, mm) = lm(k);
-            let cell = if v.is_none() { "ambiguous".to_string() } else { fmt_num(*v) };
-            writeln!(f, "{l:>4} {mm:>4} {cell:>14}")?;
-        }
-        match &self.source {
-            Some(s) => {
-                let d = s.direction;
-                writeln!(
-                    f,
-                    "\n# source direction (order-1 lighting; meaningful only for a single directional source): [{:.5}, {:.5}, {:.5}], θ = {:.3}°, φ = {:.3}°",
-                    d[0], d[1], d[2], s.theta_deg, s.phi_deg
-                )?;
-                writeln!(
-                    f,
-                    "# directionality |L_1|/√(3/4π) = {:.5} (1 for a single directional source, < 1 otherwise)",
-                    s.directionality
-                )?;
-            }
-            None => {
-                writeln!(f, "\n# source direction: none (l_max < 1, or the order-1 lighting is ambiguous or zero)")?
-            }
-        }
-        writeln!(f, "\n# albedo profile P a(θ'_o) per node ring (P = ∫L dω; a the directional albedo)")?;
-        writeln!(f, "{:>12} {:>14}", "θ'_o (deg)", "P a(θ'_o)")?;
-        for r in &self.albedo_profile {
-            writeln!(f, "{:>12.4} {:>14}", r.theta_o_deg, fmt_num(Some(r.p_albedo)))?;
-        }
-        if let Some(fl) = &self.filter {
-            writeln!(f, "\n# normal-exitance filter Λ_l ρ̂_l / Λ_0 ρ̂_0 (θ_o = 0, eq. 16 by least squares over m)")?;
-            writeln!(f, "{:>4} {:>20} {:>20}", "l", "factored L_lm", "Y_lm(ŝ) (dir. only)")?;
-            for (l, v) in fl.factored_lighting.iter().enumerate() {
-                let d = fl.directional_source.as_ref().and_then(|d| d.get(l).copied().flatten());
-                writeln!(f, "{l:>4} {:>20} {:>20}", fmt_num(*v), fmt_num(d))?;
-            }
-        }
-        Ok(())
+/// The node rule of `--nodes`, checked before the scene is read (a bad rule is the flag's error).
+fn check_nodes_of(params: &FactorParams) -> Result<(), Error> {
+    match params.nodes {
+        Some((n_mu, n_phi)) => Ok(check_nodes(n_mu, n_phi)?),
+        None => Ok(()),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use analysis::image::write_exr;
+    use analysis::factor::toml_float;
+    use analysis::image::{Image, write_exr};
+    use analysis::inverse::factorization::{hemisphere_nodes, node_degrees};
+    use analysis::sh::lm;
     use analysis::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
+    use renderer::render::{RenderOptions, render};
+    use renderer::scene::Scene;
     use serde_json::{Value, json};
+    use std::f64::consts::PI;
 
     /// The report as the JSON document `--json` prints.
     fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {
@@ -1004,24 +510,6 @@ mod tests {
         assert!(parse_size("1x1").is_err() && parse_size("96x48").is_ok());
         // The complete set passes.
         assert!(factor_doc(&args(paths, 2)).is_ok());
-    }
-
-    #[test]
-    fn printed_nodes_survive_f32_headers() {
-        assert_eq!(toml_float(120.0 - 1e-14), "120.0");
-        assert_eq!(toml_float(77.79999595818678), "77.7999959582");
-        // --print-nodes prints f64 degrees; the renderer stores f32 (relative 6e-8, ≤ 5e-6° below
-        // 90°), well inside NODE_TOL_DEG, so the f32 angles still match the rule exactly once.
-        for (n_mu, n_phi) in [(8, 16), (16, 48), (64, 64)] {
-            let nodes = hemisphere_nodes(n_mu, n_phi).unwrap();
-            // As printed, then parsed as f32 by the scene file.
-            let f32_of = |x: f64| toml_float(x).parse::<f32>().unwrap() as f64;
-            let angles: Vec<(f64, f64)> = nodes.iter().map(node_degrees).map(|(t, p)| (f32_of(t), f32_of(p))).collect();
-            let names: Vec<String> = (0..angles.len()).map(|i| format!("n{i}")).collect();
-            let (got, _, idx) = match_nodes(&angles, &names, None).unwrap();
-            assert_eq!(got, (n_mu, n_phi));
-            assert_eq!(idx, (0..angles.len()).collect::<Vec<_>>());
-        }
     }
 
     const SCENE: &str = r#"
