@@ -28,7 +28,14 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _args, _reflect
-from ._analysis import AnalyzeReport, InvertBrdfReport, InvertLightingReport, InvertSeparateReport, Report
+from ._analysis import (
+    AnalyzeReport,
+    InvertBrdfReport,
+    InvertFactorReport,
+    InvertLightingReport,
+    InvertSeparateReport,
+    Report,
+)
 from ._errors import Error, FileError, InputError, MissingFileError
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
@@ -40,6 +47,7 @@ __all__ = [
     "Error",
     "InvertBrdfReport",
     "InvertLightingReport",
+    "InvertFactorReport",
     "InvertSeparateReport",
     "Report",
     "FileError",

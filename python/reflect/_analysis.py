@@ -224,6 +224,11 @@ class InvertSeparateReport(Report):
     specular separation (sec. 3.5)."""
 
 
+class InvertFactorReport(Report):
+    """The result of :func:`reflect.invert.factor` (``reflect invert factor --json``): a light field
+    factored into lighting and BRDF up to the global scale (eq. 18, 23)."""
+
+
 # ---------------------------------------------------------------------------------------------
 # Arguments
 
@@ -607,3 +612,66 @@ def invert_separate(
         scan=_args.boolean("scan", scan),
     )
     return InvertSeparateReport(doc, notes)
+
+
+def _pair(name: str, v: Any, lo: int, hi: int) -> Tuple[int, int]:
+    try:
+        a, b = v
+    except (TypeError, ValueError):
+        raise InputError(f"{name}= must be a pair of integers, got {v!r}") from None
+    return _args.integer(f"{name}[0]", a, lo, hi), _args.integer(f"{name}[1]", b, lo, hi)
+
+
+def invert_factor(
+    images: Any = (),
+    *,
+    lmax: int,
+    nodes: Any = None,
+    normal: Any = None,
+    channel: str = "r",
+    quadrature: str = "fejer",
+    max_amplification: float = 10.0,
+    scene: Any = None,
+    size: Any = (96, 48),
+    camera: Any = None,
+    stderr: Any = None,
+    layer: Optional[str] = None,
+) -> InvertFactorReport:
+    ch = "rgb".index(choice("channel", channel, ("r", "g", "b", "R", "G", "B")).lower())
+    rule = choice("quadrature", quadrature, ("fejer", "pixel"))
+    amp = _args.real("max_amplification", max_amplification)
+    if not (math.isfinite(amp) and amp >= 1.0):
+        raise InputError(f"max_amplification= must be a finite number ≥ 1, got {amp}")
+    lmax = lmax_of(lmax)
+    node_rule = None if nodes is None else _pair("nodes", nodes, 1, 1 << 20)
+    no_images = isinstance(images, (list, tuple)) and len(images) == 0
+    if no_images:
+        # The light field of a scene file, rendered in memory at every node and at θ_o = 0.
+        if scene is None:
+            raise InputError("no input: give normal-probe images=, or scene= (a scene file) with nodes=(n_mu, n_phi)")
+        if not isinstance(scene, (str, os.PathLike)):
+            raise InputError("scene= without images must be the path of a scene file whose light field is rendered")
+        if node_rule is None:
+            raise InputError("scene= needs nodes=(n_mu, n_phi), e.g. (8, 16)")
+        for k, v in (("normal", normal), ("camera", camera), ("stderr", stderr), ("layer", layer)):
+            if v is not None:
+                raise InputError(f"{k}= describes images; without images the scene's light field is rendered")
+        doc, notes = _reflect.invert_factor_scene(
+            os.fspath(scene), lmax=lmax, nodes=node_rule, size=_pair("size", size, 2, 4096), channel=ch,
+            quadrature=rule, max_amplification=amp,
+        )
+        return InvertFactorReport(doc, notes)
+    view = _View(images, camera, None, scene, stderr, layer, None)
+    normal_view = None
+    if normal is not None:
+        # The normal view is at θ_o = 0 by definition: an array of it needs no camera=.
+        ncam = {"type": "normal-probe", "theta_o_deg": 0.0, "phi_o_deg": 0.0}
+        is_file = isinstance(normal, (str, os.PathLike, RenderResult))
+        nv = _View([normal], None if is_file else ncam, None, scene, None, layer, None)
+        name = nv.names[0] if is_file else "<normal array>"
+        normal_view = (nv.items[0], name, nv.view)
+    doc, notes = _reflect.invert_factor(
+        view.items, view.names, view.view, normal_view, lmax=lmax, nodes=node_rule, channel=ch, quadrature=rule,
+        max_amplification=amp,
+    )
+    return InvertFactorReport(doc, notes)

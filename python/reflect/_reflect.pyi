@@ -209,10 +209,33 @@ def invert_separate(
 ) -> Report:
     """``analysis::separate::separate``; ``channel`` 0, 1, 2 for R, G, B (None: all three)."""
 
-def factor_report(argv: List[str]) -> Dict[str, Any]:
-    """Parses ``reflect invert factor ARGV…`` with the CLI's parser and runs it in this process
-    (GIL released), returning the document its ``--json`` prints as plain Python objects. A usage
-    error raises ``ValueError`` with the binary's one line (without ``error: ``)."""
+def invert_factor(
+    images: List[Any],
+    names: List[str],
+    view: Dict[str, Any],
+    normal: Optional[Tuple[Any, str, Dict[str, Any]]],
+    *,
+    lmax: int,
+    nodes: Optional[Tuple[int, int]],
+    channel: int,
+    quadrature: str,
+    max_amplification: float,
+) -> Tuple[Dict[str, Any], List[str]]:
+    """``analysis::factor::factor_images``: normal-probe views, one per node of the outgoing rule, and an
+    optional θ_o = 0 view ``(image, name, view)``; ``channel`` 0, 1, 2 for R, G, B."""
+
+def invert_factor_scene(
+    scene: str,
+    *,
+    lmax: int,
+    nodes: Tuple[int, int],
+    size: Tuple[int, int],
+    channel: int,
+    quadrature: str,
+    max_amplification: float,
+) -> Tuple[Dict[str, Any], List[str]]:
+    """``analysis::factor::factor_rendered`` on the scene file's light field, rendered in memory
+    (``renderer::light_field``) at every node and at θ_o = 0 on a ``size`` = (W, H) grid."""
 
 def write_image(path: str, channels: Dict[str, npt.NDArray[np.float32]], attributes: Dict[str, str]) -> None:
     """Writes a 32-bit float OpenEXR: each C-contiguous (H, W) float32 array of ``channels`` (one

@@ -1,15 +1,14 @@
 """Inverse rendering from images of a sphere (paper sec. 2.2 and 3): the analyses of ``reflect
 invert …``, called directly.
 
-:func:`lighting`, :func:`brdf` and :func:`separate` take images as :func:`reflect.analyze` does
+:func:`lighting`, :func:`brdf`, :func:`separate` and :func:`factor` take images as :func:`reflect.analyze` does
 (paths, renders, or (H, W, 3) arrays with ``camera`` / ``sphere`` / ``scene`` / ``stderr``
 describing them), write no file, and return report objects (:class:`reflect.InvertLightingReport`,
 …) whose attributes are NumPy arrays and whose ``to_dict()`` is the CLI's ``--json`` document. Bad
 input raises :class:`reflect.InputError` (a ``ValueError``; :class:`reflect.MissingFileError` for
 a missing file) naming the keyword or the image.
 
-:func:`factor` still runs the command line in this process (``reflect invert factor``, arrays
-written to temporary files first) and returns the ``--json`` document as a dict.
+:func:`factor` also renders a scene's light field in memory when given ``scene=`` and no images.
 """
 
 from __future__ import annotations
@@ -17,7 +16,7 @@ from __future__ import annotations
 from typing import Any, Dict, Optional, Sequence, Union
 
 from . import _analysis
-from ._analysis import Images, InvertBrdfReport, InvertLightingReport, InvertSeparateReport
+from ._analysis import Images, InvertBrdfReport, InvertFactorReport, InvertLightingReport, InvertSeparateReport
 
 __all__ = ["brdf", "factor", "lighting", "separate"]
 
@@ -151,21 +150,36 @@ def separate(
 def factor(
     images: Images = (),
     *,
-    lmax: Optional[int] = None,
+    lmax: int,
+    nodes: Optional[Sequence[int]] = None,
+    normal: Any = None,
+    channel: str = "r",
+    quadrature: str = "fejer",
+    max_amplification: float = 10.0,
+    scene: Any = None,
+    size: Sequence[int] = (96, 48),
     camera: Any = None,
-    sphere: Optional[Dict[str, Any]] = None,
     stderr: Any = None,
-    **flags: Any,
-) -> Dict[str, Any]:
+    layer: Optional[str] = None,
+) -> InvertFactorReport:
     """Factor a sphere's reflected light field into lighting and BRDF up to scale (eq. 18, 23):
-    ``reflect invert factor --json``.
+    ``reflect invert factor``.
 
-    ``images``: normal-probe renders, one per node of an n_μ × n_φ product rule. Or no images and
-    ``scene="scene.toml"``, ``nodes=(n_mu, n_phi)`` (``size=(W, H)``): the light field is rendered
-    in memory. Flags: ``normal`` (a θ_o = 0 render), ``channel``, ``quadrature`` ("fejer" |
-    "pixel"), ``max_amplification``. Returns e.g. ``orders`` (list of dicts), ``lighting``
-    ((lmax+1)²,) float64 (L_lm / P, NaN where ambiguous).
+    ``images``: normal-probe views (paths, renders or (H, W, 3) arrays, all on one lat-long grid
+    of normals, rendered at pixel centres), one per node of an n_μ × n_φ product rule (the rule is
+    inferred from their angles, or checked against ``nodes=(n_mu, n_phi)``); arrays need ``camera``
+    (one ``{"type": "normal-probe", "theta_o_deg": …, "phi_o_deg": …}`` per array) or ``scene``.
+    ``normal``: a view at θ_o = 0, which adds the normal-exitance filter (eq. 16). Or no images and
+    ``scene="scene.toml"``, ``nodes=(n_mu, n_phi)``, ``size=(W, H)``: the scene's light field is
+    rendered in memory (its first object must be a sphere). ``channel``: "r" | "g" | "b" (one channel
+    is factored); ``quadrature``: "fejer" | "pixel" over the normals; ``max_amplification``: the
+    noise amplification 1/g_l above which an order is ill-conditioned.
+
+    Returns an :class:`reflect.InvertFactorReport`: e.g. ``orders`` (list of dicts with ``kappa_ratio``
+    = κ_l/κ_0, ``gain``, ``status``), ``lighting`` ((lmax+1)²,) float64 (L_lm / P, NaN where
+    ambiguous), ``source`` (the order-1 direction), ``albedo_profile``, ``filter``.
     """
-    from ._commands import run
-
-    return run(["invert", "factor"], images, dict(lmax=lmax, **flags), camera=camera, sphere=sphere, stderr=stderr)
+    return _analysis.invert_factor(
+        images, lmax=lmax, nodes=nodes, normal=normal, channel=channel, quadrature=quadrature,
+        max_amplification=max_amplification, scene=scene, size=size, camera=camera, stderr=stderr, layer=layer,
+    )

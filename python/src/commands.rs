@@ -3,7 +3,7 @@
 //! held in memory: files read as the CLI reads them ([`reflect::images`]), renders as the image
 //! their saved file holds ([`renderer::render_file::film_image`]), arrays as the layers and header
 //! attributes the Python side built. No file is written and no command line is built; the
-//! arguments arrive checked and typed by the Python side (`reflect/_commands.py`), which names its
+//! arguments arrive checked and typed by the Python side (`reflect/_analysis.py`), which names its
 //! keywords in every message it raises.
 //!
 //! Each function returns `(doc, notes)`: the report as the document `--json` prints (through
@@ -24,13 +24,13 @@ use std::path::PathBuf;
 use vocab::scene::SceneFile;
 
 /// One image argument: a file's path, a render, or the layers and header of an array.
-enum Input {
+pub(crate) enum Input {
     File(PathBuf),
     Memory(Image),
 }
 
 /// The image arguments of a call, in order (`names`: each one's name in reports and messages).
-fn inputs(images: &[Bound<'_, PyAny>]) -> PyResult<Vec<Input>> {
+pub(crate) fn inputs(images: &[Bound<'_, PyAny>]) -> PyResult<Vec<Input>> {
     let mut out = Vec::with_capacity(images.len());
     for img in images {
         if let Ok(r) = img.cast::<RenderResult>() {
@@ -57,7 +57,7 @@ fn inputs(images: &[Bound<'_, PyAny>]) -> PyResult<Vec<Input>> {
 #[pyo3(from_item_all)]
 pub struct View {
     /// The sidecar scene of files (`scene=` beside files).
-    scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     center: Option<[f64; 3]>,
     radius: Option<f64>,
     layer: Option<String>,
@@ -67,7 +67,7 @@ pub struct View {
 /// Reads and describes the images (as the CLI's `load`): files read with their radiance layer,
 /// error bars bounded near flagged pixels, everything described and made ready by
 /// [`analysis::observation::observe`]. `what` is the command's verb for refusals.
-fn load(
+pub(crate) fn load(
     inputs: Vec<Input>,
     names: &[PathBuf],
     view: &View,
@@ -200,14 +200,17 @@ fn brdf_values(
 }
 
 /// Runs `work` without the GIL; a panic (a bug) becomes `RuntimeError`.
-fn detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> Result<T, analysis::Error> + Send) -> PyResult<T> {
+pub(crate) fn detached<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce() -> Result<T, analysis::Error> + Send,
+) -> PyResult<T> {
     py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)))
         .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("the analysis panicked (a bug in reflect)"))?
         .map_err(py_err)
 }
 
 /// `(doc, notes)` of a report.
-fn result<'py, R: serde::Serialize>(
+pub(crate) fn result<'py, R: serde::Serialize>(
     py: Python<'py>,
     r: &R,
     notes: Vec<String>,
@@ -216,7 +219,7 @@ fn result<'py, R: serde::Serialize>(
     Ok((to_python(py, &doc)?, notes))
 }
 
-fn paths(names: Vec<String>) -> Vec<PathBuf> {
+pub(crate) fn paths(names: Vec<String>) -> Vec<PathBuf> {
     names.into_iter().map(PathBuf::from).collect()
 }
 

@@ -1,43 +1,122 @@
-//! `reflect.invert.factor`, still through the command line: `factor_report(argv)` parses
-//! `reflect invert factor ARGV…` with the CLI's parser and runs the command's code, returning the
-//! document its `--json` prints. Factorization has not moved into `analysis` yet (its
-//! scene-rendering path needs the renderer); once it has, this becomes a call like
-//! [`crate::commands`]' and goes away.
+//! `reflect.invert.factor`: [`analysis::factor`] called on images held in memory (files read as the
+//! CLI reads them, renders, arrays; as [`crate::commands`] does for the other analyses), or on a
+//! scene's light field rendered in memory view by view ([`renderer::light_field`]). No file is
+//! written and no command line is built; the arguments arrive checked by the Python side
+//! (`reflect/_analysis.py`). Each function returns `(doc, notes)` as [`crate::commands`]' do.
 
-use crate::convert::{IntoPy, to_python};
-use analysis::Error;
-use clap::Parser;
-use pyo3::exceptions::PyValueError;
+use crate::commands::{View, detached, inputs, load, paths, result};
+use crate::convert::input_error;
+use analysis::factor::{FactorInput, FactorParams, ProbeImage, RenderedView};
+use analysis::inverse::factorization::NormalRule;
 use pyo3::prelude::*;
-use reflect::cli::invert::InvertCommand;
-use reflect::cli::{Cli, Command};
+use renderer::light_field::LightFieldViews;
+use std::path::{Path, PathBuf};
 
-/// `factor_report(argv)` → the `--json` document of `reflect invert factor ARGV…`. The GIL is
-/// released while the command runs.
+fn params(
+    lmax: usize,
+    nodes: Option<(usize, usize)>,
+    channel: usize,
+    quadrature: &str,
+    max_amplification: f64,
+) -> PyResult<FactorParams> {
+    let rule = match quadrature {
+        "fejer" => NormalRule::Fejer,
+        "pixel" => NormalRule::PixelSolidAngle,
+        q => return Err(input_error(format!("quadrature= must be \"fejer\" or \"pixel\", got {q:?}"))),
+    };
+    Ok(FactorParams { lmax, channel, rule, max_amplification, nodes })
+}
+
+/// `invert_factor(images, names, view, normal, *, lmax, …)` → `(doc, notes)`:
+/// [`analysis::factor::factor_images`]. `normal`: `(image, name, view)` of the θ_o = 0 view, if any.
 #[pyfunction]
-pub fn factor_report<'py>(py: Python<'py>, argv: Vec<String>) -> PyResult<Bound<'py, PyAny>> {
-    let args = ["reflect", "invert", "factor"].into_iter().map(String::from).chain(argv);
-    let cli = Cli::try_parse_from(args).map_err(|e| {
-        // One line, as the binary prints it (src/main.rs): clap's message up to its usage block.
-        let text = e.render().to_string();
-        let msg: Vec<&str> = text
-            .lines()
-            .map(str::trim)
-            .skip_while(|l| l.is_empty())
-            .take_while(|l| !l.is_empty() && !l.starts_with("Usage:"))
+#[pyo3(signature = (images, names, view, normal, *, lmax, nodes, channel, quadrature, max_amplification))]
+#[allow(clippy::too_many_arguments)]
+pub fn invert_factor<'py>(
+    py: Python<'py>,
+    images: Vec<Bound<'py, PyAny>>,
+    names: Vec<String>,
+    view: View,
+    normal: Option<(Bound<'py, PyAny>, String, View)>,
+    lmax: usize,
+    nodes: Option<(usize, usize)>,
+    channel: usize,
+    quadrature: &str,
+    max_amplification: f64,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    let params = params(lmax, nodes, channel, quadrature, max_amplification)?;
+    let normal = match normal {
+        Some((img, name, v)) => Some((inputs(std::slice::from_ref(&img))?, PathBuf::from(name), v)),
+        None => None,
+    };
+    let inputs = inputs(&images)?;
+    let names = paths(names);
+    let (r, notes) = detached(py, || {
+        analysis::factor::validate(&params)?;
+        let (images, observed, mut notes) = load(inputs, &names, &view, "factored", true)?;
+        let sidecar = view.scene.as_deref().map(reflect::images::read_scene).transpose()?;
+        let normal = match normal {
+            None => None,
+            Some((input, name, v)) => {
+                let (mut imgs, d, n) = load(input, std::slice::from_ref(&name), &v, "factored", true)?;
+                notes.extend(n);
+                Some((name, imgs.remove(0), d.cameras[0]))
+            }
+        };
+        let views: Vec<ProbeImage<'_>> = names
+            .iter()
+            .zip(&images)
+            .zip(&observed.cameras)
+            .map(|((path, image), camera)| ProbeImage { path, image, camera })
             .collect();
-        PyValueError::new_err(msg.join(" ").trim_start_matches("error: ").to_string())
+        let normal = normal.as_ref().map(|(path, image, camera)| ProbeImage { path, image, camera });
+        let r = analysis::factor::factor_images(&params, &views, normal, sidecar.as_ref())?;
+        Ok((r, notes))
     })?;
-    let Command::Invert(InvertCommand::Factor(a)) = cli.command else {
-        return Err(PyValueError::new_err("not an invert factor command"));
-    };
-    let run = || {
-        reflect::cli::factor::factor_report(&a)
-            .and_then(|r| serde_json::to_value(r).map_err(|e| Error::new(format!("JSON output: {e}"))))
-    };
-    let doc = py
-        .detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)))
-        .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("the command panicked (a bug in reflect)"))?
-        .py()?;
-    to_python(py, &doc)
+    result(py, &r, notes)
+}
+
+/// `invert_factor_scene(scene, *, lmax, nodes, size, …)` → `(doc, notes)`: the light field of the
+/// scene file rendered at every node and at θ_o = 0 ([`analysis::factor::factor_rendered`]).
+#[pyfunction]
+#[pyo3(signature = (scene, *, lmax, nodes, size, channel, quadrature, max_amplification))]
+#[allow(clippy::too_many_arguments)]
+pub fn invert_factor_scene<'py>(
+    py: Python<'py>,
+    scene: PathBuf,
+    lmax: usize,
+    nodes: (usize, usize),
+    size: (u32, u32),
+    channel: usize,
+    quadrature: &str,
+    max_amplification: f64,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+    let params = params(lmax, Some(nodes), channel, quadrature, max_amplification)?;
+    let (w, h) = size;
+    let r = detached(py, || {
+        analysis::factor::validate(&params)?;
+        analysis::projection::resolution::check_latlong(lmax, w as usize, h as usize, "normal-probe grid (size=)")?;
+        let text = std::fs::read_to_string(&scene)
+            .map_err(|e| analysis::Error::file(&scene, format!("cannot read scene file: {e}")))?;
+        let file = vocab::scene::SceneFile::parse(&text).map_err(|m| analysis::Error::file(&scene, m))?;
+        let input = FactorInput::Scene {
+            scene: scene.display().to_string(),
+            size: [w, h],
+            spp: file.render.spp,
+            sampler: file.render.sampler,
+            max_depth: file.render.max_depth,
+            objects: file.objects.len(),
+        };
+        let base = scene.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut views = LightFieldViews::new(file, &base, w, h).map_err(|e| e.in_file(&scene))?;
+        let render = |t: f64, p: f64| -> Result<RenderedView, analysis::factor::Error> {
+            let film = views.render(t, p)?;
+            Ok(RenderedView {
+                radiance: film.pixels.iter().map(|px| px.rgb[channel] as f64).collect(),
+                stderr: film.pixels.iter().map(|px| px.stderr[channel] as f64).collect(),
+            })
+        };
+        Ok(analysis::factor::factor_rendered(&params, &scene, (w as usize, h as usize), input, render)?)
+    })?;
+    result(py, &r, Vec::new())
 }

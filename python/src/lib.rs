@@ -42,7 +42,8 @@ fn reflect_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(commands::invert_lighting, m)?)?;
     m.add_function(wrap_pyfunction!(commands::invert_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(commands::invert_separate, m)?)?;
-    m.add_function(wrap_pyfunction!(factor::factor_report, m)?)?;
+    m.add_function(wrap_pyfunction!(factor::invert_factor, m)?)?;
+    m.add_function(wrap_pyfunction!(factor::invert_factor_scene, m)?)?;
     m.add_function(wrap_pyfunction!(commands::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(commands::header_attributes, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;

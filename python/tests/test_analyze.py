@@ -211,7 +211,45 @@ def test_invert_separate_and_factor_give_the_cli_numbers(cli, tmp_path):
 
     scene = "scenes/factor-microfacet-directional.toml"
     want = cli_json(cli, "invert", "factor", "--scene", scene, "--nodes", "2x4", "--lmax", 2, "--size", "16x8")
-    got = plain(reflect.invert.factor(scene=ROOT / scene, nodes=(2, 4), lmax=2, size=(16, 8)))
+    report = reflect.invert.factor(scene=ROOT / scene, nodes=(2, 4), lmax=2, size=(16, 8))
+    assert isinstance(report, reflect.InvertFactorReport)
+    got = report.to_dict()
     assert got["renders"].pop("wall_seconds") >= 0 and want["renders"].pop("wall_seconds") >= 0
     assert got["input"].pop("scene").endswith(scene) and want["input"].pop("scene") == scene
     assert got == want
+
+
+def test_invert_factor_of_rendered_views_equals_the_scene_mode(cli):
+    """The light field given as renders (one per node, made in Python) factors to exactly what the
+    scene mode renders and factors itself: the same pixels (pixel centres, same seed and spp), so the
+    same numbers, with no file written."""
+    import tomllib
+
+    scene = ROOT / "scenes/factor-microfacet-directional.toml"
+    table = tomllib.loads(scene.read_text())
+    nodes = cli_json(cli, "invert", "factor", "--print-nodes", "2x4")["outgoing"]
+
+    def view(theta, phi):
+        t = dict(table, camera={"type": "normal-probe", "theta_o_deg": theta, "phi_o_deg": phi, "jitter": False})
+        return reflect.render(t, size=(16, 8))
+
+    views = [view(n["theta_o_deg"], n["phi_o_deg"]) for n in nodes]
+    got = reflect.invert.factor(views, normal=view(0.0, 0.0), lmax=2).to_dict()
+    want = reflect.invert.factor(scene=scene, nodes=(2, 4), lmax=2, size=(16, 8)).to_dict()
+    assert got["mode"] == "images" and want["mode"] == "scene"
+    for k in ("mode", "input", "renders", "warnings"):
+        got.pop(k), want.pop(k)
+    assert got == want
+    # Arrays with their cameras give the same numbers again.
+    arrays = reflect.invert.factor(
+        [v.rgb for v in views], lmax=2, normal=view(0.0, 0.0).rgb,
+        camera=[{"type": "normal-probe", "theta_o_deg": n["theta_o_deg"], "phi_o_deg": n["phi_o_deg"]} for n in nodes],
+    ).to_dict()
+    for k in ("mode", "input", "renders", "warnings", "max_stderr"):
+        arrays.pop(k)
+    got.pop("max_stderr")
+    assert arrays == got
+    with pytest.raises(reflect.InputError, match="nodes="):
+        reflect.invert.factor(scene=scene, lmax=2)
+    with pytest.raises(reflect.InputError, match="quadrature="):
+        reflect.invert.factor(views, lmax=2, quadrature="simpson")

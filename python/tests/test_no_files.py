@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import reflect
-from conftest import TINY
+from conftest import ROOT, TINY
 
 PROBE = TINY.replace(
     '[camera]\ntype = "orthographic"\nfrom = [3.0, 0.0, 1.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.05',
@@ -86,3 +86,10 @@ def test_analyze_and_invert_on_arrays_write_no_file(renders, no_writes):
                               sphere={"brdf": {"type": "phong", "s": 8.0}},
                               lighting={"type": "directional", "direction": [0.3, 0.2, 1.0], "irradiance": 3.0})
     assert fit.parameter == "s" and fit.profile.ndim == 2
+
+
+def test_invert_factor_writes_no_file(no_writes):
+    """The light field of a scene rendered in memory, and views given as arrays, factor without a file."""
+    scene = ROOT / "scenes/factor-microfacet-directional.toml"
+    r = reflect.invert.factor(scene=scene, nodes=(2, 4), lmax=2, size=(16, 8))
+    assert r.renders["count"] == 9 and r.lighting.shape == (9,)
