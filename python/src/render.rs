@@ -247,11 +247,16 @@ pub fn render(
         .py()?;
     scene.path = path;
     let passes = Passes { threads, progress, target_rel_error, time_limit, checkpoint, checkpoint_every };
+    // The most spp allowed, before a render to a target labels the scene with the spp it reached.
+    let spp_cap = scene.settings.spp;
     let run = render_passes(py, &mut scene, &passes)?;
     let result = RenderResult::new(py, &scene, run.film, &run.stats)?;
     let d = result.stats.bind(py);
     d.set_item("passes", run.passes)?;
     d.set_item("stopped_by", run.stop.name())?;
+    // As `reflect render --json`'s `progressive.spp_cap` and `progressive.target_reached`.
+    d.set_item("spp_cap", spp_cap)?;
+    d.set_item("target_reached", target_rel_error.map(|_| run.stop == Stop::Target))?;
     d.set_item("target_rel_error", target_rel_error)?;
     d.set_item("time_limit", time_limit)?;
     d.set_item("rel_error_p95", run.rel_error.and_then(|e| e.ok()))?;

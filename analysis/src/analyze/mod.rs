@@ -245,11 +245,13 @@ pub fn analyze(
     {
         let given = crate::sh::reconstruct::lmax_of(coefficients.len())
             .map_or_else(|| format!("{} coefficients", coefficients.len()), |l| format!("coefficients to l = {l}"));
+        // (The order is named, not "a few more than lmax": at small lmax the fit reads to l = 16.)
+        let read = l_hi_order(lmax);
         warnings.push(format!(
-            "the lighting is SH {given}, orders above taken as 0; the fit and verdict read it to l = {}: if the \
-             lighting has energy there (coefficients projected from a map), the image will contradict it — give \
-             coefficients to a few orders more than --lmax, or the map",
-            l_hi_order(lmax)
+            "the lighting is SH {given}, orders above taken as 0; the fit and verdict read it to l = {read} (at \
+             {}): if the lighting has energy there (coefficients projected from a map), the image will contradict \
+             it — give coefficients to at least l = {read}, or the map",
+            params.brdf.spelling.given("lmax", lmax)
         ));
     }
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {
