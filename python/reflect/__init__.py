@@ -17,7 +17,8 @@ Conventions (frame, SH basis, image layers, scene files) are those of the projec
 ``docs/src/conventions.md`` (sections "Spherical harmonics: the terms the commands print", "Output
 images", "Scene files" of the guide give the details). Bad input raises :class:`reflect.InputError` (a ``ValueError``; :class:`reflect.MissingFileError`, a
 ``FileNotFoundError``, for a missing file), all subclasses of :class:`reflect.Error`, with a one-line
-message naming this API's keywords.
+message naming this API's keywords. Results to be read with care raise :class:`reflect.Warning` (a
+``UserWarning``): a report's ``warnings``, a render short of its ``target_rel_error``.
 """
 
 from __future__ import annotations
@@ -35,8 +36,9 @@ from ._analysis import (
     InvertLightingReport,
     InvertSeparateReport,
     Report,
+    Table,
 )
-from ._errors import Error, FileError, InputError, MissingFileError
+from ._errors import Error, FileError, InputError, MissingFileError, TargetNotReachedWarning, Warning
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
 
@@ -61,6 +63,9 @@ __all__ = [
     "invert",
     "RenderResult",
     "Scene",
+    "Table",
+    "TargetNotReachedWarning",
+    "Warning",
     "__version__",
     "list_checks",
     "load_scene",
@@ -104,8 +109,12 @@ def render(
     ``checkpoint`` (an ``.exr`` path) resumes from that file if it exists and saves the state there every
     ``checkpoint_every`` seconds (default 60) and on Ctrl-C. The image is bit-identical to a plain
     render of the samples reached. The result's :attr:`RenderResult.spp` is the spp reached and its
-    ``stats`` say how it went: ``passes``, ``stopped_by`` ("target", "time-limit" or "spp-cap"),
-    ``rel_error_p95`` (None with ``rel_error_unknown`` saying why when there is no estimate).
+    ``stats`` say how it went, with the names of ``reflect render --json``'s ``progressive`` object:
+    ``passes``, ``stopped_by`` ("target", "time-limit" or "spp-cap"), ``spp_cap`` (the most spp
+    allowed), ``target_reached`` (None without ``target_rel_error``), ``rel_error_p95`` (None with
+    ``rel_error_unknown`` saying why when there is no estimate). A render that stops short of
+    ``target_rel_error`` (at the spp cap or the time limit) raises :class:`TargetNotReachedWarning`
+    (a :class:`reflect.Warning`) and returns the image it has; raise ``spp`` to go further.
     ``progress=True`` draws the tile bar and one line per pass on stderr.
 
     Nothing is written to disk (no temporary files) unless ``checkpoint`` is given.
@@ -133,7 +142,7 @@ def render(
     if ck is not None and not ck.lower().endswith(".exr"):
         raise InputError(f"checkpoint= must name an .exr file, got {ck!r}")
     kind, value, base = _source(scene)
-    return _reflect.render(
+    result = _reflect.render(
         kind,
         value,
         base,
@@ -148,6 +157,19 @@ def render(
         checkpoint=ck,
         checkpoint_every=checkpoint_every,
     )
+    if result.stats.get("target_reached") is False:
+        import warnings
+
+        st = result.stats
+        err = st.get("rel_error_p95")
+        got = f"{100 * err:.4g} %" if err is not None else f"unknown ({st.get('rel_error_unknown')})"
+        warnings.warn(
+            f"target_rel_error={target_rel_error} not reached: stopped by {st['stopped_by']} at {result.spp} of at most "
+            f"{st['spp_cap']} spp with a 95th-percentile relative error of {got}; raise spp= (the cap) to go further",
+            TargetNotReachedWarning,
+            stacklevel=2,
+        )
+    return result
 
 
 def _positive(name: str, v: Any) -> Optional[float]:

@@ -160,7 +160,13 @@ fn lighting_input(
     let img = RgbImage { width: w, height: h, pixels };
     let mapping = match mapping {
         Some(m) => m,
-        None => Mapping::infer(w, h).map_err(|e| input_error(format!("lighting= (map array): {}", e.message)))?,
+        // (Mapping::infer's refusal names the CLI's flag: this one is said in this API's terms.)
+        None => Mapping::infer(w, h).map_err(|_| {
+            input_error(format!(
+                "lighting= (map array): cannot infer the mapping of a {w}×{h} map (W = H is angular, W = 2H lat-long): \
+                 pass mapping="
+            ))
+        })?,
     };
     let coefficients = analysis::projection::project_envmap(&img, mapping, analysis::truncation::truncation_lmax(lmax))
         .map_err(|e| input_error(format!("lighting= (map array): {}", e.message)))?;

@@ -265,12 +265,15 @@ pub fn render(
 }
 
 /// A finished render: the AOVs of guide "Output images" as NumPy arrays, and the film to save.
+/// Background pixels (`mask` 0) show the environment with `stderr` 0: average over the object,
+/// `image.stderr[image.mask > 0].mean()`, not over the whole image.
 #[pyclass(module = "reflect._reflect", frozen)]
 pub struct RenderResult {
     /// Linear RGB radiance, float32 (H, W, 3), row 0 at the top.
     #[pyo3(get)]
     rgb: Py<PyArray3<f32>>,
-    /// Standard error of each pixel mean, float32 (H, W, 3); +inf at 1 spp (no estimate).
+    /// Standard error of each pixel mean, float32 (H, W, 3); +inf at 1 spp (no estimate); 0 on the
+    /// background (`mask` 0): select the object (`stderr[mask > 0]`) before averaging.
     #[pyo3(get)]
     stderr: Py<PyArray3<f32>>,
     /// The pixel's own standard error before the bound near flagged pixels (the `stderr_own`
@@ -280,7 +283,8 @@ pub struct RenderResult {
     /// World-space normal of the first hit (0 on a miss), float32 (H, W, 3).
     #[pyo3(get)]
     normal: Py<PyArray3<f32>>,
-    /// Fraction of each pixel's samples that hit an object, float32 (H, W).
+    /// Fraction of each pixel's samples that hit an object, float32 (H, W): `mask > 0` selects the
+    /// object's pixels.
     #[pyo3(get)]
     mask: Py<PyArray2<f32>>,
     /// The `stderr_flag.Y` layer as bool (H, W): True where the pixel's error bar cannot be trusted
