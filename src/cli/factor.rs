@@ -223,9 +223,9 @@ mod tests {
     use analysis::sh::{ShBasis, index, lambda, latlong_direction, num_coefficients};
     use renderer::render::{RenderOptions, render};
     use renderer::scene::Scene;
-    use vocab::scene::SceneFile;
     use serde_json::{Value, json};
     use std::f64::consts::PI;
+    use vocab::scene::SceneFile;
 
     /// The report as the JSON document `--json` prints.
     fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {

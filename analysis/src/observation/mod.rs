@@ -286,7 +286,15 @@ mod tests {
     }
 
     fn given<'a>(cameras: &'a [CameraValues], scene: Option<(&'a Path, &'a SceneFile)>) -> Given<'a> {
-        Given { scene, cameras, center: None, radius: None, probe_only: false, what: "analysed", spelling: Spelling::Flags }
+        Given {
+            scene,
+            cameras,
+            center: None,
+            radius: None,
+            probe_only: false,
+            what: "analysed",
+            spelling: Spelling::Flags,
+        }
     }
 
     #[test]
