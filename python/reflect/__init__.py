@@ -321,19 +321,26 @@ def analyze(
     of the scene they are renders of (for files whose header does not say it).
 
     ``lighting``: a scene file or environment-map path, a scene ``[lighting]`` table as a dict, SH
-    coefficients ((L+1)², 3), or an environment-map array (H, W, 3) (``mapping`` "latlong" |
-    "angular", default from the aspect ratio); default: the images' own. ``param``: "normal" |
+    coefficients ((L+1)², 3), or an environment-map array (H, W, 3); default: the images' own.
+    ``mapping`` ("latlong" | "angular", for a map file or array): inferred when left out from the
+    map's shape, W = 2H lat-long and W = H angular (another shape is an error asking for it).
+    SH coefficients are read to l = max(16, lmax + 2); orders not given count as 0. ``param``: "normal" |
     "reflection" (default from the BRDF). ``brdf`` (a kind, "lambert", "phong", …), ``s``,
     ``sigma``, ``brdf_params`` (other keys of the brdf table) and ``albedo`` (one number or r, g,
     b): the sphere's BRDF where the images do not say it. ``layer``: the radiance layer of a
     multi-layer EXR; ``pixel_filter``: the reconstruction filter of another renderer
-    ("gaussian:0.5", …); ``no_diagnosis``: skip the refits that name what is wrong.
+    ("gaussian:0.5", …). ``no_diagnosis``: when the image contradicts the lighting or BRDF it was
+    told, ``analyze`` refits under other assumptions (a rotated or mirrored map, the other mapping,
+    the camera) to name the cause, which makes a contradicted call several times slower (12 s
+    instead of 3 s in a trial; minutes at 512²); ``no_diagnosis=True`` skips that search (the
+    verdict still says whether there is a contradiction).
 
     Returns an :class:`AnalyzeReport`: ``coefficients`` B_lm ((lmax+1)², 3), ``stderr`` (same or
     None), ``lm`` ((lmax+1)², 2) int64 (k = l(l+1) + m), ``lighting["coefficients"]`` L_lm,
-    ``filter`` (per order: A_l = albedo · Λ_l ρ̂_l fitted in pixel space, ``estimate``/``stderr``
-    (3,)), ``lambda_rho_analytic`` (lmax+1, 3), ``predicted`` (eq. 15 B_lm), ``verdict``,
-    ``warnings``; ``to_dict()`` is the CLI's ``--json`` document. Bad input raises
+    ``filter`` (a :class:`Table`, per order: A_l = albedo · Λ_l ρ̂_l fitted in pixel space, ``estimate``/``stderr`` columns
+    (lmax+1, 3)), ``lambda_rho_analytic`` (lmax+1, 3), ``predicted`` (eq. 15 B_lm), ``verdict``,
+    ``warnings`` (also raised as :class:`reflect.Warning`); ``to_dict()`` is the CLI's ``--json``
+    document. Ctrl-C raises ``KeyboardInterrupt``. Bad input raises
     :class:`InputError` (a ``ValueError``; :class:`MissingFileError` for a missing file) naming the
     keyword or the image. The GIL is released while the analysis runs.
     """

@@ -65,19 +65,21 @@ def _arrays(v: Any, tables: bool = False) -> Any:
 
 
 def _records(v: Any) -> bool:
-    """A non-empty list of objects with the same keys, each value a scalar or a list of numbers."""
+    """A non-empty list of objects with the same keys, each value a scalar or a flat list (of numbers,
+    one per channel, or of strings)."""
     if not isinstance(v, list) or not v or not all(isinstance(x, dict) for x in v):
         return False
     keys = list(v[0])
-    return all(list(x) == keys for x in v) and all(
-        not isinstance(y, dict) and (not isinstance(y, list) or _numeric(y)) for x in v for y in x.values()
-    )
+    flat = lambda y: not isinstance(y, dict) and (  # noqa: E731
+        not isinstance(y, list) or _numeric(y) or all(isinstance(z, str) for z in y))
+    return all(list(x) == keys for x in v) and all(flat(y) for x in v for y in x.values())
 
 
 class Table:
     """A list of records of a report (one per order, per channel, …) as columns: each key of the
     records is an attribute, a NumPy array whose first axis runs over the records (float64 with
-    null → NaN, int64 for integers, bool for flags; a column of strings a list of str). ``len(t)``
+    null → NaN, int64 for integers, bool for flags; a column of strings, or of lists of them, a
+    list). ``len(t)``
     is the number of records, ``t[i]`` record i as a dict of its values (``t[i]["estimate"]``),
     ``t["estimate"]`` the same as ``t.estimate``, and iterating gives the records in order; the
     report's :meth:`Report.to_dict` holds the plain list of objects."""
