@@ -143,7 +143,7 @@ def test_report_warnings_are_raised_as_reflect_warnings_and_name_the_order_read(
 
 def test_the_guide_explains_no_diagnosis_and_mapping_inference():
     doc = reflect.analyze.__doc__
-    assert "no_diagnosis" in doc and "slower" in doc and "no_diagnosis=True" in PAGE and "slower" in PAGE
+    assert "no_diagnosis=True" in doc and "slower" in doc and "no_diagnosis=True" in PAGE and "slower" in PAGE
     assert "W = 2H lat-long" in doc and "W = 2H lat-long" in PAGE
 
 
