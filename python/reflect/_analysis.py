@@ -25,7 +25,7 @@ import json
 import math
 import os
 import warnings as _warnings
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, TypeVar, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Optional, Sequence, Tuple, TypeVar, Union
 
 import numpy as np
 
@@ -98,6 +98,10 @@ class Table:
             else:
                 value = [_arrays(x) for x in col]
             setattr(self, k, value)
+
+    if TYPE_CHECKING:  # the columns are attributes named by the document: any name, an array or list
+
+        def __getattr__(self, name: str) -> Any: ...
 
     def keys(self) -> List[str]:
         """The columns, in the records' order of keys."""
@@ -301,7 +305,8 @@ def _stacklevel() -> int:
     import sys
 
     here = os.path.dirname(os.path.abspath(__file__))
-    f, level = sys._getframe(1), 1
+    f: Any = sys._getframe(1)
+    level = 1
     while f is not None and os.path.dirname(os.path.abspath(f.f_code.co_filename)) == here:
         f, level = f.f_back, level + 1
     return level
@@ -718,8 +723,8 @@ def invert_factor(
     stderr: Any = None,
     layer: Optional[str] = None,
 ) -> InvertFactorReport:
-    ch = "rgb".index(choice("channel", channel, ("r", "g", "b", "R", "G", "B")).lower())
-    rule = choice("quadrature", quadrature, ("fejer", "pixel"))
+    ch = "rgb".index(str(choice("channel", channel, ("r", "g", "b", "R", "G", "B"))).lower())
+    rule = str(choice("quadrature", quadrature, ("fejer", "pixel")))
     amp = _args.real("max_amplification", max_amplification)
     if not (math.isfinite(amp) and amp >= 1.0):
         raise InputError(f"max_amplification= must be a finite number ≥ 1, got {amp}")
