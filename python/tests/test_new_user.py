@@ -169,12 +169,28 @@ def test_records_are_tables_of_arrays_and_to_dict_keeps_the_document():
 # --- Ctrl-C ------------------------------------------------------------------------------------
 
 
-def test_ctrl_c_interrupts_a_long_analysis():
+def _never_finished(monkeypatch, cls):
+    """Records whether the native call got as far as building its report: a KeyboardInterrupt raised
+    only after the call returned (signals not checked during it) would still be a KeyboardInterrupt."""
+    built = []
+    init = cls.__init__
+
+    def record(self, *a, **k):
+        built.append(True)
+        init(self, *a, **k)
+
+    monkeypatch.setattr(cls, "__init__", record)
+    return built
+
+
+def test_ctrl_c_interrupts_a_long_analysis(monkeypatch):
     """A contradicted 512² view makes the diagnosis search run for minutes; Ctrl-C (here
-    interrupt_main from a timer thread, as SIGINT does) ends the call with KeyboardInterrupt."""
+    interrupt_main from a timer thread, as SIGINT does) ends the call with KeyboardInterrupt, before
+    the analysis has built its report."""
     img = reflect.render(dict(SMALL, render={"width": 128, "height": 128, "seed": 1}), spp=4)
     big = np.repeat(np.repeat(img.rgb, 4, axis=0), 4, axis=1)
     wrong = {"type": "directional", "direction": [-0.5, 0.4, 0.3], "irradiance": 3.0}
+    built = _never_finished(monkeypatch, reflect.AnalyzeReport)
     timer = threading.Timer(0.5, _thread.interrupt_main)
     timer.start()
     try:
@@ -185,3 +201,20 @@ def test_ctrl_c_interrupts_a_long_analysis():
                                 lighting=wrong)
     finally:
         timer.cancel()
+    assert not built
+
+
+def test_ctrl_c_interrupts_a_rendered_light_field(tmp_path, monkeypatch):
+    """invert.factor(scene=…) renders n_μ × n_φ + 1 views; Ctrl-C stops them (the cancel flag the
+    renderer polls) and the call ends with KeyboardInterrupt."""
+    scene = tmp_path / "lf.toml"
+    scene.write_text(TINY.replace("spp = 4", "spp = 256"))
+    built = _never_finished(monkeypatch, reflect.InvertFactorReport)
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            reflect.invert.factor(scene=scene, lmax=4, nodes=(8, 16), size=(96, 48))
+    finally:
+        timer.cancel()
+    assert not built
