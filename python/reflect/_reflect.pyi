@@ -8,7 +8,7 @@ raises ``reflect.InputError`` (a ``ValueError``) with a one-line message on bad 
 ``reflect.MissingFileError`` (a ``FileNotFoundError``) when a named input file does not exist.
 """
 
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, Optional, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -16,7 +16,9 @@ import numpy.typing as npt
 from ._analysis import AnalyzeReport, InvertBrdfReport, InvertFactorReport, InvertLightingReport, InvertSeparateReport
 
 __version__: str
+__all__: List[str]
 
+@final
 class RenderResult:
     """A finished render (guide "Output images"), row 0 at the top of the image.
 
@@ -97,11 +99,12 @@ def render(
     from and saved to every ``checkpoint_every`` seconds, removed when the render completes). The GIL is
     released; SIGINT cancels the render (saving the checkpoint) and raises KeyboardInterrupt."""
 
+@final
 class NativeBrdf:
     """A BRDF built from a scene file's ``brdf`` table (``reflect.brdf`` wraps it). Local shading frame
     (normal +z), ω_i and ω_o pointing away from the surface; C-contiguous float32 arrays."""
 
-    def __init__(self, table: Dict[str, Any]) -> None: ...
+    def __new__(cls, table: Dict[str, Any]) -> "NativeBrdf": ...
     def eval(self, wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
         """ρ̂ = BRDF · cos θ_i per row of (N, 3) ``wi`` and ``wo``: (N, 3) float32, sr⁻¹."""
     def pdf(self, wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
@@ -112,11 +115,12 @@ class NativeBrdf:
         """(wi (N, 3), weight = ρ̂/pdf (N, 3), pdf (N,), delta (N,)) for ``wo`` (N, 3), ``u`` (N, 2),
         ``u_lobe`` (N,); zeros where nothing is drawn."""
 
+@final
 class NativeLight:
     """A distant light built from a scene file's ``[lighting]`` table (``reflect.light`` wraps it).
     World-frame directions toward the light; C-contiguous float32 arrays."""
 
-    def __init__(self, table: Dict[str, Any], base: str) -> None: ...
+    def __new__(cls, table: Dict[str, Any], base: str) -> "NativeLight": ...
     def eval(self, direction: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
         """Radiance L(ω) from each of (N, 3) directions: (N, 3) float32."""
     def pdf(self, direction: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
@@ -160,10 +164,10 @@ def sh_rotate(coeffs: npt.NDArray[np.float64], rotation: npt.NDArray[np.float64]
 # CLI's ``note: …`` lines. No file is written; the analysis runs without the GIL on a thread of its
 # own, and Ctrl-C raises KeyboardInterrupt at once.
 
-Images = List[Any]
+_Images = List[Any]
 
 def analyze(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -180,7 +184,7 @@ def analyze(
     ((L+1)², 3) float64 or a map (H, W, 3) float32 (projected here, with ``mapping``)."""
 
 def invert_lighting(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -188,13 +192,13 @@ def invert_lighting(
     brdf: Optional[str] = None,
     brdf_params: List[Tuple[str, Union[float, str]]] = ...,
     albedo: Optional[List[float]] = None,
-    max_amplification: float = 10.0,
+    max_amplification: float = ...,  # analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION (10)
     discrepancy: bool = False,
 ) -> InvertLightingReport:
     """``analysis::invert::lighting`` (λ by GCV, or the discrepancy principle)."""
 
 def invert_brdf(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -209,7 +213,7 @@ def invert_brdf(
     """``analysis::invert::brdf``; ``model`` "phong" | "torrance-sparrow" | "microfacet"."""
 
 def invert_separate(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
