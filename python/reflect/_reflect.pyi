@@ -16,7 +16,31 @@ import numpy.typing as npt
 from ._analysis import AnalyzeReport, InvertBrdfReport, InvertFactorReport, InvertLightingReport, InvertSeparateReport
 
 __version__: str
-__all__: List[str]
+__all__ = [
+    "NativeBrdf",
+    "NativeLight",
+    "RenderResult",
+    "__version__",
+    "analyze",
+    "compare",
+    "header_attributes",
+    "invert_brdf",
+    "invert_factor",
+    "invert_factor_scene",
+    "invert_lighting",
+    "invert_separate",
+    "load_scene",
+    "read_image",
+    "render",
+    "sh_evaluate",
+    "sh_project_array",
+    "sh_project_file",
+    "sh_rotate",
+    "sh_transfer",
+    "verify",
+    "verify_checks",
+    "write_image",
+]
 
 @final
 class RenderResult:
