@@ -318,7 +318,8 @@ mod tests {
         let e = describe(&images, &paths, &given(&[CameraValues::default()], None)).unwrap_err();
         assert!(e.to_string().starts_with("v0.exr: no reflect:camera in the header: pass --from"), "{e}");
         // Python's spelling: what it can pass (a file has no camera keyword), never a flag.
-        let py = Given { spelling: Spelling::Keywords, ..given(&[CameraValues::default()], None) };
+        let none = [CameraValues::default()];
+        let py = Given { spelling: Spelling::Keywords, ..given(&none, None) };
         let e = describe(&images, &paths, &py).unwrap_err().to_string();
         assert_eq!(
             e,
