@@ -56,8 +56,7 @@ impl LightFieldViews {
         let cam = NormalProbe::new(theta_o_deg as f32, phi_o_deg as f32, false, self.sphere.0, self.sphere.1, w, h)
             .map_err(Error::new)?;
         self.scene.camera = Camera::NormalProbe(cam);
-        let (film, stats) =
-            render(&self.scene, &RenderOptions { progress: false, cancel: self.cancel.clone(), ..Default::default() });
+        let (film, stats) = render(&self.scene, &RenderOptions { progress: false, cancel: self.cancel.clone() });
         if stats.cancelled {
             return Err(Error::new(CANCELLED));
         }
