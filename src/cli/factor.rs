@@ -210,7 +210,7 @@ fn from_images(a: &FactorArgs, params: &FactorParams) -> Result<InvertFactorRepo
 /// `--scene` mode: the scene's light field rendered in memory and factored
 /// ([`renderer::light_field::factor_scene`], the function Python's scene mode calls).
 fn from_scene(path: &Path, params: &FactorParams, size: (u32, u32)) -> Result<InvertFactorReport, Error> {
-    Ok(renderer::light_field::factor_scene(params, path, size, "--size", None)?)
+    renderer::light_field::factor_scene(params, path, size, "--size", None)
 }
 
 #[cfg(test)]
