@@ -17,7 +17,8 @@ Conventions (frame, SH basis, image layers, scene files) are those of the projec
 ``docs/src/conventions.md`` (sections "Spherical harmonics: the terms the commands print", "Output
 images", "Scene files" of the guide give the details). Bad input raises :class:`reflect.InputError` (a ``ValueError``; :class:`reflect.MissingFileError`, a
 ``FileNotFoundError``, for a missing file), all subclasses of :class:`reflect.Error`, with a one-line
-message naming this API's keywords.
+message naming this API's keywords. Results to be read with care raise :class:`reflect.Warning` (a
+``UserWarning``): a report's ``warnings``, a render short of its ``target_rel_error``.
 """
 
 from __future__ import annotations
@@ -35,8 +36,9 @@ from ._analysis import (
     InvertLightingReport,
     InvertSeparateReport,
     Report,
+    Table,
 )
-from ._errors import Error, FileError, InputError, MissingFileError
+from ._errors import Error, FileError, InputError, MissingFileError, TargetNotReachedWarning, Warning
 from ._reflect import RenderResult, __version__
 from ._scene import Scene, SceneLike, load_scene
 
@@ -61,6 +63,9 @@ __all__ = [
     "invert",
     "RenderResult",
     "Scene",
+    "Table",
+    "TargetNotReachedWarning",
+    "Warning",
     "__version__",
     "list_checks",
     "load_scene",
@@ -104,8 +109,12 @@ def render(
     ``checkpoint`` (an ``.exr`` path) resumes from that file if it exists and saves the state there every
     ``checkpoint_every`` seconds (default 60) and on Ctrl-C. The image is bit-identical to a plain
     render of the samples reached. The result's :attr:`RenderResult.spp` is the spp reached and its
-    ``stats`` say how it went: ``passes``, ``stopped_by`` ("target", "time-limit" or "spp-cap"),
-    ``rel_error_p95`` (None with ``rel_error_unknown`` saying why when there is no estimate).
+    ``stats`` say how it went, with the names of ``reflect render --json``'s ``progressive`` object:
+    ``passes``, ``stopped_by`` ("target", "time-limit" or "spp-cap"), ``spp_cap`` (the most spp
+    allowed), ``target_reached`` (None without ``target_rel_error``), ``rel_error_p95`` (None with
+    ``rel_error_unknown`` saying why when there is no estimate). A render that stops short of
+    ``target_rel_error`` (at the spp cap or the time limit) raises :class:`TargetNotReachedWarning`
+    (a :class:`reflect.Warning`) and returns the image it has; raise ``spp`` to go further.
     ``progress=True`` draws the tile bar and one line per pass on stderr.
 
     Nothing is written to disk (no temporary files) unless ``checkpoint`` is given.
@@ -133,7 +142,7 @@ def render(
     if ck is not None and not ck.lower().endswith(".exr"):
         raise InputError(f"checkpoint= must name an .exr file, got {ck!r}")
     kind, value, base = _source(scene)
-    return _reflect.render(
+    result = _reflect.render(
         kind,
         value,
         base,
@@ -148,6 +157,19 @@ def render(
         checkpoint=ck,
         checkpoint_every=checkpoint_every,
     )
+    if result.stats.get("target_reached") is False:
+        import warnings
+
+        st = result.stats
+        err = st.get("rel_error_p95")
+        got = f"{100 * err:.4g} %" if err is not None else f"unknown ({st.get('rel_error_unknown')})"
+        warnings.warn(
+            f"target_rel_error={target_rel_error} not reached: stopped by {st['stopped_by']} at {result.spp} of at most "
+            f"{st['spp_cap']} spp with a 95th-percentile relative error of {got}; raise spp= (the cap) to go further",
+            TargetNotReachedWarning,
+            stacklevel=2,
+        )
+    return result
 
 
 def _positive(name: str, v: Any) -> Optional[float]:
@@ -299,19 +321,26 @@ def analyze(
     of the scene they are renders of (for files whose header does not say it).
 
     ``lighting``: a scene file or environment-map path, a scene ``[lighting]`` table as a dict, SH
-    coefficients ((L+1)², 3), or an environment-map array (H, W, 3) (``mapping`` "latlong" |
-    "angular", default from the aspect ratio); default: the images' own. ``param``: "normal" |
+    coefficients ((L+1)², 3), or an environment-map array (H, W, 3); default: the images' own.
+    ``mapping`` ("latlong" | "angular", for a map file or array): inferred when left out from the
+    map's shape, W = 2H lat-long and W = H angular (another shape is an error asking for it).
+    SH coefficients are read to l = max(16, lmax + 2); orders not given count as 0. ``param``: "normal" |
     "reflection" (default from the BRDF). ``brdf`` (a kind, "lambert", "phong", …), ``s``,
     ``sigma``, ``brdf_params`` (other keys of the brdf table) and ``albedo`` (one number or r, g,
     b): the sphere's BRDF where the images do not say it. ``layer``: the radiance layer of a
     multi-layer EXR; ``pixel_filter``: the reconstruction filter of another renderer
-    ("gaussian:0.5", …); ``no_diagnosis``: skip the refits that name what is wrong.
+    ("gaussian:0.5", …). ``no_diagnosis``: when the image contradicts the lighting or BRDF it was
+    told, ``analyze`` refits under other assumptions (a rotated or mirrored map, the other mapping,
+    the camera) to name the cause, which makes a contradicted call several times slower (12 s
+    instead of 3 s in a trial; minutes at 512²); ``no_diagnosis=True`` skips that search (the
+    verdict still says whether there is a contradiction).
 
     Returns an :class:`AnalyzeReport`: ``coefficients`` B_lm ((lmax+1)², 3), ``stderr`` (same or
     None), ``lm`` ((lmax+1)², 2) int64 (k = l(l+1) + m), ``lighting["coefficients"]`` L_lm,
-    ``filter`` (per order: A_l = albedo · Λ_l ρ̂_l fitted in pixel space, ``estimate``/``stderr``
-    (3,)), ``lambda_rho_analytic`` (lmax+1, 3), ``predicted`` (eq. 15 B_lm), ``verdict``,
-    ``warnings``; ``to_dict()`` is the CLI's ``--json`` document. Bad input raises
+    ``filter`` (a :class:`Table`, per order: A_l = albedo · Λ_l ρ̂_l fitted in pixel space, ``estimate``/``stderr`` columns
+    (lmax+1, 3)), ``lambda_rho_analytic`` (lmax+1, 3), ``predicted`` (eq. 15 B_lm), ``verdict``,
+    ``warnings`` (also raised as :class:`reflect.Warning`); ``to_dict()`` is the CLI's ``--json``
+    document. Ctrl-C raises ``KeyboardInterrupt``. Bad input raises
     :class:`InputError` (a ``ValueError``; :class:`MissingFileError` for a missing file) naming the
     keyword or the image. The GIL is released while the analysis runs.
     """

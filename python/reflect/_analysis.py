@@ -12,7 +12,10 @@ images then go to the native module as they are: a path (read there as the CLI r
 Results are report objects (:class:`Report` subclasses): each field of the CLI's ``--json``
 document is an attribute, every list of numbers (nested to any depth, rectangular) a NumPy array
 (float64 where the document has a non-integer number or a null, null → NaN; int64 where it has only
-integers, e.g. ``lm``); :meth:`Report.to_dict` is the ``--json`` document itself.
+integers, e.g. ``lm``); a list of records (one object per order, per channel: ``filter``, ``orders``,
+``filter_fit``) a :class:`Table` whose columns are such arrays (``report.filter.estimate`` is
+(lmax+1, 3)); :meth:`Report.to_dict` is the ``--json`` document itself. A report's ``warnings``
+are also raised as :class:`reflect.Warning` (a ``UserWarning``) when the call returns.
 """
 
 from __future__ import annotations
@@ -21,12 +24,13 @@ import copy
 import json
 import math
 import os
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+import warnings as _warnings
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Optional, Sequence, Tuple, TypeVar, Union
 
 import numpy as np
 
 from . import _args, _reflect
-from ._errors import InputError
+from ._errors import InputError, Warning
 from ._reflect import RenderResult
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -41,10 +45,13 @@ MAX_LMAX = 200
 # Reports
 
 
-def _arrays(v: Any) -> Any:
-    """Lists of numbers (rectangular, any depth) → NumPy arrays; null → NaN in float arrays."""
+def _arrays(v: Any, tables: bool = False) -> Any:
+    """Lists of numbers (rectangular, any depth) → NumPy arrays; null → NaN in float arrays; with
+    ``tables``, lists of records (objects with the same keys) → :class:`Table`."""
     if isinstance(v, dict):
-        return {k: _arrays(x) for k, x in v.items()}
+        return {k: _arrays(x, tables) for k, x in v.items()}
+    if tables and _records(v):
+        return Table(v)
     if isinstance(v, list):
         if v and _numeric(v):
             try:
@@ -53,8 +60,69 @@ def _arrays(v: Any) -> Any:
                 return np.array(v, dtype=np.int64)
             except ValueError:  # ragged
                 pass
-        return [_arrays(x) for x in v]
+        return [_arrays(x, tables) for x in v]
     return v
+
+
+def _records(v: Any) -> bool:
+    """A non-empty list of objects with the same keys, each value a scalar or a flat list (of numbers,
+    one per channel, or of strings)."""
+    if not isinstance(v, list) or not v or not all(isinstance(x, dict) for x in v):
+        return False
+    keys = list(v[0])
+    flat = lambda y: not isinstance(y, dict) and (  # noqa: E731
+        not isinstance(y, list) or _numeric(y) or all(isinstance(z, str) for z in y))
+    return all(list(x) == keys for x in v) and all(flat(y) for x in v for y in x.values())
+
+
+class Table:
+    """A list of records of a report (one per order, per channel, …) as columns: each key of the
+    records is an attribute, a NumPy array whose first axis runs over the records (float64 with
+    null → NaN, int64 for integers, bool for flags; a column of strings, or of lists of them, a
+    list). ``len(t)``
+    is the number of records, ``t[i]`` record i as a dict of its values (``t[i]["estimate"]``),
+    ``t["estimate"]`` the same as ``t.estimate``, and iterating gives the records in order; the
+    report's :meth:`Report.to_dict` holds the plain list of objects."""
+
+    def __init__(self, rows: List[Dict[str, Any]]) -> None:
+        self._keys = list(rows[0])
+        self._n = len(rows)
+        for k in self._keys:
+            col = [r[k] for r in rows]
+            if all(isinstance(x, bool) for x in col):
+                value: Any = np.array(col, dtype=bool)
+            elif _numeric(col):
+                value = _arrays(col)
+                if not isinstance(value, np.ndarray):  # ragged lists of numbers stay a list of arrays
+                    value = [_arrays(x) for x in col]
+            else:
+                value = [_arrays(x) for x in col]
+            setattr(self, k, value)
+
+    if TYPE_CHECKING:  # the columns are attributes named by the document: any name, an array or list
+
+        def __getattr__(self, name: str) -> Any: ...
+
+    def keys(self) -> List[str]:
+        """The columns, in the records' order of keys."""
+        return list(self._keys)
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, key: Union[int, str]) -> Any:
+        if isinstance(key, str):
+            if key not in self._keys:
+                raise KeyError(key)
+            return getattr(self, key)
+        i = range(self._n)[key]  # IndexError, negative indices
+        return {k: getattr(self, k)[i] for k in self._keys}
+
+    def __iter__(self) -> Iterator[Dict[str, Any]]:
+        return (self[i] for i in range(self._n))
+
+    def __repr__(self) -> str:
+        return f"<reflect.Table {self._n} rows: {', '.join(self._keys)}>"
 
 
 def _numeric(v: Any) -> bool:
@@ -93,7 +161,7 @@ class Report:
         self._doc = doc
         self.notes = list(notes)
         for k, v in doc.items():
-            setattr(self, k, _arrays(v))
+            setattr(self, k, _arrays(v, tables=True))
 
     def to_dict(self) -> Dict[str, Any]:
         """The report as the CLI's ``--json`` document (a deep copy: plain lists, ``None`` for null)."""
@@ -146,10 +214,12 @@ class AnalyzeReport(Report):
     stderr: Optional[np.ndarray]
     #: ``{"source": str, "coefficients": ((lmax+1)², 3)}``: L_lm compared with, or None.
     lighting: Optional[Dict[str, Any]]
-    #: Per order l: the measured filter A_l = albedo · Λ_l ρ̂_l (``estimate``/``stderr`` (3,)), or None.
-    filter: Optional[List[Dict[str, Any]]]
-    #: Per channel: χ², ν, p-value and covariance of the filter fit, or None.
-    filter_fit: Optional[List[Dict[str, Any]]]
+    #: Per order l: the measured filter A_l = albedo · Λ_l ρ̂_l fitted in pixel space, or None: a
+    #: :class:`Table` with ``l`` (lmax+1,) int64, ``estimate`` and ``stderr`` (lmax+1, 3) float64, … (the
+    #: document's ``filter`` records as columns).
+    filter: Optional["Table"]
+    #: Per channel: χ², ν, p-value and covariance of the filter fit (a :class:`Table`), or None.
+    filter_fit: Optional["Table"]
     #: The BRDF table (scene vocabulary), or None.
     brdf: Optional[Dict[str, Any]]
     #: (lmax+1, 3) analytic Λ_l ρ̂_l scaled by the albedo (eq. 38/43/33/50), or None.
@@ -177,8 +247,9 @@ class InvertLightingReport(Report):
     #: (3,) albedo / k_s / k_r.
     albedo: np.ndarray
     max_amplification: float
-    #: Per order: ``l``, ``lambda_rho``, ``amplification``, ``status`` (recovered / ill-conditioned / unobservable).
-    orders: List[Dict[str, Any]]
+    #: Per order, a :class:`Table`: ``l``, ``lambda_rho``, ``amplification`` (lmax+1,) arrays, ``status`` (list of
+    #: str: recovered / ill-conditioned / unobservable).
+    orders: "Table"
     lm: np.ndarray
     #: ((lmax+1)², 3) L_lm, radiance units; NaN rows where unobservable.
     coefficients: np.ndarray
@@ -212,8 +283,8 @@ class InvertBrdfReport(Report):
     scale: np.ndarray
     chi2_min: float
     dof: int
-    #: Per order: ``l``, ``estimate`` (3,), ``stderr`` (3,), ``observable``.
-    filter: List[Dict[str, Any]]
+    #: Per order, a :class:`Table`: ``l`` (lmax+1,), ``estimate`` and ``stderr`` (lmax+1, 3), ``observable`` (lmax+1,) bool.
+    filter: "Table"
     #: (N, 2) (parameter, Δχ²) along the profile.
     profile: np.ndarray
     verdict: Optional[Dict[str, Any]]
@@ -227,6 +298,30 @@ class InvertSeparateReport(Report):
 class InvertFactorReport(Report):
     """The result of :func:`reflect.invert.factor` (``reflect invert factor --json``): a light field
     factored into lighting and BRDF up to the global scale (eq. 18, 23)."""
+
+
+def _stacklevel() -> int:
+    """The ``stacklevel`` of a warning raised here that points at the caller's line, outside this package."""
+    import sys
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    f: Any = sys._getframe(1)
+    level = 1
+    while f is not None and os.path.dirname(os.path.abspath(f.f_code.co_filename)) == here:
+        f, level = f.f_back, level + 1
+    return level
+
+
+R = TypeVar("R", bound=Report)
+
+
+def _reported(report: R) -> R:
+    """The report, its ``warnings`` raised as :class:`reflect.Warning` (so they are seen, and
+    ``warnings.simplefilter("error", reflect.Warning)`` makes them errors); ``report.warnings``
+    keeps them."""
+    for w in getattr(report, "warnings", None) or []:
+        _warnings.warn(str(w), Warning, stacklevel=_stacklevel())
+    return report
 
 
 # ---------------------------------------------------------------------------------------------
@@ -269,17 +364,6 @@ def _rgb_array(a: Any, what: str) -> np.ndarray:
     return a
 
 
-def _camera_defaults(cam: Dict[str, Any]) -> Dict[str, Any]:
-    """The defaults of the CLI's view flags (to 0,0,0, up 0,0,1) and of a normal-probe camera."""
-    if cam.get("type") in ("orthographic", "perspective"):
-        cam.setdefault("to", [0.0, 0.0, 0.0])
-        cam.setdefault("up", [0.0, 0.0, 1.0])
-    elif cam.get("type") == "normal-probe":
-        cam.setdefault("theta_o_deg", 0.0)
-        cam.setdefault("phi_o_deg", 0.0)
-    return cam
-
-
 def _plain(x: Any) -> Any:
     if isinstance(x, np.ndarray):
         return x.tolist()
@@ -317,7 +401,9 @@ def _header(index: int, camera: Any, sphere: Optional[Dict[str, Any]], scene: An
         except ValueError as e:
             raise InputError(f"scene=: {e}") from None
     if camera is not None:
-        cam = _camera_defaults(_plain(dict(camera)))
+        # Defaults (``to`` the origin, ``up`` +z, normal-probe angles 0) are the scene file's own,
+        # filled in by the library that reads the header, as for ``render``.
+        cam = _plain(dict(camera))
         try:
             _reflect.header_attributes({"camera": cam, "lighting": {"type": "uniform", "radiance": 1.0}, "objects": []})
         except ValueError as e:
@@ -493,7 +579,7 @@ def analyze(
 ) -> AnalyzeReport:
     view = _View(images, camera, sphere, scene, stderr, layer, pixel_filter)
     lmax = lmax_of(lmax)
-    doc, notes = _reflect.analyze(
+    report = _reflect.analyze(
         view.items,
         view.names,
         view.view,
@@ -506,7 +592,7 @@ def analyze(
         albedo=rgb("albedo", albedo),
         no_diagnosis=_args.boolean("no_diagnosis", no_diagnosis),
     )
-    return AnalyzeReport(doc, notes)
+    return _reported(report)
 
 
 def invert_lighting(
@@ -532,7 +618,7 @@ def invert_lighting(
     if not amp >= 1.0:
         raise InputError(f"max_amplification= must be a finite number ≥ 1, got {amp}")
     rule = choice("lambda_rule", lambda_rule, ("gcv", "discrepancy"))
-    doc, notes = _reflect.invert_lighting(
+    report = _reflect.invert_lighting(
         view.items,
         view.names,
         view.view,
@@ -543,7 +629,7 @@ def invert_lighting(
         max_amplification=amp,
         discrepancy=rule == "discrepancy",
     )
-    return InvertLightingReport(doc, notes)
+    return _reported(report)
 
 
 def invert_brdf(
@@ -570,7 +656,7 @@ def invert_brdf(
     distribution = choice("distribution", distribution, ("beckmann", "ggx"))
     if distribution is not None and model != "microfacet":
         raise InputError("distribution= applies to model='microfacet' only")
-    doc, notes = _reflect.invert_brdf(
+    report = _reflect.invert_brdf(
         view.items,
         view.names,
         view.view,
@@ -582,7 +668,7 @@ def invert_brdf(
         min=positive("min", min),
         max=positive("max", max),
     )
-    return InvertBrdfReport(doc, notes)
+    return _reported(report)
 
 
 def invert_separate(
@@ -600,7 +686,7 @@ def invert_separate(
 ) -> InvertSeparateReport:
     view = _View(images, camera, None, scene, stderr, layer, None)
     ch = choice("channel", channel, ("r", "g", "b", "R", "G", "B"))
-    doc, notes = _reflect.invert_separate(
+    report = _reflect.invert_separate(
         view.items,
         view.names,
         view.view,
@@ -611,7 +697,7 @@ def invert_separate(
         channel=None if ch is None else "rgb".index(ch.lower()),
         scan=_args.boolean("scan", scan),
     )
-    return InvertSeparateReport(doc, notes)
+    return _reported(report)
 
 
 def _pair(name: str, v: Any, lo: int, hi: int) -> Tuple[int, int]:
@@ -637,8 +723,8 @@ def invert_factor(
     stderr: Any = None,
     layer: Optional[str] = None,
 ) -> InvertFactorReport:
-    ch = "rgb".index(choice("channel", channel, ("r", "g", "b", "R", "G", "B")).lower())
-    rule = choice("quadrature", quadrature, ("fejer", "pixel"))
+    ch = "rgb".index(str(choice("channel", channel, ("r", "g", "b", "R", "G", "B"))).lower())
+    rule = str(choice("quadrature", quadrature, ("fejer", "pixel")))
     amp = _args.real("max_amplification", max_amplification)
     if not (math.isfinite(amp) and amp >= 1.0):
         raise InputError(f"max_amplification= must be a finite number ≥ 1, got {amp}")
@@ -656,11 +742,11 @@ def invert_factor(
         for k, v in (("normal", normal), ("camera", camera), ("stderr", stderr), ("layer", layer)):
             if v is not None:
                 raise InputError(f"{k}= describes images; without images the scene's light field is rendered")
-        doc, notes = _reflect.invert_factor_scene(
+        report = _reflect.invert_factor_scene(
             os.fspath(scene), lmax=lmax, nodes=node_rule, size=_pair("size", size, 2, 4096), channel=ch,
             quadrature=rule, max_amplification=amp,
         )
-        return InvertFactorReport(doc, notes)
+        return _reported(report)
     view = _View(images, camera, None, scene, stderr, layer, None)
     normal_view = None
     if normal is not None:
@@ -670,8 +756,8 @@ def invert_factor(
         nv = _View([normal], None if is_file else ncam, None, scene, None, layer, None)
         name = nv.names[0] if is_file else "<normal array>"
         normal_view = (nv.items[0], name, nv.view)
-    doc, notes = _reflect.invert_factor(
+    report = _reflect.invert_factor(
         view.items, view.names, view.view, normal_view, lmax=lmax, nodes=node_rule, channel=ch, quadrature=rule,
         max_amplification=amp,
     )
-    return InvertFactorReport(doc, notes)
+    return _reported(report)

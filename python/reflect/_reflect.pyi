@@ -8,15 +8,48 @@ raises ``reflect.InputError`` (a ``ValueError``) with a one-line message on bad 
 ``reflect.MissingFileError`` (a ``FileNotFoundError``) when a named input file does not exist.
 """
 
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, Optional, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
-__version__: str
+from ._analysis import AnalyzeReport, InvertBrdfReport, InvertFactorReport, InvertLightingReport, InvertSeparateReport
 
+__version__: str
+__all__ = [
+    "NativeBrdf",
+    "NativeLight",
+    "RenderResult",
+    "__version__",
+    "analyze",
+    "compare",
+    "header_attributes",
+    "invert_brdf",
+    "invert_factor",
+    "invert_factor_scene",
+    "invert_lighting",
+    "invert_separate",
+    "load_scene",
+    "read_image",
+    "render",
+    "sh_evaluate",
+    "sh_project_array",
+    "sh_project_file",
+    "sh_rotate",
+    "sh_transfer",
+    "verify",
+    "verify_checks",
+    "write_image",
+]
+
+@final
 class RenderResult:
-    """A finished render (guide "Output images"), row 0 at the top of the image."""
+    """A finished render (guide "Output images"), row 0 at the top of the image.
+
+    Background pixels (``mask`` 0: the ray missed every object and shows the environment) have
+    ``stderr`` 0 and the environment's radiance in ``rgb``, so a whole-image mean mixes them in:
+    average over the object with the mask, ``image.stderr[image.mask > 0].mean()`` (or
+    ``image.rgb[image.mask == 1]`` for fully covered pixels only)."""
 
     @property
     def rgb(self) -> npt.NDArray[np.float32]:
@@ -24,7 +57,9 @@ class RenderResult:
     @property
     def stderr(self) -> npt.NDArray[np.float32]:
         """Standard error of each pixel mean, √(s²/n): (H, W, 3) float32 (conservative for Sobol);
-        +inf at 1 spp, where one sample has no spread (no estimate, never 0)."""
+        +inf at 1 spp, where one sample has no spread (no estimate, never 0 on the object). 0 on the
+        background (``mask`` 0, a constant environment lookup): select the object,
+        ``stderr[mask > 0]``, before averaging."""
     @property
     def stderr_own(self) -> npt.NDArray[np.float32]:
         """The pixel's own standard error, before the bound near flagged pixels (the ``stderr_own``
@@ -34,7 +69,8 @@ class RenderResult:
         """World-space normal of the first hit, averaged and renormalized; 0 on a miss: (H, W, 3) float32."""
     @property
     def mask(self) -> npt.NDArray[np.float32]:
-        """Fraction of each pixel's samples that hit an object, in [0, 1]: (H, W) float32."""
+        """Fraction of each pixel's samples that hit an object, in [0, 1]: (H, W) float32; ``mask > 0``
+        selects the object's pixels (silhouette pixels included), ``mask == 1`` the fully covered ones."""
     @property
     def stderr_flag(self) -> npt.NDArray[np.bool_]:
         """The ``stderr_flag.Y`` layer: (H, W) bool, True where the pixel's error bar cannot be trusted
@@ -44,9 +80,11 @@ class RenderResult:
     def stats(self) -> Dict[str, Any]:
         """``wall_seconds``, ``samples``, ``rays``, ``threads``, ``samples_per_sec``, ``rays_per_sec``,
         the settings used: ``width``, ``height``, ``spp``, ``seed``, ``max_depth``, ``sampler``, and of a
-        render to a target error or time limit: ``passes``, ``stopped_by`` (``"target"``, ``"time-limit"``,
-        ``"spp-cap"``), ``rel_error_p95`` (the 95th-percentile relative error reached, or None),
-        ``rel_error_unknown`` (why it is None), ``target_rel_error``, ``time_limit``."""
+        render in passes, named as ``reflect render --json``'s ``progressive`` object: ``passes``,
+        ``stopped_by`` (``"target"``, ``"time-limit"``, ``"spp-cap"``), ``spp_cap`` (the most spp
+        allowed), ``target_reached`` (bool; None without ``target_rel_error``), ``rel_error_p95`` (the
+        95th-percentile relative error reached, or None), ``rel_error_unknown`` (why it is None),
+        ``target_rel_error``, ``time_limit``."""
     @property
     def spp(self) -> int:
         """Samples per pixel of the image: the spp reached by a render to a target error or time limit."""
@@ -85,11 +123,12 @@ def render(
     from and saved to every ``checkpoint_every`` seconds, removed when the render completes). The GIL is
     released; SIGINT cancels the render (saving the checkpoint) and raises KeyboardInterrupt."""
 
+@final
 class NativeBrdf:
     """A BRDF built from a scene file's ``brdf`` table (``reflect.brdf`` wraps it). Local shading frame
     (normal +z), ω_i and ω_o pointing away from the surface; C-contiguous float32 arrays."""
 
-    def __init__(self, table: Dict[str, Any]) -> None: ...
+    def __new__(cls, table: Dict[str, Any]) -> "NativeBrdf": ...
     def eval(self, wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
         """ρ̂ = BRDF · cos θ_i per row of (N, 3) ``wi`` and ``wo``: (N, 3) float32, sr⁻¹."""
     def pdf(self, wi: npt.NDArray[np.float32], wo: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
@@ -100,11 +139,12 @@ class NativeBrdf:
         """(wi (N, 3), weight = ρ̂/pdf (N, 3), pdf (N,), delta (N,)) for ``wo`` (N, 3), ``u`` (N, 2),
         ``u_lobe`` (N,); zeros where nothing is drawn."""
 
+@final
 class NativeLight:
     """A distant light built from a scene file's ``[lighting]`` table (``reflect.light`` wraps it).
     World-frame directions toward the light; C-contiguous float32 arrays."""
 
-    def __init__(self, table: Dict[str, Any], base: str) -> None: ...
+    def __new__(cls, table: Dict[str, Any], base: str) -> "NativeLight": ...
     def eval(self, direction: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
         """Radiance L(ω) from each of (N, 3) directions: (N, 3) float32."""
     def pdf(self, direction: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
@@ -143,15 +183,15 @@ def sh_rotate(coeffs: npt.NDArray[np.float64], rotation: npt.NDArray[np.float64]
 # float32}, "attributes": {str: str}}`` (an array's layers and the header of what it shows);
 # ``names`` one name per image for reports and messages (a path, "<array i>", "<RenderResult i>");
 # ``view`` ``{"scene": path | None (the sidecar scene of files), "center": [x, y, z] | None,
-# "radius": float | None, "layer": str | None, "pixel_filter": str | None}``. Each returns
-# ``(doc, notes)``: the ``--json`` document as plain Python objects (null → None) and the CLI's
-# ``note: …`` lines. No file is written; the GIL is released while the analysis runs.
+# "radius": float | None, "layer": str | None, "pixel_filter": str | None}``. Each returns its
+# report object (``reflect._analysis``): built from the ``--json`` document (null → None) and the
+# CLI's ``note: …`` lines. No file is written; the analysis runs without the GIL on a thread of its
+# own, and Ctrl-C raises KeyboardInterrupt at once.
 
-Images = List[Any]
-Report = Tuple[Dict[str, Any], List[str]]
+_Images = List[Any]
 
 def analyze(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -163,12 +203,12 @@ def analyze(
     brdf_params: List[Tuple[str, Union[float, str]]] = ...,
     albedo: Optional[List[float]] = None,
     no_diagnosis: bool = False,
-) -> Report:
+) -> AnalyzeReport:
     """``analysis::analyze::analyze``. ``lighting``: a path, a ``[lighting]`` dict, SH coefficients
     ((L+1)², 3) float64 or a map (H, W, 3) float32 (projected here, with ``mapping``)."""
 
 def invert_lighting(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -176,13 +216,13 @@ def invert_lighting(
     brdf: Optional[str] = None,
     brdf_params: List[Tuple[str, Union[float, str]]] = ...,
     albedo: Optional[List[float]] = None,
-    max_amplification: float = 10.0,
+    max_amplification: float = ...,  # analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION (10)
     discrepancy: bool = False,
-) -> Report:
+) -> InvertLightingReport:
     """``analysis::invert::lighting`` (λ by GCV, or the discrepancy principle)."""
 
 def invert_brdf(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -193,11 +233,11 @@ def invert_brdf(
     distribution: Optional[str] = None,
     min: Optional[float] = None,
     max: Optional[float] = None,
-) -> Report:
+) -> InvertBrdfReport:
     """``analysis::invert::brdf``; ``model`` "phong" | "torrance-sparrow" | "microfacet"."""
 
 def invert_separate(
-    images: Images,
+    images: _Images,
     names: List[str],
     view: Dict[str, Any],
     *,
@@ -206,7 +246,7 @@ def invert_separate(
     ks: Optional[List[float]] = None,
     channel: Optional[int] = None,
     scan: bool = False,
-) -> Report:
+) -> InvertSeparateReport:
     """``analysis::separate::separate``; ``channel`` 0, 1, 2 for R, G, B (None: all three)."""
 
 def invert_factor(
@@ -220,7 +260,7 @@ def invert_factor(
     channel: int,
     quadrature: str,
     max_amplification: float,
-) -> Tuple[Dict[str, Any], List[str]]:
+) -> InvertFactorReport:
     """``analysis::factor::factor_images``: normal-probe views, one per node of the outgoing rule, and an
     optional θ_o = 0 view ``(image, name, view)``; ``channel`` 0, 1, 2 for R, G, B."""
 
@@ -233,9 +273,9 @@ def invert_factor_scene(
     channel: int,
     quadrature: str,
     max_amplification: float,
-) -> Tuple[Dict[str, Any], List[str]]:
-    """``analysis::factor::factor_rendered`` on the scene file's light field, rendered in memory
-    (``renderer::light_field``) at every node and at θ_o = 0 on a ``size`` = (W, H) grid."""
+) -> InvertFactorReport:
+    """``renderer::light_field::factor_scene``: the scene file's light field, rendered in memory at
+    every node and at θ_o = 0 on a ``size`` = (W, H) grid, factored; Ctrl-C stops its renders."""
 
 def write_image(path: str, channels: Dict[str, npt.NDArray[np.float32]], attributes: Dict[str, str]) -> None:
     """Writes a 32-bit float OpenEXR: each C-contiguous (H, W) float32 array of ``channels`` (one

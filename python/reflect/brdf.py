@@ -7,7 +7,10 @@ Each class builds the BRDF a scene file's ``brdf`` table describes (guide "Conve
 **Frame.** Directions are unit vectors in the local shading frame: the normal is +z, and both ω_i
 (toward the light) and ω_o (toward the viewer) point *away* from the surface. Arrays are (N, 3) (or
 one (3,) direction, broadcast against the other argument); any float dtype; they are computed in
-float32, as the renderer computes, and returned as float32.
+float32, as the renderer computes, and returned as float32. As in NumPy, unbatched input gives
+unbatched output: when every direction argument is one (3,) vector (and, for ``sample``, ``u`` is
+one (2,) pair), ``eval`` returns (3,), ``pdf`` a float32 scalar (shape ()), and ``sample`` a
+:class:`Sample` of (3,), (3,), () and () arrays.
 
 **Cosine.** :meth:`BRDF.eval` returns the paper's *transfer function* ρ̂(ω_o, ω_i) = BRDF · cos θ_i
 (guide "Conventions" §4): the BRDF value multiplied by the cosine of the incident angle, 0 below the
@@ -66,6 +69,14 @@ def _uniform(name: str, a: Any, cols: int) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float32)
 
 
+def _single(a: Any) -> bool:
+    """One direction or pair given unbatched (a (3,) or (2,) vector, not an (N, 3) array)."""
+    try:
+        return np.ndim(a) == 1
+    except (TypeError, ValueError):
+        return False
+
+
 def _pair(wi: Any, wo: Any):
     a, b = _directions("wi", wi), _directions("wo", wo)
     n = max(len(a), len(b))
@@ -98,21 +109,30 @@ class BRDF:
     def eval(self, wi: Any, wo: Any) -> np.ndarray:
         """ρ̂(ω_o, ω_i) = BRDF · cos θ_i per row, (N, 3) float32 RGB, sr⁻¹ (Dirac lobes excluded).
 
-        ``wi``, ``wo``: (N, 3) unit vectors in the local frame (normal +z), or one (3,) direction."""
+        ``wi``, ``wo``: (N, 3) unit vectors in the local frame (normal +z), or one (3,) direction
+        (broadcast against the other); both (3,): one (3,) value."""
         a, b = _pair(wi, wo)
-        return self._native.eval(a, b)
+        out = self._native.eval(a, b)
+        return out[0] if _single(wi) and _single(wo) else out
 
     def pdf(self, wi: Any, wo: Any) -> np.ndarray:
-        """The density, per solid angle (sr⁻¹), with which :meth:`sample` draws ω_i given ω_o: (N,) float32."""
+        """The density, per solid angle (sr⁻¹), with which :meth:`sample` draws ω_i given ω_o: (N,) float32
+        (a float32 scalar when ``wi`` and ``wo`` are both one (3,) direction)."""
         a, b = _pair(wi, wo)
-        return self._native.pdf(a, b)
+        out = self._native.pdf(a, b)
+        return out[0] if _single(wi) and _single(wo) else out
 
     def sample(self, wo: Any, u: Any, u_lobe: Any = None) -> Sample:
         """Draws one ω_i per row of ``u`` ((N, 2) uniform numbers in [0, 1)) given ``wo`` ((N, 3) or (3,)).
 
         ``u_lobe`` ((N,) in [0, 1)) chooses among the layers of a :class:`Mix` (default 0.5).
         Returns :class:`Sample` ``(wi, weight, pdf, delta)`` with weight = ρ̂/pdf: ``mean(weight)``
-        over many ``u`` estimates the directional albedo ∫ρ̂ dω_i."""
+        over many ``u`` estimates the directional albedo ∫ρ̂ dω_i. One (3,) ``wo`` with one (2,) ``u``
+        (and a scalar or no ``u_lobe``) gives one unbatched :class:`Sample`: (3,), (3,), (), ()."""
+        single = _single(u) and _single(wo) and (u_lobe is None or np.ndim(u_lobe) == 0)
+        if single:
+            u = np.asarray(u)[None, :]
+            u_lobe = None if u_lobe is None else [u_lobe]
         uu = _uniform("u", u, 2)
         o = _directions("wo", wo, len(uu))
         if len(o) != len(uu):
@@ -120,7 +140,8 @@ class BRDF:
         ul = np.full(len(uu), 0.5, np.float32) if u_lobe is None else _uniform("u_lobe", u_lobe, 1)
         if len(ul) != len(uu):
             raise InputError(f"u_lobe= has {len(ul)} rows and u= {len(uu)}")
-        return Sample(*self._native.sample(o, uu, ul))
+        s = Sample(*self._native.sample(o, uu, ul))
+        return Sample(*(x[0] for x in s)) if single else s
 
     def __repr__(self) -> str:
         return f"<reflect.brdf.{type(self).__name__} {self.table}>"

@@ -3,7 +3,8 @@
 Each class builds the light a scene file's ``[lighting]`` table describes (guide "Conventions" §1, §6,
 "Scene files"). Directions are unit vectors in the *world* frame (+z up), pointing from the scene
 toward the light (the direction the radiance arrives from); arrays are (N, 3), any float dtype,
-computed and returned in float32. Radiance is in the map's (or table's) linear RGB units per sr.
+computed and returned in float32 (one (3,) direction, or one (2,) ``u``, gives unbatched results, as
+in NumPy). Radiance is in the map's (or table's) linear RGB units per sr.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _args, _reflect
-from .brdf import Color, Sample, _color, _directions, _uniform
+from .brdf import Color, Sample, _color, _directions, _single, _uniform
 
 __all__ = ["Light", "Uniform", "Directional", "Axial", "SH", "Envmap"]
 
@@ -29,16 +30,20 @@ class Light:
 
     def eval(self, direction: Any) -> np.ndarray:
         """Radiance L(ω) arriving from each direction: (N, 3) float32 RGB (0 for :class:`Directional`)."""
-        return self._native.eval(_directions("direction", direction))
+        out = self._native.eval(_directions("direction", direction))
+        return out[0] if _single(direction) else out
 
     def pdf(self, direction: Any) -> np.ndarray:
         """The density, per solid angle (sr⁻¹), with which :meth:`sample` draws each direction: (N,) float32."""
-        return self._native.pdf(_directions("direction", direction))
+        out = self._native.pdf(_directions("direction", direction))
+        return out[0] if _single(direction) else out
 
     def sample(self, u: Any) -> Sample:
         """Draws one direction per row of ``u`` ((N, 2) uniform numbers in [0, 1)), with density
         proportional to |L| where the light allows: :class:`reflect.brdf.Sample` ``(wi, weight =
         L/pdf, pdf, delta)``, so ``mean(weight)`` estimates ∫L dω (RGB)."""
+        if _single(u):
+            return Sample(*(x[0] for x in self._native.sample(_uniform("u", np.asarray(u)[None, :], 2))))
         return Sample(*self._native.sample(_uniform("u", u, 2)))
 
     def __repr__(self) -> str:

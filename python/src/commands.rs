@@ -6,9 +6,11 @@
 //! arguments arrive checked and typed by the Python side (`reflect/_analysis.py`), which names its
 //! keywords in every message it raises.
 //!
-//! Each function returns `(doc, notes)`: the report as the document `--json` prints (through
-//! `serde_json`, so non-finite numbers are null there and here) and the `note: …` lines the CLI
-//! prints on stderr. The GIL is released while the analysis runs; a panic becomes `RuntimeError`.
+//! Each function returns its report object (`reflect._analysis.AnalyzeReport`, …) built from the
+//! document `--json` prints (through `serde_json`, so non-finite numbers are null there and here)
+//! and the `note: …` lines the CLI prints on stderr. The analysis runs on a thread of its own
+//! without the GIL while the calling thread runs Python's signal handlers ([`detached`]): Ctrl-C
+//! raises `KeyboardInterrupt` at once. A panic becomes `RuntimeError`.
 
 use crate::convert::{input_error, py_err, to_python};
 use crate::render::RenderResult;
@@ -21,6 +23,8 @@ use numpy::{PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use vocab::scene::SceneFile;
 
 /// One image argument: a file's path, a render, or the layers and header of an array.
@@ -100,27 +104,13 @@ pub(crate) fn load(
         radius: view.radius,
         probe_only,
         what,
+        spelling: Spelling::Keywords,
     };
     let filter = pixel_filter(view)?;
-    let mut d = analysis::observation::observe(&mut images, names, &given, view.layer.as_deref(), filter)
-        .map_err(no_camera_in_keywords)?;
+    let mut d = analysis::observation::observe(&mut images, names, &given, view.layer.as_deref(), filter)?;
     notes.append(&mut d.notes);
     d.stderr_notes = stderr_notes;
     Ok((images, d, notes))
-}
-
-/// A file with no camera in its header: what to pass, in Python's terms (the observation's own
-/// message names the CLI's flags).
-fn no_camera_in_keywords(e: analysis::observation::Error) -> analysis::Error {
-    use analysis::observation::Error as O;
-    match e {
-        O::InFile { path, error } if matches!(*error, O::NoCamera { .. }) => analysis::Error::file(
-            path,
-            "no reflect:camera in the header: pass scene= (the scene this image is a render of), or its pixels as \
-             an array with camera=",
-        ),
-        e => e.into(),
-    }
 }
 
 fn pixel_filter(view: &View) -> Result<Option<analysis::noise::PixelFilter>, analysis::Error> {
@@ -170,7 +160,13 @@ fn lighting_input(
     let img = RgbImage { width: w, height: h, pixels };
     let mapping = match mapping {
         Some(m) => m,
-        None => Mapping::infer(w, h).map_err(|e| input_error(format!("lighting= (map array): {}", e.message)))?,
+        // (Mapping::infer's refusal names the CLI's flag: this one is said in this API's terms.)
+        None => Mapping::infer(w, h).map_err(|_| {
+            input_error(format!(
+                "lighting= (map array): cannot infer the mapping of a {w}×{h} map (W = H is angular, W = 2H lat-long): \
+                 pass mapping="
+            ))
+        })?,
     };
     let coefficients = analysis::projection::project_envmap(&img, mapping, analysis::truncation::truncation_lmax(lmax))
         .map_err(|e| input_error(format!("lighting= (map array): {}", e.message)))?;
@@ -199,31 +195,62 @@ fn brdf_values(
     Ok(BrdfValues { kind: parse("brdf", brdf)?, params, albedo, spelling: Spelling::Keywords })
 }
 
-/// Runs `work` without the GIL; a panic (a bug) becomes `RuntimeError`.
-pub(crate) fn detached<T: Send>(
+/// Runs `work` on a thread of its own while the calling thread waits without the GIL, taking it
+/// back every 50 ms to run Python's signal handlers. When one raises (Ctrl-C: `KeyboardInterrupt`),
+/// `cancel` (if any) is set and the exception is raised at once: work that polls the flag (a
+/// light field's renders) stops within one tile; an analysis, which has no cancellation points,
+/// runs to its end on its thread and its result is dropped. A panic (a bug) becomes `RuntimeError`.
+pub(crate) fn detached<T: Send + 'static>(
     py: Python<'_>,
-    work: impl FnOnce() -> Result<T, analysis::Error> + Send,
+    cancel: Option<Arc<AtomicBool>>,
+    work: impl FnOnce() -> Result<T, analysis::Error> + Send + 'static,
 ) -> PyResult<T> {
-    py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)))
-        .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("the analysis panicked (a bug in reflect)"))?
-        .map_err(py_err)
+    use std::sync::mpsc;
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+        let _ = tx.send(r);
+    });
+    // (A Receiver is not Sync; the wait below runs without the GIL, which asks for a Sync borrow.)
+    let rx = std::sync::Mutex::new(rx);
+    loop {
+        let waited = py.detach(|| match rx.lock() {
+            Ok(r) => r.recv_timeout(std::time::Duration::from_millis(50)),
+            Err(_) => Err(mpsc::RecvTimeoutError::Disconnected),
+        });
+        match waited {
+            Ok(Ok(r)) => return r.map_err(py_err),
+            Ok(Err(_)) | Err(mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(pyo3::exceptions::PyRuntimeError::new_err("the analysis panicked (a bug in reflect)"));
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    if let Some(c) = &cancel {
+                        c.store(true, Ordering::Relaxed);
+                    }
+                    return Err(e);
+                }
+            }
+        }
+    }
 }
 
-/// `(doc, notes)` of a report.
+/// The report object `reflect._analysis.<class>(doc, notes)` of a report.
 pub(crate) fn result<'py, R: serde::Serialize>(
     py: Python<'py>,
+    class: &str,
     r: &R,
     notes: Vec<String>,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+) -> PyResult<Bound<'py, PyAny>> {
     let doc = serde_json::to_value(r).map_err(|e| input_error(format!("JSON output: {e}")))?;
-    Ok((to_python(py, &doc)?, notes))
+    py.import("reflect._analysis")?.getattr(class)?.call1((to_python(py, &doc)?, notes))
 }
 
 pub(crate) fn paths(names: Vec<String>) -> Vec<PathBuf> {
     names.into_iter().map(PathBuf::from).collect()
 }
 
-/// `analyze(images, names, view, lmax, …)` → `(doc, notes)`: [`analysis::analyze::analyze`].
+/// `analyze(images, names, view, lmax, …)` → `AnalyzeReport`: [`analysis::analyze::analyze`].
 #[pyfunction]
 #[pyo3(signature = (images, names, view, *, lmax, lighting=None, mapping=None, param=None, brdf=None, brdf_params=Vec::new(), albedo=None, no_diagnosis=false))]
 #[allow(clippy::too_many_arguments)]
@@ -240,7 +267,7 @@ pub fn analyze<'py>(
     brdf_params: Vec<(String, Bound<'py, PyAny>)>,
     albedo: Option<[f64; 3]>,
     no_diagnosis: bool,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+) -> PyResult<Bound<'py, PyAny>> {
     let mapping: Option<Mapping> = parse("mapping", mapping)?;
     let params = analysis::analyze::AnalyzeParams {
         lmax,
@@ -258,17 +285,17 @@ pub fn analyze<'py>(
     };
     let inputs = inputs(&images)?;
     let names = paths(names);
-    let (r, notes) = detached(py, || {
+    let (r, notes) = detached(py, None, move || {
         params.validate()?;
         let (images, observed, mut notes) = load(inputs, &names, &view, "analysed", false)?;
         let r = analysis::analyze::analyze(&params, images, &names, &observed)?;
         notes.extend(r.notes.iter().cloned());
         Ok((r, notes))
     })?;
-    result(py, &r, notes)
+    result(py, "AnalyzeReport", &r, notes)
 }
 
-/// `invert_lighting(images, names, view, lmax, …)` → `(doc, notes)`: [`analysis::invert::lighting()`].
+/// `invert_lighting(images, names, view, lmax, …)` → `InvertLightingReport`: [`analysis::invert::lighting()`].
 #[pyfunction]
 #[pyo3(signature = (images, names, view, *, lmax, brdf=None, brdf_params=Vec::new(), albedo=None, max_amplification=analysis::inverse::lighting::DEFAULT_MAX_AMPLIFICATION, discrepancy=false))]
 #[allow(clippy::too_many_arguments)]
@@ -283,7 +310,7 @@ pub fn invert_lighting<'py>(
     albedo: Option<[f64; 3]>,
     max_amplification: f64,
     discrepancy: bool,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+) -> PyResult<Bound<'py, PyAny>> {
     use analysis::inverse::lighting::Rule;
     let params = analysis::invert::LightingParams {
         lmax,
@@ -295,17 +322,17 @@ pub fn invert_lighting<'py>(
     };
     let inputs = inputs(&images)?;
     let names = paths(names);
-    let (r, notes) = detached(py, || {
+    let (r, notes) = detached(py, None, move || {
         analysis::invert::lighting::validate(&params)?;
         let (images, observed, mut notes) = load(inputs, &names, &view, "inverted", false)?;
         let r = analysis::invert::lighting(&params, images, &names, &observed)?;
         notes.extend(r.notes.iter().cloned());
         Ok((r, notes))
     })?;
-    result(py, &r, notes)
+    result(py, "InvertLightingReport", &r, notes)
 }
 
-/// `invert_brdf(images, names, view, model, lmax, …)` → `(doc, notes)`: [`analysis::invert::brdf()`].
+/// `invert_brdf(images, names, view, model, lmax, …)` → `InvertBrdfReport`: [`analysis::invert::brdf()`].
 #[pyfunction]
 #[pyo3(signature = (images, names, view, *, model, lmax, lighting=None, mapping=None, distribution=None, min=None, max=None))]
 #[allow(clippy::too_many_arguments)]
@@ -321,7 +348,7 @@ pub fn invert_brdf<'py>(
     distribution: Option<String>,
     min: Option<f64>,
     max: Option<f64>,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+) -> PyResult<Bound<'py, PyAny>> {
     use analysis::invert::FitModel;
     let mapping: Option<Mapping> = parse("mapping", mapping)?;
     let model = match model {
@@ -345,17 +372,17 @@ pub fn invert_brdf<'py>(
     };
     let inputs = inputs(&images)?;
     let names = paths(names);
-    let (r, notes) = detached(py, || {
+    let (r, notes) = detached(py, None, move || {
         analysis::invert::brdf::validate(&params)?;
         let (images, observed, mut notes) = load(inputs, &names, &view, "inverted", false)?;
         let r = analysis::invert::brdf(&params, images, &names, &observed)?;
         notes.extend(r.notes.iter().cloned());
         Ok((r, notes))
     })?;
-    result(py, &r, notes)
+    result(py, "InvertBrdfReport", &r, notes)
 }
 
-/// `invert_separate(images, names, view, lmax, …)` → `(doc, notes)`: [`analysis::separate::separate`].
+/// `invert_separate(images, names, view, lmax, …)` → `InvertSeparateReport`: [`analysis::separate::separate`].
 #[pyfunction]
 #[pyo3(signature = (images, names, view, *, lmax, kd=None, ks=None, channel=None, scan=false))]
 #[allow(clippy::too_many_arguments)]
@@ -369,17 +396,18 @@ pub fn invert_separate<'py>(
     ks: Option<[f64; 3]>,
     channel: Option<usize>,
     scan: bool,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
-    let params = analysis::separate::SeparateParams { kd, ks, lmax, channel, scan, map: None };
+) -> PyResult<Bound<'py, PyAny>> {
+    let params =
+        analysis::separate::SeparateParams { kd, ks, lmax, channel, scan, map: None, spelling: Spelling::Keywords };
     let inputs = inputs(&images)?;
     let names = paths(names);
-    let (r, notes) = detached(py, || {
+    let (r, notes) = detached(py, None, move || {
         analysis::separate::validate(&params, inputs.len())?;
         let (images, observed, notes) = load(inputs, &names, &view, "separated", true)?;
         let r = analysis::separate::separate(&params, &images, &names, &observed)?;
         Ok((r, notes))
     })?;
-    result(py, &r, notes)
+    result(py, "InvertSeparateReport", &r, notes)
 }
 
 /// `header_attributes(scene)` → the `reflect:camera`, `reflect:lighting` and `reflect:objects`

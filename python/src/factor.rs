@@ -2,15 +2,16 @@
 //! CLI reads them, renders, arrays; as [`crate::commands`] does for the other analyses), or on a
 //! scene's light field rendered in memory view by view ([`renderer::light_field`]). No file is
 //! written and no command line is built; the arguments arrive checked by the Python side
-//! (`reflect/_analysis.py`). Each function returns `(doc, notes)` as [`crate::commands`]' do.
+//! (`reflect/_analysis.py`). Each function returns its report object as [`crate::commands`]' do.
 
 use crate::commands::{View, detached, inputs, load, paths, result};
 use crate::convert::input_error;
-use analysis::factor::{FactorInput, FactorParams, ProbeImage, RenderedView};
+use analysis::factor::{FactorParams, ProbeImage};
 use analysis::inverse::factorization::NormalRule;
 use pyo3::prelude::*;
-use renderer::light_field::LightFieldViews;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 fn params(
     lmax: usize,
@@ -27,7 +28,7 @@ fn params(
     Ok(FactorParams { lmax, channel, rule, max_amplification, nodes })
 }
 
-/// `invert_factor(images, names, view, normal, *, lmax, …)` → `(doc, notes)`:
+/// `invert_factor(images, names, view, normal, *, lmax, …)` → `InvertFactorReport`:
 /// [`analysis::factor::factor_images`]. `normal`: `(image, name, view)` of the θ_o = 0 view, if any.
 #[pyfunction]
 #[pyo3(signature = (images, names, view, normal, *, lmax, nodes, channel, quadrature, max_amplification))]
@@ -43,7 +44,7 @@ pub fn invert_factor<'py>(
     channel: usize,
     quadrature: &str,
     max_amplification: f64,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+) -> PyResult<Bound<'py, PyAny>> {
     let params = params(lmax, nodes, channel, quadrature, max_amplification)?;
     let normal = match normal {
         Some((img, name, v)) => Some((inputs(std::slice::from_ref(&img))?, PathBuf::from(name), v)),
@@ -51,7 +52,7 @@ pub fn invert_factor<'py>(
     };
     let inputs = inputs(&images)?;
     let names = paths(names);
-    let (r, notes) = detached(py, || {
+    let (r, notes) = detached(py, None, move || {
         analysis::factor::validate(&params)?;
         let (images, observed, mut notes) = load(inputs, &names, &view, "factored", true)?;
         let sidecar = view.scene.as_deref().map(reflect::images::read_scene).transpose()?;
@@ -73,11 +74,12 @@ pub fn invert_factor<'py>(
         let r = analysis::factor::factor_images(&params, &views, normal, sidecar.as_ref())?;
         Ok((r, notes))
     })?;
-    result(py, &r, notes)
+    result(py, "InvertFactorReport", &r, notes)
 }
 
-/// `invert_factor_scene(scene, *, lmax, nodes, size, …)` → `(doc, notes)`: the light field of the
-/// scene file rendered at every node and at θ_o = 0 ([`analysis::factor::factor_rendered`]).
+/// `invert_factor_scene(scene, *, lmax, nodes, size, …)` → `InvertFactorReport`: the light field of
+/// the scene file rendered at every node and at θ_o = 0 ([`renderer::light_field::factor_scene`], the
+/// function `reflect invert factor --scene` calls); Ctrl-C stops the render within one tile.
 #[pyfunction]
 #[pyo3(signature = (scene, *, lmax, nodes, size, channel, quadrature, max_amplification))]
 #[allow(clippy::too_many_arguments)]
@@ -90,33 +92,12 @@ pub fn invert_factor_scene<'py>(
     channel: usize,
     quadrature: &str,
     max_amplification: f64,
-) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
+) -> PyResult<Bound<'py, PyAny>> {
     let params = params(lmax, Some(nodes), channel, quadrature, max_amplification)?;
-    let (w, h) = size;
-    let r = detached(py, || {
-        analysis::factor::validate(&params)?;
-        analysis::projection::resolution::check_latlong(lmax, w as usize, h as usize, "normal-probe grid (size=)")?;
-        let text = std::fs::read_to_string(&scene)
-            .map_err(|e| analysis::Error::file(&scene, format!("cannot read scene file: {e}")))?;
-        let file = vocab::scene::SceneFile::parse(&text).map_err(|m| analysis::Error::file(&scene, m))?;
-        let input = FactorInput::Scene {
-            scene: scene.display().to_string(),
-            size: [w, h],
-            spp: file.render.spp,
-            sampler: file.render.sampler,
-            max_depth: file.render.max_depth,
-            objects: file.objects.len(),
-        };
-        let base = scene.parent().map(Path::to_path_buf).unwrap_or_default();
-        let mut views = LightFieldViews::new(file, &base, w, h).map_err(|e| e.in_file(&scene))?;
-        let render = |t: f64, p: f64| -> Result<RenderedView, analysis::factor::Error> {
-            let film = views.render(t, p)?;
-            Ok(RenderedView {
-                radiance: film.pixels.iter().map(|px| px.rgb[channel] as f64).collect(),
-                stderr: film.pixels.iter().map(|px| px.stderr[channel] as f64).collect(),
-            })
-        };
-        Ok(analysis::factor::factor_rendered(&params, &scene, (w as usize, h as usize), input, render)?)
+    let cancel = Arc::new(AtomicBool::new(false));
+    let c = cancel.clone();
+    let r = detached(py, Some(cancel), move || {
+        renderer::light_field::factor_scene(&params, &scene, size, "size=", Some(c))
     })?;
-    result(py, &r, Vec::new())
+    result(py, "InvertFactorReport", &r, Vec::new())
 }

@@ -247,11 +247,16 @@ pub fn render(
         .py()?;
     scene.path = path;
     let passes = Passes { threads, progress, target_rel_error, time_limit, checkpoint, checkpoint_every };
+    // The most spp allowed, before a render to a target labels the scene with the spp it reached.
+    let spp_cap = scene.settings.spp;
     let run = render_passes(py, &mut scene, &passes)?;
     let result = RenderResult::new(py, &scene, run.film, &run.stats)?;
     let d = result.stats.bind(py);
     d.set_item("passes", run.passes)?;
     d.set_item("stopped_by", run.stop.name())?;
+    // As `reflect render --json`'s `progressive.spp_cap` and `progressive.target_reached`.
+    d.set_item("spp_cap", spp_cap)?;
+    d.set_item("target_reached", target_rel_error.map(|_| run.stop == Stop::Target))?;
     d.set_item("target_rel_error", target_rel_error)?;
     d.set_item("time_limit", time_limit)?;
     d.set_item("rel_error_p95", run.rel_error.and_then(|e| e.ok()))?;
@@ -260,12 +265,15 @@ pub fn render(
 }
 
 /// A finished render: the AOVs of guide "Output images" as NumPy arrays, and the film to save.
+/// Background pixels (`mask` 0) show the environment with `stderr` 0: average over the object,
+/// `image.stderr[image.mask > 0].mean()`, not over the whole image.
 #[pyclass(module = "reflect._reflect", frozen)]
 pub struct RenderResult {
     /// Linear RGB radiance, float32 (H, W, 3), row 0 at the top.
     #[pyo3(get)]
     rgb: Py<PyArray3<f32>>,
-    /// Standard error of each pixel mean, float32 (H, W, 3); +inf at 1 spp (no estimate).
+    /// Standard error of each pixel mean, float32 (H, W, 3); +inf at 1 spp (no estimate); 0 on the
+    /// background (`mask` 0): select the object (`stderr[mask > 0]`) before averaging.
     #[pyo3(get)]
     stderr: Py<PyArray3<f32>>,
     /// The pixel's own standard error before the bound near flagged pixels (the `stderr_own`
@@ -275,7 +283,8 @@ pub struct RenderResult {
     /// World-space normal of the first hit (0 on a miss), float32 (H, W, 3).
     #[pyo3(get)]
     normal: Py<PyArray3<f32>>,
-    /// Fraction of each pixel's samples that hit an object, float32 (H, W).
+    /// Fraction of each pixel's samples that hit an object, float32 (H, W): `mask > 0` selects the
+    /// object's pixels.
     #[pyo3(get)]
     mask: Py<PyArray2<f32>>,
     /// The `stderr_flag.Y` layer as bool (H, W): True where the pixel's error bar cannot be trusted

@@ -25,7 +25,13 @@ fn project(img: RgbImage, mapping: Option<&str>, lmax: usize) -> Result<Array2<f
     check_lmax(lmax)?;
     let mapping = match mapping {
         Some(m) => Mapping::parse(m)?,
-        None => Mapping::infer(img.width, img.height)?,
+        // (Mapping::infer's refusal names the CLI's flag: this one is said in this API's terms.)
+        None => Mapping::infer(img.width, img.height).map_err(|_| {
+            Error::new(format!(
+                "cannot infer the mapping of a {}×{} map (W = H is angular, W = 2H lat-long): pass mapping=",
+                img.width, img.height
+            ))
+        })?,
     };
     Ok(coeffs_array(project_envmap(&img, mapping, lmax)?))
 }

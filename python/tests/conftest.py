@@ -101,6 +101,12 @@ def tiny_scene(tmp_path):
 
 def plain(v):
     """A report back in JSON's terms (arrays → lists, NaN → null), to compare with the CLI's document."""
+    import reflect
+
+    if isinstance(v, reflect.Table):  # records as columns: back to the list of objects
+        return [plain(row) for row in v]
+    if isinstance(v, np.generic):
+        return plain(v.item())
     if isinstance(v, dict):
         return {k: plain(x) for k, x in v.items()}
     if isinstance(v, np.ndarray):

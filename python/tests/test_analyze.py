@@ -85,7 +85,8 @@ def test_analyze_shapes_and_dtypes(ortho):
     assert d["stderr"].shape == (9, 3) and d["lighting"]["coefficients"].shape == (9, 3)
     assert d["lm"].dtype == np.int64 and d["lm"].tolist()[:4] == [[0, 0], [1, -1], [1, 0], [1, 1]]
     assert d["lambda_rho_analytic"].shape == (3, 3) and d["predicted"].shape == (9, 3)
-    assert isinstance(d["filter"], list) and d["filter"][0]["estimate"].shape == (3,)
+    assert isinstance(d["filter"], reflect.Table) and d["filter"][0]["estimate"].shape == (3,)
+    assert d.filter.estimate.shape == (3, 3) and d.filter.l.dtype == np.int64
     assert isinstance(d["warnings"], list) and all(isinstance(w, str) for w in d["warnings"])
     assert isinstance(d["lmax_carried"], int) and d["sphere"]["center"].shape == (3,)
 

@@ -42,13 +42,11 @@
 use super::Error;
 use super::args::{Channel, ImageArgs, Quadrature};
 use super::sh::check_lmax;
-use analysis::factor::{FactorInput, FactorParams, ProbeImage, RenderedView};
+use analysis::factor::{FactorParams, ProbeImage};
 use analysis::image::read_image;
 use analysis::inverse::factorization::{DEFAULT_MAX_AMPLIFICATION, NormalRule, check_nodes};
-use renderer::light_field::LightFieldViews;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use vocab::scene::SceneFile;
 
 pub use analysis::factor::{FactorNodesReport, InvertFactorReport, nodes_report};
 
@@ -209,41 +207,10 @@ fn from_images(a: &FactorArgs, params: &FactorParams) -> Result<InvertFactorRepo
     Ok(analysis::factor::factor_images(params, &views, normal, sidecar.as_ref())?)
 }
 
-/// `--scene` mode: the scene's light field rendered in memory, view by view
-/// ([`renderer::light_field`]), and factored by the library.
-fn from_scene(path: &Path, params: &FactorParams, (w, h): (u32, u32)) -> Result<InvertFactorReport, Error> {
-    check_nodes_of(params)?;
-    // Before the scene is built (its maps read): a grid too coarse for --lmax is the flag's error.
-    analysis::projection::resolution::check_latlong(params.lmax, w as usize, h as usize, "normal-probe grid (--size)")?;
-    let text = std::fs::read_to_string(path).map_err(|e| Error::file(path, format!("cannot read scene file: {e}")))?;
-    let file = SceneFile::parse(&text).map_err(|m| Error::file(path, m))?;
-    let input = FactorInput::Scene {
-        scene: path.display().to_string(),
-        size: [w, h],
-        spp: file.render.spp,
-        sampler: file.render.sampler,
-        max_depth: file.render.max_depth,
-        objects: file.objects.len(),
-    };
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut views = LightFieldViews::new(file, &base, w, h).map_err(|e| e.in_file(path))?;
-    let ch = params.channel;
-    let render = |t: f64, p: f64| -> Result<RenderedView, analysis::factor::Error> {
-        let film = views.render(t, p)?;
-        Ok(RenderedView {
-            radiance: film.pixels.iter().map(|px| px.rgb[ch] as f64).collect(),
-            stderr: film.pixels.iter().map(|px| px.stderr[ch] as f64).collect(),
-        })
-    };
-    Ok(analysis::factor::factor_rendered(params, path, (w as usize, h as usize), input, render)?)
-}
-
-/// The node rule of `--nodes`, checked before the scene is read (a bad rule is the flag's error).
-fn check_nodes_of(params: &FactorParams) -> Result<(), Error> {
-    match params.nodes {
-        Some((n_mu, n_phi)) => Ok(check_nodes(n_mu, n_phi)?),
-        None => Ok(()),
-    }
+/// `--scene` mode: the scene's light field rendered in memory and factored
+/// ([`renderer::light_field::factor_scene`], the function Python's scene mode calls).
+fn from_scene(path: &Path, params: &FactorParams, size: (u32, u32)) -> Result<InvertFactorReport, Error> {
+    renderer::light_field::factor_scene(params, path, size, "--size", None)
 }
 
 #[cfg(test)]
@@ -258,6 +225,7 @@ mod tests {
     use renderer::scene::Scene;
     use serde_json::{Value, json};
     use std::f64::consts::PI;
+    use vocab::scene::SceneFile;
 
     /// The report as the JSON document `--json` prints.
     fn factor_doc(a: &FactorArgs) -> Result<Value, Error> {

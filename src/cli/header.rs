@@ -35,6 +35,7 @@ pub fn load(paths: &[PathBuf], view: &ViewArgs, what: &str) -> Result<(Vec<Image
         radius: view.radius,
         probe_only: view.probe_only,
         what,
+        spelling: analysis::observation::Spelling::Flags,
     };
     let mut d =
         analysis::observation::observe(&mut images, paths, &given, view.image.layer.as_deref(), view.pixel_filter)?;

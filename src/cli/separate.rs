@@ -106,6 +106,7 @@ pub fn separate_report(a: &SeparateArgs) -> Result<InvertSeparateReport, Error> 
         channel: a.channel.map(Channel::index),
         scan: a.scan,
         map: a.output.clone().map(|p| (p, a.width)),
+        spelling: analysis::observation::Spelling::Flags,
     };
     analysis::separate::validate(&params, a.images.len())?;
     let (images, observed) = super::header::load(&a.images, &a.view.view(), "separated")?;

@@ -140,6 +140,19 @@ brdf = { type = "phong", s = 8.0, horizon = "ignore" }
         assert_eq!(attrs[INTEGRATOR], "path");
     }
 
+    /// A camera table without `to` looks at the origin, and without `up` has +z up, in a scene file
+    /// and in a header alike: the one default every front-end (CLI flags, Python dicts) gets.
+    #[test]
+    fn a_camera_without_to_looks_at_the_origin() {
+        let text = "[camera]\ntype = \"orthographic\"\nfrom = [3.0, 0.0, 1.0]\nextent = 1.05\n[lighting]\ntype = \"uniform\"\nradiance = 1.0\n";
+        let scene = SceneFile::parse(text).unwrap();
+        assert!(matches!(scene.camera, CameraSection::Orthographic { to: [0.0, 0.0, 0.0], up: [0.0, 0.0, 1.0], .. }));
+        let attrs: BTreeMap<String, String> =
+            [(CAMERA.to_string(), r#"{"type":"perspective","from":[1,2,3],"fov_deg":30}"#.to_string())].into();
+        let h = Header::read(&attrs).unwrap();
+        assert!(matches!(h.camera, Some(CameraSection::Perspective { to: [0.0, 0.0, 0.0], .. })));
+    }
+
     /// A malformed value is an error naming the header key and the bad value, never a silent default
     /// (serde's messages for internally tagged enums do not name the field inside the table).
     #[test]

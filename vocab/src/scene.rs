@@ -69,6 +69,8 @@ impl Default for RenderSection {
 pub enum CameraSection {
     Orthographic {
         from: [f32; 3],
+        /// The point looked at; default the origin (where a scene's sphere usually is).
+        #[serde(default)]
         to: [f32; 3],
         #[serde(default = "z_up")]
         up: [f32; 3],
@@ -76,6 +78,8 @@ pub enum CameraSection {
     },
     Perspective {
         from: [f32; 3],
+        /// The point looked at; default the origin.
+        #[serde(default)]
         to: [f32; 3],
         #[serde(default = "z_up")]
         up: [f32; 3],

@@ -245,11 +245,14 @@ pub fn analyze(
     {
         let given = crate::sh::reconstruct::lmax_of(coefficients.len())
             .map_or_else(|| format!("{} coefficients", coefficients.len()), |l| format!("coefficients to l = {l}"));
+        // The order is named, not "a few more than the highest order asked": at a small l_max the fit
+        // reads to l = 16 (`l_hi_order`). No parameter is named, so the report's text is the same in
+        // every front-end (Python's `to_dict()` is the CLI's `--json`).
+        let read = l_hi_order(lmax);
         warnings.push(format!(
-            "the lighting is SH {given}, orders above taken as 0; the fit and verdict read it to l = {}: if the \
-             lighting has energy there (coefficients projected from a map), the image will contradict it — give \
-             coefficients to a few orders more than --lmax, or the map",
-            l_hi_order(lmax)
+            "the lighting is SH {given}, orders above taken as 0; the fit and verdict read it to l = {read} (for \
+             l_max {lmax}): if the lighting has energy there (coefficients projected from a map), the image will \
+             contradict it — give coefficients to at least l = {read}, or the map"
         ));
     }
     let analytic: Option<Vec<[f64; 3]>> = brdf.as_ref().and_then(|br| {

@@ -151,6 +151,7 @@ pub(super) fn resolve(
     scene: Sourced<Camera>,
     v: &CameraValues,
     probe_only: bool,
+    spelling: super::brdf::Spelling,
 ) -> Result<Camera, Error> {
     // A sidecar's normal-probe camera describes a set of views of one scene, each at its own
     // exitance (a light field, a separation): the image's header or the explicit angles give this
@@ -166,7 +167,7 @@ pub(super) fn resolve(
     }
     Ok(match (base, v.probe()) {
         (None, Some((t, ph))) => probe_of_values(t, ph)?,
-        (None, None) => v.camera().map(Camera::Ortho).ok_or(Error::NoCamera { probe_only })?,
+        (None, None) => v.camera().map(Camera::Ortho).ok_or(Error::NoCamera { probe_only, spelling })?,
         (Some((Camera::NormalProbe { .. }, _)), Some((t, ph))) if base_is_template => probe_of_values(t, ph)?,
         (Some((b @ Camera::NormalProbe { .. }, src)), Some((t, ph))) => {
             let c = probe_of_values(t, ph)?;

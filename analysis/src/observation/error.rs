@@ -37,13 +37,18 @@ pub enum Error {
         scene.display()
     )]
     SceneSize { width: usize, height: usize, scene: PathBuf, scene_width: usize, scene_height: usize },
-    /// No source gives an image's camera; `probe_only` when only normal-probe values are accepted.
-    #[error("no reflect:camera in the header: {}", if *probe_only {
-        "pass --theta-o (and --phi-o) of its normal-probe camera once per image, or --scene S.toml"
-    } else {
-        "pass --from x,y,z and --extent (orthographic camera), --theta-o (normal-probe camera), or --scene S.toml"
+    /// No source gives an image's camera; `probe_only` when only normal-probe values are accepted;
+    /// what to pass is named in the front-end's `spelling` (the CLI's flags; Python's `scene=` or an
+    /// array with `camera=`, a file having no camera keyword).
+    #[error("no reflect:camera in the header: {}", match (spelling, probe_only) {
+        (super::brdf::Spelling::Keywords, _) =>
+            "pass scene= (the scene this image is a render of), or its pixels as an array with camera=",
+        (super::brdf::Spelling::Flags, true) =>
+            "pass --theta-o (and --phi-o) of its normal-probe camera once per image, or --scene S.toml",
+        (super::brdf::Spelling::Flags, false) =>
+            "pass --from x,y,z and --extent (orthographic camera), --theta-o (normal-probe camera), or --scene S.toml",
     })]
-    NoCamera { probe_only: bool },
+    NoCamera { probe_only: bool, spelling: super::brdf::Spelling },
     /// Explicit values of both an orthographic and a normal-probe camera for one image.
     #[error(
         "--from/--to/--up/--extent describe an orthographic camera and --theta-o/--phi-o a normal-probe camera: give one of them"
@@ -112,7 +117,7 @@ mod tests {
 
     #[test]
     fn a_file_error_reads_as_the_front_ends_line() {
-        let e = Error::NoCamera { probe_only: true }.in_file("a.exr");
+        let e = Error::NoCamera { probe_only: true, spelling: super::super::brdf::Spelling::Flags }.in_file("a.exr");
         let v: vocab::Error = e.clone().into();
         assert_eq!(e.to_string(), v.to_string());
         assert!(v.to_string().starts_with("a.exr: no reflect:camera in the header: pass --theta-o"), "{v}");

@@ -84,6 +84,8 @@ pub struct Given<'a> {
     pub probe_only: bool,
     /// The command's verb for refusals ("analysed", "inverted").
     pub what: &'a str,
+    /// How the front-end names what to pass where a value is missing (`--scene`, `scene=`).
+    pub spelling: Spelling,
 }
 
 /// A value and where it came from ("the header's reflect:camera", "the [camera] of s.toml").
@@ -179,7 +181,11 @@ pub fn describe(images: &[Image], paths: &[PathBuf], given: &Given) -> Result<Ob
             notes.push(format!(
                 "note: {}: worldToCamera without worldToNDC does not give the view's extent: not used ({})",
                 p.display(),
-                if given.probe_only { "pass --theta-o/--phi-o or --scene" } else { "pass --from/--to/--up/--extent" }
+                match (given.spelling, given.probe_only) {
+                    (Spelling::Keywords, _) => "pass scene= or the pixels as an array with camera=",
+                    (Spelling::Flags, true) => "pass --theta-o/--phi-o or --scene",
+                    (Spelling::Flags, false) => "pass --from/--to/--up/--extent",
+                }
             ));
         }
         mirrored.push(matrix.is_some_and(|(_, m)| m));
@@ -196,7 +202,7 @@ pub fn describe(images: &[Image], paths: &[PathBuf], given: &Given) -> Result<Ob
             })
             .transpose()
             .map_err(in_p)?;
-        cameras.push(camera::resolve(from_header, from_scene, v, given.probe_only).map_err(in_p)?);
+        cameras.push(camera::resolve(from_header, from_scene, v, given.probe_only, given.spelling).map_err(in_p)?);
     }
 
     let hd0 = headers.first().cloned().unwrap_or_default();
@@ -280,7 +286,15 @@ mod tests {
     }
 
     fn given<'a>(cameras: &'a [CameraValues], scene: Option<(&'a Path, &'a SceneFile)>) -> Given<'a> {
-        Given { scene, cameras, center: None, radius: None, probe_only: false, what: "analysed" }
+        Given {
+            scene,
+            cameras,
+            center: None,
+            radius: None,
+            probe_only: false,
+            what: "analysed",
+            spelling: Spelling::Flags,
+        }
     }
 
     #[test]
@@ -303,6 +317,15 @@ mod tests {
         let (images, paths) = headerless(1);
         let e = describe(&images, &paths, &given(&[CameraValues::default()], None)).unwrap_err();
         assert!(e.to_string().starts_with("v0.exr: no reflect:camera in the header: pass --from"), "{e}");
+        // Python's spelling: what it can pass (a file has no camera keyword), never a flag.
+        let none = [CameraValues::default()];
+        let py = Given { spelling: Spelling::Keywords, ..given(&none, None) };
+        let e = describe(&images, &paths, &py).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "v0.exr: no reflect:camera in the header: pass scene= (the scene this image is a render of), or its \
+             pixels as an array with camera="
+        );
         let both = [CameraValues { from: Some([0.0, 0.0, 5.0]), theta_o: Some(0.0), ..Default::default() }];
         let e = describe(&images, &paths, &given(&both, None)).unwrap_err();
         assert!(matches!(&e, Error::InFile { error, .. } if matches!(**error, Error::TwoCameraKinds)), "{e}");

@@ -1,6 +1,7 @@
 //! The errors of a diffuse + specular separation: each one sentence whose `Display` is the line a
 //! front-end prints after `error: ` (a file's path first when there is one, as [`vocab::Error`]).
 
+use crate::observation::Spelling;
 use std::path::{Path, PathBuf};
 
 /// Why a set of views could not be separated.
@@ -34,19 +35,22 @@ pub enum Error {
     SpecularAzimuth(f64),
     #[error("image size {width}×{height} differs from the diffuse view's {first_width}×{first_height}")]
     SizeDiffers { width: usize, height: usize, first_width: usize, first_height: usize },
-    /// A weight neither given nor in the BRDF table (`flag` is `kd` or `ks`).
+    /// A weight neither given nor in the BRDF table (`flag` is `kd` or `ks`, named in the
+    /// front-end's `spelling`: `--kd`, `kd=`).
     #[error(
-        "--{flag} is required: the first image's header (or --scene) BRDF is not a mix of one lambert and one mirror layer (pass --kd and --ks)"
+        "{} is required: the first image's header (or {}) BRDF is not a mix of one lambert and one mirror layer (pass {} and {})",
+        spelling.name(flag), spelling.name("scene"), spelling.name("kd"), spelling.name("ks")
     )]
-    WeightRequired { flag: &'static str },
+    WeightRequired { flag: &'static str, spelling: Spelling },
     #[error("k_d and k_s must be > 0, got k_d = {kd}, k_s = {ks} in channel {channel}")]
     WeightsNotPositive { kd: f64, ks: f64, channel: &'static str },
-    /// A weight given that the BRDF table's mix contradicts (`flag` is `kd` or `ks`).
+    /// A weight given that the BRDF table's mix contradicts (`flag` is `kd` or `ks`, named in the
+    /// front-end's `spelling`).
     #[error(
-        "--{flag} {given} but {src} gives {} = {table} (its mix of lambert and mirror): they contradict each other",
-        if *flag == "kd" { "k_d" } else { "k_s" }
+        "{} but {src} gives {} = {table} (its mix of lambert and mirror): they contradict each other",
+        spelling.given(flag, given), if *flag == "kd" { "k_d" } else { "k_s" }
     )]
-    WeightContradicts { flag: &'static str, given: String, src: String, table: String },
+    WeightContradicts { flag: &'static str, spelling: Spelling, given: String, src: String, table: String },
     /// A failure of one channel's fits.
     #[error("channel {channel}: {message}")]
     Channel { channel: &'static str, message: String },

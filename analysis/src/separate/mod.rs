@@ -48,7 +48,7 @@ use crate::image::{Image, RgbImage};
 use crate::inverse::separation::{
     LOW, ResidualFit, Samples, Separated, Separation, best_split, fit_residuals, nine_term_residual, probe_samples,
 };
-use crate::observation::{Camera, Observation};
+use crate::observation::{Camera, Observation, Spelling};
 use crate::projection::resolution::{
     LATLONG_REFLECTION_RULE, check_latlong, check_order, latlong_max_order_reflection,
 };
@@ -80,6 +80,8 @@ pub struct SeparateParams {
     /// The lat-long map of the recovered lighting a front-end writes: its file (named in errors and
     /// the report) and width W (height W/2; even, in [4, 16384], carrying every order ≤ `lmax`).
     pub map: Option<(PathBuf, usize)>,
+    /// How the front-end names `kd`, `ks` and `scene` in messages (`--kd`, `kd=`).
+    pub spelling: Spelling,
 }
 
 /// One normal-probe render.
@@ -159,6 +161,7 @@ fn check_weight(
     arg: Option<[f64; 3]>,
     header: Option<[f64; 3]>,
     flag: &'static str,
+    spelling: Spelling,
     source: &str,
 ) -> Result<(), Error> {
     if let (Some(v), Some(h)) = (arg, header)
@@ -166,6 +169,7 @@ fn check_weight(
     {
         return Err(Error::WeightContradicts {
             flag,
+            spelling,
             given: crate::observation::v3(v),
             src: source.to_string(),
             table: crate::observation::v3(h),
@@ -175,10 +179,15 @@ fn check_weight(
 }
 
 /// A per-channel weight from `--kd` / `--ks` (one number or r,g,b), else the header's.
-fn weight_arg(arg: Option<[f64; 3]>, header: Option<[f64; 3]>, flag: &'static str) -> Result<([f64; 3], bool), Error> {
+fn weight_arg(
+    arg: Option<[f64; 3]>,
+    header: Option<[f64; 3]>,
+    flag: &'static str,
+    spelling: Spelling,
+) -> Result<([f64; 3], bool), Error> {
     match arg {
         Some(v) => Ok((v, true)),
-        None => header.map(|h| (h, false)).ok_or(Error::WeightRequired { flag }),
+        None => header.map(|h| (h, false)).ok_or(Error::WeightRequired { flag, spelling }),
     }
 }
 
@@ -267,8 +276,8 @@ pub fn separate(
     check_order(a.lmax, carried, &format!("a {w}×{h} specular view"), LATLONG_REFLECTION_RULE)
         .map_err(|e| Error::from(e).in_file(&paths[0]))?;
     let hs = header_brdf.as_ref().and_then(|(b, _)| header_split(b));
-    let (kd, kd_arg) = weight_arg(a.kd, hs.map(|s| s.0), "kd")?;
-    let (ks, ks_arg) = weight_arg(a.ks, hs.map(|s| s.1), "ks")?;
+    let (kd, kd_arg) = weight_arg(a.kd, hs.map(|s| s.0), "kd", a.spelling)?;
+    let (ks, ks_arg) = weight_arg(a.ks, hs.map(|s| s.1), "ks", a.spelling)?;
     for &c in &channels {
         if !(kd[c].is_finite() && kd[c] > 0.0 && ks[c].is_finite() && ks[c] > 0.0) {
             return Err(Error::WeightsNotPositive { kd: kd[c], ks: ks[c], channel: CHANNELS[c] });
@@ -276,8 +285,8 @@ pub fn separate(
     }
     // A value out of its domain is said first; then a flag against the header's or scene's mix.
     let first = |e: Error| e.in_file(&paths[0]);
-    check_weight(a.kd, hs.map(|s| s.0), "kd", &table_source(&header_brdf)).map_err(first)?;
-    check_weight(a.ks, hs.map(|s| s.1), "ks", &table_source(&header_brdf)).map_err(first)?;
+    check_weight(a.kd, hs.map(|s| s.0), "kd", a.spelling, &table_source(&header_brdf)).map_err(first)?;
+    check_weight(a.ks, hs.map(|s| s.1), "ks", a.spelling, &table_source(&header_brdf)).map_err(first)?;
     let split_source = match (kd_arg, ks_arg) {
         (true, true) => "command line".to_string(),
         (false, false) => format!("{} (mix of lambert and mirror)", table_source(&header_brdf)),
@@ -516,6 +525,23 @@ mod tests {
         assert!(meaning(Some(21.67), true, 2).starts_with("marginal:"), "{}", meaning(Some(21.67), true, 2));
         assert!(meaning(Some(30.0), true, 2).starts_with("inconsistent:"), "{}", meaning(Some(30.0), true, 2));
         assert!(meaning(None, true, 2).starts_with("χ² undefined"));
+    }
+
+    /// A missing or contradicted weight is named as the front-end names it: the CLI's flag, Python's keyword.
+    #[test]
+    fn weight_errors_name_the_parameter_in_the_front_ends_spelling() {
+        let e = weight_arg(None, None, "kd", Spelling::Flags).unwrap_err().to_string();
+        assert!(e.starts_with("--kd is required:") && e.ends_with("(pass --kd and --ks)"), "{e}");
+        let e = weight_arg(None, None, "ks", Spelling::Keywords).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "ks= is required: the first image's header (or scene=) BRDF is not a mix of one lambert and one mirror \
+             layer (pass kd= and ks=)"
+        );
+        let e = check_weight(Some([0.6; 3]), Some([0.5; 3]), "kd", Spelling::Keywords, "the header").unwrap_err();
+        assert!(e.to_string().starts_with("kd=0.6,0.6,0.6 but the header gives k_d = 0.5,0.5,0.5"), "{e}");
+        let e = check_weight(Some([0.6; 3]), Some([0.5; 3]), "kd", Spelling::Flags, "the header").unwrap_err();
+        assert!(e.to_string().starts_with("--kd 0.6,0.6,0.6 but the header gives"), "{e}");
     }
 
     #[test]
