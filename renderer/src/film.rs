@@ -956,7 +956,11 @@ mod tests {
                             cuts.windows(2).map(|c| partial_lanes(&xs, c[0], c[1], bl, reps, aligned)).collect();
                         let merged = Partial::merge(parts).unwrap().finish_own();
                         let bits = |f: &Film| f.pixels.iter().map(|p| format!("{p:?}")).collect::<Vec<_>>();
-                        assert_eq!(bits(&merged), bits(&single), "bl {bl}, spp {spp}, cuts {cuts:?}, aligned {aligned}");
+                        assert_eq!(
+                            bits(&merged),
+                            bits(&single),
+                            "bl {bl}, spp {spp}, cuts {cuts:?}, aligned {aligned}"
+                        );
                     }
                 }
             }
