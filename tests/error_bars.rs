@@ -65,12 +65,15 @@ fn truth(i: usize) -> f64 {
     }
 }
 
-/// Counts of |z| < 1, 2, 3 among `n` (seed, pixel) pairs, and Σ z².
+/// Counts of |z| < 1, 2, 3 among `n` (seed, pixel) pairs, Σ z², and the sums that give the
+/// mean-square calibration E[e²] / E[σ̂²] and its standard error (e = x − truth).
 #[derive(Clone, Copy, Debug, Default)]
 struct Counts {
     n: u64,
     within: [u64; 3],
     z2: f64,
+    /// Σ e², Σ σ̂², Σ e⁴, Σ σ̂⁴, Σ e² σ̂².
+    moments: [f64; 5],
 }
 
 impl Counts {
@@ -79,9 +82,14 @@ impl Counts {
             for p in &f.pixels {
                 let sigma = scale * p.stderr[0] as f64;
                 assert!(p.mask == 1.0 && sigma > 0.0 && sigma.is_finite(), "every pixel is the sphere, with noise");
-                let z = (p.rgb[0] as f64 - truth) / sigma;
+                let e = p.rgb[0] as f64 - truth;
+                let z = e / sigma;
                 self.n += 1;
                 self.z2 += z * z;
+                let (e2, s2) = (e * e, sigma * sigma);
+                for (m, v) in self.moments.iter_mut().zip([e2, s2, e2 * e2, s2 * s2, e2 * s2]) {
+                    *m += v;
+                }
                 for k in 0..3 {
                     self.within[k] += (z.abs() < (k + 1) as f64) as u64;
                 }
@@ -101,6 +109,26 @@ impl Counts {
         })
     }
 
+    /// E[e²] / E[σ̂²] over the pixels and its standard error (delta method over the pixels, which
+    /// are independent: every pixel has its own scrambles).
+    fn calibration(&self) -> (f64, f64) {
+        let n = self.n as f64;
+        let [se2, ss2, se4, ss4, ses] = self.moments.map(|m| m / n);
+        let ratio = se2 / ss2;
+        let (var_e, var_s, cov) = (se4 - se2 * se2, ss4 - ss2 * ss2, ses - se2 * ss2);
+        let var = (var_e - 2.0 * ratio * cov + ratio * ratio * var_s) / (ss2 * ss2 * n);
+        (ratio, var.sqrt())
+    }
+
+    /// Whether the error bars are right in mean square: E[e²] / E[σ̂²] = 1 within `k` standard
+    /// errors. This needs no shape of z (only σ̂² unbiased and the pixels independent), and it is
+    /// what too narrow or too wide error bars, or replicates that are not independent (their
+    /// spread then understates the mean's error), break.
+    fn calibrated(&self, k: f64) -> bool {
+        let (ratio, se) = self.calibration();
+        (ratio - 1.0).abs() <= k * se
+    }
+
     fn row(&self, nu: u32) -> String {
         let cell = |k: usize| {
             format!(
@@ -109,7 +137,8 @@ impl Counts {
                 100.0 * student_t_central((k + 1) as f64, nu)
             )
         };
-        format!("{} | {} | {} | {:.3}", cell(0), cell(1), cell(2), self.z2 / self.n as f64)
+        let (ratio, se) = self.calibration();
+        format!("{} | {} | {} | {:.3} | {ratio:.3} ± {se:.3}", cell(0), cell(1), cell(2), self.z2 / self.n as f64)
     }
 }
 
@@ -122,12 +151,27 @@ fn spps(sampler: &str) -> &'static [u32] {
     if sampler == "sobol" { &[64, 256, 1024] } else { &[256, 1024] }
 }
 
+/// Whether a cell's coverage is held to Student's t (its scale, [`Counts::calibrated`], always is).
+/// Not for Sobol's Phong furnace at 64 spp: there each replicate mean averages 4 points of the
+/// glossy lobe and is skewed, so z = e / σ̂ is skewed (e and σ̂ come from the same replicates) and
+/// |z| < 1 holds for 63.1 % of pixels, not t's 66.7 %, while σ̂ is right in mean square and the
+/// pixel mean unbiased. Measured over 256 seeds (262,144 pixels, binomial σ 0.09 %): mean z
+/// +0.146 ± 0.002, mean e / rms σ̂ −0.001 ± 0.002, E[e²] / E[σ̂²] 1.006; the Sobol sampler before
+/// the draws in lanes (other seeds, the same construction) gives 63.2 %, +0.148 and 1.002, and
+/// fails this cell's coverage for 10 of 16 groups of 4 seeds. The same limit as the independent
+/// sampler's at 64 spp ([`spps`]), one level up: skewed replicate means rather than skewed samples.
+fn coverage_asserted(sampler: &str, brdf: usize, spp: u32) -> bool {
+    !(sampler == "sobol" && brdf == 1 && spp < 256)
+}
+
 /// Coverage of the error bars over seeds: for both samplers, the three furnaces and the spp of
 /// [`spps`], 4 seeds × 32² pixels = 4096 z per cell, the fraction with |z| < 1, 2, 3 within the
-/// binomial limits of Student's t coverage (exact binomial tails, `analysis::special::binomial_cdf`).
-/// 15 cells × 3 levels = 45 comparisons: Šidák's per-comparison level for a family-wise false-alarm
-/// rate of 1e-3 (the three levels of a cell are positively dependent, for which Šidák stays
-/// conservative).
+/// binomial limits of Student's t coverage (exact binomial tails, `analysis::special::binomial_cdf`;
+/// every cell but the one [`coverage_asserted`] leaves out). 15 cells × 3 levels = 45 comparisons:
+/// Šidák's per-comparison level for a family-wise false-alarm rate of 1e-3 (the three levels of a
+/// cell are positively dependent, for which Šidák stays conservative). In every cell, also the
+/// scale: E[e²] / E[σ̂²] = 1 within k standard errors ([`Counts::calibrated`]; σ of the ratio by the
+/// delta method, ≈ 0.025 at 4096 pixels; k for Šidák over the 15 cells at 1e-3).
 ///
 /// The test must be able to fail: in every cell the same z with σ̂ × 1.5 and σ̂ / 1.5 are refused,
 /// and for Sobol from 256 spp so is the samples' own standard error (what the film printed before the
@@ -138,7 +182,8 @@ fn error_bars_cover_for_every_sampler_and_brdf() {
     let cells: usize = ["sobol", "independent"].iter().map(|s| BRDFS.len() * spps(s).len()).sum();
     let comparisons = 3 * cells;
     let alpha = analysis::special::normal_two_sided_tail(sidak_k(comparisons, 1e-3));
-    println!("sampler | BRDF | spp | pixels | |z| < 1 (t) | |z| < 2 (t) | |z| < 3 (t) | mean z²");
+    let k_scale = sidak_k(cells, 1e-3);
+    println!("sampler | BRDF | spp | pixels | |z| < 1 (t) | |z| < 2 (t) | |z| < 3 (t) | mean z² | E[e²]/E[σ̂²]");
     let mut failures = Vec::new();
     for sampler in ["sobol", "independent"] {
         for (i, (name, brdf, theta_o)) in BRDFS.iter().enumerate() {
@@ -152,17 +197,20 @@ fn error_bars_cover_for_every_sampler_and_brdf() {
                     .collect();
                 let films: Vec<Film> = parts.iter().map(Partial::finish).collect();
                 let nu = if sampler == "sobol" { REPLICATES - 1 } else { spp - 1 };
+                let coverage = coverage_asserted(sampler, i, spp);
+                let passes = |c: &Counts| c.calibrated(k_scale) && (!coverage || c.honest(nu, alpha));
                 let mut c = Counts::default();
                 c.add(&films, truth, 1.0);
-                println!("{sampler} | {name} | {spp} | {} | {}", c.n, c.row(nu));
-                if !c.honest(nu, alpha) {
+                let note = if coverage { "" } else { " (coverage not asserted)" };
+                println!("{sampler} | {name} | {spp} | {} | {}{note}", c.n, c.row(nu));
+                if !passes(&c) {
                     failures.push(format!("{sampler} {name} {spp} spp: {}", c.row(nu)));
                 }
                 for scale in [1.5, 1.0 / 1.5] {
                     let mut planted = Counts::default();
                     planted.add(&films, truth, scale);
                     assert!(
-                        !planted.honest(nu, alpha),
+                        !passes(&planted),
                         "{sampler} {name} {spp} spp: σ × {scale:.3} passes too: {}",
                         planted.row(nu)
                     );

@@ -875,10 +875,13 @@ mod tests {
         acc.blocks().map(|(b, s)| (b, *s)).collect()
     }
 
-    /// A pixel's range `[a, b)` as the renderer hands it to the film: the rest of an octet the
-    /// range starts in one sample at a time, then whole aligned octets through `add_8`, then the
-    /// samples of an octet the range ends in one at a time.
-    fn partial_lanes(xs: &[f32], a: usize, b: usize, bl: u32, reps: u32) -> Partial {
+    /// A pixel's range `[a, b)` handed to the film in batches of up to 8 samples: with `aligned`
+    /// as the renderer does (the rest of an octet the range starts in one sample at a time, then
+    /// whole aligned octets through `add_8`, then the samples of an octet the range ends in one at
+    /// a time); without, 8 at a time from `a` on, so that a range starting inside an octet hands
+    /// every full batch to `add_8` unaligned (its per-sample path), and only the last, short batch
+    /// goes one sample at a time.
+    fn partial_lanes(xs: &[f32], a: usize, b: usize, bl: u32, reps: u32, aligned: bool) -> Partial {
         let mut acc = PixelAccumulator::new(a as u64, bl, reps);
         let sample = |i: usize| {
             let x = xs[i];
@@ -886,7 +889,7 @@ mod tests {
         };
         let mut i = a;
         while i < b {
-            let n = (b - i).min(8 - i % 8);
+            let n = if aligned { (b - i).min(8 - i % 8) } else { (b - i).min(8) };
             if n == 8 {
                 let (mut r, mut nl, mut h) = ([Rgb::ZERO; 8], [Vec3::ZERO; 8], [false; 8]);
                 for k in 0..8 {
@@ -918,16 +921,20 @@ mod tests {
     /// The film's rule "a render may split anywhere" (module docs, "Blocks of lanes"): shards whose
     /// ends fall inside octets (per-sample path there, octets in registers elsewhere) merge to the
     /// bits of the single render, whose octets all take the register path; and those bits are the
-    /// per-sample tree's. Batch sizes below, at and above 8, with and without replicates.
+    /// per-sample tree's. Each shard is handed over both ways of `partial_lanes`: octets aligned, as
+    /// the renderer does, and batches of 8 from the shard's start, which give `add_8` unaligned
+    /// octets wherever a cut falls inside one (the cuts below do in nearly every draw). Batch sizes
+    /// below, at and above 8, with and without replicates.
     #[test]
     fn shards_split_inside_octets_merge_bit_exactly() {
         let mut rng = crate::sampling::chi2::TestRng::new(21);
+        let mut unaligned_octets = 0;
         for (bl, reps) in [(0u32, REPLICATES), (0, 1), (2, 1), (4, REPLICATES)] {
             for spp in [8usize, 16, 40, 64, 203] {
                 // Some −0.0 and heavy samples.
                 let xs: Vec<f32> =
                     (0..spp).map(|_| if rng.next_f32() < 0.1 { -0.0 } else { rng.next_f32().powi(6) * 50.0 }).collect();
-                let single = partial_lanes(&xs, 0, spp, bl, reps);
+                let single = partial_lanes(&xs, 0, spp, bl, reps, true);
                 let mut one_by_one = PixelAccumulator::new(0, bl, reps);
                 for (i, &x) in xs.iter().enumerate() {
                     one_by_one.add(Rgb::new(x, 2.0 * x, -x), Vec3::new(x, 1.0, -0.5), !(i * 7).is_multiple_of(3));
@@ -941,13 +948,25 @@ mod tests {
                         (0..1 + rng.next_u64() % 4).map(|_| (rng.next_u64() as usize) % (spp + 1)).collect();
                     cuts.extend([0, spp]);
                     cuts.sort();
-                    let parts = cuts.windows(2).map(|c| partial_lanes(&xs, c[0], c[1], bl, reps)).collect();
-                    let merged = Partial::merge(parts).unwrap().finish_own();
-                    let bits = |f: &Film| f.pixels.iter().map(|p| format!("{p:?}")).collect::<Vec<_>>();
-                    assert_eq!(bits(&merged), bits(&single), "bl {bl}, spp {spp}, cuts {cuts:?}");
+                    // A shard [a, b) starting inside an octet with 8 samples or more gives add_8 an
+                    // unaligned octet when batched from its start.
+                    unaligned_octets += cuts.windows(2).filter(|c| c[0] % 8 != 0 && c[1] - c[0] >= 8).count();
+                    for aligned in [true, false] {
+                        let parts =
+                            cuts.windows(2).map(|c| partial_lanes(&xs, c[0], c[1], bl, reps, aligned)).collect();
+                        let merged = Partial::merge(parts).unwrap().finish_own();
+                        let bits = |f: &Film| f.pixels.iter().map(|p| format!("{p:?}")).collect::<Vec<_>>();
+                        assert_eq!(
+                            bits(&merged),
+                            bits(&single),
+                            "bl {bl}, spp {spp}, cuts {cuts:?}, aligned {aligned}"
+                        );
+                    }
                 }
             }
         }
+        // The unaligned path was taken, in many shards (the draws are fixed: this guards the seed).
+        assert!(unaligned_octets >= 20, "{unaligned_octets} shards gave add_8 an unaligned octet");
     }
 
     fn partial(xs: &[f32], a: usize, b: usize) -> Partial {

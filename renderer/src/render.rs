@@ -228,7 +228,7 @@ fn render_tile_body(
     end: u64,
 ) -> (Vec<Stats>, u64) {
     let s = &scene.settings;
-    let mut sampler = Sampler::new(s.sampler, s.seed);
+    let sampler = Sampler::new(s.sampler, s.seed);
     let jitter = scene.camera.jitters();
     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize * 2);
     let mut rays = 0u64;
@@ -246,7 +246,7 @@ fn render_tile_body(
             let mut i = start;
             while i < end {
                 let n = (end - i).min(LANES as u64 - i % LANES as u64) as usize;
-                let results = tracer.li_lanes(&mut sampler, pixel_id, row, col, i, n, jitter);
+                let results = tracer.li_lanes(&sampler, pixel_id, row, col, i, n, jitter);
                 for r in &results[..n] {
                     rays += r.rays as u64;
                 }
@@ -295,17 +295,8 @@ mod tests {
             for col in x0..x1 {
                 let pixel_id = row as u64 * s.width as u64 + col as u64;
                 acc.reset(start);
-                let mut ahead = None;
                 for i in start..end {
-                    let lane = ((i - start) % LANES as u64) as usize;
-                    if lane == 0 {
-                        ahead = (end - i >= LANES as u64)
-                            .then(|| sampler.draw_ahead(pixel_id, &std::array::from_fn(|k| (i + k as u64) as u32)));
-                    }
                     sampler.start(pixel_id, i as u32);
-                    if let Some(ahead) = &ahead {
-                        sampler.use_ahead(ahead, lane);
-                    }
                     let u = sampler.next_2d();
                     let u = if jitter { u } else { crate::math::Vec2::splat(0.5) };
                     let r = tracer.li_reference(scene.camera.generate(row, col, u), &mut sampler);

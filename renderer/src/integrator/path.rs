@@ -142,8 +142,9 @@ impl<'a> PathTracer<'a> {
 
     /// Traces samples `first .. first + n` (1 ≤ n ≤ [`LANES`]) of pixel (`row`, `col`), whose
     /// sampler id is `pixel`, from their camera sample on; returns their results in lanes `0..n`
-    /// (the others are default). Sample k draws the numbers of `sampler.start(pixel, first + k)`
-    /// (a full batch draws its first vertex's 2D numbers together, [`Sampler::draw_ahead`]), and
+    /// (the others are default). Sample k draws the numbers of `sampler.start(pixel, first + k)`,
+    /// each dimension for all lanes at once ([`crate::sampling::SampleLanes`]: every live path of
+    /// the batch is at the same vertex, hence at the same dimension), and
     /// computes the bits of the one-sample-at-a-time path tracer (`li_reference`, the tests'
     /// oracle: `render::tests` compares every scene in `scenes/`). With `jitter` false the camera
     /// sample is the pixel centre (the normal-probe camera's option).
@@ -159,15 +160,14 @@ impl<'a> PathTracer<'a> {
     /// model) run in SIMD lanes, each written once over the lane type ([`crate::simd`]); where the
     /// lanes' BRDFs differ each lane calls the same code at one lane. A BVH's camera rays are walked
     /// as one packet ([`crate::geometry::SceneGeometry::intersect_packet`]); the rest loops over the
-    /// live lanes with the one-sample code. The lanes keep their own place in their
-    /// sample's sequence ([`crate::sampling::SampleCursor`]) and share the pixel's scrambling keys.
+    /// live lanes with the one-sample code.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn li_lanes(
         &self,
-        sampler: &mut Sampler,
+        sampler: &Sampler,
         pixel: u64,
         row: u32,
         col: u32,
@@ -179,28 +179,22 @@ impl<'a> PathTracer<'a> {
         let scene = self.scene;
         let mut out = [SampleResult::default(); LANES];
         let mut st = [PathState::DONE; LANES];
-        let mut cursor = [sampler.cursor(); LANES];
+        // The batch's numbers: lane k is sample first + k; `dim` is the next dimension of every
+        // live lane (all at the same vertex), in the one-sample tracer's order: the camera's 2D,
+        // then per vertex the light's 2D, the lobe's 1D (drawn or skipped), the BRDF's 2D, and
+        // past `RR_START` vertices the roulette's 1D.
+        let draws = sampler.lanes::<LANES>(pixel, first as u32);
+        let mut dim = 2u32;
+        let mut depth = 1u32;
 
         // Camera: each lane's first two dimensions, then its primary sample.
         // (No closures on this path: a closure is a function of its own, compiled for the build's
         // baseline even when called from the x86-64-v3 copy of the tile loop, where LLVM may leave
         // it out of line; the draws ahead run in AVX2 lanes only inside that copy.)
-        let mut ahead = None;
-        if n == LANES {
-            let mut index = [0u32; LANES];
-            for (k, i) in index.iter_mut().enumerate() {
-                *i = (first + k as u64) as u32;
-            }
-            ahead = Some(sampler.draw_ahead(pixel, &index));
-        }
+        let [cx, cy] = draws.draw_2d(0);
         let mut camera = LaneRays::new();
         for k in 0..n {
-            sampler.start(pixel, (first + k as u64) as u32);
-            if let Some(ahead) = &ahead {
-                sampler.use_ahead(ahead, k);
-            }
-            let u = sampler.next_2d();
-            let u = if jitter { u } else { Vec2::splat(0.5) };
+            let u = if jitter { Vec2::new(cx.0[k], cy.0[k]) } else { Vec2::splat(0.5) };
             match scene.camera.generate(row, col, u) {
                 // The normal-probe camera hands over the first vertex itself.
                 PrimarySample::Surface { p, n, wo } => st[k] = PathState::at(p, n, n, wo, 0),
@@ -210,7 +204,6 @@ impl<'a> PathTracer<'a> {
                     out[k].rays += 1;
                 }
             }
-            cursor[k] = sampler.cursor();
         }
         // A pixel's camera rays run nearly parallel: one packet walk of a BVH for all of them.
         let hits = if self.single_convex {
@@ -256,22 +249,29 @@ impl<'a> PathTracer<'a> {
             if !any {
                 break;
             }
-            // Stage 1: frame, numbers, the BRDF's sample; the light's loads start.
+            // Stage 1: the vertex's numbers for every lane, frame, the BRDF's sample; the light's
+            // loads start. Only a mix reads u_lobe: where no live lane has one, its dimension is
+            // skipped, not drawn (a one-sample path skips it the same way).
+            let [ux, uy] = draws.draw_2d(dim);
+            let mut lobe_used = false;
+            for s in &st {
+                lobe_used |= s.alive && scene.brdfs[s.object as usize].uses_lobe_choice();
+            }
+            let lobe = if lobe_used { draws.draw_1d(dim + 2) } else { Float::ZERO };
+            let [bx, by] = draws.draw_2d(dim + 3);
+            dim += 5;
             let mut wo = [Vec3::Z; LANES];
             let mut u_lobe = [0.0f32; LANES];
             let mut u_brdf = [Vec2::ZERO; LANES];
             for k in 0..LANES {
                 planned[k] = false;
                 if st[k].alive {
-                    sampler.resume(&cursor[k]);
-                    if st[k].depth == 1
-                        && let Some(ahead) = &ahead
-                    {
-                        sampler.use_ahead(ahead, k);
+                    debug_assert_eq!(st[k].depth, depth, "the batch's live paths are at one vertex");
+                    planned[k] = self.plan_vertex(&mut st[k], Vec2::new(ux.0[k], uy.0[k]), &mut plan[k], &mut wo[k]);
+                    if scene.brdfs[st[k].object as usize].uses_lobe_choice() {
+                        u_lobe[k] = lobe.0[k];
                     }
-                    planned[k] =
-                        self.plan_vertex(&mut st[k], sampler, &mut plan[k], &mut wo[k], &mut u_lobe[k], &mut u_brdf[k]);
-                    cursor[k] = sampler.cursor();
+                    u_brdf[k] = Vec2::new(bx.0[k], by.0[k]);
                 }
             }
             // The BRDF's terms of ω_o and its sample: all lanes at once where every planned lane
@@ -445,18 +445,25 @@ impl<'a> PathTracer<'a> {
                 }
             }
             let hits = self.trace(&bounce);
-            // Stage 4: the light where the path escapes, or the next vertex.
+            // Stage 4: the light where the path escapes, or the next vertex (whose roulette number
+            // every lane draws at once, where the vertex has a roulette).
+            let mut any_hit = false;
+            for k in 0..LANES {
+                any_hit |= planned[k] && hits[k].is_some();
+            }
+            let roulette = depth < self.max_depth && depth + 1 > RR_START;
+            let u_rr = if any_hit && roulette { draws.draw_1d(dim) } else { Float::ZERO };
             for k in 0..LANES {
                 let (true, Some(bs), located) = (planned[k], plan[k].bs, plan[k].located) else { continue };
                 match hits[k] {
                     None => self.add_escaped(&mut st[k], &bs, located),
-                    Some(h) => {
-                        sampler.resume(&cursor[k]);
-                        self.next_vertex(&mut st[k], &h, located.wi, sampler);
-                        cursor[k] = sampler.cursor();
-                    }
+                    Some(h) => self.next_vertex(&mut st[k], &h, located.wi, u_rr.0[k]),
                 }
             }
+            if roulette {
+                dim += 1;
+            }
+            depth += 1;
         }
         for k in 0..n {
             if out[k].hit {
@@ -510,23 +517,14 @@ impl<'a> PathTracer<'a> {
         occluded
     }
 
-    /// The vertex's shading frame, ω_o in it and its numbers (light 2D, lobe 1D, BRDF 2D, in that
-    /// order of dimensions); the light's sampling tables for u_light start loading (read in stage
-    /// 2). Writes `plan`'s frame and u_light, `wo`, `u_lobe` and `u_brdf`; the BRDF's sample
+    /// The vertex's shading frame and ω_o in it, with its light number `u_light` (drawn for the
+    /// batch, as are its lobe and BRDF numbers); the light's sampling tables for u_light start
+    /// loading (read in stage 2). Writes `plan`'s frame and u_light and `wo`; the BRDF's sample
     /// follows for the whole batch. False ends the path: seen from below the shading hemisphere
     /// (e.g. an interpolated normal facing away), no reflection is defined.
     #[inline(always)]
-    fn plan_vertex(
-        &self,
-        st: &mut PathState,
-        sampler: &mut Sampler,
-        plan: &mut VertexPlan,
-        wo_out: &mut Vec3,
-        u_lobe_out: &mut f32,
-        u_brdf_out: &mut Vec2,
-    ) -> bool {
+    fn plan_vertex(&self, st: &mut PathState, u_light: Vec2, plan: &mut VertexPlan, wo_out: &mut Vec3) -> bool {
         let scene = self.scene;
-        let brdf = &scene.brdfs[st.object as usize];
         // An albedo texture scales the BRDF at this vertex (f → T(n) f): every contribution
         // from here on carries it, and no sampling density changes.
         if let Some(t) = &scene.textures[st.object as usize] {
@@ -540,16 +538,6 @@ impl<'a> PathTracer<'a> {
             st.alive = false;
             return false;
         }
-        let u_light = sampler.next_2d();
-        // Only a mix reads u_lobe; for the others its dimension is skipped, not drawn (the same
-        // numbers everywhere else, one Owen-scrambled draw less per vertex).
-        *u_lobe_out = if brdf.uses_lobe_choice() {
-            sampler.next_1d()
-        } else {
-            sampler.skip_1d();
-            0.0
-        };
-        *u_brdf_out = sampler.next_2d();
         scene.light.prefetch_sample(u_light);
         *wo_out = wo;
         plan.frame = frame;
@@ -587,9 +575,10 @@ impl<'a> PathTracer<'a> {
     }
 
     /// The path hit `h` along `wi_world`: the next vertex, unless the depth limit or Russian
-    /// roulette (after [`RR_START`] vertices, survival probability min(max β, 0.95)) ends it.
+    /// roulette (after [`RR_START`] vertices, survival probability min(max β, 0.95), against the
+    /// number `u_rr`) ends it.
     #[inline(always)]
-    fn next_vertex(&self, st: &mut PathState, h: &Hit, wi_world: Vec3, sampler: &mut Sampler) {
+    fn next_vertex(&self, st: &mut PathState, h: &Hit, wi_world: Vec3, u_rr: f32) {
         if st.depth >= self.max_depth {
             st.alive = false;
             return;
@@ -597,7 +586,7 @@ impl<'a> PathTracer<'a> {
         st.depth += 1;
         if st.depth > RR_START {
             let q = st.beta.abs().max_element().min(0.95);
-            if sampler.next_1d() >= q {
+            if u_rr >= q {
                 st.alive = false;
                 return;
             }

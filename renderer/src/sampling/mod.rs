@@ -5,4 +5,4 @@ pub mod distribution;
 pub mod sampler;
 pub mod warp;
 
-pub use sampler::{LANES, SampleCursor, Sampler, SamplerKind};
+pub use sampler::{LANES, SampleLanes, Sampler, SamplerKind};

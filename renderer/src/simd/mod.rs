@@ -1,7 +1,7 @@
 //! The kernel's lane types: `N` samples computed by one body of code, for every `N`.
 //!
 //! [`Float<N>`] and [`Mask<N>`] are `N` f32 lanes and `N` boolean lanes; [`Float3<N>`] is `N`
-//! three-vectors. A function written over them (a BRDF's sample, eval and pdf) is the same code at
+//! three-vectors; [`U32<N>`] is `N` u32 lanes (the sampler's integers). A function written over them (a BRDF's sample, eval and pdf) is the same code at
 //! `N = 1` (the one-sample callers and the tests' reference integrator) and at `N = 8` (the
 //! batched integrator's lanes): lane k of the result has the bits of the one-lane call on lane
 //! k's inputs, since every operation is the IEEE f32 operation applied lane by lane. Inside the
@@ -16,8 +16,10 @@
 pub mod fast;
 pub mod float;
 pub mod frame;
+pub mod uint;
 pub mod vec3;
 
 pub use float::{Float, Mask};
 pub use frame::Frames;
+pub use uint::U32;
 pub use vec3::Float3;
