@@ -301,6 +301,7 @@ fn target_rel_error_is_the_error_the_user_gets() {
 fn sobol_single_has_lower_error_and_conservative_bars() {
     let spp = 256;
     let k = sidak_k(BRDFS.len(), 1e-3);
+    let mut failures = Vec::new();
     println!("BRDF | sampler | E[e²] (per seed) | E[e²]/E[σ̂²]");
     for (i, (name, brdf, theta_o)) in BRDFS.iter().enumerate() {
         let truth = truth(i);
@@ -333,12 +334,17 @@ fn sobol_single_has_lower_error_and_conservative_bars() {
             (m2, (m4 - m2 * m2) / n)
         };
         let ((sobol, v_sobol), (single, v_single)) = (mse(&counts[0]), mse(&counts[1]));
-        assert!(
-            single + k * (v_sobol + v_single).sqrt() < sobol,
-            "{name}: sobol-single E[e²] {single:.3e} is not below sobol's {sobol:.3e} (σ of the difference {:.1e})",
-            (v_sobol + v_single).sqrt()
-        );
+        if single + k * (v_sobol + v_single).sqrt() >= sobol {
+            failures.push(format!(
+                "{name}: sobol-single E[e²] {single:.3e} is not below sobol's {sobol:.3e} (σ of the difference {:.1e})",
+                (v_sobol + v_single).sqrt()
+            ));
+        }
         let (ratio, se) = counts[1].calibration();
-        assert!(ratio <= 1.0 + k * se, "{name}: sobol-single's error bars are too narrow: E[e²]/E[σ̂²] {ratio:.3} ± {se:.3}");
+        if ratio > 1.0 + k * se {
+            failures
+                .push(format!("{name}: sobol-single's error bars are too narrow: E[e²]/E[σ̂²] {ratio:.3} ± {se:.3}"));
+        }
     }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
