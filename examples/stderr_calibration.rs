@@ -4,7 +4,8 @@
 //! standard error of the mean. Owen-scrambled Sobol points of one sequence are not independent (they
 //! are stratified: the mean's variance is smaller than s²/n, and that formula overstated the error
 //! 1.35–4.55×), so the Sobol sampler draws 16 independently scrambled replicates and `stderr` is the
-//! spread of their means (`renderer::film`). This renders a scene with N seeds, measures each
+//! spread of their means (`renderer::film`); `sobol-single` is one such sequence per pixel, whose
+//! `stderr` is again √(s²/n) (conservative). This renders a scene with N seeds, measures each
 //! pixel's seed-to-seed standard deviation of its mean (the real error), and compares it with the
 //! printed stderr (rms over the seeds); the last column compares the samplers' real errors at equal
 //! spp.
@@ -32,7 +33,7 @@ fn main() {
         args.get(3).map_or("8,64,256", String::as_str).split(',').map(|s| s.parse().expect("SPP")).collect();
     println!("{}: {size}², {seeds} seeds, channel G", scene.display());
     println!("sampler      spp  pixels  median(printed/real)  pooled  real rel. error (median)");
-    for sampler in ["independent", "sobol"] {
+    for sampler in ["independent", "sobol", "sobol-single"] {
         for &spp in &spps {
             // values[seed][pixel], stderrs[seed][pixel], masks[seed][pixel]
             let mut values = Vec::new();

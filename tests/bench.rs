@@ -32,7 +32,8 @@ fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half()
     assert_eq!(scene["name"], "lambert-grace");
     assert!(scene["pixels"].as_u64().unwrap() > 100, "{scene}");
     let series = scene["series"].as_array().unwrap();
-    assert_eq!(series.len(), 2, "sobol and independent");
+    let samplers: Vec<&str> = series.iter().map(|s| s["sampler"].as_str().unwrap()).collect();
+    assert_eq!(samplers, ["sobol", "sobol-single", "independent"]);
     for s in series {
         assert_eq!(s["points"].as_array().unwrap().len(), 5, "{s}");
         let t = s["time_to_target"]["median"].as_f64().unwrap_or(f64::NAN);

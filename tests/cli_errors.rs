@@ -330,7 +330,7 @@ fn usage_errors_are_one_line() {
 }
 
 /// The same seed gives the same image bits whatever the thread count, through `reflect render`, on a
-/// size that is not a multiple of the tile (37 × 23), for both samplers and the jittered
+/// size that is not a multiple of the tile (37 × 23), for the three samplers and the jittered
 /// normal-probe camera; the EXR files' pixel layers are compared.
 #[test]
 fn same_bits_for_1_3_7_threads_through_the_binary() {
@@ -345,6 +345,11 @@ fn same_bits_for_1_3_7_threads_through_the_binary() {
         (
             "independent",
             GOOD.replace("spp = 2", "spp = 4\nsampler = \"independent\"")
+                .replace("type = \"uniform\"\nradiance = 1.0", &env),
+        ),
+        (
+            "sobol-single",
+            GOOD.replace("spp = 2", "spp = 4\nsampler = \"sobol-single\"")
                 .replace("type = \"uniform\"\nradiance = 1.0", &env),
         ),
         (

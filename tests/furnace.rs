@@ -72,7 +72,8 @@ fn in_opening(film: &renderer::film::Film, i: usize) -> bool {
 #[test]
 fn generalized_white_furnace_both_samplers() {
     let dir = temp_dir("furnace");
-    for sampler in ["independent", "sobol"] {
+    // `sobol-single`'s error bar is its samples' own σ as the independent sampler's (conservative).
+    for sampler in ["independent", "sobol", "sobol-single"] {
         let film = furnace_film(&dir, sampler, 64, 256);
         let covered: Vec<_> = film.pixels.iter().filter(|p| p.mask == 1.0).collect();
         let inside: Vec<_> =

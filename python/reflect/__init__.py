@@ -220,7 +220,7 @@ def compare(
     exact), or a dict of arrays ``{"rgb": (H, W, 3), "stderr": (H, W, 3), "stderr_own": (H, W, 3), "stderr_flag": (H, W),
     "mask": (H, W), "spp": int, "sampler": str}`` (all but ``rgb`` optional; ``spp`` and
     ``sampler`` give the error layer's degrees of freedom: spp − 1 for ``"independent"``, the
-    default and any renderer whose error bar is the samples' standard error, 15 for ``"sobol"``,
+    default, ``"sobol-single"`` and any renderer whose error bar is the samples' standard error, 15 for ``"sobol"``,
     whose error bar is the spread of 16 replicates). ``seeds``: further independent renders of ``b``'s renderer; ``b``'s
     noise is then the seeds' per-pixel spread. ``alpha``: the family-wise false-alarm rate of the
     verdict; ``block``: the side of the block test's tiles (pixels); ``exclude_edges``: leave out

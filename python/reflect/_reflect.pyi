@@ -93,7 +93,8 @@ class RenderResult:
         """The render's seed."""
     @property
     def sampler(self) -> str:
-        """The sampler: ``"sobol"`` or ``"independent"``."""
+        """The sampler: ``"sobol"``, ``"independent"`` or ``"sobol-single"`` (one Sobol sequence per pixel, no
+        replicates: its ``stderr`` is conservative, 1.5–10× too wide)."""
     @property
     def seconds(self) -> float:
         """The render loop's wall time, seconds (scene loading not included)."""
@@ -296,7 +297,7 @@ def compare(
 ) -> Dict[str, Any]:
     """``analysis::compare`` on [a, b, seeds…]: each a path or a dict of float32 arrays (``rgb``
     (H, W, 3), optional ``stderr`` and ``stderr_own`` (H, W, 3), ``stderr_flag`` and ``mask`` (H, W), ``spp`` and
-    ``sampler``: ``"independent"``, the default, or ``"sobol"``, which fix the error layer's degrees of freedom).
+    ``sampler``: ``"independent"``, the default, ``"sobol"`` or ``"sobol-single"``, which fix the error layer's degrees of freedom).
     Returns the document ``reflect compare --json`` prints. Bad input raises ``ValueError``
     (``FileNotFoundError`` for a missing file) naming the input (``a``, ``b``, ``seeds[k]`` or its path)."""
 

@@ -21,7 +21,7 @@ fn input_name(i: usize) -> String {
 
 /// An image from a dict of arrays: `rgb` (H, W, 3) float32, optional `stderr` and `stderr_own` (H, W, 3),
 /// `stderr_flag` and `mask` (H, W) float32, `spp` (int: the error layer's samples) and `sampler`
-/// (`"independent"`, the default, or `"sobol"`), which give the error layer's degrees of freedom.
+/// (`"independent"`, the default, `"sobol"` or `"sobol-single"`), which give the error layer's degrees of freedom.
 fn image_of_dict(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Image> {
     let bad = |m: String| PyValueError::new_err(format!("{name}: {m}"));
     let rgb: PyReadonlyArray3<f32> = d

@@ -386,7 +386,7 @@ impl RenderResult {
         self.seed
     }
 
-    /// The sampler's name ("sobol", "independent").
+    /// The sampler's name ("sobol", "independent", "sobol-single").
     #[getter]
     fn sampler(&self) -> &str {
         &self.sampler

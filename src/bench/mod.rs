@@ -26,6 +26,11 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 use suite::BenchScene;
 
+/// Our series, one per sampler: `sobol` (the default, 16 replicates: calibrated error bars),
+/// `sobol-single` (one sequence per pixel, no replicates: conservative error bars; the fair row
+/// against Mitsuba's `ldsampler`, which has no error bars at all) and `independent`.
+const OUR_SAMPLERS: [&str; 3] = ["sobol", "sobol-single", "independent"];
+
 /// What one run measures.
 #[derive(Clone, Debug)]
 pub struct BenchParams {
@@ -276,7 +281,7 @@ pub fn run(p: &BenchParams, mut progress: impl FnMut(&str)) -> Result<BenchRepor
         let reference = Reference::new(&ref_img).map_err(|e| BenchError::Convergence(ref_path.clone(), e))?;
         let floor = reference.noise_floor();
         let mut series: Vec<Series> = Vec::new();
-        for sampler in ["sobol", "independent"] {
+        for sampler in OUR_SAMPLERS {
             series.push(Series {
                 renderer: "reflect".into(),
                 sampler: sampler.into(),
@@ -290,10 +295,10 @@ pub fn run(p: &BenchParams, mut progress: impl FnMut(&str)) -> Result<BenchRepor
                 cold_render_seconds: None,
             });
         }
-        let mut docs: Vec<Vec<serde_json::Value>> = vec![Vec::new(); 2];
+        let mut docs: Vec<Vec<serde_json::Value>> = vec![Vec::new(); OUR_SAMPLERS.len()];
         for &seed in &seeds {
             // Ours, then the peer's, for each seed: a change of the machine's speed falls on both.
-            for (k, sampler) in ["sobol", "independent"].iter().enumerate() {
+            for (k, sampler) in OUR_SAMPLERS.iter().enumerate() {
                 for &spp in &p.ladder {
                     let out = p.work.join(format!("{}-{sampler}-{seed}-{spp}.exr", sc.name));
                     let r = render_ours(p, &file, seed, spp, sampler, &out, Some(&reference))?;

@@ -76,6 +76,10 @@ closed_set! {
         Sobol = "sobol",
         /// Independent uniform numbers: the per-pixel standard error is the estimator's own.
         Independent = "independent",
+        /// One Owen-scrambled Sobol sequence per pixel, no replicates: the lowest error at a given
+        /// spp, but its error bar (the samples' own standard error) is conservative, 1.5–10× too
+        /// wide (docs/src/how-to/error-bars.md).
+        SobolSingle = "sobol-single",
     }
 }
 
@@ -88,10 +92,12 @@ impl Sampler {
     /// The degrees of freedom of a render's per-pixel standard error (`stderr` layer) at `spp`
     /// samples: the independent sampler's is the sample standard error of the mean, spp − 1; the
     /// Sobol sampler's is the spread of its [`SOBOL_REPLICATES`] replicate means, R − 1 from one
-    /// full round on (below one round every sample is its own replicate: spp − 1). At least 1.
+    /// full round on (below one round every sample is its own replicate: spp − 1); one Sobol
+    /// sequence's (`sobol-single`) is the samples' own, spp − 1, as the independent sampler's
+    /// (there it is conservative: the points are not independent). At least 1.
     pub fn stderr_dof(self, spp: u32) -> u32 {
         let samples = match self {
-            Sampler::Independent => spp,
+            Sampler::Independent | Sampler::SobolSingle => spp,
             Sampler::Sobol => spp.min(SOBOL_REPLICATES),
         };
         samples.saturating_sub(1).max(1)
@@ -225,6 +231,7 @@ mod tests {
         // The error bar's degrees of freedom: Sobol's from its 16 replicates whatever the spp.
         assert_eq!([1, 8, 16, 64, 16384].map(|n| Sampler::Sobol.stderr_dof(n)), [1, 7, 15, 15, 15]);
         assert_eq!([1, 8, 16, 64, 16384].map(|n| Sampler::Independent.stderr_dof(n)), [1, 7, 15, 63, 16383]);
+        assert_eq!([1, 8, 16, 64, 16384].map(|n| Sampler::SobolSingle.stderr_dof(n)), [1, 7, 15, 63, 16383]);
         // A bad value in a file names the key's set, not just "unknown variant".
         let e = serde_json::from_str::<Sampler>("\"halton\"").unwrap_err().to_string();
         assert!(e.contains("sampler") && e.contains("halton") && e.contains("\"sobol\""), "{e}");

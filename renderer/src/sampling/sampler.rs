@@ -14,6 +14,16 @@
 //!   replicate and dimension pair so that pairs are decorrelated. Any power-of-two prefix of a
 //!   replicate's points is a (0, m, 2)-net in every pair of dimensions, and any prefix of R·k
 //!   samples of a pixel holds k points of every replicate.
+//! - `SobolSingle` (`sobol-single`): one Owen-scrambled Sobol sequence per pixel, no replicates:
+//!   sample i of a pixel is point i of the one sequence, built as one replicate of `Sobol` is (it
+//!   is replicate 0's: sample i has the numbers of `Sobol`'s sample R·i, for i < 2^32 / R). Any
+//!   power-of-two prefix of a pixel's samples is a (0, m, 2)-net in every pair of dimensions, so
+//!   at n spp its error is that of one net of n points rather than the mean of R nets of n / R
+//!   points (lower; guide, "Error bars"). With no replicates its error bar is the film's batch
+//!   estimator over single samples, which treats the correlated points as independent and
+//!   over-estimates the error (conservative). Dimensions of different draws are padded, as in
+//!   any padded sampler (Mitsuba's `ldsampler` too): within a pixel their pair is a random
+//!   permutation of strata, not a net; across pixels it is uniform.
 //!
 //! # Draws in lanes
 //!
@@ -134,10 +144,11 @@ pub struct SampleLanes<const N: usize> {
     pixel_key: u64,
     /// The lanes' sample indices within the pixel.
     index: U32<N>,
-    /// Sobol: each lane's replicate times [`REPLICATE_MIX`], the lane's part of its seeds' hash.
+    /// Sobol: each lane's replicate times [`REPLICATE_MIX`], the lane's part of its seeds' hash
+    /// (`SobolSingle`: replicate 0).
     replicate_mix: U32<N>,
     /// Sobol: each lane's point index within its replicate, bit-reversed (the van der Corput
-    /// point of the index, which Owen scrambling works on).
+    /// point of the index, which Owen scrambling works on; `SobolSingle`: the sample index).
     point_reversed: U32<N>,
 }
 
@@ -145,12 +156,15 @@ impl<const N: usize> SampleLanes<N> {
     /// The samples `index` of pixel `pixel` (any unique pixel id, e.g. row·width + column).
     #[inline(always)]
     pub fn new(kind: SamplerKind, seed: u64, pixel: u64, index: U32<N>) -> Self {
+        // Replicate r = i mod R, point ⌊i / R⌋; one sequence is R = 1 (the Independent sampler
+        // reads neither).
+        let r = Sampler::replicates(kind);
         SampleLanes {
             kind,
             pixel_key: hash2(seed, pixel),
             index,
-            replicate_mix: index.and(REPLICATES - 1).wrapping_mul(REPLICATE_MIX),
-            point_reversed: index.shift_right(REPLICATES.trailing_zeros()).reverse_bits(),
+            replicate_mix: index.and(r - 1).wrapping_mul(REPLICATE_MIX),
+            point_reversed: index.shift_right(r.trailing_zeros()).reverse_bits(),
         }
     }
 
@@ -184,7 +198,7 @@ impl<const N: usize> SampleLanes<N> {
                 }
                 [x, y]
             }
-            SamplerKind::Sobol => {
+            SamplerKind::Sobol | SamplerKind::SobolSingle => {
                 let i = self.shuffled_index(key as u32);
                 let x = lk_permutation(i, self.seeds((key >> 32) as u32)).reverse_bits();
                 let y = lk_permutation(sobol1_reversed(i), self.seeds(mix64(key) as u32)).reverse_bits();
@@ -206,7 +220,7 @@ impl<const N: usize> SampleLanes<N> {
                 }
                 x
             }
-            SamplerKind::Sobol => {
+            SamplerKind::Sobol | SamplerKind::SobolSingle => {
                 let i = self.shuffled_index(key as u32);
                 lk_permutation(i, self.seeds((key >> 32) as u32)).reverse_bits().to_unit_f32()
             }
@@ -234,20 +248,24 @@ impl Sampler {
         self.kind
     }
 
-    /// The replicate of sample `index` of a pixel (0 for `Independent`) and the point index within it.
+    /// The replicate of sample `index` of a pixel (0 for `Independent` and `SobolSingle`) and the
+    /// point index within it.
     #[inline(always)]
     pub fn replicate_of(kind: SamplerKind, index: u32) -> (u32, u32) {
         match kind {
-            SamplerKind::Independent => (0, index),
+            SamplerKind::Independent | SamplerKind::SobolSingle => (0, index),
             SamplerKind::Sobol => (index % REPLICATES, index / REPLICATES),
         }
     }
 
     /// The number of independent replicates whose means give a pixel's error bar: [`REPLICATES`]
-    /// for `Sobol`, 1 for `Independent` (its samples are independent: the film's sample estimator).
+    /// for `Sobol`, 1 for `Independent` (its samples are independent: the film's sample estimator)
+    /// and for `SobolSingle` (one sequence: the same estimator, conservative for its correlated
+    /// points).
+    #[inline(always)]
     pub fn replicates(kind: SamplerKind) -> u32 {
         match kind {
-            SamplerKind::Independent => 1,
+            SamplerKind::Independent | SamplerKind::SobolSingle => 1,
             SamplerKind::Sobol => REPLICATES,
         }
     }
@@ -375,7 +393,7 @@ mod tests {
                 }
             }
         }
-        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+        for kind in SamplerKind::ALL.iter().copied() {
             check::<8>(kind);
             check::<16>(kind);
         }
@@ -466,7 +484,7 @@ mod tests {
     /// Skipping a dimension leaves every later number as it is after drawing it.
     #[test]
     fn skip_1d_keeps_the_later_numbers() {
-        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+        for kind in SamplerKind::ALL.iter().copied() {
             let (mut a, mut b) = (Sampler::new(kind, 5), Sampler::new(kind, 5));
             for i in 0..64u32 {
                 a.start(9, i);
@@ -482,7 +500,7 @@ mod tests {
 
     #[test]
     fn deterministic_and_in_range() {
-        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+        for kind in SamplerKind::ALL.iter().copied() {
             let mut a = Sampler::new(kind, 42);
             let mut b = Sampler::new(kind, 42);
             for i in 0..100 {
@@ -497,41 +515,94 @@ mod tests {
         }
     }
 
+    /// Whether `n` points (a power of two) are a (0, m, 2)-net in base 2, m = log2 n: every
+    /// elementary interval of area 1/n (every shape 2^a × 2^(m−a)) holds exactly one point.
+    fn is_net(points: &[Vec2]) -> Result<(), (usize, usize)> {
+        let n = points.len();
+        assert!(n.is_power_of_two());
+        for a in 0..=n.trailing_zeros() {
+            let shape = (1usize << a, n >> a);
+            let mut seen = vec![0u32; n];
+            for p in points {
+                seen[(p.y * shape.1 as f32) as usize * shape.0 + (p.x * shape.0 as f32) as usize] += 1;
+            }
+            if !seen.iter().all(|&c| c == 1) {
+                return Err(shape);
+            }
+        }
+        Ok(())
+    }
+
+    /// A pixel's 2D draws at dimensions `dims` of samples 0 … `count` − 1, drawn in lanes of 8.
+    fn draws_2d(s: &Sampler, pixel: u64, count: u32, dims: &[u32]) -> Vec<Vec<Vec2>> {
+        let mut out = vec![Vec::with_capacity(count as usize); dims.len()];
+        for b in 0..count / LANES as u32 {
+            let l = s.lanes::<LANES>(pixel, b * LANES as u32);
+            for (j, &d) in dims.iter().enumerate() {
+                let [x, y] = l.draw_2d(d);
+                out[j].extend((0..LANES).map(|k| Vec2::new(x.0[k], y.0[k])));
+            }
+        }
+        out
+    }
+
+    /// The dimensions of the net tests: the camera's, the first light's and the first BRDF
+    /// sample's 2D draws, and one deep in a path.
+    const NET_DIMS: [u32; 4] = [0, 2, 5, 30];
+
     /// A power-of-two prefix of a replicate's Owen-scrambled Sobol points is a (0,m,2)-net: every
-    /// elementary interval of area 1/N holds exactly one point (replicates 0, 7 and R − 1 of two
-    /// pixels, at the dimensions of the camera, the first light and the first BRDF sample; the
-    /// points of replicate r are the samples r, r + R, r + 2R, …), drawn in lanes of 8.
+    /// elementary interval of area 1/n holds exactly one point (replicates 0, 7 and R − 1 of two
+    /// pixels, prefixes of 64 and 256 points; the points of replicate r are the samples r, r + R,
+    /// r + 2R, …), drawn in lanes of 8.
     #[test]
     fn sobol_prefix_is_a_net() {
         let s = Sampler::new(SamplerKind::Sobol, 3);
-        let n = 256usize;
         for pixel in [5u64, 1 << 30] {
-            // The 8 samples of a batch, lane k at sample 8 b + k: replicates 8 (b mod 2) + k.
-            let draws: Vec<[Vec<Vec2>; 3]> = (0..(n * REPLICATES as usize / LANES) as u32)
-                .map(|b| {
-                    let l = s.lanes::<LANES>(pixel, b * LANES as u32);
-                    [0, 2, 5].map(|d| {
-                        let [x, y] = l.draw_2d(d);
-                        (0..LANES).map(|k| Vec2::new(x.0[k], y.0[k])).collect()
-                    })
-                })
-                .collect();
+            let draws = draws_2d(&s, pixel, 256 * REPLICATES, &NET_DIMS);
             for r in [0, 7, REPLICATES - 1] {
-                for (j, d) in [0, 2, 5].into_iter().enumerate() {
-                    for shape in [(1usize, 256usize), (16, 16), (256, 1), (4, 64), (128, 2)] {
-                        let mut seen = vec![0u32; n];
-                        for i in 0..n as u32 {
-                            let sample = (r + REPLICATES * i) as usize;
-                            let p = draws[sample / LANES][j][sample % LANES];
-                            let cx = (p.x * shape.0 as f32) as usize;
-                            let cy = (p.y * shape.1 as f32) as usize;
-                            seen[cy * shape.0 + cx] += 1;
-                        }
-                        assert!(seen.iter().all(|&c| c == 1), "pixel {pixel} replicate {r} dim {d} {shape:?}");
+                for (j, d) in NET_DIMS.into_iter().enumerate() {
+                    for n in [64usize, 256] {
+                        let pts: Vec<Vec2> = (0..n).map(|i| draws[j][r as usize + REPLICATES as usize * i]).collect();
+                        assert_eq!(is_net(&pts), Ok(()), "pixel {pixel} replicate {r} dim {d}, {n} points");
                     }
                 }
             }
         }
+    }
+
+    /// `sobol-single`: every power-of-two prefix (1 … 1024 samples) of a pixel's samples is a
+    /// (0, m, 2)-net in each of the 2D draws, for three pixels and two seeds, drawn in lanes of 8.
+    #[test]
+    fn sobol_single_prefixes_are_nets() {
+        for seed in [3u64, 8] {
+            let s = Sampler::new(SamplerKind::SobolSingle, seed);
+            for pixel in [0u64, 5, 1 << 30] {
+                let draws = draws_2d(&s, pixel, 1024, &NET_DIMS);
+                for (j, d) in NET_DIMS.into_iter().enumerate() {
+                    for m in 0..=10 {
+                        let r = is_net(&draws[j][..1 << m]);
+                        assert_eq!(r, Ok(()), "seed {seed} pixel {pixel} dim {d}: first {} samples", 1 << m);
+                    }
+                }
+            }
+        }
+    }
+
+    /// `sobol-single` is one replicate of `Sobol` (replicate 0): its sample i has the bits of
+    /// `Sobol`'s sample R·i, in 1D and 2D draws, at a high index too.
+    #[test]
+    fn sobol_single_is_replicate_zero() {
+        let (mut one, mut rep) = (Sampler::new(SamplerKind::SobolSingle, 4), Sampler::new(SamplerKind::Sobol, 4));
+        for i in (0..512u32).chain([(1 << 28) - 1]) {
+            one.start(9, i);
+            rep.start(9, i * REPLICATES);
+            for _ in 0..4 {
+                assert_eq!(one.next_2d(), rep.next_2d(), "{i}");
+                assert_eq!(one.next_1d().to_bits(), rep.next_1d().to_bits(), "{i}");
+            }
+        }
+        assert_eq!(Sampler::replicates(SamplerKind::SobolSingle), 1);
+        assert_eq!(Sampler::replicate_of(SamplerKind::SobolSingle, 37), (0, 37));
     }
 
     /// χ² of 2D projections: the points of a pixel (all replicates, 4096 samples) binned on a
@@ -545,6 +616,7 @@ mod tests {
     #[test]
     fn two_d_projections_pass_chi2() {
         let s = Sampler::new(SamplerKind::Sobol, 17);
+        let kind = s.kind();
         let n = 4096u32;
         let tests = 3.0 * 7.0;
         let alpha = 1.0 - (1.0f64 - 1e-3).powf(1.0 / tests);
@@ -573,13 +645,47 @@ mod tests {
                 [(0, 1, true), (2, 3, true), (5, 6, true), (0, 2, false), (3, 5, false), (4, 6, false), (7, 2, false)]
             {
                 let p = chi2(a, b);
-                assert!(p > alpha / 2.0, "pixel {pixel} dims ({a}, {b}): p = {p}");
+                assert!(p > alpha / 2.0, "{kind:?} pixel {pixel} dims ({a}, {b}): p = {p}");
                 if !net {
                     assert!(
                         p < 1.0 - alpha / 2.0,
-                        "pixel {pixel} dims ({a}, {b}): p = {p}, too uniform for independent draws"
+                        "{kind:?} pixel {pixel} dims ({a}, {b}): p = {p}, too uniform for independent draws"
                     );
                 }
+            }
+        }
+    }
+
+    /// `sobol-single` across pixels: one sample of each of 4096 pixels (sample index 7·pixel mod
+    /// 1024, so every index of a 1024-sample render is met), the same 7 pairs as above on a 16 × 16
+    /// grid. The pixels' scrambles are independent, so each statistic follows χ² with 255 degrees of
+    /// freedom; two-sided at α = 10⁻³ per test, Šidák-corrected over 2 seeds × 7 pairs. (Within one
+    /// pixel, pairs of dimensions of different draws are padded, not nets: the coarse cells of both
+    /// are functions of the index's low bits, so 4096 points of one pixel fill 16 of the 256 cells,
+    /// a random permutation, as in any padded sampler; only across pixels are they uniform.)
+    #[test]
+    fn sobol_single_across_pixels_passes_chi2() {
+        let tests = 2.0 * 7.0;
+        let alpha = 1.0 - (1.0f64 - 1e-3).powf(1.0 / tests);
+        let n = 4096u64;
+        for seed in [17u64, 18] {
+            let mut s = Sampler::new(SamplerKind::SobolSingle, seed);
+            let pts: Vec<[f32; 8]> = (0..n)
+                .map(|pixel| {
+                    s.start(pixel, (7 * pixel % 1024) as u32);
+                    let (c, l, lobe, b, rr) = (s.next_2d(), s.next_2d(), s.next_1d(), s.next_2d(), s.next_1d());
+                    [c.x, c.y, l.x, l.y, lobe, b.x, b.y, rr]
+                })
+                .collect();
+            for (a, b) in [(0, 1), (2, 3), (5, 6), (0, 2), (3, 5), (4, 6), (7, 2)] {
+                let mut cells = [0u32; 256];
+                for p in &pts {
+                    cells[(p[b] * 16.0) as usize * 16 + (p[a] * 16.0) as usize] += 1;
+                }
+                let e = n as f64 / 256.0;
+                let stat: f64 = cells.iter().map(|&c| (c as f64 - e).powi(2) / e).sum();
+                let p = chi2_survival(stat, 255.0);
+                assert!(p > alpha / 2.0 && p < 1.0 - alpha / 2.0, "seed {seed} dims ({a}, {b}): p = {p}");
             }
         }
     }
