@@ -73,6 +73,16 @@ impl<const N: usize> BrdfSamples<N> {
         })
     }
 
+    /// Writes lane `k` from a one-lane draw.
+    #[inline(always)]
+    pub fn set_lane(&mut self, k: usize, s: &BrdfSamples<1>) {
+        self.wi.set_lane(k, s.wi.lane(0));
+        self.weight.set_lane(k, s.weight.lane(0));
+        self.pdf.0[k] = s.pdf.0[0];
+        self.delta.0[k] = s.delta.0[0];
+        self.valid.0[k] = s.valid.0[0];
+    }
+
     /// `a`'s lanes where `m` holds, `b`'s elsewhere.
     #[inline(always)]
     pub fn select(m: Mask<N>, a: &Self, b: &Self) -> Self {

@@ -151,11 +151,19 @@ impl Sphere {
             let n = n.as_vec3();
             return Hit { t, p: p.as_vec3(), n, ng: n, object };
         }
-        let p = ray.origin + t * ray.dir;
-        // Re-project onto the surface (RTG ch. 6): removes the error of o + t d along the normal.
-        let n = (p - self.center).normalize();
-        let p = self.center + self.radius * n;
+        let (p, n) = self.surface_at::<1>(Float3::splat(ray.origin), Float3::splat(ray.dir), Float::splat(t));
+        let (p, n) = (p.lane(0), n.lane(0));
         Hit { t, p, n, ng: n, object }
+    }
+
+    /// The point and normal of each lane's hit at distance `t` along (`origin`, `dir`), for a
+    /// sphere that is not [large](Sphere::is_large): o + t d re-projected onto the surface (RTG
+    /// ch. 6), which removes its error along the normal. [`Sphere::hit_at`] is the one-lane call.
+    #[inline(always)]
+    pub fn surface_at<const N: usize>(&self, origin: Float3<N>, dir: Float3<N>, t: Float<N>) -> (Float3<N>, Float3<N>) {
+        let center = Float3::splat(self.center);
+        let n = (origin + dir * t - center).normalize();
+        (center + n * self.radius, n)
     }
 
     #[inline]

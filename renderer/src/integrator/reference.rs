@@ -1,7 +1,7 @@
 //! The one-sample-at-a-time path tracer the renderer used before the batched one: the tests'
 //! oracle for [`PathTracer::li_lanes`], which must give its bits for every sample.
 
-use super::path::{PathTracer, RR_START, SampleResult, offset_origin, power_heuristic};
+use super::path::{PathTracer, RR_START, SampleResult, offset_origin};
 use crate::brdf::Bxdf;
 use crate::camera::PrimarySample;
 use crate::geometry::Ray;
@@ -9,6 +9,12 @@ use crate::geometry::shading::adapt_shading_normal;
 use crate::light::DistantLight;
 use crate::math::{Frame, Rgb, Vec3};
 use crate::sampling::Sampler;
+
+/// The power heuristic (β = 2), written out apart from the integrator's lanes.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
 
 impl PathTracer<'_> {
     #[inline]
