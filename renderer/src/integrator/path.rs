@@ -187,7 +187,7 @@ impl<'a> PathTracer<'a> {
     /// compares every scene in `scenes/`). With `jitter` false the camera sample is the pixel
     /// centre (the normal-probe camera's option).
     ///
-    /// The paths are held in structure of arrays ([`Paths`]) and each stage of a vertex runs over
+    /// The paths are held in structure of arrays (`Paths`) and each stage of a vertex runs over
     /// the lanes at once: the shading frames and ω_o, the BRDF's sample (every model, written once
     /// over the lane type, [`crate::simd`]; where the lanes' BRDFs differ each lane calls the same
     /// code at one lane), the light's lookups of the BRDF directions ([`DistantLight::locate_each`],
