@@ -86,7 +86,7 @@ impl Bxdf for Mix {
             for k in 0..N {
                 chosen[k] = layer[k] == j;
             }
-            let chosen = Mask(chosen);
+            let chosen = Mask::from_bools(chosen);
             if chosen.any() {
                 s = BrdfSamples::select(chosen, &b.sample_at(&b.outgoing(wo), u_sub, u), &s);
             }

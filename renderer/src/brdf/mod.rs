@@ -79,8 +79,8 @@ impl<const N: usize> BrdfSamples<N> {
         self.wi.set_lane(k, s.wi.lane(0));
         self.weight.set_lane(k, s.weight.lane(0));
         self.pdf.0[k] = s.pdf.0[0];
-        self.delta.0[k] = s.delta.0[0];
-        self.valid.0[k] = s.valid.0[0];
+        self.delta.set(k, s.delta.lane(0));
+        self.valid.set(k, s.valid.lane(0));
     }
 
     /// `a`'s lanes where `m` holds, `b`'s elsewhere.

@@ -116,7 +116,8 @@ impl Sphere {
             let (mut t, mut hit) = (Float::ZERO, Mask::NONE);
             for k in 0..N {
                 let found = self.intersect_t_f64(origin.lane(k), dir.lane(k), t_max.0[k]);
-                (t.0[k], hit.0[k]) = (found.unwrap_or(0.0), found.is_some());
+                t.0[k] = found.unwrap_or(0.0);
+                hit.set(k, found.is_some());
             }
             return (t, hit);
         }
@@ -186,7 +187,7 @@ mod tests {
         let t_max = Float(rays.map(|r| r.t_max));
         let (t, hit) =
             s.intersect_ts(Float3::from_vecs(&rays.map(|r| r.origin)), Float3::from_vecs(&rays.map(|r| r.dir)), t_max);
-        (t.0, hit.0)
+        (t.0, std::array::from_fn(|k| hit.lane(k)))
     }
 
     /// `intersect_ts` at eight lanes gives its one-lane call's bits (`intersect_t`): rays from

@@ -115,7 +115,7 @@ impl Paths {
         self.ng.set_lane(k, ng);
         self.wo_world.set_lane(k, wo_world);
         self.object[k] = object;
-        self.alive.0[k] = true;
+        self.alive.set(k, true);
     }
 }
 
@@ -160,7 +160,7 @@ impl LaneHits {
     /// Lane `k` hit `h`.
     #[inline(always)]
     fn set_lane(&mut self, k: usize, h: &Hit) {
-        self.hit.0[k] = true;
+        self.hit.set(k, true);
         self.p.set_lane(k, h.p);
         self.n.set_lane(k, h.n);
         self.ng.set_lane(k, h.ng);
@@ -250,21 +250,21 @@ impl<'a> PathTracer<'a> {
             for k in 0..LANES {
                 origins.set_lane(k, camera.rays[k].origin);
             }
-            self.trace_lanes(origins, dirs, Mask(camera.want))
+            self.trace_lanes(origins, dirs, Mask::from_bools(camera.want))
         } else {
             LaneHits::from_hits(&scene.geometry.intersect_packet(&camera.rays, &camera.want))
         };
         // The light seen by the camera rays that miss (in SIMD lanes for a lat-long map).
         // Most batches have none (every lane inside an object's silhouette): then no lookup runs.
-        let missed = Mask(camera.want) & !hits.hit;
+        let missed = Mask::from_bools(camera.want) & !hits.hit;
         let background = if missed.any() { light.eval_each(dirs, missed) } else { [Rgb::ZERO; LANES] };
         for k in 0..n {
-            if hits.hit.0[k] {
+            if hits.hit.lane(k) {
                 ps.start(k, hits.p.lane(k), hits.n.lane(k), hits.ng.lane(k), -dirs.lane(k), hits.object[k]);
-            } else if missed.0[k] {
+            } else if missed.lane(k) {
                 out[k].radiance = background[k];
             }
-            if ps.alive.0[k] {
+            if ps.alive.lane(k) {
                 out[k].hit = true;
                 out[k].normal = ps.n.lane(k);
             }
@@ -276,7 +276,7 @@ impl<'a> PathTracer<'a> {
             let [ux, uy] = draws.draw_2d(dim);
             let mut lobe_used = false;
             for k in 0..LANES {
-                lobe_used |= ps.alive.0[k] && scene.brdfs[ps.object[k] as usize].uses_lobe_choice();
+                lobe_used |= ps.alive.lane(k) && scene.brdfs[ps.object[k] as usize].uses_lobe_choice();
             }
             let lobe = if lobe_used { draws.draw_1d(dim + 2) } else { Float::ZERO };
             let [bx, by] = draws.draw_2d(dim + 3);
@@ -286,7 +286,7 @@ impl<'a> PathTracer<'a> {
             // from here on carries it, and no sampling density changes.
             if self.textured {
                 for k in 0..LANES {
-                    if let (true, Some(t)) = (ps.alive.0[k], &scene.textures[ps.object[k] as usize]) {
+                    if let (true, Some(t)) = (ps.alive.lane(k), &scene.textures[ps.object[k] as usize]) {
                         ps.beta.set_lane(k, ps.beta.lane(k) * t.eval(ps.n.lane(k)));
                     }
                 }
@@ -297,7 +297,7 @@ impl<'a> PathTracer<'a> {
             let smooth = ps.alive & !flat;
             if smooth.any() {
                 for k in 0..LANES {
-                    if smooth.0[k] {
+                    if smooth.lane(k) {
                         let adapted = adapt_shading_normal(ps.n.lane(k), ps.ng.lane(k), ps.wo_world.lane(k));
                         ps.n.set_lane(k, adapted);
                     }
@@ -314,7 +314,7 @@ impl<'a> PathTracer<'a> {
             }
             // The light's sampling tables for u_light start loading (read by the light sample).
             for k in 0..LANES {
-                if planned.0[k] {
+                if planned.lane(k) {
                     light.prefetch_sample(Vec2::new(ux.0[k], uy.0[k]));
                 }
             }
@@ -337,14 +337,15 @@ impl<'a> PathTracer<'a> {
                 }
                 None => {
                     for k in 0..LANES {
-                        if planned.0[k] {
+                        if planned.lane(k) {
                             let brdf = &scene.brdfs[ps.object[k] as usize];
                             let o = brdf.outgoing::<1>(Float3::splat(wo.lane(k)));
                             outgoing.set_lane(k, &o);
                             let u_lobe = if brdf.uses_lobe_choice() { lobe.0[k] } else { 0.0 };
                             let u = [Float::splat(bx.0[k]), Float::splat(by.0[k])];
                             bs.set_lane(k, &brdf.sample_at(&o, Float::splat(u_lobe), u));
-                            (delta_brdf.0[k], ignores.0[k]) = (brdf.is_delta(), brdf.ignores_horizon());
+                            delta_brdf.set(k, brdf.is_delta());
+                            ignores.set(k, brdf.ignores_horizon());
                         }
                     }
                 }
@@ -363,10 +364,12 @@ impl<'a> PathTracer<'a> {
             let (mut ls_value, mut ls_pdf) = (Float3::<LANES>::ZERO, Float::<LANES>::ZERO);
             let (mut drawn, mut ls_delta) = (Mask::<LANES>::NONE, Mask::<LANES>::NONE);
             for k in 0..LANES {
-                if let (true, false, Some(ls)) = (planned.0[k], delta_brdf.0[k], light_samples[k]) {
+                if let (true, false, Some(ls)) = (planned.lane(k), delta_brdf.lane(k), light_samples[k]) {
                     ls_wi.set_lane(k, ls.wi);
                     ls_value.set_lane(k, ls.value);
-                    (ls_pdf.0[k], drawn.0[k], ls_delta.0[k]) = (ls.pdf, true, ls.delta);
+                    ls_pdf.0[k] = ls.pdf;
+                    drawn.set(k, true);
+                    ls_delta.set(k, ls.delta);
                 }
             }
             let wi_local = frame.to_local(ls_wi);
@@ -375,7 +378,7 @@ impl<'a> PathTracer<'a> {
                 None => {
                     let mut f = Float3::ZERO;
                     for k in 0..LANES {
-                        if drawn.0[k] {
+                        if drawn.lane(k) {
                             let brdf = &scene.brdfs[ps.object[k] as usize];
                             f.set_lane(k, brdf.eval_at(&outgoing.lane(k), Float3::splat(wi_local.lane(k))).lane(0));
                         }
@@ -388,9 +391,9 @@ impl<'a> PathTracer<'a> {
             let free = self.unoccluded(&ps, ignores, ls_wi);
             let mut occluded = Mask::<LANES>::NONE;
             for k in 0..LANES {
-                if nee.0[k] && !free.0[k] {
+                if nee.lane(k) && !free.lane(k) {
                     let (p, ng, dir) = (ps.p.lane(k), ps.ng.lane(k), ls_wi.lane(k));
-                    occluded.0[k] = scene.geometry.occluded(&Ray::new(offset_origin(p, ng, dir), dir));
+                    occluded.set(k, scene.geometry.occluded(&Ray::new(offset_origin(p, ng, dir), dir)));
                     out[k].rays += 1;
                 }
             }
@@ -402,7 +405,7 @@ impl<'a> PathTracer<'a> {
                 None => {
                     let mut pdf = Float::ZERO;
                     for k in 0..LANES {
-                        if lit.0[k] && !ls_delta.0[k] {
+                        if lit.lane(k) && !ls_delta.lane(k) {
                             let brdf = &scene.brdfs[ps.object[k] as usize];
                             pdf.0[k] = brdf.pdf_at(&outgoing.lane(k), Float3::splat(wi_local.lane(k))).lane(0);
                         }
@@ -418,7 +421,7 @@ impl<'a> PathTracer<'a> {
             ps.beta = Float3::select(sampled, ps.beta * bs.weight, ps.beta);
             let traced = sampled & !self.unoccluded(&ps, ignores, wi_world);
             for k in 0..LANES {
-                if traced.0[k] {
+                if traced.lane(k) {
                     out[k].rays += 1;
                 }
             }
@@ -429,7 +432,7 @@ impl<'a> PathTracer<'a> {
             if escaped.any() {
                 let (mut le, mut light_pdf) = (Float3::<LANES>::ZERO, Float::<LANES>::ZERO);
                 for k in 0..LANES {
-                    if escaped.0[k] {
+                    if escaped.lane(k) {
                         let (l, pdf) = light.eval_pdf_located(located[k]);
                         le.set_lane(k, l);
                         light_pdf.0[k] = pdf;
@@ -464,7 +467,7 @@ impl<'a> PathTracer<'a> {
             ps.ng = Float3::select(ps.alive, hits.ng, ps.ng);
             ps.wo_world = Float3::select(ps.alive, -wi_world, ps.wo_world);
             for k in 0..LANES {
-                if ps.alive.0[k] {
+                if ps.alive.lane(k) {
                     ps.object[k] = hits.object[k];
                 }
             }
@@ -505,7 +508,7 @@ impl<'a> PathTracer<'a> {
                 return hits;
             }
             for k in 0..LANES {
-                if hits.hit.0[k] {
+                if hits.hit.lane(k) {
                     hits.set_lane(k, &sphere.hit_at(&Ray::new(origin.lane(k), dir.lane(k)), t.lane(k), 0));
                 }
             }
@@ -515,7 +518,7 @@ impl<'a> PathTracer<'a> {
         // 62 % more render instructions on bench-mesh-sky and no wall time (guide "Performance notes and their
         // history", eighth round): its interleaving pays off over many rays, not over one pixel's batch.
         for k in 0..LANES {
-            if want.0[k]
+            if want.lane(k)
                 && let Some(h) = geometry.intersect(&Ray::new(origin.lane(k), dir.lane(k)))
             {
                 hits.set_lane(k, &h);
@@ -531,7 +534,7 @@ impl<'a> PathTracer<'a> {
 fn shared_object(objects: &[u32; LANES], lanes: Mask<LANES>) -> Option<u32> {
     let mut object = None;
     for k in 0..LANES {
-        if lanes.0[k] {
+        if lanes.lane(k) {
             match object {
                 None => object = Some(objects[k]),
                 Some(o) if o != objects[k] => return None,

@@ -298,7 +298,7 @@ impl DistantLight for Envmap {
         let mut out = [None; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
             for (k, o) in out.iter_mut().enumerate() {
-                if want.0[k] {
+                if want.lane(k) {
                     *o = self.sample_angular(Vec2::new(u[0].0[k], u[1].0[k]));
                 }
             }
@@ -307,7 +307,7 @@ impl DistantLight for Envmap {
         let Some((d, cell)) = grid.sample_directions(u, want) else { return out };
         let wi = mat3_mul(&self.rotation, d).normalize();
         for k in 0..N {
-            if !want.0[k] {
+            if !want.lane(k) {
                 continue;
             }
             let wi = wi.lane(k);
@@ -337,7 +337,7 @@ impl DistantLight for Envmap {
         let mut out = [Located::NONE; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
             for (k, o) in out.iter_mut().enumerate() {
-                if want.0[k] {
+                if want.lane(k) {
                     let (index, theta) = self.texel_index(wi.lane(k));
                     prefetch_read(self.texel(index));
                     *o = Located { wi: wi.lane(k), index, theta };
@@ -347,7 +347,7 @@ impl DistantLight for Envmap {
         };
         let (r, c) = grid.cells(mat3_mul(&self.inv_rotation, wi));
         for k in 0..N {
-            if want.0[k] {
+            if want.lane(k) {
                 let index = r[k] * self.image.width + c[k];
                 prefetch_read(self.texel(index));
                 out[k] = Located { wi: wi.lane(k), index, theta: 0.0 };
@@ -362,7 +362,7 @@ impl DistantLight for Envmap {
         let mut out = [Rgb::ZERO; N];
         let located = self.locate_each(wi, want);
         for k in 0..N {
-            if want.0[k] {
+            if want.lane(k) {
                 out[k] = Rgb::from(self.texel(located[k].index).radiance);
             }
         }
@@ -541,9 +541,9 @@ mod tests {
                 for batch in 0..512 {
                     let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
                     let want: [bool; 8] = std::array::from_fn(|k| (batch + k) % 5 != 0);
-                    let lanes = e.sample_each([Float(u.map(|u| u.x)), Float(u.map(|u| u.y))], Mask(want));
+                    let lanes = e.sample_each([Float(u.map(|u| u.x)), Float(u.map(|u| u.y))], Mask::from_bools(want));
                     let dirs: [Vec3; 8] = std::array::from_fn(|k| lanes[k].map_or(Vec3::Z, |s| s.wi));
-                    let located = e.locate_each(Float3::from_vecs(&dirs), Mask(want));
+                    let located = e.locate_each(Float3::from_vecs(&dirs), Mask::from_bools(want));
                     for k in 0..8 {
                         if !want[k] {
                             assert!(lanes[k].is_none());

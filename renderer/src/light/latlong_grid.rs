@@ -182,7 +182,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         let inside = row_inside & col_inside;
         let mut cell = [None; N];
         for k in 0..N {
-            if inside.0[k] {
+            if inside.lane(k) {
                 cell[k] = Some(r[k] * self.width + iu[k]);
             }
         }

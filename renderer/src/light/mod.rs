@@ -73,7 +73,7 @@ pub trait DistantLight {
     fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
         let mut out = [None; N];
         for (k, o) in out.iter_mut().enumerate() {
-            if want.0[k] {
+            if want.lane(k) {
                 *o = self.sample(Vec2::new(u[0].0[k], u[1].0[k]));
             }
         }
@@ -86,7 +86,7 @@ pub trait DistantLight {
     fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
         let mut out = [Located::NONE; N];
         for (k, o) in out.iter_mut().enumerate() {
-            if want.0[k] {
+            if want.lane(k) {
                 *o = self.locate(wi.lane(k));
             }
         }
@@ -99,7 +99,7 @@ pub trait DistantLight {
     fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
         let mut out = [Rgb::ZERO; N];
         for (k, o) in out.iter_mut().enumerate() {
-            if want.0[k] {
+            if want.lane(k) {
                 *o = self.eval(wi.lane(k));
             }
         }

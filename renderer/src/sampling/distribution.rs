@@ -347,7 +347,7 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         }
         let (mut iv, mut c0, mut c1) = ([0usize; N], Float::<N>::ZERO, Float::<N>::ZERO);
         for k in 0..N {
-            if want.0[k] {
+            if want.lane(k) {
                 let mut i = marginal[guide[k]].guide as usize;
                 while i + 1 < nm && marginal[i + 1].cdf <= uy.0[k] {
                     i += 1;
@@ -365,7 +365,7 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         // The row's cell the same way (the entries of a row hold cdf[i + 1] in entry i).
         let mut iu = [0usize; N];
         for k in 0..N {
-            if want.0[k] {
+            if want.lane(k) {
                 let row = self.row(iv[k]);
                 let n = row.len();
                 let mut i = row[guide[k]].guide as usize;
@@ -462,7 +462,7 @@ mod tests {
                 (u[0].0[k], u[1].0[k]) = (pick(&mut rng), pick(&mut rng));
                 *w = rng.next_f32() < 0.8;
             }
-            let ([pu, pv], iu, iv) = d.sample_points(u, Mask(want));
+            let ([pu, pv], iu, iv) = d.sample_points(u, Mask::from_bools(want));
             for k in 0..8 {
                 if want[k] {
                     let (p, (c, r)) = d.sample_point_cell(Vec2::new(u[0].0[k], u[1].0[k]));

@@ -16,9 +16,15 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Float<const N: usize>(pub [f32; N]);
 
-/// `N` boolean lanes: which lanes a condition holds in.
+/// `N` boolean lanes: which lanes a condition holds in. Each lane is all ones (holds) or all
+/// zeros, as an SSE comparison leaves it in a register, so that a select is three bitwise
+/// operations and a mask never converts between bytes and lanes. Read with [`Mask::lane`],
+/// written with [`Mask::set`] or [`Mask::from_bools`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Mask<const N: usize>(pub [bool; N]);
+pub struct Mask<const N: usize>([u32; N]);
+
+/// A lane of a [`Mask`] that holds.
+const HOLDS: u32 = u32::MAX;
 
 /// Lane-by-lane application of a unary f32 expression (a loop LLVM vectorizes).
 macro_rules! lanes1 {
@@ -46,16 +52,47 @@ macro_rules! lanes2 {
     }};
 }
 
-/// Lane-by-lane comparison.
-macro_rules! compare {
-    ($a:expr, $b:expr, |$x:ident, $y:ident| $e:expr) => {{
-        let (a, b) = ($a, $b);
-        let mut out = [false; N];
+/// Lane-by-lane test of a condition `$e` (a lane that holds is all ones).
+macro_rules! test {
+    ($a:expr, |$x:ident| $e:expr) => {{
+        let a = $a;
+        let mut out = [0u32; N];
         for k in 0..N {
-            let ($x, $y) = (a.0[k], b.0[k]);
-            out[k] = $e;
+            let $x = a.0[k];
+            out[k] = if $e { HOLDS } else { 0 };
         }
         Mask(out)
+    }};
+}
+
+/// A 128-bit operation `$sse` on four lanes at a time of two arrays of 32-bit lanes, which it
+/// reads as `$load` and writes through `$store` (an intrinsic of x86-64's baseline, which every
+/// copy of the kernel may inline), and `$e` on the other `N` mod 4 lanes: the same bits lane by
+/// lane. LLVM then keeps vectors of four lanes instead of rebuilding them from scalars.
+macro_rules! quads {
+    ($a:expr, $b:expr, $zero:expr, $sse:ident, $load:ident, $store:ident, |$x:ident, $y:ident| $e:expr) => {{
+        let (a, b) = ($a, $b);
+        let mut out = [$zero; N];
+        #[allow(unused_mut)]
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            while done + 4 <= N {
+                // SAFETY: lanes done..done + 4 are inside the three arrays (done + 4 ≤ N), whose
+                // lanes are 32 bits wide; the loads and the store are unaligned.
+                unsafe {
+                    let v = $sse($load(a.as_ptr().add(done).cast()), $load(b.as_ptr().add(done).cast()));
+                    $store(out.as_mut_ptr().add(done).cast(), v);
+                }
+                done += 4;
+            }
+        }
+        for k in done..N {
+            let ($x, $y) = (a[k], b[k]);
+            out[k] = $e;
+        }
+        out
     }};
 }
 
@@ -146,39 +183,51 @@ impl<const N: usize> Float<N> {
 
     #[inline(always)]
     pub fn lt(self, o: Self) -> Mask<N> {
-        compare!(self, o, |x, y| x < y)
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmplt_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x < y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
     pub fn le(self, o: Self) -> Mask<N> {
-        compare!(self, o, |x, y| x <= y)
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmple_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x <= y {
+            HOLDS
+        } else {
+            0
+        }))
     }
 
     #[inline(always)]
     pub fn gt(self, o: Self) -> Mask<N> {
-        compare!(self, o, |x, y| x > y)
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmpgt_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x > y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
     pub fn ge(self, o: Self) -> Mask<N> {
-        compare!(self, o, |x, y| x >= y)
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmpge_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x >= y {
+            HOLDS
+        } else {
+            0
+        }))
     }
 
     #[inline(always)]
     pub fn eq(self, o: Self) -> Mask<N> {
-        compare!(self, o, |x, y| x == y)
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmpeq_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x == y {
+            HOLDS
+        } else {
+            0
+        }))
     }
 
     /// Lanes that are neither infinite nor NaN.
     #[inline(always)]
     pub fn is_finite(self) -> Mask<N> {
-        compare!(self, self, |x, _y| x.is_finite())
+        test!(self, |x| x.is_finite())
     }
 
     /// Lanes with the sign bit set (−0.0 included).
     #[inline(always)]
     pub fn is_sign_negative(self) -> Mask<N> {
-        compare!(self, self, |x, _y| x.is_sign_negative())
+        test!(self, |x| x.is_sign_negative())
     }
 
     /// Each lane widened to f64.
@@ -203,20 +252,33 @@ impl<const N: usize> Float<N> {
 }
 
 impl<const N: usize> Mask<N> {
-    pub const NONE: Self = Mask([false; N]);
-    pub const ALL: Self = Mask([true; N]);
+    pub const NONE: Self = Mask([0; N]);
+    pub const ALL: Self = Mask([HOLDS; N]);
 
     #[inline(always)]
     pub fn splat(v: bool) -> Self {
-        Mask([v; N])
+        Mask([if v { HOLDS } else { 0 }; N])
     }
 
-    /// `a` where the mask holds, `b` elsewhere.
+    /// The mask holding in the lanes where `b` is true.
+    #[inline(always)]
+    pub fn from_bools(b: [bool; N]) -> Self {
+        let mut out = [0u32; N];
+        for k in 0..N {
+            out[k] = if b[k] { HOLDS } else { 0 };
+        }
+        Mask(out)
+    }
+
+    /// `a` where the mask holds, `b` elsewhere (bitwise: (m ∧ a) ∨ (¬m ∧ b)).
     #[inline(always)]
     pub fn select(self, a: Float<N>, b: Float<N>) -> Float<N> {
+        let ma = quads!(self.0, a.0, 0u32, _mm_and_ps, _mm_loadu_ps, _mm_storeu_ps, |m, x| m & x.to_bits());
+        let mb = quads!(self.0, b.0, 0u32, _mm_andnot_ps, _mm_loadu_ps, _mm_storeu_ps, |m, x| !m & x.to_bits());
+        let bits = quads!(ma, mb, 0u32, _mm_or_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x | y);
         let mut out = [0.0f32; N];
         for k in 0..N {
-            out[k] = if self.0[k] { a.0[k] } else { b.0[k] };
+            out[k] = f32::from_bits(bits[k]);
         }
         Float(out)
     }
@@ -224,49 +286,55 @@ impl<const N: usize> Mask<N> {
     /// Whether any lane holds.
     #[inline(always)]
     pub fn any(self) -> bool {
-        let mut any = false;
+        let mut any = 0;
         for k in 0..N {
             any |= self.0[k];
         }
-        any
+        any != 0
     }
 
     /// Lane `k`.
     #[inline(always)]
     pub fn lane(self, k: usize) -> bool {
-        self.0[k]
+        self.0[k] != 0
+    }
+
+    /// Sets lane `k` to hold or not.
+    #[inline(always)]
+    pub fn set(&mut self, k: usize, v: bool) {
+        self.0[k] = if v { HOLDS } else { 0 };
     }
 }
 
 macro_rules! binary {
-    ($tr:ident, $f:ident, $op:tt) => {
+    ($tr:ident, $f:ident, $op:tt, $sse:ident) => {
         impl<const N: usize> $tr for Float<N> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: Self) -> Self {
-                lanes2!(self, o, |x, y| x $op y)
+                Float(quads!(self.0, o.0, 0.0f32, $sse, _mm_loadu_ps, _mm_storeu_ps, |x, y| x $op y))
             }
         }
         impl<const N: usize> $tr<f32> for Float<N> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: f32) -> Self {
-                lanes1!(self, |x| x $op o)
+                Float(quads!(self.0, [o; N], 0.0f32, $sse, _mm_loadu_ps, _mm_storeu_ps, |x, y| x $op y))
             }
         }
         impl<const N: usize> $tr<Float<N>> for f32 {
             type Output = Float<N>;
             #[inline(always)]
             fn $f(self, o: Float<N>) -> Float<N> {
-                lanes1!(o, |y| self $op y)
+                Float(quads!([self; N], o.0, 0.0f32, $sse, _mm_loadu_ps, _mm_storeu_ps, |x, y| x $op y))
             }
         }
     };
 }
-binary!(Add, add, +);
-binary!(Sub, sub, -);
-binary!(Mul, mul, *);
-binary!(Div, div, /);
+binary!(Add, add, +, _mm_add_ps);
+binary!(Sub, sub, -, _mm_sub_ps);
+binary!(Mul, mul, *, _mm_mul_ps);
+binary!(Div, div, /, _mm_div_ps);
 
 impl<const N: usize> Neg for Float<N> {
     type Output = Self;
@@ -280,11 +348,7 @@ impl<const N: usize> BitAnd for Mask<N> {
     type Output = Self;
     #[inline(always)]
     fn bitand(self, o: Self) -> Self {
-        let mut out = [false; N];
-        for k in 0..N {
-            out[k] = self.0[k] & o.0[k];
-        }
-        Mask(out)
+        Mask(quads!(self.0, o.0, 0u32, _mm_and_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x & y))
     }
 }
 
@@ -292,11 +356,7 @@ impl<const N: usize> BitOr for Mask<N> {
     type Output = Self;
     #[inline(always)]
     fn bitor(self, o: Self) -> Self {
-        let mut out = [false; N];
-        for k in 0..N {
-            out[k] = self.0[k] | o.0[k];
-        }
-        Mask(out)
+        Mask(quads!(self.0, o.0, 0u32, _mm_or_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x | y))
     }
 }
 
@@ -304,10 +364,6 @@ impl<const N: usize> Not for Mask<N> {
     type Output = Self;
     #[inline(always)]
     fn not(self) -> Self {
-        let mut out = [false; N];
-        for k in 0..N {
-            out[k] = !self.0[k];
-        }
-        Mask(out)
+        Mask(quads!(self.0, [HOLDS; N], 0u32, _mm_xor_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x ^ y))
     }
 }
