@@ -1,12 +1,14 @@
 //! [`Float`] and [`Mask`]: `N` lanes of f32 and of bool, the kernel's value types.
 //!
 //! Every operation is the IEEE single-precision operation of `f32` applied lane by lane (the same
-//! `min`, `max`, `clamp`, `sqrt`, `/` …, in the same order), written as a loop over a fixed-size
-//! array. So lane k of any computation has the bits the same computation has at `N = 1`, whatever
-//! `N` is: the one-sample case is the same code, not a twin. Inside the render's tile loop compiled
-//! for x86-64-v3 (`render::render_tile`) LLVM turns the loops at `N = 8` into AVX2 instructions;
-//! nothing here fuses a multiply and an add (`mul_add` rounds twice), so the baseline and the
-//! x86-64-v3 copies agree bit for bit.
+//! `min`, `max`, `clamp`, `sqrt`, `/` …, in the same order), so lane k of any computation has the
+//! bits the same computation has at `N = 1`, whatever `N` is: the one-sample case is the same
+//! code, not a twin. The arithmetic, the comparisons and the masks' operations and selects run
+//! four lanes at a time through 128-bit SSE intrinsics (`quads!`; SSE is in x86-64's baseline, so
+//! every instruction-set copy of the tile loop inlines them), the rest as loops over the arrays.
+//! Left to loops over arrays, LLVM broke the lanes into scalars and rebuilt vectors with shuffles
+//! (guide, "Performance notes and their history", 2026-12-04). Nothing here fuses a multiply and
+//! an add (`mul_add` rounds twice), so the baseline and the x86-64-v3 copies agree bit for bit.
 // Lane loops index every operand by the lane: the form LLVM vectorizes.
 #![allow(clippy::needless_range_loop)]
 
