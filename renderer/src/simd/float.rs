@@ -67,12 +67,12 @@ macro_rules! test {
     }};
 }
 
-/// A 128-bit operation `$sse` on four lanes at a time of two arrays of 32-bit lanes, which it
-/// reads as `$load` and writes through `$store` (an intrinsic of x86-64's baseline, which every
-/// copy of the kernel may inline), and `$e` on the other `N` mod 4 lanes: the same bits lane by
-/// lane. LLVM then keeps vectors of four lanes instead of rebuilding them from scalars.
+/// A 128-bit operation `$sse` on four lanes at a time of two arrays of 32-bit lanes (an intrinsic
+/// of x86-64's baseline, which every copy of the kernel may inline), and `$e` on the other `N` mod
+/// 4 lanes: the same bits lane by lane. LLVM then keeps vectors of four lanes instead of rebuilding
+/// them from scalars. `$zero` gives the output's lane type.
 macro_rules! quads {
-    ($a:expr, $b:expr, $zero:expr, $sse:ident, $load:ident, $store:ident, |$x:ident, $y:ident| $e:expr) => {{
+    ($a:expr, $b:expr, $zero:expr, $sse:ident, |$x:ident, $y:ident| $e:expr) => {{
         let (a, b) = ($a, $b);
         let mut out = [$zero; N];
         #[allow(unused_mut)]
@@ -84,8 +84,8 @@ macro_rules! quads {
                 // SAFETY: lanes done..done + 4 are inside the three arrays (done + 4 ≤ N), whose
                 // lanes are 32 bits wide; the loads and the store are unaligned.
                 unsafe {
-                    let v = $sse($load(a.as_ptr().add(done).cast()), $load(b.as_ptr().add(done).cast()));
-                    $store(out.as_mut_ptr().add(done).cast(), v);
+                    let v = $sse(_mm_loadu_ps(a.as_ptr().add(done).cast()), _mm_loadu_ps(b.as_ptr().add(done).cast()));
+                    _mm_storeu_ps(out.as_mut_ptr().add(done).cast(), v);
                 }
                 done += 4;
             }
@@ -185,39 +185,27 @@ impl<const N: usize> Float<N> {
 
     #[inline(always)]
     pub fn lt(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmplt_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x < y { HOLDS } else { 0 }))
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmplt_ps, |x, y| if x < y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
     pub fn le(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmple_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x <= y {
-            HOLDS
-        } else {
-            0
-        }))
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmple_ps, |x, y| if x <= y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
     pub fn gt(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmpgt_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x > y { HOLDS } else { 0 }))
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmpgt_ps, |x, y| if x > y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
     pub fn ge(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmpge_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x >= y {
-            HOLDS
-        } else {
-            0
-        }))
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmpge_ps, |x, y| if x >= y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
     pub fn eq(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmpeq_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| if x == y {
-            HOLDS
-        } else {
-            0
-        }))
+        Mask(quads!(self.0, o.0, 0u32, _mm_cmpeq_ps, |x, y| if x == y { HOLDS } else { 0 }))
     }
 
     /// Lanes that are neither infinite nor NaN.
@@ -275,14 +263,9 @@ impl<const N: usize> Mask<N> {
     /// `a` where the mask holds, `b` elsewhere (bitwise: (m ∧ a) ∨ (¬m ∧ b)).
     #[inline(always)]
     pub fn select(self, a: Float<N>, b: Float<N>) -> Float<N> {
-        let ma = quads!(self.0, a.0, 0u32, _mm_and_ps, _mm_loadu_ps, _mm_storeu_ps, |m, x| m & x.to_bits());
-        let mb = quads!(self.0, b.0, 0u32, _mm_andnot_ps, _mm_loadu_ps, _mm_storeu_ps, |m, x| !m & x.to_bits());
-        let bits = quads!(ma, mb, 0u32, _mm_or_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x | y);
-        let mut out = [0.0f32; N];
-        for k in 0..N {
-            out[k] = f32::from_bits(bits[k]);
-        }
-        Float(out)
+        let ma = quads!(self.0, a.0, 0u32, _mm_and_ps, |m, x| m & x.to_bits());
+        let mb = quads!(self.0, b.0, 0u32, _mm_andnot_ps, |m, x| !m & x.to_bits());
+        Float(quads!(ma, mb, 0.0f32, _mm_or_ps, |x, y| f32::from_bits(x | y)))
     }
 
     /// Whether any lane holds.
@@ -314,21 +297,21 @@ macro_rules! binary {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: Self) -> Self {
-                Float(quads!(self.0, o.0, 0.0f32, $sse, _mm_loadu_ps, _mm_storeu_ps, |x, y| x $op y))
+                Float(quads!(self.0, o.0, 0.0f32, $sse, |x, y| x $op y))
             }
         }
         impl<const N: usize> $tr<f32> for Float<N> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: f32) -> Self {
-                Float(quads!(self.0, [o; N], 0.0f32, $sse, _mm_loadu_ps, _mm_storeu_ps, |x, y| x $op y))
+                Float(quads!(self.0, [o; N], 0.0f32, $sse, |x, y| x $op y))
             }
         }
         impl<const N: usize> $tr<Float<N>> for f32 {
             type Output = Float<N>;
             #[inline(always)]
             fn $f(self, o: Float<N>) -> Float<N> {
-                Float(quads!([self; N], o.0, 0.0f32, $sse, _mm_loadu_ps, _mm_storeu_ps, |x, y| x $op y))
+                Float(quads!([self; N], o.0, 0.0f32, $sse, |x, y| x $op y))
             }
         }
     };
@@ -350,7 +333,7 @@ impl<const N: usize> BitAnd for Mask<N> {
     type Output = Self;
     #[inline(always)]
     fn bitand(self, o: Self) -> Self {
-        Mask(quads!(self.0, o.0, 0u32, _mm_and_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x & y))
+        Mask(quads!(self.0, o.0, 0u32, _mm_and_ps, |x, y| x & y))
     }
 }
 
@@ -358,7 +341,7 @@ impl<const N: usize> BitOr for Mask<N> {
     type Output = Self;
     #[inline(always)]
     fn bitor(self, o: Self) -> Self {
-        Mask(quads!(self.0, o.0, 0u32, _mm_or_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x | y))
+        Mask(quads!(self.0, o.0, 0u32, _mm_or_ps, |x, y| x | y))
     }
 }
 
@@ -366,6 +349,6 @@ impl<const N: usize> Not for Mask<N> {
     type Output = Self;
     #[inline(always)]
     fn not(self) -> Self {
-        Mask(quads!(self.0, [HOLDS; N], 0u32, _mm_xor_ps, _mm_loadu_ps, _mm_storeu_ps, |x, y| x ^ y))
+        Mask(quads!(self.0, [HOLDS; N], 0u32, _mm_xor_ps, |x, y| x ^ y))
     }
 }
