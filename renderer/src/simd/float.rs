@@ -3,9 +3,11 @@
 //! Every operation is the IEEE single-precision operation of `f32` applied lane by lane (the same
 //! `min`, `max`, `clamp`, `sqrt`, `/` …, in the same order), so lane k of any computation has the
 //! bits the same computation has at `N = 1`, whatever `N` is: the one-sample case is the same
-//! code, not a twin. The arithmetic, the comparisons and the masks' operations and selects run
-//! four lanes at a time through 128-bit SSE intrinsics (`quads!`; SSE is in x86-64's baseline, so
-//! every instruction-set copy of the tile loop inlines them), the rest as loops over the arrays.
+//! code, not a twin. The arithmetic (with `sqrt`, `abs`, `min`, `max`, `clamp`, `copysign`), the
+//! comparisons and tests, and the masks' operations and selects run four lanes at a time through
+//! 128-bit SSE intrinsics where `N` is 4 or 8 (`quads!`; SSE is in x86-64's baseline, so every
+//! instruction-set copy of the tile loop inlines them); `powf`, `sin_cos` and `exp2_int` are loops
+//! over the arrays.
 //! Left to loops over arrays, LLVM broke the lanes into scalars and rebuilt vectors with shuffles
 //! (guide, "Performance notes and their history", 2026-12-04). Nothing here fuses a multiply and
 //! an add (`mul_add` rounds twice), so the baseline and the x86-64-v3 copies agree bit for bit.
@@ -28,6 +30,9 @@ pub struct Mask<const N: usize>([u32; N]);
 /// A lane of a [`Mask`] that holds.
 const HOLDS: u32 = u32::MAX;
 
+/// Every bit of an f32 but its sign.
+const MAGNITUDE: f32 = f32::from_bits(0x7fff_ffff);
+
 /// Lane-by-lane application of a unary f32 expression (a loop LLVM vectorizes).
 macro_rules! lanes1 {
     ($a:expr, |$v:ident| $e:expr) => {{
@@ -41,61 +46,98 @@ macro_rules! lanes1 {
     }};
 }
 
-/// Lane-by-lane application of a binary f32 expression.
-macro_rules! lanes2 {
-    ($a:expr, $b:expr, |$x:ident, $y:ident| $e:expr) => {{
-        let (a, b) = ($a, $b);
-        let mut out = [0.0f32; N];
-        for k in 0..N {
-            let ($x, $y) = (a.0[k], b.0[k]);
-            out[k] = $e;
-        }
-        Float(out)
-    }};
-}
-
-/// Lane-by-lane test of a condition `$e` (a lane that holds is all ones).
-macro_rules! test {
-    ($a:expr, |$x:ident| $e:expr) => {{
-        let a = $a;
-        let mut out = [0u32; N];
-        for k in 0..N {
-            let $x = a.0[k];
-            out[k] = if $e { HOLDS } else { 0 };
-        }
-        Mask(out)
-    }};
-}
-
-/// A 128-bit operation `$sse` on four lanes at a time of two arrays of 32-bit lanes (an intrinsic
-/// of x86-64's baseline, which every copy of the kernel may inline), and `$e` on the other `N` mod
-/// 4 lanes: the same bits lane by lane. LLVM then keeps vectors of four lanes instead of rebuilding
-/// them from scalars. `$zero` gives the output's lane type.
+/// A 128-bit operation `$sse` on four lanes at a time of one or two arrays of 32-bit lanes (an
+/// intrinsic of x86-64's baseline, which every copy of the kernel may inline) where `N` is 4 or 8,
+/// and `$e` lane by lane for any other `N`: the same bits lane by lane. LLVM then keeps vectors of
+/// four lanes instead of rebuilding them from scalars. Straight-line code, no loop: with a loop per
+/// operation over `N` lanes (unrolled only late) the kernel's compile time was 2.7× longer.
+/// `$zero` gives the output's lane type.
+#[cfg(target_arch = "x86_64")]
 macro_rules! quads {
+    ($a:expr, $zero:expr, $sse:ident, |$x:ident| $e:expr) => {{
+        let a = $a;
+        let mut out = [$zero; N];
+        // SAFETY (both branches): N is 8 or 4 and the lanes are 32 bits wide, so each array is
+        // exactly two or one `__m128` (the copies read and write 32 or 16 bytes of 32- or 16-byte
+        // arrays); SSE and SSE2 are in x86-64's baseline.
+        if N == 8 {
+            use std::arch::x86_64::*;
+            use std::mem::transmute_copy as cast;
+            unsafe {
+                let a: [__m128; 2] = cast(&a);
+                out = cast(&[$sse(a[0]), $sse(a[1])]);
+            }
+        } else if N == 4 {
+            use std::arch::x86_64::*;
+            use std::mem::transmute_copy as cast;
+            unsafe {
+                out = cast(&$sse(cast::<_, __m128>(&a)));
+            }
+        } else {
+            for k in 0..N {
+                let $x = a[k];
+                out[k] = $e;
+            }
+        }
+        out
+    }};
     ($a:expr, $b:expr, $zero:expr, $sse:ident, |$x:ident, $y:ident| $e:expr) => {{
         let (a, b) = ($a, $b);
         let mut out = [$zero; N];
-        #[allow(unused_mut)]
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        {
+        // SAFETY: as in the one-operand form.
+        if N == 8 {
             use std::arch::x86_64::*;
-            while done + 4 <= N {
-                // SAFETY: lanes done..done + 4 are inside the three arrays (done + 4 ≤ N), whose
-                // lanes are 32 bits wide; the loads and the store are unaligned.
-                unsafe {
-                    let v = $sse(_mm_loadu_ps(a.as_ptr().add(done).cast()), _mm_loadu_ps(b.as_ptr().add(done).cast()));
-                    _mm_storeu_ps(out.as_mut_ptr().add(done).cast(), v);
-                }
-                done += 4;
+            use std::mem::transmute_copy as cast;
+            unsafe {
+                let (a, b): ([__m128; 2], [__m128; 2]) = (cast(&a), cast(&b));
+                out = cast(&[$sse(a[0], b[0]), $sse(a[1], b[1])]);
+            }
+        } else if N == 4 {
+            use std::arch::x86_64::*;
+            use std::mem::transmute_copy as cast;
+            unsafe {
+                out = cast(&$sse(cast::<_, __m128>(&a), cast::<_, __m128>(&b)));
+            }
+        } else {
+            for k in 0..N {
+                let ($x, $y) = (a[k], b[k]);
+                out[k] = $e;
             }
         }
-        for k in done..N {
+        out
+    }};
+}
+
+/// Elsewhere than on x86-64: `$e` lane by lane.
+#[cfg(not(target_arch = "x86_64"))]
+macro_rules! quads {
+    ($a:expr, $zero:expr, $sse:ident, |$x:ident| $e:expr) => {{
+        let a = $a;
+        let mut out = [$zero; N];
+        for k in 0..N {
+            let $x = a[k];
+            out[k] = $e;
+        }
+        out
+    }};
+    ($a:expr, $b:expr, $zero:expr, $sse:ident, |$x:ident, $y:ident| $e:expr) => {{
+        let (a, b) = ($a, $b);
+        let mut out = [$zero; N];
+        for k in 0..N {
             let ($x, $y) = (a[k], b[k]);
             out[k] = $e;
         }
         out
     }};
+}
+
+/// Each 32-bit lane filled with copies of its sign bit (an arithmetic shift by 31).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn sign_fill(x: std::arch::x86_64::__m128) -> std::arch::x86_64::__m128 {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE2, which these intrinsics need, is in x86-64's baseline.
+    unsafe { _mm_castsi128_ps(_mm_srai_epi32::<31>(_mm_castps_si128(x))) }
 }
 
 impl<const N: usize> Float<N> {
@@ -126,36 +168,46 @@ impl<const N: usize> Float<N> {
 
     #[inline(always)]
     pub fn sqrt(self) -> Self {
-        lanes1!(self, |v| v.sqrt())
+        Float(quads!(self.0, 0.0f32, _mm_sqrt_ps, |v| v.sqrt()))
     }
 
+    /// The sign bit cleared (as `f32::abs`).
     #[inline(always)]
     pub fn abs(self) -> Self {
-        lanes1!(self, |v| v.abs())
+        Float(quads!(self.0, [MAGNITUDE; N], 0.0f32, _mm_and_ps, |x, m| f32::from_bits(x.to_bits() & m.to_bits())))
     }
 
-    /// `f32::min` lane by lane (a NaN operand gives the other one).
+    /// `f32::min` lane by lane (a NaN operand gives the other one; of two equal lanes, `self`'s).
     #[inline(always)]
     pub fn min(self, o: Self) -> Self {
-        lanes2!(self, o, |x, y| x.min(y))
+        // minps(o, self) is `o < self ? o : self`, which gives `self` where either is NaN; the
+        // second step puts `o` where `self` is NaN. (LLVM lowers the scalar `minnum` the same way.)
+        let m = Float(quads!(o.0, self.0, 0.0f32, _mm_min_ps, |y, x| if y < x { y } else { x }));
+        self.is_nan().select(o, m)
     }
 
-    /// `f32::max` lane by lane (a NaN operand gives the other one).
+    /// `f32::max` lane by lane (a NaN operand gives the other one; of two equal lanes, `self`'s).
     #[inline(always)]
     pub fn max(self, o: Self) -> Self {
-        lanes2!(self, o, |x, y| x.max(y))
+        let m = Float(quads!(o.0, self.0, 0.0f32, _mm_max_ps, |y, x| if y > x { y } else { x }));
+        self.is_nan().select(o, m)
     }
 
-    /// `f32::clamp` lane by lane (NaN stays NaN).
+    /// `f32::clamp` lane by lane (NaN stays NaN; `lo ≤ hi`).
     #[inline(always)]
     pub fn clamp(self, lo: f32, hi: f32) -> Self {
-        lanes1!(self, |v| v.clamp(lo, hi))
+        // maxps(lo, v) is `lo > v ? lo : v` and minps(hi, v) is `hi < v ? hi : v`: a NaN lane
+        // passes both, as in `f32::clamp`'s two comparisons.
+        let v = quads!([lo; N], self.0, 0.0f32, _mm_max_ps, |l, v| if l > v { l } else { v });
+        Float(quads!([hi; N], v, 0.0f32, _mm_min_ps, |h, v| if h < v { h } else { v }))
     }
 
     /// Each lane with the sign of `sign`'s lane.
     #[inline(always)]
     pub fn copysign(self, sign: Self) -> Self {
-        lanes2!(self, sign, |x, s| x.copysign(s))
+        let magnitude = quads!(self.0, [MAGNITUDE; N], 0u32, _mm_and_ps, |x, m| x.to_bits() & m.to_bits());
+        let signs = quads!([MAGNITUDE; N], sign.0, 0u32, _mm_andnot_ps, |m, s| !m.to_bits() & s.to_bits());
+        Float(quads!(magnitude, signs, 0.0f32, _mm_or_ps, |x, s| f32::from_bits(x | s)))
     }
 
     /// a·b + c, rounded after the multiply and after the add (not fused: the same bits in every
@@ -211,13 +263,20 @@ impl<const N: usize> Float<N> {
     /// Lanes that are neither infinite nor NaN.
     #[inline(always)]
     pub fn is_finite(self) -> Mask<N> {
-        test!(self, |x| x.is_finite())
+        // |x| < ∞ fails for ±∞ and for NaN (an unordered comparison).
+        self.abs().lt(Float::splat(f32::INFINITY))
+    }
+
+    /// NaN lanes.
+    #[inline(always)]
+    pub fn is_nan(self) -> Mask<N> {
+        Mask(quads!(self.0, self.0, 0u32, _mm_cmpunord_ps, |x, y| if x.is_nan() || y.is_nan() { HOLDS } else { 0 }))
     }
 
     /// Lanes with the sign bit set (−0.0 included).
     #[inline(always)]
     pub fn is_sign_negative(self) -> Mask<N> {
-        test!(self, |x| x.is_sign_negative())
+        Mask(quads!(self.0, 0u32, sign_fill, |x| if x.is_sign_negative() { HOLDS } else { 0 }))
     }
 
     /// Each lane widened to f64.
@@ -325,7 +384,7 @@ impl<const N: usize> Neg for Float<N> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        lanes1!(self, |v| -v)
+        Float(quads!(self.0, [-0.0f32; N], 0.0f32, _mm_xor_ps, |x, s| f32::from_bits(x.to_bits() ^ s.to_bits())))
     }
 }
 
@@ -350,5 +409,104 @@ impl<const N: usize> Not for Mask<N> {
     #[inline(always)]
     fn not(self) -> Self {
         Mask(quads!(self.0, [HOLDS; N], 0u32, _mm_xor_ps, |x, y| x ^ y))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Values where lane operations and scalar ones could part: signed zeros, infinities, NaN,
+    /// subnormals and the largest finite magnitudes.
+    const SPECIAL: [f32; 13] = [
+        0.0,
+        -0.0,
+        1.0,
+        -2.5,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        f32::MIN_POSITIVE / 4.0,
+        -f32::MIN_POSITIVE / 4.0,
+        f32::MAX,
+        -f32::MAX,
+        0.3,
+        1e-30,
+    ];
+
+    /// Equal bits, or both NaN (a NaN's payload is not specified by Rust's scalar operations).
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    /// Every pair of special values, in lanes of width `N`, chunk by chunk: each lane of each
+    /// operation is the one-lane operation on that lane's values, which is the f32 operation
+    /// (min and max of two zeros of either sign give `self`'s, a choice f32's leave open).
+    fn check<const N: usize>() {
+        let pairs: Vec<(f32, f32)> = SPECIAL.iter().flat_map(|&x| SPECIAL.iter().map(move |&y| (x, y))).collect();
+        for chunk in pairs.chunks(N) {
+            let mut xs = [0.5f32; N];
+            let mut ys = [0.25f32; N];
+            for (k, &(x, y)) in chunk.iter().enumerate() {
+                (xs[k], ys[k]) = (x, y);
+            }
+            let (a, b) = (Float(xs), Float(ys));
+            for k in 0..N {
+                let (x, y) = (xs[k], ys[k]);
+                let (one_x, one_y) = (Float([x]), Float([y]));
+                let lanes: [(&str, f32, f32, f32); 12] = [
+                    ("+", (a + b).0[k], (one_x + one_y).0[0], x + y),
+                    ("-", (a - b).0[k], (one_x - one_y).0[0], x - y),
+                    ("*", (a * b).0[k], (one_x * one_y).0[0], x * y),
+                    ("/", (a / b).0[k], (one_x / one_y).0[0], x / y),
+                    ("neg", (-a).0[k], (-one_x).0[0], -x),
+                    ("sqrt", a.sqrt().0[k], one_x.sqrt().0[0], x.sqrt()),
+                    ("abs", a.abs().0[k], one_x.abs().0[0], x.abs()),
+                    ("copysign", a.copysign(b).0[k], one_x.copysign(one_y).0[0], x.copysign(y)),
+                    ("min", a.min(b).0[k], one_x.min(one_y).0[0], if x == y { x } else { x.min(y) }),
+                    ("max", a.max(b).0[k], one_x.max(one_y).0[0], if x == y { x } else { x.max(y) }),
+                    ("clamp", a.clamp(-1.0, 2.0).0[k], one_x.clamp(-1.0, 2.0).0[0], x.clamp(-1.0, 2.0)),
+                    (
+                        "select",
+                        a.lt(b).select(a, b).0[k],
+                        one_x.lt(one_y).select(one_x, one_y).0[0],
+                        if x < y { x } else { y },
+                    ),
+                ];
+                for (name, lane, one, scalar) in lanes {
+                    assert!(
+                        same(lane, one) && same(lane, scalar),
+                        "{name}({x:e}, {y:e}) in N = {N}: lane {lane:e}, one-lane {one:e}, f32 {scalar:e}"
+                    );
+                }
+                let tests: [(&str, Mask<N>, bool); 8] = [
+                    ("<", a.lt(b), x < y),
+                    ("<=", a.le(b), x <= y),
+                    (">", a.gt(b), x > y),
+                    (">=", a.ge(b), x >= y),
+                    ("==", a.eq(b), x == y),
+                    ("is_finite", a.is_finite(), x.is_finite()),
+                    ("is_nan", a.is_nan(), x.is_nan()),
+                    ("is_sign_negative", a.is_sign_negative(), x.is_sign_negative()),
+                ];
+                for (name, mask, want) in tests {
+                    assert_eq!(mask.lane(k), want, "{name}({x:e}, {y:e}) in N = {N}");
+                    assert!(mask.0[k] == 0 || mask.0[k] == HOLDS, "{name}: lane {k} is neither all ones nor zeros");
+                }
+                let (m, n) = (a.lt(b), a.is_nan());
+                assert_eq!((m & n).lane(k), (x < y) && x.is_nan());
+                assert_eq!((m | n).lane(k), (x < y) || x.is_nan());
+                assert_eq!((!m).lane(k), !m.lane(k));
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_are_the_scalar_operations() {
+        // 8 and 4: SSE registers only; 7: three lanes through the scalar remainder; 1: no SSE.
+        check::<8>();
+        check::<7>();
+        check::<4>();
+        check::<1>();
     }
 }
