@@ -240,33 +240,45 @@ impl Stats {
     /// The statistics of the parent of two sibling blocks of `2^log2` samples each (`self` left).
     #[inline]
     pub fn join(&self, r: &Stats, log2: u32, batch_log2: u32) -> Stats {
-        let (a, b) = (&self.0, &r.0);
-        let mut s = [0.0; NSTAT];
-        for i in 0..3 {
-            s[SUM + i] = a[SUM + i] + b[SUM + i];
-            s[NORMAL + i] = a[NORMAL + i] + b[NORMAL + i];
-        }
-        s[HITS] = a[HITS] + b[HITS];
-        for i in REP..NSTAT {
-            s[i] = a[i] + b[i];
-        }
+        let mut parent = *self;
+        parent.join_right(r, log2, batch_log2);
+        parent
+    }
+
+    /// Makes `self`, the left one of two sibling blocks of `2^log2` samples each, their parent
+    /// ([`Stats::join`] in place: every field is written, by the same operations on the same
+    /// operands; the M2 terms read the two sums before they are added).
+    #[inline(always)]
+    pub fn join_right(&mut self, r: &Stats, log2: u32, batch_log2: u32) {
+        let (a, b) = (&mut self.0, &r.0);
         if log2 + 1 == batch_log2 {
             // The parent is one batch.
             for i in 0..3 {
-                s[MAXB + i] = s[SUM + i];
-                s[MINB + i] = s[SUM + i];
+                let sum = a[SUM + i] + b[SUM + i];
+                (a[M2 + i], a[MAXB + i], a[MINB + i]) = (0.0, sum, sum);
             }
         } else if log2 >= batch_log2 {
             // Chan et al.: M2 = M2_l + M2_r + (S_l − S_r)² / (2 k), k batches in each half.
             let k = (1u64 << (log2 - batch_log2)) as f64;
             for i in 0..3 {
                 let d = a[SUM + i] - b[SUM + i];
-                s[M2 + i] = a[M2 + i] + b[M2 + i] + d * d / (2.0 * k);
-                s[MAXB + i] = a[MAXB + i].max(b[MAXB + i]);
-                s[MINB + i] = a[MINB + i].min(b[MINB + i]);
+                a[M2 + i] = a[M2 + i] + b[M2 + i] + d * d / (2.0 * k);
+                a[MAXB + i] = a[MAXB + i].max(b[MAXB + i]);
+                a[MINB + i] = a[MINB + i].min(b[MINB + i]);
+            }
+        } else {
+            for i in 0..3 {
+                (a[M2 + i], a[MAXB + i], a[MINB + i]) = (0.0, 0.0, 0.0);
             }
         }
-        Stats(s)
+        for i in 0..3 {
+            a[SUM + i] += b[SUM + i];
+            a[NORMAL + i] += b[NORMAL + i];
+        }
+        a[HITS] += b[HITS];
+        for i in REP..NSTAT {
+            a[i] += b[i];
+        }
     }
 }
 
@@ -424,10 +436,10 @@ impl PixelAccumulator {
     /// Adds the next sample. (Always inlined: see `render::render_tile`'s instruction-set versions.)
     #[inline(always)]
     pub fn add(&mut self, radiance: Rgb, normal: Vec3, hit: bool) {
-        let s = Stats::sample(radiance, normal, hit, self.batch_log2, self.replicate_of(self.next));
+        self.stats[self.len] = Stats::sample(radiance, normal, hit, self.batch_log2, self.replicate_of(self.next));
         let block = Block { start: self.next, log2: 0 };
         self.next += 1;
-        self.push(block, s);
+        self.push_written(block);
     }
 
     /// The replicate of sample `i`, if replicate sums are kept.
@@ -450,28 +462,27 @@ impl PixelAccumulator {
             return;
         }
         // The octet is aligned and 8 divides REPLICATES: its replicates are rep, rep + 1, …, rep + 7.
-        let octet = octet_stats(radiance, normal, hit, self.batch_log2, self.replicate_of(self.next));
+        let replicate = self.replicate_of(self.next);
+        octet_stats(radiance, normal, hit, self.batch_log2, replicate, &mut self.stats[self.len]);
         let block = Block { start: self.next, log2: 3 };
         self.next += 8;
-        self.push(block, octet);
+        self.push_written(block);
     }
 
-    /// Pushes the statistics `s` of the block just completed, joining it with its left sibling
-    /// on the stack while there is one (a binary counter's carries).
+    /// Pushes `block`, whose statistics the caller has written into the stack's next slot
+    /// (`stats[len]`), joining it into its left sibling on the stack while there is one (a binary
+    /// counter's carries; [`Stats::join_right`] in place, no copies of the statistics).
     #[inline(always)]
-    fn push(&mut self, mut block: Block, mut s: Stats) {
-        while let Some(top) = self.len.checked_sub(1) {
-            let left = self.blocks[top];
-            if !left.is_left_sibling_of(&block) {
-                break;
-            }
-            s = self.stats[top].join(&s, block.log2, self.batch_log2);
-            block = Block { start: left.start, log2: block.log2 + 1 };
-            self.len = top;
+    fn push_written(&mut self, mut block: Block) {
+        let mut top = self.len;
+        while top > 0 && self.blocks[top - 1].is_left_sibling_of(&block) {
+            let (left, right) = self.stats.split_at_mut(top);
+            left[top - 1].join_right(&right[0], block.log2, self.batch_log2);
+            block = Block { start: self.blocks[top - 1].start, log2: block.log2 + 1 };
+            top -= 1;
         }
-        self.blocks[self.len] = block;
-        self.stats[self.len] = s;
-        self.len += 1;
+        self.blocks[top] = block;
+        self.len = top + 1;
     }
 
     /// The canonical blocks of the samples added so far, left to right.
@@ -481,7 +492,8 @@ impl PixelAccumulator {
 }
 
 /// The statistics of an aligned block of 8 samples (`radiance[k]`, `normal[k]`, `hit[k]` of
-/// samples `8 j + k`; `replicate`: that of sample 8 j, or `None`), computed in registers: the same
+/// samples `8 j + k`; `replicate`: that of sample 8 j, or `None`), computed in registers and
+/// written into every field of `out` (the accumulator's stack slot: no copy): the same
 /// bits as the tree of [`Stats::sample`] and [`Stats::join`] over the block (4 pairs, 2 quadruples,
 /// the octet), because it makes the same operations on the same operands in the same order, only
 /// on the fields a block of 8 can make non-zero. The replicate sums of the block are its samples
@@ -496,9 +508,17 @@ pub fn octet_stats(
     hit: &[bool; 8],
     batch_log2: u32,
     replicate: Option<usize>,
-) -> Stats {
+    out: &mut Stats,
+) {
     let bl = batch_log2;
-    let mut s = [0.0; NSTAT];
+    let s = &mut out.0;
+    // The replicate sums of the 8 replicates the octet does not hold (all 16 without replicates):
+    // zeros, written a group of 8 replicates at a time (a fixed size: stores, no call to memset).
+    for g in 0..REPLICATES as usize / 8 {
+        if replicate != Some(8 * g) {
+            s[REP + 24 * g..REP + 24 * (g + 1)].copy_from_slice(&[0.0; 24]);
+        }
+    }
     // Per channel: a sum, M2 and the extreme batch sums of each node of the tree, level by level,
     // node j of a level from nodes 2 j and 2 j + 1 of the level below (in place: j ≤ 2 j).
     for c in 0..3 {
@@ -548,7 +568,6 @@ pub fn octet_stats(
         hits[k] = if hit[k] { 1.0 } else { 0.0 };
     }
     s[HITS] = pairwise_8(hits);
-    Stats(s)
 }
 
 /// ((x0 + x1) + (x2 + x3)) + ((x4 + x5) + (x6 + x7)): the order of the film's tree.

@@ -19,7 +19,7 @@ use crate::brdf::{BrdfSamples, Bxdf, Outgoing};
 use crate::camera::PrimarySample;
 use crate::geometry::shading::adapt_shading_normal;
 use crate::geometry::{Hit, Ray};
-use crate::light::DistantLight;
+use crate::light::{DistantLight, LightSamples};
 use crate::math::{Rgb, Vec2, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
@@ -359,19 +359,9 @@ impl<'a> PathTracer<'a> {
             let located = light.locate_each(wi_world, sampled);
 
             // Next-event estimation: one light sample per lane, the BRDF's value for it.
-            let light_samples = light.sample_each([ux, uy], planned & !delta_brdf);
-            let mut ls_wi = Float3::splat(Vec3::Z);
-            let (mut ls_value, mut ls_pdf) = (Float3::<LANES>::ZERO, Float::<LANES>::ZERO);
-            let (mut drawn, mut ls_delta) = (Mask::<LANES>::NONE, Mask::<LANES>::NONE);
-            for k in 0..LANES {
-                if let (true, false, Some(ls)) = (planned.lane(k), delta_brdf.lane(k), light_samples[k]) {
-                    ls_wi.set_lane(k, ls.wi);
-                    ls_value.set_lane(k, ls.value);
-                    ls_pdf.0[k] = ls.pdf;
-                    drawn.set(k, true);
-                    ls_delta.set(k, ls.delta);
-                }
-            }
+            // Lanes without a sample hold +z, 0, 0 and no delta (`LightSamples`).
+            let LightSamples { wi: ls_wi, value: ls_value, pdf: ls_pdf, valid: drawn, delta: ls_delta } =
+                light.sample_each([ux, uy], planned & !delta_brdf);
             let wi_local = frame.to_local(ls_wi);
             let f = match shared {
                 Some(object) => scene.brdfs[object as usize].eval_at(&outgoing, wi_local),

@@ -19,7 +19,7 @@
 //!   the accepted directions is still p(ω), which integrates to slightly less than 1.
 
 use super::latlong_grid::LatLongGrid;
-use super::{DistantLight, LightSample, Located};
+use super::{DistantLight, LightSample, LightSamples, Located};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
 use crate::simd::{Float, Float3, Mask};
@@ -291,42 +291,48 @@ impl DistantLight for Envmap {
     }
 
     /// Lat-long: the grid's warp and in-cell tests, the rotation to the world and the normalize
-    /// over the lanes, then each lane's texel or, near a pixel edge, its lookup. Angular: lane by
-    /// lane.
+    /// over the lanes, then each lane's texel or, near a pixel edge, its lookup, and the division
+    /// by the density over the lanes. Angular: lane by lane.
     #[inline(always)]
-    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
-        let mut out = [None; N];
+    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> LightSamples<N> {
+        let mut out = LightSamples::NONE;
         let EnvSampler::LatLong(grid) = &self.sampler else {
-            for (k, o) in out.iter_mut().enumerate() {
-                if want.lane(k) {
-                    *o = self.sample_angular(Vec2::new(u[0].0[k], u[1].0[k]));
+            for k in 0..N {
+                if want.lane(k)
+                    && let Some(s) = self.sample_angular(Vec2::new(u[0].0[k], u[1].0[k]))
+                {
+                    out.set_lane(k, &s);
                 }
             }
             return out;
         };
         let Some((d, cell)) = grid.sample_directions(u, want) else { return out };
         let wi = mat3_mul(&self.rotation, d).normalize();
-        for k in 0..N {
+        let (mut value, mut pdf) = (Float3::<N>::ZERO, Float::<N>::ZERO);
+        for (k, &cell) in cell.iter().enumerate() {
             if !want.lane(k) {
                 continue;
             }
-            let wi = wi.lane(k);
             // Where the direction is provably in the pixel it was drawn from as `eval_pdf(wi)`
             // would find it (`sample_directions`), that pixel's texel is the one the lookup would
             // read (same bits, without its two arctangents; the texel is in the line the search
             // just read). Near a pixel edge the lookup from wi, so that (pdf, value) agree exactly
             // with pdf(wi) and eval(wi), also where rounding puts wi across the edge.
-            let (value, pdf) = match cell[k] {
+            let (v, p) = match cell {
                 Some(index) => {
                     let t = self.texel(index);
                     (Rgb::from(t.radiance), t.pdf)
                 }
-                None => self.eval_pdf(wi),
+                None => self.eval_pdf(wi.lane(k)),
             };
-            if pdf > 0.0 && pdf.is_finite() {
-                out[k] = Some(LightSample { wi, value: value / pdf, pdf, delta: false });
-            }
+            value.set_lane(k, v);
+            pdf.0[k] = p;
         }
+        let valid = want & pdf.gt(Float::ZERO) & pdf.is_finite();
+        out.wi = Float3::select(valid, wi, out.wi);
+        out.value = Float3::select(valid, value / pdf, Float3::ZERO);
+        out.pdf = valid.select(pdf, Float::ZERO);
+        out.valid = valid;
         out
     }
 
@@ -395,7 +401,7 @@ impl DistantLight for Envmap {
 
     #[inline(always)]
     fn sample(&self, u: Vec2) -> Option<LightSample> {
-        self.sample_each([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL)[0]
+        self.sample_each([Float::<1>::splat(u.x), Float::splat(u.y)], Mask::ALL).lane(0)
     }
 
     #[inline]
@@ -542,11 +548,11 @@ mod tests {
                     let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
                     let want: [bool; 8] = std::array::from_fn(|k| (batch + k) % 5 != 0);
                     let lanes = e.sample_each([Float(u.map(|u| u.x)), Float(u.map(|u| u.y))], Mask::from_bools(want));
-                    let dirs: [Vec3; 8] = std::array::from_fn(|k| lanes[k].map_or(Vec3::Z, |s| s.wi));
+                    let dirs: [Vec3; 8] = std::array::from_fn(|k| lanes.lane(k).map_or(Vec3::Z, |s| s.wi));
                     let located = e.locate_each(Float3::from_vecs(&dirs), Mask::from_bools(want));
                     for k in 0..8 {
                         if !want[k] {
-                            assert!(lanes[k].is_none());
+                            assert!(lanes.lane(k).is_none());
                             continue;
                         }
                         let one = e.sample(u[k]);
@@ -559,7 +565,7 @@ mod tests {
                                 )
                             })
                         };
-                        assert_eq!(bits(lanes[k]), bits(one), "{mapping:?} u = {:?}", u[k]);
+                        assert_eq!(bits(lanes.lane(k)), bits(one), "{mapping:?} u = {:?}", u[k]);
                         let at = e.locate(dirs[k]);
                         assert_eq!((located[k].index, located[k].theta.to_bits()), (at.index, at.theta.to_bits()));
                         if let EnvSampler::LatLong(grid) = &e.sampler {

@@ -11,7 +11,7 @@
 //! bounded at the poles (unlike a θ-linear warp, whose density grows as 1/sinθ there).
 
 use crate::math::{PI, Vec2, Vec3};
-use crate::sampling::distribution::{PiecewiseConstant2D, index_below, len_f32};
+use crate::sampling::distribution::{PiecewiseConstant2D, len_f32};
 use crate::simd::{Float, Float3, Mask};
 
 /// Margins of [`LatLongGrid::sample_directions`], each a few times the error it covers. In z:
@@ -104,10 +104,10 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         let phi = phi.lt(Float::ZERO).select(phi + 2.0 * PI, phi);
         let fr = theta * (1.0 / PI) * len_f32(self.height);
         let fc = phi * (0.5 / PI) * len_f32(self.width);
+        let (ir, ic) = (fr.index_below(self.height), fc.index_below(self.width));
         let (mut r, mut c) = ([0usize; N], [0usize; N]);
         for k in 0..N {
-            r[k] = index_below(fr.0[k], self.height);
-            c[k] = index_below(fc.0[k], self.width);
+            (r[k], c[k]) = (ir[k] as usize, ic[k] as usize);
         }
         (r, c)
     }
@@ -199,11 +199,12 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         pv: Float<N>,
     ) -> (Float3<N>, [usize; N], Float<N>, Float<N>, Float<N>) {
         let fv = pv * len_f32(self.height);
-        let (mut r, mut fr, mut ir, mut ir1) = ([0usize; N], Float::<N>::ZERO, [0u32; N], [0u32; N]);
+        let ir = fv.index_below(self.height);
+        let (mut r, mut fr, mut ir1) = ([0usize; N], Float::<N>::ZERO, [0u32; N]);
         for k in 0..N {
-            r[k] = index_below(fv.0[k], self.height);
-            fr.0[k] = len_f32(r[k]);
-            (ir[k], ir1[k]) = (r[k] as u32, r[k] as u32 + 1);
+            r[k] = ir[k] as usize;
+            fr.0[k] = ir[k] as f32;
+            ir1[k] = ir[k] + 1;
         }
         let t = (fv - fr).clamp(0.0, 1.0);
         let (z0, z1) = (Float::gather(&self.z_edge, ir), Float::gather(&self.z_edge, ir1));

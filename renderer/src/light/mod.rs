@@ -31,6 +31,55 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+/// [`LightSample`]s of `N` lanes in structure of arrays, from [`DistantLight::sample_each`]. A
+/// lane without a sample (not wanted, or the light drew none) holds `valid` false, `wi` = +z,
+/// `value` 0, `pdf` 0 and `delta` false, so that the integrator's stages can run over every lane.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSamples<const N: usize> {
+    /// World directions toward the light ([`LightSample::wi`]).
+    pub wi: Float3<N>,
+    /// L(ω_i)/pdf, or a delta light's irradiance ([`LightSample::value`]).
+    pub value: Float3<N>,
+    /// Solid-angle densities ([`LightSample::pdf`]).
+    pub pdf: Float<N>,
+    /// The lanes that hold a sample.
+    pub valid: Mask<N>,
+    /// The lanes whose sample is a delta light's.
+    pub delta: Mask<N>,
+}
+
+impl<const N: usize> LightSamples<N> {
+    /// No lane holds a sample.
+    pub const NONE: Self = LightSamples {
+        wi: Float3 { x: Float::ZERO, y: Float::ZERO, z: Float::ONE },
+        value: Float3::ZERO,
+        pdf: Float::ZERO,
+        valid: Mask::NONE,
+        delta: Mask::NONE,
+    };
+
+    /// Writes `s` into lane `k` (a lane with a sample).
+    #[inline(always)]
+    pub fn set_lane(&mut self, k: usize, s: &LightSample) {
+        self.wi.set_lane(k, s.wi);
+        self.value.set_lane(k, s.value);
+        self.pdf.0[k] = s.pdf;
+        self.valid.set(k, true);
+        self.delta.set(k, s.delta);
+    }
+
+    /// Lane `k`'s sample, if it holds one.
+    #[inline]
+    pub fn lane(&self, k: usize) -> Option<LightSample> {
+        self.valid.lane(k).then(|| LightSample {
+            wi: self.wi.lane(k),
+            value: self.value.lane(k),
+            pdf: self.pdf.0[k],
+            delta: self.delta.lane(k),
+        })
+    }
+}
+
 /// A direction and where a light keeps its data for it, from [`DistantLight::locate`].
 #[derive(Clone, Copy, Debug)]
 pub struct Located {
@@ -66,15 +115,17 @@ pub trait DistantLight {
     fn locate(&self, wi: Vec3) -> Located {
         Located { wi, index: 0, theta: 0.0 }
     }
-    /// [`DistantLight::sample`] of each lane `k` with `want[k]` (the same results; the other lanes'
-    /// are `None`). An environment map writes its sample once, over the lanes (its `sample` is the
-    /// one-lane call); the other lights run their `sample` lane by lane.
+    /// [`DistantLight::sample`] of each lane `k` with `want[k]`, in lanes (the same bits; the other
+    /// lanes hold no sample). An environment map writes its sample once, over the lanes (its
+    /// `sample` is the one-lane call); the other lights run their `sample` lane by lane.
     #[inline(always)]
-    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
-        let mut out = [None; N];
-        for (k, o) in out.iter_mut().enumerate() {
-            if want.lane(k) {
-                *o = self.sample(Vec2::new(u[0].0[k], u[1].0[k]));
+    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> LightSamples<N> {
+        let mut out = LightSamples::NONE;
+        for k in 0..N {
+            if want.lane(k)
+                && let Some(s) = self.sample(Vec2::new(u[0].0[k], u[1].0[k]))
+            {
+                out.set_lane(k, &s);
             }
         }
         out
@@ -172,7 +223,7 @@ impl DistantLight for Light {
         dispatch!(self, l => l.locate_each(wi, want))
     }
     #[inline(always)]
-    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> [Option<LightSample>; N] {
+    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> LightSamples<N> {
         dispatch!(self, l => l.sample_each(u, want))
     }
     #[inline(always)]

@@ -340,15 +340,11 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         let nm = marginal.len() - 1;
         // The marginal (rows): `sample_entries` split at its walk.
         let uy = u[1].clamp(0.0, ONE_MINUS_EPSILON);
-        let scaled = uy * len_f32(nm);
-        let mut guide = [0usize; N];
-        for (g, &x) in guide.iter_mut().zip(&scaled.0) {
-            *g = index_below(x, nm);
-        }
+        let guide = (uy * len_f32(nm)).index_below(nm);
         let (mut iv, mut c0, mut c1) = ([0usize; N], Float::<N>::ZERO, Float::<N>::ZERO);
         for k in 0..N {
             if want.lane(k) {
-                let mut i = marginal[guide[k]].guide as usize;
+                let mut i = marginal[guide[k] as usize].guide as usize;
                 while i + 1 < nm && marginal[i + 1].cdf <= uy.0[k] {
                     i += 1;
                 }
@@ -358,17 +354,14 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         let width = c1 - c0;
         let dv = width.gt(Float::ZERO).select(((uy - c0) / width).clamp(0.0, ONE_MINUS_EPSILON), Float::ZERO);
         let ux = u[0].clamp(0.0, ONE_MINUS_EPSILON);
-        let scaled = ux * len_f32(self.nu);
-        for (g, &x) in guide.iter_mut().zip(&scaled.0) {
-            *g = index_below(x, self.nu);
-        }
+        let guide = (ux * len_f32(self.nu)).index_below(self.nu);
         // The row's cell the same way (the entries of a row hold cdf[i + 1] in entry i).
         let mut iu = [0usize; N];
         for k in 0..N {
             if want.lane(k) {
                 let row = self.row(iv[k]);
                 let n = row.len();
-                let mut i = row[guide[k]].guide as usize;
+                let mut i = row[guide[k] as usize].guide as usize;
                 while i + 1 < n && row[i].cdf_next <= ux.0[k] {
                     i += 1;
                 }

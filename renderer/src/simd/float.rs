@@ -202,6 +202,28 @@ impl<const N: usize> Float<N> {
         Float(quads!([hi; N], v, 0.0f32, _mm_min_ps, |h, v| if h < v { h } else { v }))
     }
 
+    /// Each lane's `⌊x⌋` as an index below `n` (0 < n < 2³²): the lanes of
+    /// `sampling::distribution::index_below`, `(x as u32).min(n − 1)` (0 for NaN and x < 0).
+    #[inline(always)]
+    pub fn index_below(self, n: usize) -> [u32; N] {
+        debug_assert!(n > 0 && n <= u32::MAX as usize);
+        let last = (n - 1) as u32;
+        if last < 1 << 24 {
+            // `x > 0 ? x : 0` (NaN and −0 give 0), then `v < last ? v : last` (`last` is exact in
+            // f32 below 2²⁴), then truncation: ⌊·⌋ is monotone and `last` an integer, so this is
+            // min(⌊x⌋, last) without the saturating conversion's tests.
+            let v = quads!(self.0, [0.0; N], 0.0f32, _mm_max_ps, |x, z| if x > z { x } else { z });
+            let v = quads!(v, [last as f32; N], 0.0f32, _mm_min_ps, |v, l| if v < l { v } else { l });
+            quads!(v, 0u32, _mm_cvttps_epi32, |v| v as u32)
+        } else {
+            let mut out = [0u32; N];
+            for k in 0..N {
+                out[k] = (self.0[k] as u32).min(last);
+            }
+            out
+        }
+    }
+
     /// Each lane with the sign of `sign`'s lane.
     #[inline(always)]
     pub fn copysign(self, sign: Self) -> Self {
@@ -492,6 +514,14 @@ mod tests {
                 for (name, mask, want) in tests {
                     assert_eq!(mask.lane(k), want, "{name}({x:e}, {y:e}) in N = {N}");
                     assert!(mask.0[k] == 0 || mask.0[k] == HOLDS, "{name}: lane {k} is neither all ones nor zeros");
+                }
+                for n in [1usize, 2, 7, 1 << 24, (1 << 24) + 1, u32::MAX as usize] {
+                    let want = ((x as u32) as usize).min(n - 1) as u32;
+                    assert_eq!(
+                        (a.index_below(n)[k], one_x.index_below(n)[0]),
+                        (want, want),
+                        "index_below({x:e}, {n}) in N = {N}"
+                    );
                 }
                 let (m, n) = (a.lt(b), a.is_sign_negative());
                 assert_eq!((m & n).lane(k), (x < y) && x.is_sign_negative());
