@@ -15,6 +15,7 @@ pub use perspective::Perspective;
 
 use crate::geometry::Ray;
 use crate::math::{Vec2, Vec3};
+use crate::simd::{Float, Float3};
 
 /// What a camera produces for one pixel sample.
 #[derive(Clone, Copy, Debug)]
@@ -43,6 +44,23 @@ impl Camera {
             Camera::Orthographic(c) => PrimarySample::Ray(c.generate(row, col, u)),
             Camera::Perspective(c) => PrimarySample::Ray(c.generate(row, col, u)),
             Camera::NormalProbe(c) => c.generate(row, col, u),
+        }
+    }
+
+    /// The rays of `N` samples of pixel (row, col) at film offsets `u` (lane k: the ray of
+    /// [`Camera::generate`] at `(u[0][k], u[1][k])`, the same bits), as origins and directions; None
+    /// for the normal-probe camera, which makes shading points instead of rays.
+    #[inline(always)]
+    pub fn generate_rays<const N: usize>(
+        &self,
+        row: u32,
+        col: u32,
+        u: [Float<N>; 2],
+    ) -> Option<(Float3<N>, Float3<N>)> {
+        match self {
+            Camera::Orthographic(c) => Some(c.generate_rays(row, col, u)),
+            Camera::Perspective(c) => Some(c.generate_rays(row, col, u)),
+            Camera::NormalProbe(_) => None,
         }
     }
 

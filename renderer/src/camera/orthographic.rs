@@ -6,6 +6,7 @@
 use super::look_at_basis;
 use crate::geometry::Ray;
 use crate::math::{Vec2, Vec3};
+use crate::simd::{Float, Float3};
 
 #[derive(Clone, Debug)]
 pub struct Orthographic {
@@ -36,9 +37,23 @@ impl Orthographic {
         (x, y)
     }
 
+    /// The ray of film offset `u` inside pixel (row, col): the one-lane [`Orthographic::generate_rays`].
     #[inline]
     pub fn generate(&self, row: u32, col: u32, u: Vec2) -> Ray {
-        let (x, y) = self.film_xy(row, col, u);
-        Ray::new(self.from + x * self.right + y * self.up, self.forward)
+        let (o, d) = self.generate_rays(row, col, [Float::<1>::splat(u.x), Float::splat(u.y)]);
+        Ray::new(o.lane(0), d.lane(0))
+    }
+
+    /// Origins and directions of the rays at film offsets `u` of `N` samples of pixel (row, col):
+    /// `film_xy`'s point, then from + x·right + y·up' (the same operations in the same order as on
+    /// glam vectors, lane by lane).
+    #[inline(always)]
+    pub fn generate_rays<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float3<N>, Float3<N>) {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let x = Float::splat(self.extent) * ((Float::splat(2.0) * (Float::splat(col as f32) + u[0])) / w - 1.0);
+        let y =
+            Float::splat(self.extent * (h / w)) * (1.0 - (Float::splat(2.0) * (Float::splat(row as f32) + u[1])) / h);
+        let origin = Float3::splat(self.from) + Float3::splat(self.right) * x + Float3::splat(self.up) * y;
+        (origin, Float3::splat(self.forward))
     }
 }

@@ -4,6 +4,7 @@
 use super::look_at_basis;
 use crate::geometry::Ray;
 use crate::math::{Vec2, Vec3};
+use crate::simd::{Float, Float3};
 
 #[derive(Clone, Debug)]
 pub struct Perspective {
@@ -26,12 +27,24 @@ impl Perspective {
         Ok(Perspective { from, forward, right, up, tan_half: (0.5 * fov_deg.to_radians()).tan(), width, height })
     }
 
+    /// The ray of film offset `u` inside pixel (row, col): the one-lane [`Perspective::generate_rays`].
     #[inline]
     pub fn generate(&self, row: u32, col: u32, u: Vec2) -> Ray {
+        let (o, d) = self.generate_rays(row, col, [Float::<1>::splat(u.x), Float::splat(u.y)]);
+        Ray::new(o.lane(0), d.lane(0))
+    }
+
+    /// Origins and directions of the rays at film offsets `u` of `N` samples of pixel (row, col):
+    /// normalize(forward + x·right + y·up') through the image-plane point (x, y) at unit distance.
+    #[inline(always)]
+    pub fn generate_rays<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float3<N>, Float3<N>) {
         let (w, h) = (self.width as f32, self.height as f32);
         let aspect = w / h;
-        let x = self.tan_half * aspect * (2.0 * (col as f32 + u.x) / w - 1.0);
-        let y = self.tan_half * (1.0 - 2.0 * (row as f32 + u.y) / h);
-        Ray::new(self.from, (self.forward + x * self.right + y * self.up).normalize())
+        let x =
+            Float::splat(self.tan_half * aspect) * ((Float::splat(2.0) * (Float::splat(col as f32) + u[0])) / w - 1.0);
+        let y = Float::splat(self.tan_half) * (1.0 - (Float::splat(2.0) * (Float::splat(row as f32) + u[1])) / h);
+        let dir =
+            (Float3::splat(self.forward) + Float3::splat(self.right) * x + Float3::splat(self.up) * y).normalize();
+        (Float3::splat(self.from), dir)
     }
 }

@@ -227,31 +227,34 @@ impl<'a> PathTracer<'a> {
         // baseline even when called from the x86-64-v3 copy of the tile loop, where LLVM may leave
         // it out of line.)
         let [cx, cy] = draws.draw_2d(0);
+        let u = if jitter { [cx, cy] } else { [Float::splat(0.5); 2] };
         let mut camera = LaneRays::new();
-        for k in 0..n {
-            let u = if jitter { Vec2::new(cx.0[k], cy.0[k]) } else { Vec2::splat(0.5) };
-            match scene.camera.generate(row, col, u) {
+        let (mut origins, mut dirs) = (Float3::ZERO, Float3::splat(Vec3::Z));
+        if let Some((o, d)) = scene.camera.generate_rays(row, col, u) {
+            // A ray camera: every lane's ray at once (lanes past `n` are not wanted: every stage
+            // below masks them out).
+            (origins, dirs) = (o, d);
+            for k in 0..n {
+                camera.want[k] = true;
+                out[k].rays += 1;
+            }
+        } else {
+            for k in 0..n {
                 // The normal-probe camera hands over the first vertex itself.
-                PrimarySample::Surface { p, n, wo } => ps.start(k, p, n, n, wo, 0),
-                PrimarySample::Ray(ray) => {
-                    camera.rays[k] = ray;
-                    camera.want[k] = true;
-                    out[k].rays += 1;
+                if let PrimarySample::Surface { p, n, wo } =
+                    scene.camera.generate(row, col, Vec2::new(u[0].0[k], u[1].0[k]))
+                {
+                    ps.start(k, p, n, n, wo, 0);
                 }
             }
         }
         // A pixel's camera rays run nearly parallel: one packet walk of a BVH for all of them.
-        let mut dirs = Float3::splat(Vec3::Z);
-        for k in 0..LANES {
-            dirs.set_lane(k, camera.rays[k].dir);
-        }
         let hits = if self.single_convex {
-            let mut origins = Float3::ZERO;
-            for k in 0..LANES {
-                origins.set_lane(k, camera.rays[k].origin);
-            }
             self.trace_lanes(origins, dirs, Mask::from_bools(camera.want))
         } else {
+            for k in 0..n {
+                camera.rays[k] = Ray::new(origins.lane(k), dirs.lane(k));
+            }
             LaneHits::from_hits(&scene.geometry.intersect_packet(&camera.rays, &camera.want))
         };
         // The light seen by the camera rays that miss (in SIMD lanes for a lat-long map).
