@@ -88,3 +88,44 @@ pub fn look_at_basis(from: Vec3, to: Vec3, up: Vec3) -> Result<(Vec3, Vec3, Vec3
     let right = right.normalize();
     Ok((f, right, right.cross(f)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::TestRng;
+
+    /// The rays of 8 lanes are, bit for bit, the rays of the conventions' formulas (§5) evaluated on
+    /// glam vectors one sample at a time: the orthographic origin from + x·right + y·up' at
+    /// `film_xy`'s point, and the perspective direction normalize(forward + x·right + y·up'), over
+    /// random pixels and film offsets including the pixel's corners.
+    #[test]
+    fn rays_in_lanes_are_the_formulas() {
+        let (from, to, up) = (Vec3::new(4.8, -0.3, 1.4), Vec3::new(0.1, 0.2, -0.1), Vec3::Z);
+        let ortho = Orthographic::new(from, to, up, 1.05, 97, 61).unwrap();
+        let persp = Perspective::new(from, to, up, 38.0, 97, 61).unwrap();
+        let mut rng = TestRng::new(3);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for batch in 0..400 {
+            let (row, col) = ((rng.next_u64() % 61) as u32, (rng.next_u64() % 97) as u32);
+            let u: [Vec2; 8] = std::array::from_fn(|k| match (batch + k) % 9 {
+                0 => Vec2::ZERO,
+                1 => Vec2::splat(0.999_999_94),
+                _ => Vec2::new(rng.next_f32(), rng.next_f32()),
+            });
+            let lanes = [Float(u.map(|u| u.x)), Float(u.map(|u| u.y))];
+            let (o, d) = ortho.generate_rays(row, col, lanes);
+            let (po, pd) = persp.generate_rays(row, col, lanes);
+            for k in 0..8 {
+                let (x, y) = ortho.film_xy(row, col, u[k]);
+                assert_eq!(bits(o.lane(k)), bits(ortho.from + x * ortho.right + y * ortho.up), "orthographic origin");
+                assert_eq!(bits(d.lane(k)), bits(ortho.forward));
+                let (w, h) = (persp.width as f32, persp.height as f32);
+                let x = persp.tan_half * (w / h) * (2.0 * (col as f32 + u[k].x) / w - 1.0);
+                let y = persp.tan_half * (1.0 - 2.0 * (row as f32 + u[k].y) / h);
+                let dir = (persp.forward + x * persp.right + y * persp.up).normalize();
+                assert_eq!(bits(pd.lane(k)), bits(dir), "perspective direction");
+                assert_eq!(bits(po.lane(k)), bits(persp.from));
+            }
+        }
+    }
+}
