@@ -115,13 +115,13 @@ mod tests {
             let lanes = [Float(u.map(|u| u.x)), Float(u.map(|u| u.y))];
             let (o, d) = ortho.generate_rays(row, col, lanes);
             let (po, pd) = persp.generate_rays(row, col, lanes);
-            for k in 0..8 {
-                let (x, y) = ortho.film_xy(row, col, u[k]);
+            for (k, uk) in u.iter().enumerate() {
+                let (x, y) = ortho.film_xy(row, col, *uk);
                 assert_eq!(bits(o.lane(k)), bits(ortho.from + x * ortho.right + y * ortho.up), "orthographic origin");
                 assert_eq!(bits(d.lane(k)), bits(ortho.forward));
                 let (w, h) = (persp.width as f32, persp.height as f32);
-                let x = persp.tan_half * (w / h) * (2.0 * (col as f32 + u[k].x) / w - 1.0);
-                let y = persp.tan_half * (1.0 - 2.0 * (row as f32 + u[k].y) / h);
+                let x = persp.tan_half * (w / h) * (2.0 * (col as f32 + uk.x) / w - 1.0);
+                let y = persp.tan_half * (1.0 - 2.0 * (row as f32 + uk.y) / h);
                 let dir = (persp.forward + x * persp.right + y * persp.up).normalize();
                 assert_eq!(bits(pd.lane(k)), bits(dir), "perspective direction");
                 assert_eq!(bits(po.lane(k)), bits(persp.from));
