@@ -95,8 +95,8 @@ mod tests {
     use crate::sampling::chi2::TestRng;
 
     /// The rays of 8 lanes are, bit for bit, the rays of the conventions' formulas (§5) evaluated on
-    /// glam vectors one sample at a time: the orthographic origin from + x·right + y·up' at
-    /// `film_xy`'s point, and the perspective direction normalize(forward + x·right + y·up'), over
+    /// glam vectors one sample at a time: the orthographic origin from + x·right + y·up' at the
+    /// film point (x, y), and the perspective direction normalize(forward + x·right + y·up'), over
     /// random pixels and film offsets including the pixel's corners.
     #[test]
     fn rays_in_lanes_are_the_formulas() {
@@ -116,7 +116,9 @@ mod tests {
             let (o, d) = ortho.generate_rays(row, col, lanes);
             let (po, pd) = persp.generate_rays(row, col, lanes);
             for (k, uk) in u.iter().enumerate() {
-                let (x, y) = ortho.film_xy(row, col, *uk);
+                let (w, h) = (ortho.width as f32, ortho.height as f32);
+                let x = ortho.extent * (2.0 * (col as f32 + uk.x) / w - 1.0);
+                let y = ortho.extent * (h / w) * (1.0 - 2.0 * (row as f32 + uk.y) / h);
                 assert_eq!(bits(o.lane(k)), bits(ortho.from + x * ortho.right + y * ortho.up), "orthographic origin");
                 assert_eq!(bits(d.lane(k)), bits(ortho.forward));
                 let (w, h) = (persp.width as f32, persp.height as f32);

@@ -28,12 +28,13 @@ impl Orthographic {
         Ok(Orthographic { from, forward, right, up, extent, width, height })
     }
 
-    /// Film coordinates (x, y) of a point `u` inside pixel (row, col).
-    #[inline]
-    pub fn film_xy(&self, row: u32, col: u32, u: Vec2) -> (f32, f32) {
+    /// Film coordinates (x, y) of the points `u` inside pixel (row, col), lane by lane.
+    #[inline(always)]
+    pub fn film_xy<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float<N>, Float<N>) {
         let (w, h) = (self.width as f32, self.height as f32);
-        let x = self.extent * (2.0 * (col as f32 + u.x) / w - 1.0);
-        let y = self.extent * (h / w) * (1.0 - 2.0 * (row as f32 + u.y) / h);
+        let x = Float::splat(self.extent) * ((Float::splat(2.0) * (Float::splat(col as f32) + u[0])) / w - 1.0);
+        let y =
+            Float::splat(self.extent * (h / w)) * (1.0 - (Float::splat(2.0) * (Float::splat(row as f32) + u[1])) / h);
         (x, y)
     }
 
@@ -49,10 +50,7 @@ impl Orthographic {
     /// glam vectors, lane by lane).
     #[inline(always)]
     pub fn generate_rays<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float3<N>, Float3<N>) {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let x = Float::splat(self.extent) * ((Float::splat(2.0) * (Float::splat(col as f32) + u[0])) / w - 1.0);
-        let y =
-            Float::splat(self.extent * (h / w)) * (1.0 - (Float::splat(2.0) * (Float::splat(row as f32) + u[1])) / h);
+        let (x, y) = self.film_xy(row, col, u);
         let origin = Float3::splat(self.from) + Float3::splat(self.right) * x + Float3::splat(self.up) * y;
         (origin, Float3::splat(self.forward))
     }
