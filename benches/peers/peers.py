@@ -7,7 +7,9 @@ throughputs, the ratio ours ÷ theirs (time; < 1 means reflect is faster) and th
 
 Usage (from the repository root, after `cargo build --release`):
 
-    python3 benches/peers/peers.py [--spp 64] [--runs 3] [--threads 2] [--scenes lambert-grace,...]
+    python3 benches/peers/peers.py [--size 512] [--spp 64] [--runs 3] [--threads 2] [--scenes lambert-grace,...]
+
+The second workload of the comparison is `--size 128 --spp 128` (a small image at more samples per pixel).
 
 Timing protocol: scene loading is not counted. reflect: the render wall time it prints
 (`reflect render` excludes map loading and BVH construction). Mitsuba: one warm-up render (JIT), then
@@ -45,7 +47,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mitsuba_worker  # noqa: E402  (the scene translation, one place for this script and `reflect bench`)
 
 SCENES = mitsuba_worker.SCENES
-SIZE = 512
+SIZE = 512  # default image side; --size changes it
 
 INSTALL = """The peer benchmark needs Mitsuba 3 (and numpy) in Python:
 
@@ -67,10 +69,10 @@ def scene_file(name):
     return p if os.path.exists(p) else os.path.join(ROOT, "benches", "peers", f"bench-{name}.toml")
 
 
-def run_reflect(binary, scene, spp, seed, threads, out):
+def run_reflect(binary, scene, spp, seed, threads, out, size):
     """Renders one bench scene; returns the render wall time (s) that reflect prints and the process's
     peak resident set size (MB of 10⁶ bytes, the peak reflect prints: map, BVH, film and all)."""
-    cmd = [binary, "render", scene_file(scene), "--spp", str(spp),
+    cmd = [binary, "render", scene_file(scene), "--size", f"{size}x{size}", "--spp", str(spp),
            "--seed", str(seed), "--threads", str(threads), "--out", out]
     with tempfile.TemporaryFile("w+") as err:
         p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err, text=True)
@@ -98,12 +100,12 @@ def own_peak_mb(resource):
     return peak if peak is not None else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
 
 
-def mitsuba_peak_mb(name, spp, threads, tmp):
+def mitsuba_peak_mb(name, spp, threads, tmp, size):
     """Peak RSS (MB) of a fresh Python process that loads the scene in Mitsuba and renders it once
     (`--peak-of`): the interpreter, numpy and Dr.Jit's LLVM JIT are in it, as they are in any use of
     Mitsuba from Python. The mesh's PLY is written by the caller first, so generating it is not."""
     cmd = [sys.executable, os.path.abspath(__file__), "--peak-of", name, "--spp", str(spp),
-           "--threads", str(threads), "--tmp", tmp]
+           "--threads", str(threads), "--tmp", tmp, "--size", str(size)]
     p = subprocess.run(cmd, capture_output=True, text=True)
     m = re.search(r"peak_mb ([0-9.]+)", p.stdout)
     if p.returncode != 0 or not m:
@@ -111,10 +113,10 @@ def mitsuba_peak_mb(name, spp, threads, tmp):
     return float(m.group(1))
 
 
-def mitsuba_scene(mi, np, name, spp, tmp):
+def mitsuba_scene(mi, np, name, spp, tmp, size):
     """The Mitsuba scene of a benchmark scene: the translation lives in mitsuba_worker.py (shared with
     `reflect bench`)."""
-    return mitsuba_worker.mitsuba_scene(mi, np, name, SIZE, spp, "independent", data_dir(), tmp)
+    return mitsuba_worker.mitsuba_scene(mi, np, name, size, spp, "independent", data_dir(), tmp)
 
 
 def read_rgb(mi, np, path):
@@ -125,8 +127,9 @@ def read_rgb(mi, np, path):
 
 
 def block_rms(a, b, np, block=16):
-    n = SIZE // block
-    c = (np.arange(SIZE) + 0.5) / SIZE * 2.0 - 1.0
+    size = a.shape[0]
+    n = size // block
+    c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
     x, y = np.meshgrid(1.05 * c, -1.05 * c)
     inside = (x * x + y * y < 0.98 ** 2).reshape(n, block, n, block).all(axis=(1, 3))
     bm = lambda im: im.reshape(n, block, n, block, 3).mean(axis=(1, 3))[inside]
@@ -137,6 +140,7 @@ def block_rms(a, b, np, block=16):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--size", type=int, default=SIZE, help="image side in pixels, a multiple of 16 (default 512)")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--scenes", default=",".join(SCENES))
@@ -144,6 +148,8 @@ def main():
     ap.add_argument("--peak-of", help=argparse.SUPPRESS)  # internal: one Mitsuba render, prints its peak RSS
     ap.add_argument("--tmp", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.size < 16 or args.size % 16:
+        sys.exit(f"error: --size {args.size}: the image side must be a positive multiple of 16 (16-pixel blocks)")
     if not os.path.exists(LLVM) and "DRJIT_LIBLLVM_PATH" not in os.environ:
         print(f"note: {LLVM} not found; set DRJIT_LIBLLVM_PATH to libLLVM (>= 11)", file=sys.stderr)
     os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
@@ -159,23 +165,23 @@ def main():
         sys.exit(f"{args.reflect} not found: run `cargo build --release` first (or pass --reflect)")
     dr.set_thread_count(args.threads)
     if args.peak_of:
-        np.array(mi.render(mitsuba_scene(mi, np, args.peak_of, args.spp, args.tmp), spp=args.spp, seed=0))
+        np.array(mi.render(mitsuba_scene(mi, np, args.peak_of, args.spp, args.tmp, args.size), spp=args.spp, seed=0))
         import resource
         print(f"peak_mb {own_peak_mb(resource):.1f}")
         return 0
     print(f"reflect: {args.reflect}; Mitsuba {mi.__version__} llvm_ad_rgb; {args.threads} threads, "
-          f"512², {args.spp} spp, median of {args.runs}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+          f"{args.size}², {args.spp} spp, median of {args.runs}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.scenes.split(","):
             out = os.path.join(tmp, f"{name}.exr")
-            scene = mitsuba_scene(mi, np, name, args.spp, tmp)
+            scene = mitsuba_scene(mi, np, name, args.spp, tmp, args.size)
             np.array(mi.render(scene, spp=4, seed=99))  # warm-up: JIT compilation
             # Pairs: reflect with seed s, then Mitsuba with seed s, so that a change of the
             # machine's speed during the run (a shared host) falls on both sides of a pair.
             runs, times, imgs = [], [], []
             for s in range(args.runs):
-                runs.append(run_reflect(args.reflect, name, args.spp, s, args.threads, out))
+                runs.append(run_reflect(args.reflect, name, args.spp, s, args.threads, out, args.size))
                 t = time.perf_counter()
                 imgs.append(np.array(mi.render(scene, spp=args.spp, seed=s)))
                 times.append(time.perf_counter() - t)
@@ -184,10 +190,10 @@ def main():
             ours_img = read_rgb(mi, np, out)
             theirs = statistics.median(times)
             ratio = statistics.median(a / b for (a, _), b in zip(runs, times))
-            samples = SIZE * SIZE * args.spp
+            samples = args.size * args.size * args.spp
             rms = block_rms(ours_img, imgs[0], np)
             floor = block_rms(imgs[1], imgs[0], np) if len(imgs) > 1 else float("nan")
-            theirs_mb = mitsuba_peak_mb(name, args.spp, args.threads, tmp)
+            theirs_mb = mitsuba_peak_mb(name, args.spp, args.threads, tmp, args.size)
             rows.append((name, ours, samples / ours / 1e6, theirs, samples / theirs / 1e6, ratio, rms, floor,
                          ours_mb, theirs_mb))
             print(f"  {name}: done", file=sys.stderr)

@@ -172,43 +172,110 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
 
 /// One tile's pixels, row-major, each as the statistics of the canonical blocks of `[start, end)`.
 ///
-/// Dispatched at run time: on an x86-64 CPU with the x86-64-v3 features (AVX2, FMA, BMI1/2, LZCNT,
-/// MOVBE; Intel Haswell 2013 and AMD Excavator 2015 onward), the tile loop, with the path tracer and
-/// everything inlined into it, runs as compiled for them (`render_tile_x86_64_v3`: VEX encodings,
-/// BMI; ~9 % fewer instructions a sample, guide "Performance notes and their history"); on any other CPU, or another
-/// architecture, as compiled for the build's target. The two compute the same bits: Rust never
-/// contracts a multiply and an add into an FMA on its own, the code calls `mul_add` nowhere, and
-/// out-of-line functions (libm among them) are the same in both. A test renders every scene in
-/// `scenes/` both ways and compares the bits (`render::tests::dispatch_gives_the_baseline_bits`).
+/// Dispatched at run time to the best instruction-set copy of the tile loop this CPU runs
+/// ([`x86_64_level`]), with the path tracer and everything else inlined into it:
+/// - x86-64-v4 (`render_tile_x86_64_v4`: the v3 features plus AVX-512 F, BW, CD, DQ and VL; Intel
+///   Skylake-SP 2017 and AMD Zen 4 2022 onward): EVEX encodings, 32 vector registers (fewer spills
+///   of the lanes), mask registers. The lanes stay 8 wide.
+/// - x86-64-v3 (`render_tile_x86_64_v3`: AVX2, FMA, BMI1/2, LZCNT, MOVBE, F16C; Intel Haswell 2013
+///   and AMD Excavator 2015 onward): VEX encodings, BMI.
+/// - otherwise, or on another architecture, the loop as compiled for the build's target.
+///
+/// Every copy computes the same bits: Rust never contracts a multiply and an add into an FMA on
+/// its own, the code calls `mul_add` nowhere, and out-of-line functions (libm among them) are the
+/// same in all. A test renders every scene in `scenes/` in each copy the CPU runs and compares the
+/// bits with the baseline's (`render::tests::dispatch_gives_the_baseline_bits`). What each copy
+/// gains is in the guide's "Performance notes and their history".
 fn render_tile(scene: &Scene, tracer: &PathTracer, rect: [u32; 4], start: u64, end: u64) -> (Vec<Stats>, u64) {
     #[cfg(target_arch = "x86_64")]
-    if has_x86_64_v3() {
+    match x86_64_level() {
+        // SAFETY: the CPU has every feature `render_tile_x86_64_v4` is compiled for.
+        X86Level::V4 => return unsafe { render_tile_x86_64_v4(scene, tracer, rect, start, end) },
         // SAFETY: the CPU has every feature `render_tile_x86_64_v3` is compiled for.
-        return unsafe { render_tile_x86_64_v3(scene, tracer, rect, start, end) };
+        X86Level::V3 => return unsafe { render_tile_x86_64_v3(scene, tracer, rect, start, end) },
+        X86Level::Baseline => {}
     }
     render_tile_body(scene, tracer, rect, start, end)
 }
 
-/// Whether this CPU has the features of `render_tile_x86_64_v3` (std caches the CPUID answer): every
-/// feature its `target_feature` list enables, so that the tests' own v3 copies can ask it too.
+/// The x86-64 microarchitecture levels the renderer has copies of its hot loops for (psABI
+/// names), lowest first.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum X86Level {
+    /// x86-64 itself (SSE2).
+    Baseline,
+    /// Every feature of `render_tile_x86_64_v3`'s `target_feature` list.
+    V3,
+    /// Every feature of `render_tile_x86_64_v4`'s list (which includes V3's).
+    V4,
+}
+
+/// The best [`X86Level`] this CPU has, asked once and kept (std caches each CPUID answer too, but
+/// asking for the eleven features costs a load, a test and two branches each; this is one load
+/// per tile).
 #[cfg(target_arch = "x86_64")]
 #[inline]
+pub(crate) fn x86_64_level() -> X86Level {
+    use std::sync::atomic::AtomicU8;
+    // 0: not asked yet, else 1 + the level. Relaxed suffices: every thread computes the same.
+    static LEVEL: AtomicU8 = AtomicU8::new(0);
+    #[cold]
+    fn ask() -> X86Level {
+        use std::arch::is_x86_feature_detected as has;
+        let v3 = has!("avx2")
+            && has!("popcnt")
+            && has!("fma")
+            && has!("bmi1")
+            && has!("bmi2")
+            && has!("lzcnt")
+            && has!("movbe")
+            && has!("f16c");
+        let v4 = v3 && has!("avx512f") && has!("avx512bw") && has!("avx512cd") && has!("avx512dq") && has!("avx512vl");
+        let level = if v4 {
+            X86Level::V4
+        } else if v3 {
+            X86Level::V3
+        } else {
+            X86Level::Baseline
+        };
+        LEVEL.store(1 + level as u8, Ordering::Relaxed);
+        level
+    }
+    match LEVEL.load(Ordering::Relaxed) {
+        0 => ask(),
+        1 => X86Level::Baseline,
+        2 => X86Level::V3,
+        _ => X86Level::V4,
+    }
+}
+
+/// Whether this CPU has the features of `render_tile_x86_64_v3`, for the tests' own v3 copies.
+#[cfg(all(test, target_arch = "x86_64"))]
+#[inline]
 pub(crate) fn has_x86_64_v3() -> bool {
-    std::arch::is_x86_feature_detected!("avx2")
-        && std::arch::is_x86_feature_detected!("popcnt")
-        && std::arch::is_x86_feature_detected!("fma")
-        && std::arch::is_x86_feature_detected!("bmi1")
-        && std::arch::is_x86_feature_detected!("bmi2")
-        && std::arch::is_x86_feature_detected!("lzcnt")
-        && std::arch::is_x86_feature_detected!("movbe")
-        && std::arch::is_x86_feature_detected!("f16c")
+    x86_64_level() >= X86Level::V3
 }
 
 /// `render_tile_body` compiled for x86-64-v3 (see `render_tile`); call only where
-/// `has_x86_64_v3` holds.
+/// [`x86_64_level`] is at least [`X86Level::V3`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,movbe,f16c,popcnt")]
 fn render_tile_x86_64_v3(
+    scene: &Scene,
+    tracer: &PathTracer,
+    rect: [u32; 4],
+    start: u64,
+    end: u64,
+) -> (Vec<Stats>, u64) {
+    render_tile_body(scene, tracer, rect, start, end)
+}
+
+/// `render_tile_body` compiled for x86-64-v4 (see `render_tile`); call only where
+/// [`x86_64_level`] is [`X86Level::V4`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,movbe,f16c,popcnt,avx512f,avx512bw,avx512cd,avx512dq,avx512vl")]
+fn render_tile_x86_64_v4(
     scene: &Scene,
     tracer: &PathTracer,
     rect: [u32; 4],
@@ -358,18 +425,40 @@ mod tests {
     /// mis-compilation and against feature-dependent code added to the tile loop later.
     #[test]
     fn dispatch_gives_the_baseline_bits() {
+        #[cfg(target_arch = "x86_64")]
+        let level = x86_64_level();
+        #[cfg(target_arch = "x86_64")]
+        if level < X86Level::V4 {
+            // The copies this CPU cannot run are not compared here; say so.
+            eprintln!("dispatch_gives_the_baseline_bits: this CPU is {level:?}; the copies above it are not compared");
+        }
         for path in scene_files() {
             let mut file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
             file.render.width = 24;
             file.render.height = 24;
-            file.render.spp = 4;
+            file.render.spp = 16;
             let scene = Scene::build(file, path.parent().unwrap()).unwrap();
             let tracer = PathTracer::new(&scene);
             let rect = [0, 0, 24, 24];
-            let (a, ra) = render_tile(&scene, &tracer, rect, 0, 4);
-            let (b, rb) = render_tile_body(&scene, &tracer, rect, 0, 4);
-            assert_eq!(ra, rb, "{}", path.display());
-            assert!(bits(&a) == bits(&b), "{}: the dispatched tile loop changed bits", path.display());
+            // From sample 3: a partial batch first, then aligned octets (the film's octet sums).
+            let (a, ra) = render_tile_body(&scene, &tracer, rect, 3, 16);
+            let mut copies: Vec<(&str, (Vec<Stats>, u64))> =
+                vec![("dispatched", render_tile(&scene, &tracer, rect, 3, 16))];
+            #[cfg(target_arch = "x86_64")]
+            {
+                if level >= X86Level::V3 {
+                    // SAFETY: the CPU has the features (x86_64_level).
+                    copies.push(("x86-64-v3", unsafe { render_tile_x86_64_v3(&scene, &tracer, rect, 3, 16) }));
+                }
+                if level >= X86Level::V4 {
+                    // SAFETY: as above.
+                    copies.push(("x86-64-v4", unsafe { render_tile_x86_64_v4(&scene, &tracer, rect, 3, 16) }));
+                }
+            }
+            for (name, (b, rb)) in copies {
+                assert_eq!(ra, rb, "{}: {name}", path.display());
+                assert!(bits(&a) == bits(&b), "{}: the {name} tile loop changed bits", path.display());
+            }
         }
     }
 }

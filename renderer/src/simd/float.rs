@@ -10,7 +10,7 @@
 //! over the arrays.
 //! Left to loops over arrays, LLVM broke the lanes into scalars and rebuilt vectors with shuffles
 //! (guide, "Performance notes and their history", 2026-12-04). Nothing here fuses a multiply and
-//! an add (`mul_add` rounds twice), so the baseline and the x86-64-v3 copies agree bit for bit.
+//! an add (`mul_add` rounds twice), so the baseline, x86-64-v3 and x86-64-v4 copies agree bit for bit.
 // Lane loops index every operand by the lane: the form LLVM vectorizes.
 #![allow(clippy::needless_range_loop)]
 

@@ -5,7 +5,7 @@
 //! `N = 1` (the one-sample callers and the tests' reference integrator) and at `N = 8` (the
 //! batched integrator's lanes): lane k of the result has the bits of the one-lane call on lane
 //! k's inputs, since every operation is the IEEE f32 operation applied lane by lane. Inside the
-//! render's tile loop compiled for x86-64-v3 the lane loops become AVX2 instructions.
+//! render's tile loop compiled for x86-64-v3 or v4 they get VEX or EVEX encodings (in 128-bit halves: [`float`]).
 //!
 //! Own code rather than a crate: `wide`'s `f32x8` fixes its instruction set when the crate is
 //! compiled (two SSE halves in this project's baseline build, whose AVX2 copy of the tile loop is
