@@ -6,7 +6,7 @@
 //!   binary tree it is converted from is obvhs's PLOC tree, or an object-median tree where PLOC
 //!   degenerates or builds too deep a tree (`build_cwbvh`): no input makes the conversion's
 //!   recursion or the traversal stack overflow.
-//! - After the build the primitive records are reordered into the BVH's leaf order
+//! - After the build the primitive records are made in the BVH's leaf order
 //!   (`primitive_indices`), so a leaf slot indexes a `Prim` directly with no indirection.
 //! - Each `Prim` is three 16-byte lanes: triangles store (v0, e1, e2) for Möller–Trumbore, spheres
 //!   store (centre, radius); the `w` lane of the first vector tags the kind, so the leaf test reads
@@ -134,51 +134,74 @@ impl SceneGeometry {
             };
         }
 
-        let count: usize = shapes
-            .iter()
-            .map(|s| match s {
+        // Primitive k of the build is primitive k − first[o] of object o, where first[o] ≤ k < first[o + 1].
+        let mut first = Vec::with_capacity(shapes.len() + 1);
+        first.push(0u32);
+        for shape in &shapes {
+            let n = match shape {
                 Shape::Sphere(_) => 1,
-                Shape::Mesh(m) => m.triangles.len(),
-            })
-            .sum();
-        let mut prims = Vec::with_capacity(count);
-        let mut refs = Vec::with_capacity(count);
-        let mut aabbs = Vec::with_capacity(count);
-        for (object, shape) in shapes.iter().enumerate() {
-            let object = object as u32;
-            match shape {
-                Shape::Sphere(s) => {
-                    let (lo, hi) = s.bounds();
-                    aabbs.push(Aabb::new(lo.into(), hi.into()));
-                    prims.push(Prim::sphere(s));
-                    refs.push(PrimRef { object, index: 0 });
-                }
-                Shape::Mesh(m) => {
-                    for i in 0..m.triangles.len() {
-                        let v = m.vertices(i);
-                        let mut bb = Aabb::from_point(v[0].into());
-                        bb.extend(v[1].into()).extend(v[2].into());
-                        aabbs.push(bb);
-                        prims.push(Prim::triangle(&TriangleRecord::new(v)));
-                        refs.push(PrimRef { object, index: i as u32 });
+                Shape::Mesh(m) => m.triangles.len() as u32,
+            };
+            first.push(first.last().unwrap() + n);
+        }
+        let count = *first.last().unwrap() as usize;
+        let aabbs = || {
+            let mut aabbs = Vec::with_capacity(count);
+            for shape in &shapes {
+                match shape {
+                    Shape::Sphere(s) => {
+                        let (lo, hi) = s.bounds();
+                        aabbs.push(Aabb::new(lo.into(), hi.into()));
+                    }
+                    Shape::Mesh(m) => {
+                        for i in 0..m.triangles.len() {
+                            let v = m.vertices(i);
+                            let mut bb = Aabb::from_point(v[0].into());
+                            bb.extend(v[1].into()).extend(v[2].into());
+                            aabbs.push(bb);
+                        }
                     }
                 }
             }
-        }
+            aabbs
+        };
 
-        let (bvh, prims, refs) = if prims.is_empty() {
-            (None, prims, refs)
+        let (bvh, prims, refs) = if count == 0 {
+            (None, Vec::new(), Vec::new())
         } else {
-            let bvh = build_cwbvh(&aabbs, params);
-            // Reorder into leaf order so a slot id indexes the records directly.
-            let p2: Vec<Prim> = bvh.primitive_indices.iter().map(|&k| prims[k as usize]).collect();
-            let r2: Vec<PrimRef> = bvh.primitive_indices.iter().map(|&k| refs[k as usize]).collect();
+            let bvh = build_cwbvh(aabbs, params);
+            // The records are made after the build, straight in leaf order (a slot id indexes them
+            // directly): they and the build's boxes are never in memory together with the build's
+            // largest buffers (guide, "Performance notes and their history": peak memory).
+            let locate = |k: u32| {
+                let object = first.partition_point(|&f| f <= k) - 1;
+                (object, k - first[object])
+            };
+            let prims: Vec<Prim> = bvh
+                .primitive_indices
+                .iter()
+                .map(|&k| {
+                    let (object, index) = locate(k);
+                    match &shapes[object] {
+                        Shape::Sphere(s) => Prim::sphere(s),
+                        Shape::Mesh(m) => Prim::triangle(&TriangleRecord::new(m.vertices(index as usize))),
+                    }
+                })
+                .collect();
+            let refs: Vec<PrimRef> = bvh
+                .primitive_indices
+                .iter()
+                .map(|&k| {
+                    let (object, index) = locate(k);
+                    PrimRef { object: object as u32, index }
+                })
+                .collect();
             // Every ray walks the nodes and reads the records of the leaves it reaches, at
             // random addresses: in huge pages where the kernel gives them.
             crate::memory::advise_huge_pages(&bvh.nodes);
-            crate::memory::advise_huge_pages(&p2);
-            crate::memory::advise_huge_pages(&r2);
-            (Some(bvh), p2, r2)
+            crate::memory::advise_huge_pages(&prims);
+            crate::memory::advise_huge_pages(&refs);
+            (Some(bvh), prims, refs)
         };
         SceneGeometry { shapes, bvh, prims, refs, single_sphere: None, build_time: start.elapsed() }
     }
@@ -617,30 +640,38 @@ const MAX_BVH2_DEPTH: usize = 64;
 /// traversal stack ([`STACK`]); otherwise the median-split tree of [`median_split_bvh2`], whose depth
 /// is ⌈log₂ n⌉ (at most 24 for the 2^24 triangles a scene may hold). Inputs on which PLOC degrades
 /// ([`ploc_degenerates`]) skip PLOC, whose passes then merge only a few pairs each (quadratic time).
-fn build_cwbvh(aabbs: &[Aabb], params: BvhBuildParams) -> CwBvh {
+///
+/// `make_aabbs` gives the primitives' boxes; they are dropped once PLOC has built its tree (the
+/// reinsertion and the conversion read only the tree), so that they are not in memory beside the
+/// conversion's buffers, and made again in the rare case the median split is needed after PLOC.
+fn build_cwbvh(make_aabbs: impl Fn() -> Vec<Aabb>, params: BvhBuildParams) -> CwBvh {
     use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
     use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
     let leaf = params.max_prims_per_leaf.clamp(1, 3);
-    if !ploc_degenerates(aabbs) {
-        let indices = (0..aabbs.len() as u32).collect();
-        let mut bvh2 = obvhs::ploc::PlocBuilder::with_capacity(aabbs.len()).build(
-            params.ploc_search_distance,
-            aabbs,
-            indices,
-            params.sort_precision,
-            params.search_depth_threshold,
-        );
+    let aabbs = make_aabbs();
+    if ploc_degenerates(&aabbs) {
+        return bvh2_to_cwbvh(&median_split_bvh2(&aabbs), leaf, true, false);
+    }
+    let indices = (0..aabbs.len() as u32).collect();
+    let mut bvh2 = obvhs::ploc::PlocBuilder::with_capacity(aabbs.len()).build(
+        params.ploc_search_distance,
+        &aabbs,
+        indices,
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    drop(aabbs);
+    if bvh2_depth(&bvh2) <= MAX_BVH2_DEPTH {
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
         if bvh2_depth(&bvh2) <= MAX_BVH2_DEPTH {
-            ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-            if bvh2_depth(&bvh2) <= MAX_BVH2_DEPTH {
-                let cw = bvh2_to_cwbvh(&bvh2, leaf, true, false);
-                if cwbvh_depth(&cw) < STACK {
-                    return cw;
-                }
+            let cw = bvh2_to_cwbvh(&bvh2, leaf, true, false);
+            if cwbvh_depth(&cw) < STACK {
+                return cw;
             }
         }
     }
-    bvh2_to_cwbvh(&median_split_bvh2(aabbs), leaf, true, false)
+    drop(bvh2);
+    bvh2_to_cwbvh(&median_split_bvh2(&make_aabbs()), leaf, true, false)
 }
 
 /// Levels of a binary tree (1 for a single leaf), walked without recursion.
@@ -1399,7 +1430,7 @@ mod tests {
         let mut t = Duration::ZERO;
         for mesh in [icosphere(6), icosphere(2)] {
             let aabbs = mesh_aabbs(&mesh);
-            let ours = build_cwbvh(&aabbs, BUILD_PARAMS);
+            let ours = build_cwbvh(|| aabbs.clone(), BUILD_PARAMS);
             let theirs = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BUILD_PARAMS, &mut t);
             assert!(ours.nodes == theirs.nodes && ours.primitive_indices == theirs.primitive_indices);
         }
