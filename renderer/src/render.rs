@@ -108,8 +108,13 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
     };
     let tracer = PathTracer::new(scene);
     let blocks = canonical_blocks(start, end);
+    let nb = blocks.len();
+    // Each tile copies its pixels into the image's statistics as soon as it is done, so that only
+    // the tiles in flight hold a second copy (collecting every tile first held the whole image
+    // twice: guide, "Performance notes and their history", peak memory).
+    let stats = std::sync::Mutex::new(vec![Stats::default(); w as usize * h as usize * nb]);
     let t0 = Instant::now();
-    let tiles: Vec<Option<(Vec<Stats>, u64)>> = (0..ntiles)
+    let tiles: Vec<Option<u64>> = (0..ntiles)
         .into_par_iter()
         .map(|t| {
             if opts.cancelled() {
@@ -117,31 +122,31 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
             }
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             let (x0, y0) = (tx * TILE, ty * TILE);
-            let r = render_tile(scene, &tracer, [x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h)], start, end);
+            let (pixels, rays) =
+                render_tile(scene, &tracer, [x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h)], start, end);
+            let tw = (x0 + TILE).min(w) - x0;
+            // A panic in another tile's copy is a bug that has already ended the render.
+            let mut stats = stats.lock().expect("a tile's copy panicked");
+            for (i, px) in pixels.chunks(nb.max(1)).enumerate() {
+                let (row, col) = (y0 + i as u32 / tw, x0 + i as u32 % tw);
+                let p = (row * w + col) as usize;
+                stats[p * nb..(p + 1) * nb].copy_from_slice(&px[..nb]);
+            }
+            drop(stats);
             bar.inc(1);
-            Some(r)
+            Some(rays)
         })
         .collect();
     let wall = t0.elapsed();
     bar.finish_and_clear();
 
-    let nb = blocks.len();
-    let mut stats = vec![Stats::default(); w as usize * h as usize * nb];
+    let stats = stats.into_inner().expect("a tile's copy panicked");
     let mut rays = 0;
     let mut cancelled = false;
-    for (t, tile) in tiles.into_iter().enumerate() {
-        let Some((pixels, r)) = tile else {
-            cancelled = true;
-            continue;
-        };
-        rays += r;
-        let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
-        let (x0, y0) = (tx * TILE, ty * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
-        for (i, px) in pixels.chunks(nb.max(1)).enumerate() {
-            let (row, col) = (y0 + i as u32 / tw, x0 + i as u32 % tw);
-            let p = (row * w + col) as usize;
-            stats[p * nb..(p + 1) * nb].copy_from_slice(&px[..nb]);
+    for tile in tiles {
+        match tile {
+            Some(r) => rays += r,
+            None => cancelled = true,
         }
     }
     let rstats = RenderStats {
@@ -212,7 +217,7 @@ pub(crate) enum X86Level {
 }
 
 /// The best [`X86Level`] this CPU has, asked once and kept (std caches each CPUID answer too, but
-/// asking for the eleven features costs a load, a test and two branches each; this is one load
+/// asking for the thirteen features costs a load, a test and two branches each; this is one load
 /// per tile).
 #[cfg(target_arch = "x86_64")]
 #[inline]
