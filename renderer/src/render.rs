@@ -7,6 +7,9 @@ use crate::integrator::PathTracer;
 use crate::math::{Rgb, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
+#[cfg(target_arch = "x86_64")]
+use crate::simd::Avx2;
+use crate::simd::{Isa, Sse2};
 use rayon::prelude::*;
 use std::io::IsTerminal;
 use std::sync::Arc;
@@ -180,10 +183,11 @@ pub fn render_range(scene: &Scene, opts: &RenderOptions, start: u64, end: u64) -
 /// Dispatched at run time to the best instruction-set copy of the tile loop this CPU runs
 /// ([`x86_64_level`]), with the path tracer and everything else inlined into it:
 /// - x86-64-v4 (`render_tile_x86_64_v4`: the v3 features plus AVX-512 F, BW, CD, DQ and VL; Intel
-///   Skylake-SP 2017 and AMD Zen 4 2022 onward): EVEX encodings, 32 vector registers (fewer spills
-///   of the lanes), mask registers. The lanes stay 8 wide.
+///   Skylake-SP 2017 and AMD Zen 4 2022 onward): as v3, with EVEX encodings, 32 vector registers
+///   (fewer spills of the lanes) and mask registers. The lanes stay 8 wide.
 /// - x86-64-v3 (`render_tile_x86_64_v3`: AVX2, FMA, BMI1/2, LZCNT, MOVBE, F16C; Intel Haswell 2013
-///   and AMD Excavator 2015 onward): VEX encodings, BMI.
+///   and AMD Excavator 2015 onward): the lanes in 256-bit registers (`Isa` `Avx2`), VEX encodings,
+///   BMI.
 /// - otherwise, or on another architecture, the loop as compiled for the build's target.
 ///
 /// Every copy computes the same bits: Rust never contracts a multiply and an add into an FMA on
@@ -200,7 +204,7 @@ fn render_tile(scene: &Scene, tracer: &PathTracer, rect: [u32; 4], start: u64, e
         X86Level::V3 => return unsafe { render_tile_x86_64_v3(scene, tracer, rect, start, end) },
         X86Level::Baseline => {}
     }
-    render_tile_body(scene, tracer, rect, start, end)
+    render_tile_body::<Sse2>(scene, tracer, rect, start, end)
 }
 
 /// The x86-64 microarchitecture levels the renderer has copies of its hot loops for (psABI
@@ -273,7 +277,7 @@ fn render_tile_x86_64_v3(
     start: u64,
     end: u64,
 ) -> (Vec<Stats>, u64) {
-    render_tile_body(scene, tracer, rect, start, end)
+    render_tile_body::<Avx2>(scene, tracer, rect, start, end)
 }
 
 /// `render_tile_body` compiled for x86-64-v4 (see `render_tile`); call only where
@@ -287,12 +291,12 @@ fn render_tile_x86_64_v4(
     start: u64,
     end: u64,
 ) -> (Vec<Stats>, u64) {
-    render_tile_body(scene, tracer, rect, start, end)
+    render_tile_body::<Avx2>(scene, tracer, rect, start, end)
 }
 
 /// The tile loop itself, inlined into each instruction-set version of `render_tile`.
 #[inline(always)]
-fn render_tile_body(
+fn render_tile_body<S: Isa>(
     scene: &Scene,
     tracer: &PathTracer,
     [x0, y0, x1, y1]: [u32; 4],
@@ -318,7 +322,7 @@ fn render_tile_body(
             let mut i = start;
             while i < end {
                 let n = (end - i).min(LANES as u64 - i % LANES as u64) as usize;
-                let results = tracer.li_lanes(&sampler, pixel_id, row, col, i, n, jitter);
+                let results = tracer.li_lanes::<S>(&sampler, pixel_id, row, col, i, n, jitter);
                 for r in &results[..n] {
                     rays += r.rays as u64;
                 }
@@ -447,7 +451,7 @@ mod tests {
             let tracer = PathTracer::new(&scene);
             let rect = [0, 0, 24, 24];
             // From sample 3: a partial batch first, then aligned octets (the film's octet sums).
-            let (a, ra) = render_tile_body(&scene, &tracer, rect, 3, 16);
+            let (a, ra) = render_tile_body::<Sse2>(&scene, &tracer, rect, 3, 16);
             let mut copies: Vec<(&str, (Vec<Stats>, u64))> =
                 vec![("dispatched", render_tile(&scene, &tracer, rect, 3, 16))];
             #[cfg(target_arch = "x86_64")]

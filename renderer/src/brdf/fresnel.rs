@@ -5,7 +5,7 @@
 //! - `conductor(c, η, k)`: the exact unpolarised reflectance of a conductor with complex relative
 //!   index η + ik (the average of R_s and R_p, in the closed form of pbrt's `FrConductor`), per channel.
 use crate::math::Rgb;
-use crate::simd::{Float, Float3};
+use crate::simd::{Float, Float3, Isa};
 
 /// Schlick's reflectance of one cosine.
 #[inline]
@@ -15,7 +15,7 @@ pub fn schlick(cos_i: f32, f0: Rgb) -> Rgb {
 
 /// Schlick's reflectance of each lane's cosine.
 #[inline(always)]
-pub fn schlick_of<const N: usize>(cos_i: Float<N>, f0: Rgb) -> Float3<N> {
+pub fn schlick_of<const N: usize, S: Isa>(cos_i: Float<N, S>, f0: Rgb) -> Float3<N, S> {
     let m = (1.0 - cos_i.clamp(0.0, 1.0)).max(Float::ZERO);
     let m2 = m * m;
     Float3::splat(f0) + (Rgb::ONE - f0) * (m2 * m2 * m)
@@ -29,7 +29,7 @@ pub fn conductor_scalar(cos_i: f32, eta: f32, k: f32) -> f32 {
 
 /// Exact conductor Fresnel for one wavelength, each lane's cosine.
 #[inline(always)]
-pub fn conductor_channel<const N: usize>(cos_i: Float<N>, eta: f32, k: f32) -> Float<N> {
+pub fn conductor_channel<const N: usize, S: Isa>(cos_i: Float<N, S>, eta: f32, k: f32) -> Float<N, S> {
     let c = cos_i.clamp(0.0, 1.0);
     let c2 = c * c;
     let s2 = 1.0 - c2;
@@ -56,7 +56,7 @@ pub fn conductor(cos_i: f32, eta: Rgb, k: Rgb) -> Rgb {
 
 /// Exact conductor Fresnel, per channel, of each lane's cosine.
 #[inline(always)]
-pub fn conductor_of<const N: usize>(cos_i: Float<N>, eta: Rgb, k: Rgb) -> Float3<N> {
+pub fn conductor_of<const N: usize, S: Isa>(cos_i: Float<N, S>, eta: Rgb, k: Rgb) -> Float3<N, S> {
     Float3::new(
         conductor_channel(cos_i, eta.x, k.x),
         conductor_channel(cos_i, eta.y, k.y),

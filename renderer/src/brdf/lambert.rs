@@ -6,7 +6,7 @@
 use super::{BrdfSamples, Bxdf, Outgoing};
 use crate::math::{INV_PI, Rgb};
 use crate::sampling::warp;
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Lambert {
@@ -19,19 +19,24 @@ impl Lambert {
 }
 impl Bxdf for Lambert {
     #[inline(always)]
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S> {
         let zero = o.wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO);
         Float3::select(zero, Float3::ZERO, self.albedo * (wi.z * INV_PI))
     }
     #[inline(always)]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        _u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
         let wi = warp::cosine_hemisphere(u);
         // On the rim the density is zero: refuse rather than return an infinite weight.
         let valid = !(o.wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO));
         BrdfSamples { wi, weight: Float3::splat(self.albedo), pdf: wi.z * INV_PI, delta: Mask::NONE, valid }
     }
     #[inline(always)]
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S> {
         let zero = o.wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO);
         zero.select(Float::ZERO, wi.z * INV_PI)
     }

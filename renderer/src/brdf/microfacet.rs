@@ -23,7 +23,7 @@
 use super::fresnel;
 use super::{BrdfSamples, Bxdf, Outgoing};
 use crate::math::{INV_PI, Rgb, Vec3};
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask};
 
 /// The normal distribution D (`distribution`), defined in `vocab`.
 pub use vocab::Distribution as MicrofacetDistribution;
@@ -47,7 +47,7 @@ impl Fresnel {
 
     /// Reflectance for each lane's cosine.
     #[inline(always)]
-    pub fn eval_of<const N: usize>(&self, cos_i: Float<N>) -> Float3<N> {
+    pub fn eval_of<const N: usize, S: Isa>(&self, cos_i: Float<N, S>) -> Float3<N, S> {
         match *self {
             Fresnel::None => Float3::splat(Rgb::ONE),
             Fresnel::Schlick { f0 } => fresnel::schlick_of(cos_i, f0),
@@ -103,7 +103,7 @@ impl Microfacet {
 
     /// D(h) of each lane from cosθ_h = `hz` (zero below the horizon).
     #[inline(always)]
-    fn d_of<const N: usize>(&self, hz: Float<N>) -> Float<N> {
+    fn d_of<const N: usize, S: Isa>(&self, hz: Float<N, S>) -> Float<N, S> {
         let c2 = hz * hz;
         let d = match self.distribution {
             MicrofacetDistribution::Beckmann => {
@@ -126,7 +126,7 @@ impl Microfacet {
 
     /// Smith's Λ(ω) of each lane from cosθ = `z`.
     #[inline(always)]
-    fn lambda_of<const N: usize>(&self, z: Float<N>) -> Float<N> {
+    fn lambda_of<const N: usize, S: Isa>(&self, z: Float<N, S>) -> Float<N, S> {
         let c2 = z * z;
         let s2 = (1.0 - c2).max(Float::ZERO);
         let v = match self.distribution {
@@ -146,7 +146,7 @@ impl Microfacet {
 
     /// Heitz 2018: visible normal for each lane's ω_o (upper hemisphere) from u ∈ [0,1)².
     #[inline(always)]
-    fn sample_ggx_vndf<const N: usize>(&self, wo: Float3<N>, u: [Float<N>; 2]) -> Float3<N> {
+    fn sample_ggx_vndf<const N: usize, S: Isa>(&self, wo: Float3<N, S>, u: [Float<N, S>; 2]) -> Float3<N, S> {
         // Stretch to the hemisphere configuration (α = 1).
         let vh = Float3::new(self.alpha * wo.x, self.alpha * wo.y, wo.z).normalize();
         let lensq = vh.x * vh.x + vh.y * vh.y;
@@ -171,14 +171,14 @@ impl Microfacet {
 
     /// Density of ω_i given h = normalize(ω_o + ω_i) (its z `hz`, ω_o·h `woh`), D(h) and Λ(ω_o).
     #[inline(always)]
-    fn pdf_h<const N: usize>(
+    fn pdf_h<const N: usize, S: Isa>(
         &self,
-        wo_z: Float<N>,
-        hz: Float<N>,
-        woh: Float<N>,
-        d: Float<N>,
-        lambda_o: Float<N>,
-    ) -> Float<N> {
+        wo_z: Float<N, S>,
+        hz: Float<N, S>,
+        woh: Float<N, S>,
+        d: Float<N, S>,
+        lambda_o: Float<N, S>,
+    ) -> Float<N, S> {
         match self.distribution {
             MicrofacetDistribution::Ggx => d / ((1.0 + lambda_o) * 4.0 * wo_z),
             MicrofacetDistribution::Beckmann => d * hz / (4.0 * woh),
@@ -189,12 +189,12 @@ impl Microfacet {
 impl Bxdf for Microfacet {
     /// Λ(ω_o), which G needs in every sample and eval (and GGX's pdf): once per vertex.
     #[inline(always)]
-    fn outgoing<const N: usize>(&self, wo: Float3<N>) -> Outgoing<N> {
+    fn outgoing<const N: usize, S: Isa>(&self, wo: Float3<N, S>) -> Outgoing<N, S> {
         Outgoing { wo, lambda_o: wo.z.gt(Float::ZERO).select(self.lambda_of(wo.z), Float::ZERO) }
     }
 
     #[inline(always)]
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S> {
         let wo = o.wo;
         let below = wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO);
         let h = (wo + wi).normalize();
@@ -204,7 +204,12 @@ impl Bxdf for Microfacet {
     }
 
     #[inline(always)]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        _u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
         let wo = o.wo;
         let m = match self.distribution {
             MicrofacetDistribution::Ggx => self.sample_ggx_vndf(wo, u),
@@ -238,7 +243,7 @@ impl Bxdf for Microfacet {
     }
 
     #[inline(always)]
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S> {
         let wo = o.wo;
         let below = wo.z.le(Float::ZERO) | wi.z.le(Float::ZERO);
         let h = (wo + wi).normalize();

@@ -6,7 +6,7 @@
 //! `delta = true`.
 use super::{BrdfSamples, Bxdf, Outgoing};
 use crate::math::Rgb;
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Mirror {
@@ -19,12 +19,17 @@ impl Mirror {
 }
 impl Bxdf for Mirror {
     #[inline(always)]
-    fn eval_at<const N: usize>(&self, _o: &Outgoing<N>, _wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, _o: &Outgoing<N, S>, _wi: Float3<N, S>) -> Float3<N, S> {
         // A Dirac has no finite value: it is reached only through `sample`.
         Float3::ZERO
     }
     #[inline(always)]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, _u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        _u_lobe: Float<N, S>,
+        _u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
         let wo = o.wo;
         BrdfSamples {
             wi: Float3::new(-wo.x, -wo.y, wo.z),
@@ -35,7 +40,7 @@ impl Bxdf for Mirror {
         }
     }
     #[inline(always)]
-    fn pdf_at<const N: usize>(&self, _o: &Outgoing<N>, _wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, _o: &Outgoing<N, S>, _wi: Float3<N, S>) -> Float<N, S> {
         Float::ZERO
     }
     #[inline]

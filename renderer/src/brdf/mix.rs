@@ -12,7 +12,7 @@
 //! (times the layer's own delta pdf). `is_delta` holds only if every layer is a Dirac;
 //! `ignores_horizon` if any layer ignores it.
 use super::{BrdfSamples, Bxdf, Outgoing};
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask, Sse2};
 
 #[derive(Clone, Debug)]
 pub struct Mix {
@@ -60,7 +60,11 @@ impl Mix {
 }
 impl Bxdf for Mix {
     #[inline]
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S> {
+        if S::AVX2 {
+            // See `sample_at`.
+            return self.eval_at(&o.with_isa::<Sse2>(), wi.with_isa()).with_isa();
+        }
         let mut acc = Float3::ZERO;
         for (w, b) in &self.layers {
             acc = acc + b.eval_at(&b.outgoing(o.wo), wi) * *w;
@@ -71,7 +75,19 @@ impl Bxdf for Mix {
     /// Each lane draws from the layer its `u_lobe` chooses: every layer chosen by some lane samples
     /// all lanes, and each lane keeps its own layer's draw.
     #[inline]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
+        if S::AVX2 {
+            // A mix calls its layers through `Brdf`, which may be a mix: recursive, hence out of
+            // line, hence compiled without AVX2, where 256-bit operations would be calls. Its
+            // lanes run in SSE registers instead, with the same bits.
+            let u = [u[0].with_isa(), u[1].with_isa()];
+            return self.sample_at(&o.with_isa::<Sse2>(), u_lobe.with_isa(), u).with_isa();
+        }
         let wo = o.wo;
         let (mut layer, mut p, mut u_sub) = ([usize::MAX; N], [0.0f32; N], [0.0f32; N]);
         for k in 0..N {
@@ -79,7 +95,7 @@ impl Bxdf for Mix {
                 (layer[k], p[k], u_sub[k]) = (j, pj, us);
             }
         }
-        let (p, u_sub) = (Float(p), Float(u_sub));
+        let (p, u_sub) = (Float::from_array(p), Float::from_array(u_sub));
         let mut s = BrdfSamples::NONE;
         for (j, (_, b)) in self.layers.iter().enumerate() {
             let mut chosen = [false; N];
@@ -105,7 +121,11 @@ impl Bxdf for Mix {
     }
 
     #[inline]
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S> {
+        if S::AVX2 {
+            // See `sample_at`.
+            return self.pdf_at(&o.with_isa::<Sse2>(), wi.with_isa()).with_isa();
+        }
         let mut acc = Float::ZERO;
         for (w, b) in &self.layers {
             acc = acc + self.prob(*w) * b.pdf_at(&b.outgoing(o.wo), wi);

@@ -25,7 +25,7 @@ pub use torrance_sparrow::TorranceSparrow;
 
 use crate::math::{Rgb, Vec2, Vec3};
 use crate::scene::build::color;
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask, Sse2};
 use vocab::FresnelKind;
 use vocab::scene::BrdfSection;
 
@@ -49,15 +49,15 @@ pub struct BrdfSample {
 /// `N` draws of a BRDF, one per lane ([`Bxdf::sample_at`]); lane k is a [`BrdfSample`] where
 /// `valid` holds and no sample elsewhere (its other fields are then unspecified).
 #[derive(Clone, Copy, Debug)]
-pub struct BrdfSamples<const N: usize> {
-    pub wi: Float3<N>,
-    pub weight: Float3<N>,
-    pub pdf: Float<N>,
-    pub delta: Mask<N>,
-    pub valid: Mask<N>,
+pub struct BrdfSamples<const N: usize, S: Isa = Sse2> {
+    pub wi: Float3<N, S>,
+    pub weight: Float3<N, S>,
+    pub pdf: Float<N, S>,
+    pub delta: Mask<N, S>,
+    pub valid: Mask<N, S>,
 }
 
-impl<const N: usize> BrdfSamples<N> {
+impl<const N: usize, S: Isa> BrdfSamples<N, S> {
     /// No sample in any lane.
     pub const NONE: Self =
         BrdfSamples { wi: Float3::ZERO, weight: Float3::ZERO, pdf: Float::ZERO, delta: Mask::NONE, valid: Mask::NONE };
@@ -83,9 +83,21 @@ impl<const N: usize> BrdfSamples<N> {
         self.valid.set(k, s.valid.lane(0));
     }
 
+    /// The same lanes, operated on in the instruction set `T` (no instruction).
+    #[inline(always)]
+    pub fn with_isa<T: Isa>(self) -> BrdfSamples<N, T> {
+        BrdfSamples {
+            wi: self.wi.with_isa(),
+            weight: self.weight.with_isa(),
+            pdf: self.pdf.with_isa(),
+            delta: self.delta.with_isa(),
+            valid: self.valid.with_isa(),
+        }
+    }
+
     /// `a`'s lanes where `m` holds, `b`'s elsewhere.
     #[inline(always)]
-    pub fn select(m: Mask<N>, a: &Self, b: &Self) -> Self {
+    pub fn select(m: Mask<N, S>, a: &Self, b: &Self) -> Self {
         BrdfSamples {
             wi: Float3::select(m, a.wi, b.wi),
             weight: Float3::select(m, a.weight, b.weight),
@@ -99,19 +111,25 @@ impl<const N: usize> BrdfSamples<N> {
 /// What the sample, eval and pdf of one vertex share: ω_o and the BRDF's terms of ω_o alone,
 /// computed once per vertex by [`Bxdf::outgoing`], for `N` vertices (one per lane).
 #[derive(Clone, Copy, Debug)]
-pub struct Outgoing<const N: usize> {
+pub struct Outgoing<const N: usize, S: Isa = Sse2> {
     /// ω_o, local frame.
-    pub wo: Float3<N>,
+    pub wo: Float3<N, S>,
     /// Smith's Λ(ω_o) of a microfacet BRDF (the vertex's sample and its next-event eval both
     /// need it); 0 for the others, which do not read it.
-    pub lambda_o: Float<N>,
+    pub lambda_o: Float<N, S>,
 }
 
-impl<const N: usize> Outgoing<N> {
+impl<const N: usize, S: Isa> Outgoing<N, S> {
     /// ω_o with no precomputed terms.
     #[inline(always)]
-    pub fn plain(wo: Float3<N>) -> Self {
+    pub fn plain(wo: Float3<N, S>) -> Self {
         Outgoing { wo, lambda_o: Float::ZERO }
+    }
+
+    /// The same lanes, operated on in the instruction set `T` (no instruction).
+    #[inline(always)]
+    pub fn with_isa<T: Isa>(self) -> Outgoing<N, T> {
+        Outgoing { wo: self.wo.with_isa(), lambda_o: self.lambda_o.with_isa() }
     }
 
     /// Lane `k` as one vertex.
@@ -137,15 +155,20 @@ impl<const N: usize> Outgoing<N> {
 pub trait Bxdf {
     /// The terms of ω_o that `sample_at`, `eval_at` and `pdf_at` share at one vertex.
     #[inline(always)]
-    fn outgoing<const N: usize>(&self, wo: Float3<N>) -> Outgoing<N> {
+    fn outgoing<const N: usize, S: Isa>(&self, wo: Float3<N, S>) -> Outgoing<N, S> {
         Outgoing::plain(wo)
     }
     /// Draws ω_i given ω_o in each lane. `u_lobe` selects among lobes (mix), `u` drives the warp.
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N>;
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S>;
     /// Transfer function ρ̂ = BRDF·cosθ'_i of each lane (zero for Dirac components).
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N>;
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S>;
     /// Solid-angle density with which `sample_at` draws `wi` (non-Dirac part only), each lane.
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N>;
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S>;
 
     /// True when the BRDF gathers light below the horizon (horizon = "ignore"): the integrator then
     /// does not test those directions for self-occlusion.
@@ -166,18 +189,18 @@ pub trait Bxdf {
     /// Transfer function ρ̂ of one pair of directions: `eval_at` at one lane.
     #[inline]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.eval_at(&self.outgoing::<1>(Float3::splat(wo)), Float3::splat(wi)).lane(0)
+        self.eval_at(&self.outgoing::<1, Sse2>(Float3::splat(wo)), Float3::splat(wi)).lane(0)
     }
     /// One draw: `sample_at` at one lane.
     #[inline]
     fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        let o = self.outgoing::<1>(Float3::splat(wo));
+        let o = self.outgoing::<1, Sse2>(Float3::splat(wo));
         self.sample_at(&o, Float::splat(u_lobe), [Float::splat(u.x), Float::splat(u.y)]).lane(0)
     }
     /// One density: `pdf_at` at one lane.
     #[inline]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.pdf_at(&self.outgoing::<1>(Float3::splat(wo)), Float3::splat(wi)).lane(0)
+        self.pdf_at(&self.outgoing::<1, Sse2>(Float3::splat(wo)), Float3::splat(wi)).lane(0)
     }
 }
 
@@ -219,19 +242,24 @@ impl Bxdf for Brdf {
         dispatch!(self, b => b.uses_lobe_choice())
     }
     #[inline(always)]
-    fn outgoing<const N: usize>(&self, wo: Float3<N>) -> Outgoing<N> {
+    fn outgoing<const N: usize, S: Isa>(&self, wo: Float3<N, S>) -> Outgoing<N, S> {
         dispatch!(self, b => b.outgoing(wo))
     }
     #[inline(always)]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
         dispatch!(self, b => b.sample_at(o, u_lobe, u))
     }
     #[inline(always)]
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S> {
         dispatch!(self, b => b.eval_at(o, wi))
     }
     #[inline(always)]
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S> {
         dispatch!(self, b => b.pdf_at(o, wi))
     }
 }
@@ -361,12 +389,16 @@ mod tests {
                 let wi: [Vec3; 8] = std::array::from_fn(|_| dir(&mut rng));
                 let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(pick(&mut rng), pick(&mut rng)));
                 let u_lobe: [f32; 8] = std::array::from_fn(|_| pick(&mut rng));
-                let o = brdf.outgoing(Float3::from_vecs(&wo));
-                let s = brdf.sample_at(&o, Float(u_lobe), [Float(u.map(|u| u.x)), Float(u.map(|u| u.y))]);
+                let o = brdf.outgoing(Float3::<8>::from_vecs(&wo));
+                let s = brdf.sample_at(
+                    &o,
+                    Float::from_array(u_lobe),
+                    [Float::from_array(u.map(|u| u.x)), Float::from_array(u.map(|u| u.y))],
+                );
                 let f = brdf.eval_at(&o, Float3::from_vecs(&wi));
                 let p = brdf.pdf_at(&o, Float3::from_vecs(&wi));
                 for k in 0..8 {
-                    let o1 = brdf.outgoing::<1>(Float3::splat(wo[k]));
+                    let o1 = brdf.outgoing::<1, Sse2>(Float3::splat(wo[k]));
                     assert!(same(o.lambda_o.lane(k), o1.lambda_o.lane(0)), "{brdf:?} outgoing {:?}", wo[k]);
                     match (s.lane(k), brdf.sample(wo[k], u_lobe[k], u[k])) {
                         (None, None) => {}

@@ -11,7 +11,7 @@
 use super::{BrdfSamples, Bxdf, Horizon, Outgoing};
 use crate::math::{INV_2PI, Rgb};
 use crate::sampling::warp;
-use crate::simd::{Float, Float3, Frames, Mask};
+use crate::simd::{Float, Float3, Frames, Isa, Mask};
 
 #[derive(Clone, Debug)]
 pub struct Phong {
@@ -30,14 +30,14 @@ impl Phong {
 
     /// Lanes where `wi` is cut by the horizon (clamp) or ω_o is below it.
     #[inline(always)]
-    fn below<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> Mask<N> {
+    fn below<const N: usize, S: Isa>(&self, wo: Float3<N, S>, wi: Float3<N, S>) -> Mask<N, S> {
         let clamp = Mask::splat(self.horizon == Horizon::Clamp);
         wo.z.le(Float::ZERO) | (clamp & wi.z.le(Float::ZERO))
     }
 
     /// Lobe density (s+1)/(2π) max(R·ω_i, 0)^s, after the horizon test; shared by eval and pdf.
     #[inline(always)]
-    fn lobe<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> Float<N> {
+    fn lobe<const N: usize, S: Isa>(&self, wo: Float3<N, S>, wi: Float3<N, S>) -> Float<N, S> {
         let c = wi.dot(Float3::new(-wo.x, -wo.y, wo.z));
         let zero = self.below(wo, wi) | c.le(Float::ZERO);
         zero.select(Float::ZERO, self.norm * c.powf(self.s))
@@ -45,11 +45,16 @@ impl Phong {
 }
 impl Bxdf for Phong {
     #[inline(always)]
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S> {
         self.ks * self.lobe(o.wo, wi)
     }
     #[inline(always)]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        _u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
         let wo = o.wo;
         let r = Float3::new(-wo.x, -wo.y, wo.z);
         let local = warp::cos_power_lobe(u, self.inv_s_plus_1);
@@ -60,7 +65,7 @@ impl Bxdf for Phong {
         BrdfSamples { wi, weight: Float3::splat(self.ks), pdf, delta: Mask::NONE, valid }
     }
     #[inline(always)]
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S> {
         self.lobe(o.wo, wi)
     }
     #[inline]

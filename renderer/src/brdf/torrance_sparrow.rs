@@ -18,7 +18,7 @@
 //! Jacobian), and weight = ρ̂/p = k_s Z (sinθ/θ)(ω_o·h)/cosθ_o.
 use super::{BrdfSamples, Bxdf, Horizon, Outgoing};
 use crate::math::{PI, Rgb};
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask};
 
 #[derive(Clone, Debug)]
 pub struct TorranceSparrow {
@@ -38,7 +38,10 @@ pub struct TorranceSparrow {
 /// Half-vector geometry shared by eval and pdf, each lane: (θ_h, θ_h/sinθ_h, ω_o·h, defined), where
 /// `defined` is false when h is undefined (ω_i = −ω_o) or at the antipode θ_h = π (zero density).
 #[inline(always)]
-fn half_angle<const N: usize>(wo: Float3<N>, wi: Float3<N>) -> (Float<N>, Float<N>, Float<N>, Mask<N>) {
+fn half_angle<const N: usize, S: Isa>(
+    wo: Float3<N, S>,
+    wi: Float3<N, S>,
+) -> (Float<N, S>, Float<N, S>, Float<N, S>, Mask<N, S>) {
     let hs = wo + wi;
     let l2 = hs.dot(hs);
     let h = hs * (1.0 / l2.sqrt());
@@ -62,13 +65,17 @@ impl TorranceSparrow {
 
     /// Lanes where ω_o is below the horizon, or ω_i is and the lobe is clamped.
     #[inline(always)]
-    fn below<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> Mask<N> {
+    fn below<const N: usize, S: Isa>(&self, wo: Float3<N, S>, wi: Float3<N, S>) -> Mask<N, S> {
         wo.z.le(Float::ZERO) | (Mask::splat(self.horizon == Horizon::Clamp) & wi.z.le(Float::ZERO))
     }
 
     /// p(ω_i) of each lane from its half-vector geometry, and the lanes where it is defined.
     #[inline(always)]
-    fn pdf_of<const N: usize>(&self, wo: Float3<N>, wi: Float3<N>) -> (Float<N>, Float<N>, Float<N>, Mask<N>) {
+    fn pdf_of<const N: usize, S: Isa>(
+        &self,
+        wo: Float3<N, S>,
+        wi: Float3<N, S>,
+    ) -> (Float<N, S>, Float<N, S>, Float<N, S>, Mask<N, S>) {
         let (theta, ratio, woh, defined) = half_angle(wo, wi);
         let clamp = Mask::splat(self.horizon == Horizon::Clamp);
         let ok = !self.below(wo, wi) & defined & !(woh.le(Float::ZERO) | (clamp & theta.ge(Float::splat(0.5 * PI))));
@@ -79,7 +86,7 @@ impl TorranceSparrow {
 
 impl Bxdf for TorranceSparrow {
     #[inline(always)]
-    fn eval_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float3<N> {
+    fn eval_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float3<N, S> {
         let wo = o.wo;
         let (theta, _, _, defined) = half_angle(wo, wi);
         let v = self.norm * (-theta * theta * self.inv_sigma2).exp() / wo.z;
@@ -87,7 +94,12 @@ impl Bxdf for TorranceSparrow {
     }
 
     #[inline(always)]
-    fn sample_at<const N: usize>(&self, o: &Outgoing<N>, _u_lobe: Float<N>, u: [Float<N>; 2]) -> BrdfSamples<N> {
+    fn sample_at<const N: usize, S: Isa>(
+        &self,
+        o: &Outgoing<N, S>,
+        _u_lobe: Float<N, S>,
+        u: [Float<N, S>; 2],
+    ) -> BrdfSamples<N, S> {
         let wo = o.wo;
         // Inverse CDF of the truncated Rayleigh density; ln_1p keeps precision for small uZ.
         let theta = self.sigma * (-(-u[0] * self.z_trunc).ln_1p()).max(Float::ZERO).sqrt();
@@ -110,7 +122,7 @@ impl Bxdf for TorranceSparrow {
     }
 
     #[inline(always)]
-    fn pdf_at<const N: usize>(&self, o: &Outgoing<N>, wi: Float3<N>) -> Float<N> {
+    fn pdf_at<const N: usize, S: Isa>(&self, o: &Outgoing<N, S>, wi: Float3<N, S>) -> Float<N, S> {
         let (pdf, _, _, ok) = self.pdf_of(o.wo, wi);
         ok.select(pdf, Float::ZERO)
     }

@@ -15,7 +15,7 @@ pub use perspective::Perspective;
 
 use crate::geometry::Ray;
 use crate::math::{Vec2, Vec3};
-use crate::simd::{Float, Float3};
+use crate::simd::{Float, Float3, Isa};
 
 /// What a camera produces for one pixel sample.
 #[derive(Clone, Copy, Debug)]
@@ -51,12 +51,12 @@ impl Camera {
     /// [`Camera::generate`] at `(u[0][k], u[1][k])`, the same bits), as origins and directions; None
     /// for the normal-probe camera, which makes shading points instead of rays.
     #[inline(always)]
-    pub fn generate_rays<const N: usize>(
+    pub fn generate_rays<const N: usize, S: Isa>(
         &self,
         row: u32,
         col: u32,
-        u: [Float<N>; 2],
-    ) -> Option<(Float3<N>, Float3<N>)> {
+        u: [Float<N, S>; 2],
+    ) -> Option<(Float3<N, S>, Float3<N, S>)> {
         match self {
             Camera::Orthographic(c) => Some(c.generate_rays(row, col, u)),
             Camera::Perspective(c) => Some(c.generate_rays(row, col, u)),
@@ -112,7 +112,7 @@ mod tests {
                 1 => Vec2::splat(0.999_999_94),
                 _ => Vec2::new(rng.next_f32(), rng.next_f32()),
             });
-            let lanes = [Float(u.map(|u| u.x)), Float(u.map(|u| u.y))];
+            let lanes = [Float::<8>::from_array(u.map(|u| u.x)), Float::from_array(u.map(|u| u.y))];
             let (o, d) = ortho.generate_rays(row, col, lanes);
             let (po, pd) = persp.generate_rays(row, col, lanes);
             for (k, uk) in u.iter().enumerate() {

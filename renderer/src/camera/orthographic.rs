@@ -6,7 +6,7 @@
 use super::look_at_basis;
 use crate::geometry::Ray;
 use crate::math::{Vec2, Vec3};
-use crate::simd::{Float, Float3};
+use crate::simd::{Float, Float3, Isa};
 
 #[derive(Clone, Debug)]
 pub struct Orthographic {
@@ -30,7 +30,12 @@ impl Orthographic {
 
     /// Film coordinates (x, y) of the points `u` inside pixel (row, col), lane by lane.
     #[inline(always)]
-    pub fn film_xy<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float<N>, Float<N>) {
+    pub fn film_xy<const N: usize, S: Isa>(
+        &self,
+        row: u32,
+        col: u32,
+        u: [Float<N, S>; 2],
+    ) -> (Float<N, S>, Float<N, S>) {
         let (w, h) = (self.width as f32, self.height as f32);
         let x = Float::splat(self.extent) * ((Float::splat(2.0) * (Float::splat(col as f32) + u[0])) / w - 1.0);
         let y =
@@ -49,7 +54,12 @@ impl Orthographic {
     /// `film_xy`'s point, then from + x·right + y·up' (the same operations in the same order as on
     /// glam vectors, lane by lane).
     #[inline(always)]
-    pub fn generate_rays<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float3<N>, Float3<N>) {
+    pub fn generate_rays<const N: usize, S: Isa>(
+        &self,
+        row: u32,
+        col: u32,
+        u: [Float<N, S>; 2],
+    ) -> (Float3<N, S>, Float3<N, S>) {
         let (x, y) = self.film_xy(row, col, u);
         let origin = Float3::splat(self.from) + Float3::splat(self.right) * x + Float3::splat(self.up) * y;
         (origin, Float3::splat(self.forward))

@@ -4,7 +4,7 @@
 use super::look_at_basis;
 use crate::geometry::Ray;
 use crate::math::{Vec2, Vec3};
-use crate::simd::{Float, Float3};
+use crate::simd::{Float, Float3, Isa};
 
 #[derive(Clone, Debug)]
 pub struct Perspective {
@@ -37,7 +37,12 @@ impl Perspective {
     /// Origins and directions of the rays at film offsets `u` of `N` samples of pixel (row, col):
     /// normalize(forward + x·right + y·up') through the image-plane point (x, y) at unit distance.
     #[inline(always)]
-    pub fn generate_rays<const N: usize>(&self, row: u32, col: u32, u: [Float<N>; 2]) -> (Float3<N>, Float3<N>) {
+    pub fn generate_rays<const N: usize, S: Isa>(
+        &self,
+        row: u32,
+        col: u32,
+        u: [Float<N, S>; 2],
+    ) -> (Float3<N, S>, Float3<N, S>) {
         let (w, h) = (self.width as f32, self.height as f32);
         let aspect = w / h;
         let x =

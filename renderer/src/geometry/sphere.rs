@@ -22,7 +22,7 @@
 
 use super::{Hit, Ray};
 use crate::math::Vec3;
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask, Sse2};
 
 /// Accepted roots exceed `ROOT_ULPS`·u·(|f|² + r²)/|q|: the error of c = |f|² − r² (three products
 /// and two sums for |f|², one product for r², the difference: under 5 ulps of |f|² + r²), with a
@@ -106,12 +106,12 @@ impl Sphere {
     /// x86-64-v3 copy of the render's tile loop: where Δ < 0 the square root is NaN and every
     /// comparison below fails, so the lane has no hit.
     #[inline(always)]
-    pub fn intersect_ts<const N: usize>(
+    pub fn intersect_ts<const N: usize, S: Isa>(
         &self,
-        origin: Float3<N>,
-        dir: Float3<N>,
-        t_max: Float<N>,
-    ) -> (Float<N>, Mask<N>) {
+        origin: Float3<N, S>,
+        dir: Float3<N, S>,
+        t_max: Float<N, S>,
+    ) -> (Float<N, S>, Mask<N, S>) {
         if self.is_large() {
             let (mut t, mut hit) = (Float::ZERO, Mask::NONE);
             for k in 0..N {
@@ -152,7 +152,7 @@ impl Sphere {
             let n = n.as_vec3();
             return Hit { t, p: p.as_vec3(), n, ng: n, object };
         }
-        let (p, n) = self.surface_at::<1>(Float3::splat(ray.origin), Float3::splat(ray.dir), Float::splat(t));
+        let (p, n) = self.surface_at::<1, Sse2>(Float3::splat(ray.origin), Float3::splat(ray.dir), Float::splat(t));
         let (p, n) = (p.lane(0), n.lane(0));
         Hit { t, p, n, ng: n, object }
     }
@@ -161,7 +161,12 @@ impl Sphere {
     /// sphere that is not [large](Sphere::is_large): o + t d re-projected onto the surface (RTG
     /// ch. 6), which removes its error along the normal. [`Sphere::hit_at`] is the one-lane call.
     #[inline(always)]
-    pub fn surface_at<const N: usize>(&self, origin: Float3<N>, dir: Float3<N>, t: Float<N>) -> (Float3<N>, Float3<N>) {
+    pub fn surface_at<const N: usize, S: Isa>(
+        &self,
+        origin: Float3<N, S>,
+        dir: Float3<N, S>,
+        t: Float<N, S>,
+    ) -> (Float3<N, S>, Float3<N, S>) {
         let center = Float3::splat(self.center);
         let n = (origin + dir * t - center).normalize();
         (center + n * self.radius, n)
@@ -184,7 +189,7 @@ mod tests {
     use super::*;
 
     fn intersect8(s: &Sphere, rays: &[Ray; 8]) -> ([f32; 8], [bool; 8]) {
-        let t_max = Float(rays.map(|r| r.t_max));
+        let t_max = Float::<8>::from_array(rays.map(|r| r.t_max));
         let (t, hit) =
             s.intersect_ts(Float3::from_vecs(&rays.map(|r| r.origin)), Float3::from_vecs(&rays.map(|r| r.dir)), t_max);
         (t.0, std::array::from_fn(|k| hit.lane(k)))

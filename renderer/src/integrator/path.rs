@@ -23,7 +23,7 @@ use crate::light::{DistantLight, LightSamples};
 use crate::math::{Rgb, Vec2, Vec3};
 use crate::sampling::{LANES, Sampler};
 use crate::scene::Scene;
-use crate::simd::{Float, Float3, Frames, Mask};
+use crate::simd::{Float, Float3, Frames, Isa, Mask, Sse2};
 
 /// Russian roulette starts after this many vertices (the first bounces are never cut).
 pub(super) const RR_START: u32 = 3;
@@ -53,12 +53,16 @@ pub struct PathTracer<'a> {
 /// [`offset_origins`].
 #[inline]
 pub(crate) fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
-    offset_origins::<1>(Float3::splat(p), Float3::splat(ng), Float3::splat(dir)).lane(0)
+    offset_origins::<1, Sse2>(Float3::splat(p), Float3::splat(ng), Float3::splat(dir)).lane(0)
 }
 
 /// [`offset_origin`] of each lane: `p ± ε n_g` toward the side of `dir`, ε = 10⁻⁴ (1 + max |p_i|).
 #[inline(always)]
-pub(crate) fn offset_origins<const N: usize>(p: Float3<N>, ng: Float3<N>, dir: Float3<N>) -> Float3<N> {
+pub(crate) fn offset_origins<const N: usize, S: Isa>(
+    p: Float3<N, S>,
+    ng: Float3<N, S>,
+    dir: Float3<N, S>,
+) -> Float3<N, S> {
     let a = Float3::new(p.x.abs(), p.y.abs(), p.z.abs());
     let eps = (a.y.max(a.z).max(a.x) + 1.0) * 1e-4;
     let shift = ng * eps;
@@ -68,7 +72,7 @@ pub(crate) fn offset_origins<const N: usize>(p: Float3<N>, ng: Float3<N>, dir: F
 /// The power heuristic (β = 2, Veach 1997) of each lane: a² / (a² + b²), 0 where both densities
 /// are 0.
 #[inline(always)]
-fn power_heuristics<const N: usize>(a: Float<N>, b: Float<N>) -> Float<N> {
+fn power_heuristics<const N: usize, S: Isa>(a: Float<N, S>, b: Float<N, S>) -> Float<N, S> {
     let (a2, b2) = (a * a, b * b);
     let sum = a2 + b2;
     sum.gt(Float::ZERO).select(a2 / sum, Float::ZERO)
@@ -76,22 +80,22 @@ fn power_heuristics<const N: usize>(a: Float<N>, b: Float<N>) -> Float<N> {
 
 /// The batch's paths in structure of arrays, lane k being sample `first + k`: what the
 /// one-sample loop carries from vertex to vertex. Every live lane is at the same vertex.
-struct Paths {
+struct Paths<S: Isa> {
     /// Throughput: the product of the BRDF sample weights (and albedo textures) so far.
-    beta: Float3<LANES>,
+    beta: Float3<LANES, S>,
     /// Radiance gathered so far.
-    radiance: Float3<LANES>,
+    radiance: Float3<LANES, S>,
     /// The current vertex: position, shading and geometric normals, ω_o (world) and its object.
-    p: Float3<LANES>,
-    n: Float3<LANES>,
-    ng: Float3<LANES>,
-    wo_world: Float3<LANES>,
+    p: Float3<LANES, S>,
+    n: Float3<LANES, S>,
+    ng: Float3<LANES, S>,
+    wo_world: Float3<LANES, S>,
     object: [u32; LANES],
     /// The lane has a vertex to shade.
-    alive: Mask<LANES>,
+    alive: Mask<LANES, S>,
 }
 
-impl Paths {
+impl<S: Isa> Paths<S> {
     #[inline(always)]
     fn new() -> Self {
         let z = Float3::splat(Vec3::Z);
@@ -133,22 +137,22 @@ impl LaneRays {
 }
 
 /// The closest hits of a stage's rays, in lanes (`hit[k]`: lane k's ray hit something).
-struct LaneHits {
-    hit: Mask<LANES>,
-    p: Float3<LANES>,
-    n: Float3<LANES>,
-    ng: Float3<LANES>,
+struct LaneHits<S: Isa> {
+    hit: Mask<LANES, S>,
+    p: Float3<LANES, S>,
+    n: Float3<LANES, S>,
+    ng: Float3<LANES, S>,
     object: [u32; LANES],
 }
 
-impl LaneHits {
-    const NONE: LaneHits =
+impl<S: Isa> LaneHits<S> {
+    const NONE: Self =
         LaneHits { hit: Mask::NONE, p: Float3::ZERO, n: Float3::ZERO, ng: Float3::ZERO, object: [0; LANES] };
 
     /// The hits of a packet walk, in lanes.
     #[inline(always)]
     fn from_hits(hits: &[Option<Hit>; LANES]) -> Self {
-        let mut out = LaneHits::NONE;
+        let mut out = Self::NONE;
         for (k, h) in hits.iter().enumerate() {
             if let Some(h) = h {
                 out.set_lane(k, h);
@@ -199,7 +203,7 @@ impl<'a> PathTracer<'a> {
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub fn li_lanes(
+    pub fn li_lanes<S: Isa>(
         &self,
         sampler: &Sampler,
         pixel: u64,
@@ -218,7 +222,7 @@ impl<'a> PathTracer<'a> {
         // live lane (all at the same vertex), in the one-sample tracer's order: the camera's 2D,
         // then per vertex the light's 2D, the lobe's 1D (drawn or skipped), the BRDF's 2D, and
         // past `RR_START` vertices the roulette's 1D.
-        let draws = sampler.lanes::<LANES>(pixel, first as u32);
+        let draws = sampler.lanes::<LANES, S>(pixel, first as u32);
         let mut dim = 2u32;
         let mut depth = 1u32;
 
@@ -326,10 +330,10 @@ impl<'a> PathTracer<'a> {
             // has the same BRDF, else each lane with its own BRDF (the same code at one lane).
             let shared = shared_object(&ps.object, planned);
             let mut outgoing = Outgoing::plain(wo);
-            let mut bs = BrdfSamples::<LANES>::NONE;
+            let mut bs = BrdfSamples::<LANES, S>::NONE;
             // Per-lane properties of the BRDFs: a Dirac BRDF takes no light sample, and one with
             // `horizon = "ignore"` sees the distant light below its horizon unoccluded.
-            let (mut delta_brdf, mut ignores) = (Mask::<LANES>::NONE, Mask::<LANES>::NONE);
+            let (mut delta_brdf, mut ignores) = (Mask::<LANES, S>::NONE, Mask::<LANES, S>::NONE);
             match shared {
                 Some(object) => {
                     let brdf = &scene.brdfs[object as usize];
@@ -342,7 +346,7 @@ impl<'a> PathTracer<'a> {
                     for k in 0..LANES {
                         if planned.lane(k) {
                             let brdf = &scene.brdfs[ps.object[k] as usize];
-                            let o = brdf.outgoing::<1>(Float3::splat(wo.lane(k)));
+                            let o = brdf.outgoing::<1, Sse2>(Float3::splat(wo.lane(k)));
                             outgoing.set_lane(k, &o);
                             let u_lobe = if brdf.uses_lobe_choice() { lobe.0[k] } else { 0.0 };
                             let u = [Float::splat(bx.0[k]), Float::splat(by.0[k])];
@@ -382,7 +386,7 @@ impl<'a> PathTracer<'a> {
             let nee = drawn & !f.is_zero();
             // The batch's shadow rays.
             let free = self.unoccluded(&ps, ignores, ls_wi);
-            let mut occluded = Mask::<LANES>::NONE;
+            let mut occluded = Mask::<LANES, S>::NONE;
             for k in 0..LANES {
                 if nee.lane(k) && !free.lane(k) {
                     let (p, ng, dir) = (ps.p.lane(k), ps.ng.lane(k), ls_wi.lane(k));
@@ -423,7 +427,7 @@ impl<'a> PathTracer<'a> {
             // The light where the path escapes, with the complementary MIS weight.
             let escaped = sampled & !hits.hit;
             if escaped.any() {
-                let (mut le, mut light_pdf) = (Float3::<LANES>::ZERO, Float::<LANES>::ZERO);
+                let (mut le, mut light_pdf) = (Float3::<LANES, S>::ZERO, Float::<LANES, S>::ZERO);
                 for k in 0..LANES {
                     if escaped.lane(k) {
                         let (l, pdf) = light.eval_pdf_located(located[k]);
@@ -478,14 +482,19 @@ impl<'a> PathTracer<'a> {
     /// `horizon = "ignore"` (`ignores`) the lobe sees the distant light by definition, and above
     /// a single sphere's horizon nothing can occlude.
     #[inline(always)]
-    fn unoccluded(&self, ps: &Paths, ignores: Mask<LANES>, dir: Float3<LANES>) -> Mask<LANES> {
+    fn unoccluded<S: Isa>(&self, ps: &Paths<S>, ignores: Mask<LANES, S>, dir: Float3<LANES, S>) -> Mask<LANES, S> {
         let below = ps.n.dot(dir).le(Float::ZERO) & ignores;
         if self.single_convex { below | ps.ng.dot(dir).gt(Float::ZERO) } else { below }
     }
 
     /// Closest hits of the rays (`origin`, `dir`) of the lanes in `want` (unbounded rays).
     #[inline(always)]
-    fn trace_lanes(&self, origin: Float3<LANES>, dir: Float3<LANES>, want: Mask<LANES>) -> LaneHits {
+    fn trace_lanes<S: Isa>(
+        &self,
+        origin: Float3<LANES, S>,
+        dir: Float3<LANES, S>,
+        want: Mask<LANES, S>,
+    ) -> LaneHits<S> {
         let geometry = &self.scene.geometry;
         let mut hits = LaneHits::NONE;
         if !want.any() {
@@ -524,7 +533,7 @@ impl<'a> PathTracer<'a> {
 /// The object of every lane in `lanes`, where they all have the same (the BRDF's calls can then
 /// run over the batch in SIMD lanes); `None` when they differ or `lanes` is empty.
 #[inline(always)]
-fn shared_object(objects: &[u32; LANES], lanes: Mask<LANES>) -> Option<u32> {
+fn shared_object<S: Isa>(objects: &[u32; LANES], lanes: Mask<LANES, S>) -> Option<u32> {
     let mut object = None;
     for k in 0..LANES {
         if lanes.lane(k) {

@@ -22,7 +22,7 @@ use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample, LightSamples, Located};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask};
 use rayon::prelude::*;
 use std::path::Path;
 use vocab::image::RgbImage;
@@ -70,7 +70,7 @@ struct Texel {
 /// m · v with the operations of glam's `Mat3 * Vec3` (x_axis·vx + y_axis·vy + z_axis·vz, added in
 /// that order: the same bits), as plain f32 arithmetic for the lane loops.
 #[inline(always)]
-fn mat3_mul<const N: usize>(m: &glam::Mat3, v: Float3<N>) -> Float3<N> {
+fn mat3_mul<const N: usize, S: Isa>(m: &glam::Mat3, v: Float3<N, S>) -> Float3<N, S> {
     Float3::new(
         m.x_axis.x * v.x + m.y_axis.x * v.y + m.z_axis.x * v.z,
         m.x_axis.y * v.x + m.y_axis.y * v.y + m.z_axis.y * v.z,
@@ -294,7 +294,7 @@ impl DistantLight for Envmap {
     /// over the lanes, then each lane's texel or, near a pixel edge, its lookup, and the division
     /// by the density over the lanes. Angular: lane by lane.
     #[inline(always)]
-    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> LightSamples<N> {
+    fn sample_each<const N: usize, S: Isa>(&self, u: [Float<N, S>; 2], want: Mask<N, S>) -> LightSamples<N, S> {
         let mut out = LightSamples::NONE;
         let EnvSampler::LatLong(grid) = &self.sampler else {
             for k in 0..N {
@@ -308,7 +308,7 @@ impl DistantLight for Envmap {
         };
         let Some((d, cell)) = grid.sample_directions(u, want) else { return out };
         let wi = mat3_mul(&self.rotation, d).normalize();
-        let (mut value, mut pdf) = (Float3::<N>::ZERO, Float::<N>::ZERO);
+        let (mut value, mut pdf) = (Float3::<N, S>::ZERO, Float::<N, S>::ZERO);
         for (k, &cell) in cell.iter().enumerate() {
             if !want.lane(k) {
                 continue;
@@ -339,7 +339,7 @@ impl DistantLight for Envmap {
     /// Lat-long: the rotation to the map's frame and the grid's `cells` over the lanes, then each
     /// texel's load starts. Angular: lane by lane.
     #[inline(always)]
-    fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
+    fn locate_each<const N: usize, S: Isa>(&self, wi: Float3<N, S>, want: Mask<N, S>) -> [Located; N] {
         let mut out = [Located::NONE; N];
         let EnvSampler::LatLong(grid) = &self.sampler else {
             for (k, o) in out.iter_mut().enumerate() {
@@ -364,7 +364,7 @@ impl DistantLight for Envmap {
 
     /// The lookups of `locate_each`, then each texel's radiance.
     #[inline(always)]
-    fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
+    fn eval_each<const N: usize, S: Isa>(&self, wi: Float3<N, S>, want: Mask<N, S>) -> [Rgb; N] {
         let mut out = [Rgb::ZERO; N];
         let located = self.locate_each(wi, want);
         for k in 0..N {
@@ -547,9 +547,12 @@ mod tests {
                 for batch in 0..512 {
                     let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
                     let want: [bool; 8] = std::array::from_fn(|k| (batch + k) % 5 != 0);
-                    let lanes = e.sample_each([Float(u.map(|u| u.x)), Float(u.map(|u| u.y))], Mask::from_bools(want));
+                    let lanes = e.sample_each(
+                        [Float::<8>::from_array(u.map(|u| u.x)), Float::from_array(u.map(|u| u.y))],
+                        Mask::from_bools(want),
+                    );
                     let dirs: [Vec3; 8] = std::array::from_fn(|k| lanes.lane(k).map_or(Vec3::Z, |s| s.wi));
-                    let located = e.locate_each(Float3::from_vecs(&dirs), Mask::from_bools(want));
+                    let located = e.locate_each(Float3::<8>::from_vecs(&dirs), Mask::from_bools(want));
                     for k in 0..8 {
                         if !want[k] {
                             assert!(lanes.lane(k).is_none());

@@ -12,7 +12,7 @@
 
 use crate::math::{PI, Vec2, Vec3};
 use crate::sampling::distribution::{PiecewiseConstant2D, len_f32};
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask};
 
 /// Margins of [`LatLongGrid::sample_directions`], each a few times the error it covers. In z:
 /// the row edges' f32 rounding (6e-8) plus sinθ × the error of `cell`'s θ, which is below 2e-6 rad
@@ -95,7 +95,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
 
     /// The rows and columns of the cells containing each lane's unit direction.
     #[inline(always)]
-    pub fn cells<const N: usize>(&self, d: Float3<N>) -> ([usize; N], [usize; N]) {
+    pub fn cells<const N: usize, S: Isa>(&self, d: Float3<N, S>) -> ([usize; N], [usize; N]) {
         // atan2 keeps θ accurate near the poles, where acos(z) loses precision in f32. The
         // polynomial atan2 (error ≤ 4e-7 rad, `math::fast`) can put a direction within that of a
         // pixel edge in the neighbouring pixel; eval and pdf both use this function, so they agree.
@@ -141,25 +141,25 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// and the in-cell tests run over all lanes, in SIMD registers inside the x86-64-v3 copy of the
     /// render's tile loop.
     #[inline(always)]
-    pub fn sample_directions<const N: usize>(
+    pub fn sample_directions<const N: usize, S: Isa>(
         &self,
-        u: [Float<N>; 2],
-        want: Mask<N>,
-    ) -> Option<(Float3<N>, [Option<usize>; N])> {
+        u: [Float<N, S>; 2],
+        want: Mask<N, S>,
+    ) -> Option<(Float3<N, S>, [Option<usize>; N])> {
         self.sample_directions_with(u, want, Z_MARGIN, PHI_MARGIN, PHI_ROUNDING)
     }
 
     /// [`LatLongGrid::sample_directions`] with its margins as arguments (the tests show that zero
     /// margins give wrong cells).
     #[inline(always)]
-    fn sample_directions_with<const N: usize>(
+    fn sample_directions_with<const N: usize, S: Isa>(
         &self,
-        u: [Float<N>; 2],
-        want: Mask<N>,
+        u: [Float<N, S>; 2],
+        want: Mask<N, S>,
         z_margin: f32,
         phi_margin: f32,
         phi_rounding: f32,
-    ) -> Option<(Float3<N>, [Option<usize>; N])> {
+    ) -> Option<(Float3<N, S>, [Option<usize>; N])> {
         if !self.can_sample() {
             return None;
         }
@@ -172,7 +172,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
         // product is below one ulp of W, inside `phi_rounding`); an angular error ε of the
         // direction's components moves φ by ε / sinθ.
         let w = len_f32(self.width);
-        let mut fiu = Float::<N>::ZERO;
+        let mut fiu = Float::<N, S>::ZERO;
         for (f, &i) in fiu.0.iter_mut().zip(&iu) {
             *f = len_f32(i);
         }
@@ -193,14 +193,14 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// cell), its row, its sinθ and its row's z edges.
     #[inline(always)]
     #[allow(clippy::type_complexity)]
-    fn warp<const N: usize>(
+    fn warp<const N: usize, S: Isa>(
         &self,
-        pu: Float<N>,
-        pv: Float<N>,
-    ) -> (Float3<N>, [usize; N], Float<N>, Float<N>, Float<N>) {
+        pu: Float<N, S>,
+        pv: Float<N, S>,
+    ) -> (Float3<N, S>, [usize; N], Float<N, S>, Float<N, S>, Float<N, S>) {
         let fv = pv * len_f32(self.height);
         let ir = fv.index_below(self.height);
-        let (mut r, mut fr, mut ir1) = ([0usize; N], Float::<N>::ZERO, [0u32; N]);
+        let (mut r, mut fr, mut ir1) = ([0usize; N], Float::<N, S>::ZERO, [0u32; N]);
         for k in 0..N {
             r[k] = ir[k] as usize;
             fr.0[k] = ir[k] as f32;

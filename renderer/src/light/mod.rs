@@ -16,7 +16,7 @@ pub use sh::ShLight;
 pub use uniform::Uniform;
 
 use crate::math::{Rgb, Vec2, Vec3};
-use crate::simd::{Float, Float3, Mask};
+use crate::simd::{Float, Float3, Isa, Mask, Sse2};
 
 /// A direction drawn from a light.
 #[derive(Clone, Copy, Debug)]
@@ -35,20 +35,20 @@ pub struct LightSample {
 /// lane without a sample (not wanted, or the light drew none) holds `valid` false, `wi` = +z,
 /// `value` 0, `pdf` 0 and `delta` false, so that the integrator's stages can run over every lane.
 #[derive(Clone, Copy, Debug)]
-pub struct LightSamples<const N: usize> {
+pub struct LightSamples<const N: usize, S: Isa = Sse2> {
     /// World directions toward the light ([`LightSample::wi`]).
-    pub wi: Float3<N>,
+    pub wi: Float3<N, S>,
     /// L(ω_i)/pdf, or a delta light's irradiance ([`LightSample::value`]).
-    pub value: Float3<N>,
+    pub value: Float3<N, S>,
     /// Solid-angle densities ([`LightSample::pdf`]).
-    pub pdf: Float<N>,
+    pub pdf: Float<N, S>,
     /// The lanes that hold a sample.
-    pub valid: Mask<N>,
+    pub valid: Mask<N, S>,
     /// The lanes whose sample is a delta light's.
-    pub delta: Mask<N>,
+    pub delta: Mask<N, S>,
 }
 
-impl<const N: usize> LightSamples<N> {
+impl<const N: usize, S: Isa> LightSamples<N, S> {
     /// No lane holds a sample.
     pub const NONE: Self = LightSamples {
         wi: Float3 { x: Float::ZERO, y: Float::ZERO, z: Float::ONE },
@@ -119,7 +119,7 @@ pub trait DistantLight {
     /// lanes hold no sample). An environment map writes its sample once, over the lanes (its
     /// `sample` is the one-lane call); the other lights run their `sample` lane by lane.
     #[inline(always)]
-    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> LightSamples<N> {
+    fn sample_each<const N: usize, S: Isa>(&self, u: [Float<N, S>; 2], want: Mask<N, S>) -> LightSamples<N, S> {
         let mut out = LightSamples::NONE;
         for k in 0..N {
             if want.lane(k)
@@ -134,7 +134,7 @@ pub trait DistantLight {
     /// are unspecified). An environment map locates over the lanes (its `locate` is the one-lane
     /// call).
     #[inline(always)]
-    fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
+    fn locate_each<const N: usize, S: Isa>(&self, wi: Float3<N, S>, want: Mask<N, S>) -> [Located; N] {
         let mut out = [Located::NONE; N];
         for (k, o) in out.iter_mut().enumerate() {
             if want.lane(k) {
@@ -147,7 +147,7 @@ pub trait DistantLight {
     /// light seen by a batch's camera rays that miss. An environment map looks its directions up
     /// over the lanes (its `eval` is the one-lane call).
     #[inline(always)]
-    fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
+    fn eval_each<const N: usize, S: Isa>(&self, wi: Float3<N, S>, want: Mask<N, S>) -> [Rgb; N] {
         let mut out = [Rgb::ZERO; N];
         for (k, o) in out.iter_mut().enumerate() {
             if want.lane(k) {
@@ -219,15 +219,15 @@ impl DistantLight for Light {
         dispatch!(self, l => l.locate(wi))
     }
     #[inline(always)]
-    fn locate_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Located; N] {
+    fn locate_each<const N: usize, S: Isa>(&self, wi: Float3<N, S>, want: Mask<N, S>) -> [Located; N] {
         dispatch!(self, l => l.locate_each(wi, want))
     }
     #[inline(always)]
-    fn sample_each<const N: usize>(&self, u: [Float<N>; 2], want: Mask<N>) -> LightSamples<N> {
+    fn sample_each<const N: usize, S: Isa>(&self, u: [Float<N, S>; 2], want: Mask<N, S>) -> LightSamples<N, S> {
         dispatch!(self, l => l.sample_each(u, want))
     }
     #[inline(always)]
-    fn eval_each<const N: usize>(&self, wi: Float3<N>, want: Mask<N>) -> [Rgb; N] {
+    fn eval_each<const N: usize, S: Isa>(&self, wi: Float3<N, S>, want: Mask<N, S>) -> [Rgb; N] {
         dispatch!(self, l => l.eval_each(wi, want))
     }
     #[inline(always)]

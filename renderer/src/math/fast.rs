@@ -26,7 +26,7 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 /// needs θ and φ of one direction: one evaluation instead of two.
 #[inline(always)]
 pub fn atan2_x2(y: [f32; 2], x: [f32; 2]) -> [f32; 2] {
-    Float(y).atan2(Float(x)).0
+    Float::<2>::from_array(y).atan2(Float::from_array(x)).0
 }
 
 /// (sin 2πu, cos 2πu), the azimuth of a warp from a uniform number u.
@@ -127,7 +127,7 @@ mod tests {
             let m = |rng: &mut TestRng| (rng.next_f32() * 2.0 - 1.0) * 10f32.powf(rng.next_f32() * 8.0 - 4.0);
             let y: [f32; 8] = std::array::from_fn(|_| m(&mut rng));
             let x: [f32; 8] = std::array::from_fn(|k| if k == 3 { 0.0 } else { m(&mut rng) });
-            let r = Float(y).atan2(Float(x)).0;
+            let r = Float::<8>::from_array(y).atan2(Float::from_array(x)).0;
             for k in 0..8 {
                 let want = atan2(y[k], x[k]);
                 assert!(r[k].to_bits() == want.to_bits() || (r[k].is_nan() && want.is_nan()));
@@ -149,7 +149,10 @@ mod tests {
         }
         #[inline(always)]
         fn lanes_body(ys: &[[f32; 8]], xs: &[[f32; 8]]) -> f32 {
-            ys.iter().zip(xs).map(|(y, x)| Float(*y).atan2(Float(*x)).0.iter().sum::<f32>()).sum()
+            ys.iter()
+                .zip(xs)
+                .map(|(y, x)| Float::<8>::from_array(*y).atan2(Float::from_array(*x)).0.iter().sum::<f32>())
+                .sum()
         }
         #[inline(never)]
         fn lanes_base(ys: &[[f32; 8]], xs: &[[f32; 8]]) -> f32 {

@@ -31,7 +31,7 @@
 //! CDFs are accumulated in f64 and stored in f32 (rounding is monotone, so they stay sorted).
 
 use crate::math::Vec2;
-use crate::simd::{Float, Mask};
+use crate::simd::{Float, Isa, Mask};
 use rayon::prelude::*;
 
 /// Largest f32 below 1: random numbers are clamped to it so `u = 1` cannot select past the end.
@@ -331,17 +331,17 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
     /// more) run over all lanes, in SIMD registers inside the x86-64-v3 copy of the render's tile
     /// loop; the cutpoint walks (whose lengths depend on the table) and their loads run lane by lane.
     #[inline(always)]
-    pub fn sample_points<const N: usize>(
+    pub fn sample_points<const N: usize, S: Isa>(
         &self,
-        u: [Float<N>; 2],
-        want: Mask<N>,
-    ) -> ([Float<N>; 2], [usize; N], [usize; N]) {
+        u: [Float<N, S>; 2],
+        want: Mask<N, S>,
+    ) -> ([Float<N, S>; 2], [usize; N], [usize; N]) {
         let marginal = &self.marginal.entries;
         let nm = marginal.len() - 1;
         // The marginal (rows): `sample_entries` split at its walk.
         let uy = u[1].clamp(0.0, ONE_MINUS_EPSILON);
         let guide = (uy * len_f32(nm)).index_below(nm);
-        let (mut iv, mut c0, mut c1) = ([0usize; N], Float::<N>::ZERO, Float::<N>::ZERO);
+        let (mut iv, mut c0, mut c1) = ([0usize; N], Float::<N, S>::ZERO, Float::<N, S>::ZERO);
         for k in 0..N {
             if want.lane(k) {
                 let mut i = marginal[guide[k] as usize].guide as usize;
@@ -371,7 +371,7 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
         let width = c1 - c0;
         let du = width.gt(Float::ZERO).select(((ux - c0) / width).clamp(0.0, ONE_MINUS_EPSILON), Float::ZERO);
         // `continuous` of each lane's cell and offset.
-        let (mut fu, mut fv) = (Float::<N>::ZERO, Float::<N>::ZERO);
+        let (mut fu, mut fv) = (Float::<N, S>::ZERO, Float::<N, S>::ZERO);
         for k in 0..N {
             (fu.0[k], fv.0[k]) = (len_f32(iu[k]), len_f32(iv[k]));
         }

@@ -42,7 +42,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::math::Vec2;
-use crate::simd::{Float, U32};
+use crate::simd::{Float, Isa, Sse2, U32};
 
 /// The sample generator (`render.sampler`), defined in `vocab`.
 pub use vocab::Sampler as SamplerKind;
@@ -90,7 +90,7 @@ fn to_unit_f32(x: u32) -> f32 {
 /// A 32-bit bijective mixer (Wellons's "lowbias32", 2018): a lane's scrambling seed from its
 /// dimension key and replicate. u32 multiplications only, so it runs in SIMD lanes.
 #[inline(always)]
-fn hash32<const N: usize>(x: U32<N>) -> U32<N> {
+fn hash32<const N: usize, S: Isa>(x: U32<N, S>) -> U32<N, S> {
     let x = x ^ x.shift_right(16);
     let x = x.wrapping_mul(0x7feb_352d);
     let x = x ^ x.shift_right(15);
@@ -101,7 +101,7 @@ fn hash32<const N: usize>(x: U32<N>) -> U32<N> {
 /// Laine–Karras style hash that only lets bits influence more significant ones (when applied to
 /// bit-reversed values it becomes a nested uniform, i.e. Owen, scramble).
 #[inline(always)]
-fn lk_permutation<const N: usize>(x: U32<N>, seed: U32<N>) -> U32<N> {
+fn lk_permutation<const N: usize, S: Isa>(x: U32<N, S>, seed: U32<N, S>) -> U32<N, S> {
     let mut x = x.wrapping_add(seed);
     x = x ^ x.wrapping_mul(0x6c50_b47c);
     x = x ^ x.wrapping_mul(0xb82f_1e52);
@@ -113,7 +113,7 @@ fn lk_permutation<const N: usize>(x: U32<N>, seed: U32<N>) -> U32<N> {
 /// scramble of the value `x` read as a binary fraction): the definition the tests check against.
 #[cfg(test)]
 fn owen_scramble(x: u32, seed: u32) -> u32 {
-    lk_permutation(U32([x.reverse_bits()]), U32([seed])).0[0].reverse_bits()
+    lk_permutation(U32::<1>::from_array([x.reverse_bits()]), U32::from_array([seed])).0[0].reverse_bits()
 }
 
 /// Second Sobol dimension of index `i` (primitive polynomial x + 1), bit-reversed: the XOR of the
@@ -125,7 +125,7 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
 /// 10 lane operations instead of a loop over 32 bits or table gathers (a test checks it against the
 /// bit loop).
 #[inline(always)]
-fn sobol1_reversed<const N: usize>(i: U32<N>) -> U32<N> {
+fn sobol1_reversed<const N: usize, S: Isa>(i: U32<N, S>) -> U32<N, S> {
     let mut x = i;
     x = x ^ x.shift_right(1).and(0x5555_5555);
     x = x ^ x.shift_right(2).and(0x3333_3333);
@@ -138,24 +138,24 @@ fn sobol1_reversed<const N: usize>(i: U32<N>) -> U32<N> {
 /// function of (seed, pixel, the lane's sample index, dimension), and lane k has the bits a one-lane
 /// `SampleLanes` of that sample gives (the same code).
 #[derive(Clone, Copy, Debug)]
-pub struct SampleLanes<const N: usize> {
+pub struct SampleLanes<const N: usize, S: Isa = Sse2> {
     kind: SamplerKind,
     /// hash(seed, pixel).
     pixel_key: u64,
     /// The lanes' sample indices within the pixel.
-    index: U32<N>,
+    index: U32<N, S>,
     /// Sobol: each lane's replicate times [`REPLICATE_MIX`], the lane's part of its seeds' hash
     /// (`SobolSingle`: replicate 0).
-    replicate_mix: U32<N>,
+    replicate_mix: U32<N, S>,
     /// Sobol: each lane's point index within its replicate, bit-reversed (the van der Corput
     /// point of the index, which Owen scrambling works on; `SobolSingle`: the sample index).
-    point_reversed: U32<N>,
+    point_reversed: U32<N, S>,
 }
 
-impl<const N: usize> SampleLanes<N> {
+impl<const N: usize, S: Isa> SampleLanes<N, S> {
     /// The samples `index` of pixel `pixel` (any unique pixel id, e.g. row·width + column).
     #[inline(always)]
-    pub fn new(kind: SamplerKind, seed: u64, pixel: u64, index: U32<N>) -> Self {
+    pub fn new(kind: SamplerKind, seed: u64, pixel: u64, index: U32<N, S>) -> Self {
         // Replicate r = i mod R, point ⌊i / R⌋; one sequence is R = 1 (the Independent sampler
         // reads neither).
         let r = Sampler::replicates(kind);
@@ -170,14 +170,14 @@ impl<const N: usize> SampleLanes<N> {
 
     /// Each lane's scrambling seed of a draw whose dimension key has the part `key`.
     #[inline(always)]
-    fn seeds(&self, key: u32) -> U32<N> {
+    fn seeds(&self, key: u32) -> U32<N, S> {
         hash32(U32::splat(key) ^ self.replicate_mix)
     }
 
     /// The lanes' point indices Owen-scrambled with the seeds of `key` (the index shuffle that
     /// decorrelates the dimensions), not reversed: i of the draw.
     #[inline(always)]
-    fn shuffled_index(&self, key: u32) -> U32<N> {
+    fn shuffled_index(&self, key: u32) -> U32<N, S> {
         lk_permutation(self.point_reversed, self.seeds(key)).reverse_bits()
     }
 
@@ -187,11 +187,11 @@ impl<const N: usize> SampleLanes<N> {
     /// the Owen scramble of van der Corput's reverse(i) and y of the second Sobol dimension of i,
     /// each with its own seed (`hash32` of a part of k and the replicate).
     #[inline(always)]
-    pub fn draw_2d(&self, d: u32) -> [Float<N>; 2] {
+    pub fn draw_2d(&self, d: u32) -> [Float<N, S>; 2] {
         let key = hash2(self.pixel_key, d as u64 | TAG_2D);
         match self.kind {
             SamplerKind::Independent => {
-                let (mut x, mut y) = (Float([0.0; N]), Float([0.0; N]));
+                let (mut x, mut y) = (Float::from_array([0.0; N]), Float::from_array([0.0; N]));
                 for k in 0..N {
                     let h = hash2(key, self.index.0[k] as u64);
                     (x.0[k], y.0[k]) = (to_unit_f32(h as u32), to_unit_f32((h >> 32) as u32));
@@ -210,11 +210,11 @@ impl<const N: usize> SampleLanes<N> {
     /// The 1D draw of every lane at dimension `d`, in [0, 1) (Sobol: the Owen-scrambled van der
     /// Corput point of the lane's shuffled index).
     #[inline(always)]
-    pub fn draw_1d(&self, d: u32) -> Float<N> {
+    pub fn draw_1d(&self, d: u32) -> Float<N, S> {
         let key = hash2(self.pixel_key, d as u64);
         match self.kind {
             SamplerKind::Independent => {
-                let mut x = Float([0.0; N]);
+                let mut x = Float::from_array([0.0; N]);
                 for k in 0..N {
                     x.0[k] = to_unit_f32((hash2(key, self.index.0[k] as u64) >> 32) as u32);
                 }
@@ -241,7 +241,7 @@ pub struct Sampler {
 
 impl Sampler {
     pub fn new(kind: SamplerKind, seed: u64) -> Self {
-        Sampler { kind, seed, sample: SampleLanes::new(kind, seed, 0, U32([0])), dim: 0 }
+        Sampler { kind, seed, sample: SampleLanes::new(kind, seed, 0, U32::from_array([0])), dim: 0 }
     }
 
     pub fn kind(&self) -> SamplerKind {
@@ -273,7 +273,7 @@ impl Sampler {
     /// The samples `first, first + 1, …, first + N − 1` of pixel `pixel` (wrapping in u32), drawn
     /// together ([`SampleLanes`]).
     #[inline(always)]
-    pub fn lanes<const N: usize>(&self, pixel: u64, first: u32) -> SampleLanes<N> {
+    pub fn lanes<const N: usize, S: Isa>(&self, pixel: u64, first: u32) -> SampleLanes<N, S> {
         SampleLanes::new(self.kind, self.seed, pixel, U32::ramp(first))
     }
 
@@ -281,7 +281,7 @@ impl Sampler {
     /// row·width + column), dimension 0.
     #[inline]
     pub fn start(&mut self, pixel: u64, index: u32) {
-        self.sample = SampleLanes::new(self.kind, self.seed, pixel, U32([index]));
+        self.sample = SampleLanes::new(self.kind, self.seed, pixel, U32::from_array([index]));
         self.dim = 0;
     }
 
@@ -350,7 +350,7 @@ mod tests {
         fn lanes_body(s: &Sampler) -> f32 {
             let mut acc = 0.0;
             for b in 0..(1u32 << 16) {
-                let [xs, _] = s.lanes::<LANES>(1, b * LANES as u32).draw_2d(2);
+                let [xs, _] = s.lanes::<LANES, Sse2>(1, b * LANES as u32).draw_2d(2);
                 acc += xs.0.iter().sum::<f32>();
             }
             acc
@@ -372,12 +372,12 @@ mod tests {
     /// at 8 lanes and at 16.
     #[test]
     fn lanes_equal_the_one_sample_draws() {
-        fn check<const N: usize>(kind: SamplerKind) {
+        fn check<const N: usize, S: Isa>(kind: SamplerKind) {
             let batch = Sampler::new(kind, 3);
             let mut one = Sampler::new(kind, 3);
             for pixel in [0u64, 77, 1 << 33] {
                 for first in [0u32, 8, 13, 1000, u32::MAX - 7] {
-                    let lanes = batch.lanes::<N>(pixel, first);
+                    let lanes = batch.lanes::<N, S>(pixel, first);
                     for d in [0u32, 2, 4, 5, 30] {
                         let [xs, ys] = lanes.draw_2d(d);
                         let us = lanes.draw_1d(d);
@@ -394,8 +394,13 @@ mod tests {
             }
         }
         for kind in SamplerKind::ALL.iter().copied() {
-            check::<8>(kind);
-            check::<16>(kind);
+            check::<8, Sse2>(kind);
+            check::<16, Sse2>(kind);
+            // The lanes in 256-bit registers (the tile loop's AVX2 copies).
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                check::<8, crate::simd::Avx2>(kind);
+            }
         }
     }
 
@@ -537,7 +542,7 @@ mod tests {
     fn draws_2d(s: &Sampler, pixel: u64, count: u32, dims: &[u32]) -> Vec<Vec<Vec2>> {
         let mut out = vec![Vec::with_capacity(count as usize); dims.len()];
         for b in 0..count / LANES as u32 {
-            let l = s.lanes::<LANES>(pixel, b * LANES as u32);
+            let l = s.lanes::<LANES, Sse2>(pixel, b * LANES as u32);
             for (j, &d) in dims.iter().enumerate() {
                 let [x, y] = l.draw_2d(d);
                 out[j].extend((0..LANES).map(|k| Vec2::new(x.0[k], y.0[k])));
@@ -624,7 +629,7 @@ mod tests {
             // Per sample: camera (0, 1), light (2, 3), lobe 4, BRDF (5, 6), roulette 7.
             let mut pts = vec![[0.0f32; 8]; n as usize];
             for b in 0..n / LANES as u32 {
-                let l = s.lanes::<LANES>(pixel, b * LANES as u32);
+                let l = s.lanes::<LANES, Sse2>(pixel, b * LANES as u32);
                 let ([c0, c1], [l0, l1], lobe, [b0, b1], rr) =
                     (l.draw_2d(0), l.draw_2d(2), l.draw_1d(4), l.draw_2d(5), l.draw_1d(7));
                 for k in 0..LANES {
@@ -702,7 +707,7 @@ mod tests {
         for pixel in 0..pixels {
             let mut m = [0.0f64; REPLICATES as usize];
             for b in 0..(16 * REPLICATES) / LANES as u32 {
-                let [x, y] = s.lanes::<LANES>(pixel, b * LANES as u32).draw_2d(0);
+                let [x, y] = s.lanes::<LANES, Sse2>(pixel, b * LANES as u32).draw_2d(0);
                 for k in 0..LANES {
                     m[((b * LANES as u32) as usize + k) % REPLICATES as usize] += f(x.0[k], y.0[k]) / 16.0;
                 }
@@ -723,7 +728,7 @@ mod tests {
     fn sobol1_matches_the_bit_loop() {
         let mut rng = crate::sampling::chi2::TestRng::new(9);
         for i in (0..4096).chain((0..4096).map(|_| rng.next_u64() as u32)) {
-            assert_eq!(sobol1_reversed(U32([i])).0[0].reverse_bits(), sobol1_by_columns(i));
+            assert_eq!(sobol1_reversed(U32::<1>::from_array([i])).0[0].reverse_bits(), sobol1_by_columns(i));
         }
     }
 

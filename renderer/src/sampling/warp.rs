@@ -15,7 +15,7 @@
 //! - `cos_power_lobe_about(axis, s)`: the same lobe about an arbitrary unit axis (e.g. R).
 
 use crate::math::{Frame, INV_2PI, INV_4PI, INV_PI, Vec2, Vec3};
-use crate::simd::{Float, Float3};
+use crate::simd::{Float, Float3, Isa};
 
 /// Unit vector with z = `cos_t` and azimuth φ = 2π `u_phi` (sinθ ≥ 0 from cosθ).
 #[inline]
@@ -25,7 +25,7 @@ fn from_cos_and_phi(cos_t: f32, u_phi: f32) -> Vec3 {
 
 /// The unit vector of each lane with z = `cos_t` and azimuth φ = 2π `u_phi`.
 #[inline(always)]
-pub fn cos_and_phi<const N: usize>(cos_t: Float<N>, u_phi: Float<N>) -> Float3<N> {
+pub fn cos_and_phi<const N: usize, S: Isa>(cos_t: Float<N, S>, u_phi: Float<N, S>) -> Float3<N, S> {
     let sin_t = (1.0 - cos_t * cos_t).max(Float::ZERO).sqrt();
     let (sp, cp) = u_phi.sincos_2pi();
     Float3::new(sin_t * cp, sin_t * sp, cos_t)
@@ -63,7 +63,7 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
 /// [`square_to_concentric_disk`] in each lane: the point (x, y) of the disk. The angle is taken in
 /// turns, π/4 · b/a = 2π · (b/a)/8, so that its sine and cosine are `sincos_2pi`'s.
 #[inline(always)]
-pub fn concentric_disk<const N: usize>(u: [Float<N>; 2]) -> [Float<N>; 2] {
+pub fn concentric_disk<const N: usize, S: Isa>(u: [Float<N, S>; 2]) -> [Float<N, S>; 2] {
     let a = 2.0 * u[0] - 1.0;
     let b = 2.0 * u[1] - 1.0;
     let wide = a.abs().gt(b.abs());
@@ -82,7 +82,7 @@ pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
 
 /// [`square_to_cosine_hemisphere`] in each lane.
 #[inline(always)]
-pub fn cosine_hemisphere<const N: usize>(u: [Float<N>; 2]) -> Float3<N> {
+pub fn cosine_hemisphere<const N: usize, S: Isa>(u: [Float<N, S>; 2]) -> Float3<N, S> {
     let [x, y] = concentric_disk(u);
     let z = (1.0 - (x * x + y * y)).max(Float::ZERO).sqrt();
     Float3::new(x, y, z)
@@ -113,7 +113,7 @@ pub fn square_to_cos_power_lobe(u: Vec2, inv_s_plus_1: f32) -> Vec3 {
 
 /// [`square_to_cos_power_lobe`] in each lane.
 #[inline(always)]
-pub fn cos_power_lobe<const N: usize>(u: [Float<N>; 2], inv_s_plus_1: f32) -> Float3<N> {
+pub fn cos_power_lobe<const N: usize, S: Isa>(u: [Float<N, S>; 2], inv_s_plus_1: f32) -> Float3<N, S> {
     // 1 − u₀ ∈ (0, 1]: avoids cos α = 0 exactly (a direction with zero density).
     cos_and_phi((1.0 - u[0]).powf(inv_s_plus_1), u[1])
 }

@@ -1,7 +1,7 @@
 //! The kernel's transcendental functions, written once over [`Float`]: branch-free polynomials
 //! and selects (libm's are out-of-line calls with branches). `math::fast` calls them at one lane;
 //! its tests measure each function's error against f64 libm and state the bounds.
-use super::Float;
+use super::{Float, Isa};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// Coefficients c_k of atan(a) ≈ a · Σ c_k (a²)^k on a ∈ [0, 1] (degree 15 in a, odd), fitted by
@@ -22,7 +22,7 @@ pub(crate) const ATAN_COEFFS: [f32; 8] = [
 /// (ties to even) with plain IEEE adds (`f32::round` is a call to `roundf` without SSE4.1).
 const ROUND_MAGIC: f32 = 12_582_912.0;
 
-impl<const N: usize> Float<N> {
+impl<const N: usize, S: Isa> Float<N, S> {
     /// atan2(self, x) lane by lane (`self` is y); see `math::fast::atan2` for its error and its
     /// special cases. Octant reduction a = min(|x|,|y|)/max(|x|,|y|), the polynomial, then
     /// π/2 − r, π − r and the sign of y by selects.
@@ -79,7 +79,7 @@ impl<const N: usize> Float<N> {
             m[k] = f32::from_bits((bits - (e << 23)) as u32);
             ef[k] = e as f32;
         }
-        let (ef, m) = (Float(ef), Float(m));
+        let (ef, m) = (Float::from_array(ef), Float::from_array(m));
         let s = (m - 1.0) / (m + 1.0);
         let s2 = s * s;
         let mut q = Float::splat(1.0 / 9.0);
@@ -109,6 +109,6 @@ impl<const N: usize> Float<N> {
             so[k] = if q & 2 != 0 { -s } else { s };
             co[k] = if (q + 1) & 2 != 0 { -c } else { c };
         }
-        (Float(so), Float(co))
+        (Float::from_array(so), Float::from_array(co))
     }
 }

@@ -4,28 +4,31 @@
 //! `min`, `max`, `clamp`, `sqrt`, `/` …, in the same order), so lane k of any computation has the
 //! bits the same computation has at `N = 1`, whatever `N` is: the one-sample case is the same
 //! code, not a twin. The arithmetic (with `sqrt`, `abs`, `min`, `max`, `clamp`, `copysign`), the
-//! comparisons and tests, and the masks' operations and selects run four lanes at a time through
-//! 128-bit SSE intrinsics where `N` is 4 or 8 (`quads!`; SSE is in x86-64's baseline, so every
-//! instruction-set copy of the tile loop inlines them); `powf`, `sin_cos` and `exp2_int` are loops
-//! over the arrays.
+//! comparisons and tests, and the masks' operations and selects run through intrinsics where `N`
+//! is 4 or 8 (`quads!`): four lanes at a time in 128-bit SSE registers (x86-64's baseline, which
+//! every instruction-set copy of the tile loop may inline), or all eight in a 256-bit AVX register
+//! when the [`Isa`] is `Avx2` (only in the copies compiled with AVX2); `powf`, `sin_cos` and
+//! `exp2_int` are loops over the arrays.
 //! Left to loops over arrays, LLVM broke the lanes into scalars and rebuilt vectors with shuffles
 //! (guide, "Performance notes and their history", 2026-12-04). Nothing here fuses a multiply and
 //! an add (`mul_add` rounds twice), so the baseline, x86-64-v3 and x86-64-v4 copies agree bit for bit.
 // Lane loops index every operand by the lane: the form LLVM vectorizes.
 #![allow(clippy::needless_range_loop)]
 
+use super::isa::{Isa, Sse2};
+use std::marker::PhantomData;
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// `N` f32 lanes.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Float<const N: usize>(pub [f32; N]);
+pub struct Float<const N: usize, S: Isa = Sse2>(pub [f32; N], pub PhantomData<S>);
 
 /// `N` boolean lanes: which lanes a condition holds in. Each lane is all ones (holds) or all
 /// zeros, as an SSE comparison leaves it in a register, so that a select is three bitwise
 /// operations and a mask never converts between bytes and lanes. Read with [`Mask::lane`],
 /// written with [`Mask::set`] or [`Mask::from_bools`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Mask<const N: usize>([u32; N]);
+pub struct Mask<const N: usize, S: Isa = Sse2>([u32; N], PhantomData<S>);
 
 /// A lane of a [`Mask`] that holds.
 const HOLDS: u32 = u32::MAX;
@@ -42,25 +45,33 @@ macro_rules! lanes1 {
             let $v = a.0[k];
             out[k] = $e;
         }
-        Float(out)
+        Float::from_array(out)
     }};
 }
 
 /// A 128-bit operation `$sse` on four lanes at a time of one or two arrays of 32-bit lanes (an
 /// intrinsic of x86-64's baseline, which every copy of the kernel may inline) where `N` is 4 or 8,
-/// and `$e` lane by lane for any other `N`: the same bits lane by lane. LLVM then keeps vectors of
-/// four lanes instead of rebuilding them from scalars. Straight-line code, no loop: with a loop per
-/// operation over `N` lanes (unrolled only late) the kernel's compile time was 2.7× longer.
+/// or the 256-bit operation `$avx` on all eight where `N` is 8 and the [`Isa`] `S` is
+/// [`super::Avx2`]; `$e` lane by lane for any other `N`: the same bits lane by lane. LLVM then
+/// keeps vectors instead of rebuilding them from scalars. Straight-line code, no loop: with a loop
+/// per operation over `N` lanes (unrolled only late) the kernel's compile time was 2.7× longer.
 /// `$zero` gives the output's lane type.
 #[cfg(target_arch = "x86_64")]
 macro_rules! quads {
-    ($a:expr, $zero:expr, $sse:ident, |$x:ident| $e:expr) => {{
+    ($a:expr, $zero:expr, $sse:ident, $avx:ident, |$x:ident| $e:expr) => {{
         let a = $a;
         let mut out = [$zero; N];
-        // SAFETY (both branches): N is 8 or 4 and the lanes are 32 bits wide, so each array is
-        // exactly two or one `__m128` (the copies read and write 32 or 16 bytes of 32- or 16-byte
-        // arrays); SSE and SSE2 are in x86-64's baseline.
-        if N == 8 {
+        // SAFETY (every branch): N is 8 or 4 and the lanes are 32 bits wide, so each array is
+        // exactly one `__m256`, two `__m128` or one `__m128` (the copies read and write 32 or 16
+        // bytes of 32- or 16-byte arrays). SSE and SSE2 are in x86-64's baseline; `S::AVX2` holds
+        // only in code compiled with AVX2 for CPUs that have it (`Isa`).
+        if N == 8 && S::AVX2 {
+            use std::arch::x86_64::*;
+            use std::mem::transmute_copy as cast;
+            unsafe {
+                out = cast(&$avx(cast::<_, __m256>(&a)));
+            }
+        } else if N == 8 {
             use std::arch::x86_64::*;
             use std::mem::transmute_copy as cast;
             unsafe {
@@ -81,11 +92,17 @@ macro_rules! quads {
         }
         out
     }};
-    ($a:expr, $b:expr, $zero:expr, $sse:ident, |$x:ident, $y:ident| $e:expr) => {{
+    ($a:expr, $b:expr, $zero:expr, $sse:ident, $avx:ident, |$x:ident, $y:ident| $e:expr) => {{
         let (a, b) = ($a, $b);
         let mut out = [$zero; N];
         // SAFETY: as in the one-operand form.
-        if N == 8 {
+        if N == 8 && S::AVX2 {
+            use std::arch::x86_64::*;
+            use std::mem::transmute_copy as cast;
+            unsafe {
+                out = cast(&$avx(cast::<_, __m256>(&a), cast::<_, __m256>(&b)));
+            }
+        } else if N == 8 {
             use std::arch::x86_64::*;
             use std::mem::transmute_copy as cast;
             unsafe {
@@ -111,7 +128,7 @@ macro_rules! quads {
 /// Elsewhere than on x86-64: `$e` lane by lane.
 #[cfg(not(target_arch = "x86_64"))]
 macro_rules! quads {
-    ($a:expr, $zero:expr, $sse:ident, |$x:ident| $e:expr) => {{
+    ($a:expr, $zero:expr, $sse:ident, $avx:ident, |$x:ident| $e:expr) => {{
         let a = $a;
         let mut out = [$zero; N];
         for k in 0..N {
@@ -120,7 +137,7 @@ macro_rules! quads {
         }
         out
     }};
-    ($a:expr, $b:expr, $zero:expr, $sse:ident, |$x:ident, $y:ident| $e:expr) => {{
+    ($a:expr, $b:expr, $zero:expr, $sse:ident, $avx:ident, |$x:ident, $y:ident| $e:expr) => {{
         let (a, b) = ($a, $b);
         let mut out = [$zero; N];
         for k in 0..N {
@@ -131,6 +148,43 @@ macro_rules! quads {
     }};
 }
 
+/// The 256-bit comparisons with the predicates of SSE's `cmpltps`, `cmpleps`, `cmpgtps`,
+/// `cmpgeps`, `cmpeqps` and `cmpunordps` (the same result in every lane; `vcmpps` takes the
+/// predicate as an immediate).
+#[cfg(target_arch = "x86_64")]
+mod cmp256 {
+    use std::arch::x86_64::*;
+    macro_rules! cmp {
+        ($name:ident, $pred:ident) => {
+            /// # Safety
+            /// The CPU must have AVX; inline only into code compiled with it.
+            #[inline(always)]
+            pub(super) unsafe fn $name(a: __m256, b: __m256) -> __m256 {
+                // SAFETY: the caller's.
+                unsafe { _mm256_cmp_ps::<$pred>(a, b) }
+            }
+        };
+    }
+    cmp!(cmplt256, _CMP_LT_OS);
+    cmp!(cmple256, _CMP_LE_OS);
+    cmp!(cmpgt256, _CMP_GT_OS);
+    cmp!(cmpge256, _CMP_GE_OS);
+    cmp!(cmpeq256, _CMP_EQ_OQ);
+    cmp!(cmpunord256, _CMP_UNORD_Q);
+
+    /// [`super::sign_fill`] of eight lanes.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2; inline only into code compiled with it.
+    #[inline(always)]
+    pub(super) unsafe fn sign_fill256(x: __m256) -> __m256 {
+        // SAFETY: the caller's.
+        unsafe { _mm256_castsi256_ps(_mm256_srai_epi32::<31>(_mm256_castps_si256(x))) }
+    }
+}
+#[cfg(target_arch = "x86_64")]
+use cmp256::*;
+
 /// Each 32-bit lane filled with copies of its sign bit (an arithmetic shift by 31).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -140,14 +194,27 @@ fn sign_fill(x: std::arch::x86_64::__m128) -> std::arch::x86_64::__m128 {
     unsafe { _mm_castsi128_ps(_mm_srai_epi32::<31>(_mm_castps_si128(x))) }
 }
 
-impl<const N: usize> Float<N> {
-    pub const ZERO: Self = Float([0.0; N]);
-    pub const ONE: Self = Float([1.0; N]);
+impl<const N: usize, S: Isa> Float<N, S> {
+    pub const ZERO: Self = Float::from_array([0.0; N]);
+
+    /// The lanes `v`.
+    #[inline(always)]
+    pub const fn from_array(v: [f32; N]) -> Self {
+        Float(v, PhantomData)
+    }
+
+    pub const ONE: Self = Float::from_array([1.0; N]);
+
+    /// The same lanes, operated on in the instruction set `T` (no instruction).
+    #[inline(always)]
+    pub fn with_isa<T: Isa>(self) -> Float<N, T> {
+        Float::from_array(self.0)
+    }
 
     /// Every lane `v`.
     #[inline(always)]
     pub fn splat(v: f32) -> Self {
-        Float([v; N])
+        Float::from_array([v; N])
     }
 
     /// Lane `k`.
@@ -163,18 +230,20 @@ impl<const N: usize> Float<N> {
         for k in 0..N {
             out[k] = table[index[k] as usize];
         }
-        Float(out)
+        Float::from_array(out)
     }
 
     #[inline(always)]
     pub fn sqrt(self) -> Self {
-        Float(quads!(self.0, 0.0f32, _mm_sqrt_ps, |v| v.sqrt()))
+        Float::from_array(quads!(self.0, 0.0f32, _mm_sqrt_ps, _mm256_sqrt_ps, |v| v.sqrt()))
     }
 
     /// The sign bit cleared (as `f32::abs`).
     #[inline(always)]
     pub fn abs(self) -> Self {
-        Float(quads!(self.0, [MAGNITUDE; N], 0.0f32, _mm_and_ps, |x, m| f32::from_bits(x.to_bits() & m.to_bits())))
+        Float::from_array(quads!(self.0, [MAGNITUDE; N], 0.0f32, _mm_and_ps, _mm256_and_ps, |x, m| f32::from_bits(
+            x.to_bits() & m.to_bits()
+        )))
     }
 
     /// `f32::min` lane by lane (a NaN operand gives the other one; of two equal lanes, `self`'s).
@@ -182,14 +251,16 @@ impl<const N: usize> Float<N> {
     pub fn min(self, o: Self) -> Self {
         // minps(o, self) is `o < self ? o : self`, which gives `self` where either is NaN; the
         // second step puts `o` where `self` is NaN. (LLVM lowers the scalar `minnum` the same way.)
-        let m = Float(quads!(o.0, self.0, 0.0f32, _mm_min_ps, |y, x| if y < x { y } else { x }));
+        let m =
+            Float::from_array(quads!(o.0, self.0, 0.0f32, _mm_min_ps, _mm256_min_ps, |y, x| if y < x { y } else { x }));
         self.is_nan().select(o, m)
     }
 
     /// `f32::max` lane by lane (a NaN operand gives the other one; of two equal lanes, `self`'s).
     #[inline(always)]
     pub fn max(self, o: Self) -> Self {
-        let m = Float(quads!(o.0, self.0, 0.0f32, _mm_max_ps, |y, x| if y > x { y } else { x }));
+        let m =
+            Float::from_array(quads!(o.0, self.0, 0.0f32, _mm_max_ps, _mm256_max_ps, |y, x| if y > x { y } else { x }));
         self.is_nan().select(o, m)
     }
 
@@ -198,8 +269,8 @@ impl<const N: usize> Float<N> {
     pub fn clamp(self, lo: f32, hi: f32) -> Self {
         // maxps(lo, v) is `lo > v ? lo : v` and minps(hi, v) is `hi < v ? hi : v`: a NaN lane
         // passes both, as in `f32::clamp`'s two comparisons.
-        let v = quads!([lo; N], self.0, 0.0f32, _mm_max_ps, |l, v| if l > v { l } else { v });
-        Float(quads!([hi; N], v, 0.0f32, _mm_min_ps, |h, v| if h < v { h } else { v }))
+        let v = quads!([lo; N], self.0, 0.0f32, _mm_max_ps, _mm256_max_ps, |l, v| if l > v { l } else { v });
+        Float::from_array(quads!([hi; N], v, 0.0f32, _mm_min_ps, _mm256_min_ps, |h, v| if h < v { h } else { v }))
     }
 
     /// Each lane's `⌊x⌋` as an index below `n` (0 < n < 2³²): the lanes of
@@ -212,9 +283,9 @@ impl<const N: usize> Float<N> {
             // `x > 0 ? x : 0` (NaN and −0 give 0), then `v < last ? v : last` (`last` is exact in
             // f32 below 2²⁴), then truncation: ⌊·⌋ is monotone and `last` an integer, so this is
             // min(⌊x⌋, last) without the saturating conversion's tests.
-            let v = quads!(self.0, [0.0; N], 0.0f32, _mm_max_ps, |x, z| if x > z { x } else { z });
-            let v = quads!(v, [last as f32; N], 0.0f32, _mm_min_ps, |v, l| if v < l { v } else { l });
-            quads!(v, 0u32, _mm_cvttps_epi32, |v| v as u32)
+            let v = quads!(self.0, [0.0; N], 0.0f32, _mm_max_ps, _mm256_max_ps, |x, z| if x > z { x } else { z });
+            let v = quads!(v, [last as f32; N], 0.0f32, _mm_min_ps, _mm256_min_ps, |v, l| if v < l { v } else { l });
+            quads!(v, 0u32, _mm_cvttps_epi32, _mm256_cvttps_epi32, |v| v as u32)
         } else {
             let mut out = [0u32; N];
             for k in 0..N {
@@ -227,9 +298,11 @@ impl<const N: usize> Float<N> {
     /// Each lane with the sign of `sign`'s lane.
     #[inline(always)]
     pub fn copysign(self, sign: Self) -> Self {
-        let magnitude = quads!(self.0, [MAGNITUDE; N], 0u32, _mm_and_ps, |x, m| x.to_bits() & m.to_bits());
-        let signs = quads!([MAGNITUDE; N], sign.0, 0u32, _mm_andnot_ps, |m, s| !m.to_bits() & s.to_bits());
-        Float(quads!(magnitude, signs, 0.0f32, _mm_or_ps, |x, s| f32::from_bits(x | s)))
+        let magnitude =
+            quads!(self.0, [MAGNITUDE; N], 0u32, _mm_and_ps, _mm256_and_ps, |x, m| x.to_bits() & m.to_bits());
+        let signs =
+            quads!([MAGNITUDE; N], sign.0, 0u32, _mm_andnot_ps, _mm256_andnot_ps, |m, s| !m.to_bits() & s.to_bits());
+        Float::from_array(quads!(magnitude, signs, 0.0f32, _mm_or_ps, _mm256_or_ps, |x, s| f32::from_bits(x | s)))
     }
 
     /// a·b + c, rounded after the multiply and after the add (not fused: the same bits in every
@@ -258,47 +331,58 @@ impl<const N: usize> Float<N> {
     }
 
     #[inline(always)]
-    pub fn lt(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmplt_ps, |x, y| if x < y { HOLDS } else { 0 }))
+    pub fn lt(self, o: Self) -> Mask<N, S> {
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_cmplt_ps, cmplt256, |x, y| if x < y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
-    pub fn le(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmple_ps, |x, y| if x <= y { HOLDS } else { 0 }))
+    pub fn le(self, o: Self) -> Mask<N, S> {
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_cmple_ps, cmple256, |x, y| if x <= y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
-    pub fn gt(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmpgt_ps, |x, y| if x > y { HOLDS } else { 0 }))
+    pub fn gt(self, o: Self) -> Mask<N, S> {
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_cmpgt_ps, cmpgt256, |x, y| if x > y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
-    pub fn ge(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmpge_ps, |x, y| if x >= y { HOLDS } else { 0 }))
+    pub fn ge(self, o: Self) -> Mask<N, S> {
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_cmpge_ps, cmpge256, |x, y| if x >= y { HOLDS } else { 0 }))
     }
 
     #[inline(always)]
-    pub fn eq(self, o: Self) -> Mask<N> {
-        Mask(quads!(self.0, o.0, 0u32, _mm_cmpeq_ps, |x, y| if x == y { HOLDS } else { 0 }))
+    pub fn eq(self, o: Self) -> Mask<N, S> {
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_cmpeq_ps, cmpeq256, |x, y| if x == y { HOLDS } else { 0 }))
     }
 
     /// Lanes that are neither infinite nor NaN.
     #[inline(always)]
-    pub fn is_finite(self) -> Mask<N> {
+    pub fn is_finite(self) -> Mask<N, S> {
         // |x| < ∞ fails for ±∞ and for NaN (an unordered comparison).
         self.abs().lt(Float::splat(f32::INFINITY))
     }
 
     /// NaN lanes.
     #[inline(always)]
-    pub fn is_nan(self) -> Mask<N> {
-        Mask(quads!(self.0, self.0, 0u32, _mm_cmpunord_ps, |x, y| if x.is_nan() || y.is_nan() { HOLDS } else { 0 }))
+    pub fn is_nan(self) -> Mask<N, S> {
+        Mask::from_array(quads!(
+            self.0,
+            self.0,
+            0u32,
+            _mm_cmpunord_ps,
+            cmpunord256,
+            |x, y| if x.is_nan() || y.is_nan() { HOLDS } else { 0 }
+        ))
     }
 
     /// Lanes with the sign bit set (−0.0 included).
     #[inline(always)]
-    pub fn is_sign_negative(self) -> Mask<N> {
-        Mask(quads!(self.0, 0u32, sign_fill, |x| if x.is_sign_negative() { HOLDS } else { 0 }))
+    pub fn is_sign_negative(self) -> Mask<N, S> {
+        Mask::from_array(quads!(self.0, 0u32, sign_fill, sign_fill256, |x| if x.is_sign_negative() {
+            HOLDS
+        } else {
+            0
+        }))
     }
 
     /// Each lane widened to f64.
@@ -318,17 +402,29 @@ impl<const N: usize> Float<N> {
         for k in 0..N {
             out[k] = v[k] as f32;
         }
-        Float(out)
+        Float::from_array(out)
     }
 }
 
-impl<const N: usize> Mask<N> {
-    pub const NONE: Self = Mask([0; N]);
-    pub const ALL: Self = Mask([HOLDS; N]);
+impl<const N: usize, S: Isa> Mask<N, S> {
+    /// Lanes each all ones (holds) or all zeros.
+    #[inline(always)]
+    const fn from_array(v: [u32; N]) -> Self {
+        Mask(v, PhantomData)
+    }
+
+    pub const NONE: Self = Mask::from_array([0; N]);
+    pub const ALL: Self = Mask::from_array([HOLDS; N]);
+
+    /// The same lanes, operated on in the instruction set `T` (no instruction).
+    #[inline(always)]
+    pub fn with_isa<T: Isa>(self) -> Mask<N, T> {
+        Mask::from_array(self.0)
+    }
 
     #[inline(always)]
     pub fn splat(v: bool) -> Self {
-        Mask([if v { HOLDS } else { 0 }; N])
+        Mask::from_array([if v { HOLDS } else { 0 }; N])
     }
 
     /// The mask holding in the lanes where `b` is true.
@@ -338,15 +434,15 @@ impl<const N: usize> Mask<N> {
         for k in 0..N {
             out[k] = if b[k] { HOLDS } else { 0 };
         }
-        Mask(out)
+        Mask::from_array(out)
     }
 
     /// `a` where the mask holds, `b` elsewhere (bitwise: (m ∧ a) ∨ (¬m ∧ b)).
     #[inline(always)]
-    pub fn select(self, a: Float<N>, b: Float<N>) -> Float<N> {
-        let ma = quads!(self.0, a.0, 0u32, _mm_and_ps, |m, x| m & x.to_bits());
-        let mb = quads!(self.0, b.0, 0u32, _mm_andnot_ps, |m, x| !m & x.to_bits());
-        Float(quads!(ma, mb, 0.0f32, _mm_or_ps, |x, y| f32::from_bits(x | y)))
+    pub fn select(self, a: Float<N, S>, b: Float<N, S>) -> Float<N, S> {
+        let ma = quads!(self.0, a.0, 0u32, _mm_and_ps, _mm256_and_ps, |m, x| m & x.to_bits());
+        let mb = quads!(self.0, b.0, 0u32, _mm_andnot_ps, _mm256_andnot_ps, |m, x| !m & x.to_bits());
+        Float::from_array(quads!(ma, mb, 0.0f32, _mm_or_ps, _mm256_or_ps, |x, y| f32::from_bits(x | y)))
     }
 
     /// Whether any lane holds.
@@ -373,64 +469,66 @@ impl<const N: usize> Mask<N> {
 }
 
 macro_rules! binary {
-    ($tr:ident, $f:ident, $op:tt, $sse:ident) => {
-        impl<const N: usize> $tr for Float<N> {
+    ($tr:ident, $f:ident, $op:tt, $sse:ident, $avx:ident) => {
+        impl<const N: usize, S: Isa> $tr for Float<N, S> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: Self) -> Self {
-                Float(quads!(self.0, o.0, 0.0f32, $sse, |x, y| x $op y))
+                Float::from_array(quads!(self.0, o.0, 0.0f32, $sse, $avx, |x, y| x $op y))
             }
         }
-        impl<const N: usize> $tr<f32> for Float<N> {
+        impl<const N: usize, S: Isa> $tr<f32> for Float<N, S> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: f32) -> Self {
-                Float(quads!(self.0, [o; N], 0.0f32, $sse, |x, y| x $op y))
+                Float::from_array(quads!(self.0, [o; N], 0.0f32, $sse, $avx, |x, y| x $op y))
             }
         }
-        impl<const N: usize> $tr<Float<N>> for f32 {
-            type Output = Float<N>;
+        impl<const N: usize, S: Isa> $tr<Float<N, S>> for f32 {
+            type Output = Float<N, S>;
             #[inline(always)]
-            fn $f(self, o: Float<N>) -> Float<N> {
-                Float(quads!([self; N], o.0, 0.0f32, $sse, |x, y| x $op y))
+            fn $f(self, o: Float<N, S>) -> Float<N, S> {
+                Float::from_array(quads!([self; N], o.0, 0.0f32, $sse, $avx, |x, y| x $op y))
             }
         }
     };
 }
-binary!(Add, add, +, _mm_add_ps);
-binary!(Sub, sub, -, _mm_sub_ps);
-binary!(Mul, mul, *, _mm_mul_ps);
-binary!(Div, div, /, _mm_div_ps);
+binary!(Add, add, +, _mm_add_ps, _mm256_add_ps);
+binary!(Sub, sub, -, _mm_sub_ps, _mm256_sub_ps);
+binary!(Mul, mul, *, _mm_mul_ps, _mm256_mul_ps);
+binary!(Div, div, /, _mm_div_ps, _mm256_div_ps);
 
-impl<const N: usize> Neg for Float<N> {
+impl<const N: usize, S: Isa> Neg for Float<N, S> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        Float(quads!(self.0, [-0.0f32; N], 0.0f32, _mm_xor_ps, |x, s| f32::from_bits(x.to_bits() ^ s.to_bits())))
+        Float::from_array(quads!(self.0, [-0.0f32; N], 0.0f32, _mm_xor_ps, _mm256_xor_ps, |x, s| f32::from_bits(
+            x.to_bits() ^ s.to_bits()
+        )))
     }
 }
 
-impl<const N: usize> BitAnd for Mask<N> {
+impl<const N: usize, S: Isa> BitAnd for Mask<N, S> {
     type Output = Self;
     #[inline(always)]
     fn bitand(self, o: Self) -> Self {
-        Mask(quads!(self.0, o.0, 0u32, _mm_and_ps, |x, y| x & y))
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_and_ps, _mm256_and_ps, |x, y| x & y))
     }
 }
 
-impl<const N: usize> BitOr for Mask<N> {
+impl<const N: usize, S: Isa> BitOr for Mask<N, S> {
     type Output = Self;
     #[inline(always)]
     fn bitor(self, o: Self) -> Self {
-        Mask(quads!(self.0, o.0, 0u32, _mm_or_ps, |x, y| x | y))
+        Mask::from_array(quads!(self.0, o.0, 0u32, _mm_or_ps, _mm256_or_ps, |x, y| x | y))
     }
 }
 
-impl<const N: usize> Not for Mask<N> {
+impl<const N: usize, S: Isa> Not for Mask<N, S> {
     type Output = Self;
     #[inline(always)]
     fn not(self) -> Self {
-        Mask(quads!(self.0, [HOLDS; N], 0u32, _mm_xor_ps, |x, y| x ^ y))
+        Mask::from_array(quads!(self.0, [HOLDS; N], 0u32, _mm_xor_ps, _mm256_xor_ps, |x, y| x ^ y))
     }
 }
 
@@ -464,7 +562,7 @@ mod tests {
     /// Every pair of special values, in lanes of width `N`, chunk by chunk: each lane of each
     /// operation is the one-lane operation on that lane's values, which is the f32 operation
     /// (min and max of two zeros of either sign give `self`'s, a choice f32's leave open).
-    fn check<const N: usize>() {
+    fn check<const N: usize, S: Isa>() {
         let pairs: Vec<(f32, f32)> = SPECIAL.iter().flat_map(|&x| SPECIAL.iter().map(move |&y| (x, y))).collect();
         for chunk in pairs.chunks(N) {
             let mut xs = [0.5f32; N];
@@ -472,10 +570,10 @@ mod tests {
             for (k, &(x, y)) in chunk.iter().enumerate() {
                 (xs[k], ys[k]) = (x, y);
             }
-            let (a, b) = (Float(xs), Float(ys));
+            let (a, b) = (Float::from_array(xs), Float::from_array(ys));
             for k in 0..N {
                 let (x, y) = (xs[k], ys[k]);
-                let (one_x, one_y) = (Float([x]), Float([y]));
+                let (one_x, one_y) = (Float::<1>::from_array([x]), Float::from_array([y]));
                 let lanes: [(&str, f32, f32, f32); 12] = [
                     ("+", (a + b).0[k], (one_x + one_y).0[0], x + y),
                     ("-", (a - b).0[k], (one_x - one_y).0[0], x - y),
@@ -501,7 +599,7 @@ mod tests {
                         "{name}({x:e}, {y:e}) in N = {N}: lane {lane:e}, one-lane {one:e}, f32 {scalar:e}"
                     );
                 }
-                let tests: [(&str, Mask<N>, bool); 8] = [
+                let tests: [(&str, Mask<N, S>, bool); 8] = [
                     ("<", a.lt(b), x < y),
                     ("<=", a.le(b), x <= y),
                     (">", a.gt(b), x > y),
@@ -534,9 +632,17 @@ mod tests {
     #[test]
     fn lanes_are_the_scalar_operations() {
         // 8 and 4: SSE registers; 7 and 1: the scalar expressions lane by lane.
-        check::<8>();
-        check::<7>();
-        check::<4>();
-        check::<1>();
+        check::<8, Sse2>();
+        check::<7, Sse2>();
+        check::<4, Sse2>();
+        check::<1, Sse2>();
+        // 8 in one 256-bit register (the tile loop's AVX2 copies), on a CPU that has AVX2; the
+        // operations are then calls to the intrinsics rather than inlined, the same instructions.
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            check::<8, super::super::Avx2>();
+        } else {
+            eprintln!("lanes_are_the_scalar_operations: this CPU has no AVX2; the 256-bit lanes are not checked");
+        }
     }
 }

@@ -9,11 +9,13 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::Float;
+use super::isa::{Isa, Sse2};
+use std::marker::PhantomData;
 use std::ops::{BitAnd, BitXor};
 
 /// `N` u32 lanes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct U32<const N: usize>(pub [u32; N]);
+pub struct U32<const N: usize, S: Isa = Sse2>(pub [u32; N], pub PhantomData<S>);
 
 /// Lane-by-lane application of a u32 expression of one lane `k`.
 macro_rules! lanes {
@@ -22,15 +24,21 @@ macro_rules! lanes {
         for $k in 0..N {
             out[$k] = $e;
         }
-        U32(out)
+        U32::from_array(out)
     }};
 }
 
-impl<const N: usize> U32<N> {
+impl<const N: usize, S: Isa> U32<N, S> {
+    /// The lanes `v`.
+    #[inline(always)]
+    pub const fn from_array(v: [u32; N]) -> Self {
+        U32(v, PhantomData)
+    }
+
     /// Every lane `v`.
     #[inline(always)]
     pub fn splat(v: u32) -> Self {
-        U32([v; N])
+        U32::from_array([v; N])
     }
 
     /// Lane k: `first + k` (wrapping).
@@ -78,17 +86,17 @@ impl<const N: usize> U32<N> {
     /// `(x >> 8) · 2⁻²⁴` of every lane: its 24 high bits as a float in [0, 1), exactly (a 24-bit
     /// integer is an f32, and the scale is a power of two), strictly below 1.
     #[inline(always)]
-    pub fn to_unit_f32(self) -> Float<N> {
+    pub fn to_unit_f32(self) -> Float<N, S> {
         let mut out = [0.0f32; N];
         for k in 0..N {
             // As i32: the value is below 2^24, and a signed conversion is one instruction in lanes.
             out[k] = (self.0[k] >> 8) as i32 as f32 * (1.0 / 16_777_216.0);
         }
-        Float(out)
+        Float::from_array(out)
     }
 }
 
-impl<const N: usize> BitXor for U32<N> {
+impl<const N: usize, S: Isa> BitXor for U32<N, S> {
     type Output = Self;
     #[inline(always)]
     fn bitxor(self, o: Self) -> Self {
@@ -96,7 +104,7 @@ impl<const N: usize> BitXor for U32<N> {
     }
 }
 
-impl<const N: usize> BitAnd for U32<N> {
+impl<const N: usize, S: Isa> BitAnd for U32<N, S> {
     type Output = Self;
     #[inline(always)]
     fn bitand(self, o: Self) -> Self {
@@ -111,9 +119,9 @@ mod tests {
     /// Each lane is the one-lane operation on that lane's value.
     #[test]
     fn lanes_are_the_scalar_operations() {
-        let x = U32::<8>([0, 1, 0x8000_0001, 0xdead_beef, u32::MAX, 12345, 1 << 31, 0x00ff_ff00]);
+        let x = U32::<8>::from_array([0, 1, 0x8000_0001, 0xdead_beef, u32::MAX, 12345, 1 << 31, 0x00ff_ff00]);
         for k in 0..8 {
-            let one = U32::<1>([x.0[k]]);
+            let one = U32::<1>::from_array([x.0[k]]);
             assert_eq!(x.reverse_bits().0[k], x.0[k].reverse_bits());
             assert_eq!(x.wrapping_mul(0x6c50_b47c).0[k], x.0[k].wrapping_mul(0x6c50_b47c));
             assert_eq!(x.shift_right(7).0[k], one.shift_right(7).0[0]);

@@ -3,23 +3,29 @@
 //! The products and sums follow glam's `Vec3` operation for operation (its `dot` is
 //! (x·x' + y·y') + z·z', its `normalize` multiplies by 1/length), so lane k has the bits glam gives
 //! that lane's vector.
-use super::{Float, Mask};
+use super::{Float, Isa, Mask, Sse2};
 use crate::math::Vec3;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// `N` three-vectors, one per lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Float3<const N: usize> {
-    pub x: Float<N>,
-    pub y: Float<N>,
-    pub z: Float<N>,
+pub struct Float3<const N: usize, S: Isa = Sse2> {
+    pub x: Float<N, S>,
+    pub y: Float<N, S>,
+    pub z: Float<N, S>,
 }
 
-impl<const N: usize> Float3<N> {
+impl<const N: usize, S: Isa> Float3<N, S> {
     pub const ZERO: Self = Float3 { x: Float::ZERO, y: Float::ZERO, z: Float::ZERO };
 
+    /// The same lanes, operated on in the instruction set `T` (no instruction).
     #[inline(always)]
-    pub fn new(x: Float<N>, y: Float<N>, z: Float<N>) -> Self {
+    pub fn with_isa<T: Isa>(self) -> Float3<N, T> {
+        Float3 { x: self.x.with_isa(), y: self.y.with_isa(), z: self.z.with_isa() }
+    }
+
+    #[inline(always)]
+    pub fn new(x: Float<N, S>, y: Float<N, S>, z: Float<N, S>) -> Self {
         Float3 { x, y, z }
     }
 
@@ -54,7 +60,7 @@ impl<const N: usize> Float3<N> {
     }
 
     #[inline(always)]
-    pub fn dot(self, o: Self) -> Float<N> {
+    pub fn dot(self, o: Self) -> Float<N, S> {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
@@ -71,18 +77,18 @@ impl<const N: usize> Float3<N> {
 
     /// `a` where the mask holds, `b` elsewhere.
     #[inline(always)]
-    pub fn select(m: Mask<N>, a: Self, b: Self) -> Self {
+    pub fn select(m: Mask<N, S>, a: Self, b: Self) -> Self {
         Float3 { x: m.select(a.x, b.x), y: m.select(a.y, b.y), z: m.select(a.z, b.z) }
     }
 
     /// Lanes whose vector is exactly zero (−0.0 included), as `v == Vec3::ZERO`.
     #[inline(always)]
-    pub fn is_zero(self) -> Mask<N> {
+    pub fn is_zero(self) -> Mask<N, S> {
         self.x.eq(Float::ZERO) & self.y.eq(Float::ZERO) & self.z.eq(Float::ZERO)
     }
 }
 
-impl<const N: usize> Add for Float3<N> {
+impl<const N: usize, S: Isa> Add for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: Self) -> Self {
@@ -90,7 +96,7 @@ impl<const N: usize> Add for Float3<N> {
     }
 }
 
-impl<const N: usize> Sub for Float3<N> {
+impl<const N: usize, S: Isa> Sub for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
@@ -98,7 +104,7 @@ impl<const N: usize> Sub for Float3<N> {
     }
 }
 
-impl<const N: usize> Neg for Float3<N> {
+impl<const N: usize, S: Isa> Neg for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
@@ -107,16 +113,16 @@ impl<const N: usize> Neg for Float3<N> {
 }
 
 /// Each lane's vector times that lane's scalar.
-impl<const N: usize> Mul<Float<N>> for Float3<N> {
+impl<const N: usize, S: Isa> Mul<Float<N, S>> for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
-    fn mul(self, s: Float<N>) -> Self {
+    fn mul(self, s: Float<N, S>) -> Self {
         Float3 { x: self.x * s, y: self.y * s, z: self.z * s }
     }
 }
 
 /// Component by component (an RGB weight times an RGB colour).
-impl<const N: usize> Mul for Float3<N> {
+impl<const N: usize, S: Isa> Mul for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
@@ -125,7 +131,7 @@ impl<const N: usize> Mul for Float3<N> {
 }
 
 /// Every lane's vector times the same scalar.
-impl<const N: usize> Mul<f32> for Float3<N> {
+impl<const N: usize, S: Isa> Mul<f32> for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
     fn mul(self, s: f32) -> Self {
@@ -134,19 +140,19 @@ impl<const N: usize> Mul<f32> for Float3<N> {
 }
 
 /// The same colour or vector in every lane times each lane's scalar (`Rgb * f32` of glam).
-impl<const N: usize> Mul<Float<N>> for Vec3 {
-    type Output = Float3<N>;
+impl<const N: usize, S: Isa> Mul<Float<N, S>> for Vec3 {
+    type Output = Float3<N, S>;
     #[inline(always)]
-    fn mul(self, s: Float<N>) -> Float3<N> {
+    fn mul(self, s: Float<N, S>) -> Float3<N, S> {
         Float3 { x: self.x * s, y: self.y * s, z: self.z * s }
     }
 }
 
 /// Each lane's vector divided by that lane's scalar (component by component, as glam's `Vec3 / f32`).
-impl<const N: usize> Div<Float<N>> for Float3<N> {
+impl<const N: usize, S: Isa> Div<Float<N, S>> for Float3<N, S> {
     type Output = Self;
     #[inline(always)]
-    fn div(self, s: Float<N>) -> Self {
+    fn div(self, s: Float<N, S>) -> Self {
         Float3 { x: self.x / s, y: self.y / s, z: self.z / s }
     }
 }
