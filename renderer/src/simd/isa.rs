@@ -4,14 +4,14 @@
 //! The same kernel source is compiled once per instruction-set copy of the render's tile loop
 //! (`render::render_tile`); the copy chooses the `Isa` its lanes run in. [`Sse2`] (the default,
 //! and the only one outside the tile loop's AVX2 copies) does an 8-lane operation as two 128-bit
-//! halves; [`Avx2`] does it in one 256-bit register. Both apply the same IEEE single-precision
+//! halves; `Avx2` does it in one 256-bit register. Both apply the same IEEE single-precision
 //! operation to every lane, so the lanes' bits do not depend on the `Isa`.
 
-/// An instruction set for the lane types' operations (sealed: [`Sse2`] and [`Avx2`]).
+/// An instruction set for the lane types' operations (sealed: [`Sse2`] and `Avx2`).
 pub trait Isa:
     Copy + Clone + Default + std::fmt::Debug + PartialEq + Eq + Send + Sync + 'static + sealed::Sealed
 {
-    /// Whether 8-lane operations use 256-bit AVX and AVX2 instructions. True only for [`Avx2`],
+    /// Whether 8-lane operations use 256-bit AVX and AVX2 instructions. True only for `Avx2`,
     /// which only code compiled with those features instantiates.
     const AVX2: bool;
 }
