@@ -385,7 +385,7 @@ impl DistantLight for Envmap {
         (Rgb::from(t.radiance), pdf)
     }
 
-    #[inline]
+    #[inline(always)]
     fn prefetch_sample(&self, u: Vec2) {
         match &self.sampler {
             EnvSampler::LatLong(grid) => grid.prefetch_sample(u),

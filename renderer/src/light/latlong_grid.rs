@@ -215,7 +215,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     }
 
     /// A hint that `sample(u)` follows soon (starts loading its table entries; no effect on results).
-    #[inline]
+    #[inline(always)]
     pub fn prefetch_sample(&self, u: Vec2) {
         self.dist.prefetch(u);
     }

@@ -234,7 +234,7 @@ impl DistantLight for Light {
     fn eval_pdf_located(&self, at: Located) -> (Rgb, f32) {
         dispatch!(self, l => l.eval_pdf_located(at))
     }
-    #[inline]
+    #[inline(always)]
     fn prefetch_sample(&self, u: Vec2) {
         dispatch!(self, l => l.prefetch_sample(u))
     }

@@ -429,7 +429,7 @@ impl<P: Copy + Default + Send + Sync> PiecewiseConstant2D<P> {
     /// A hint that `sample_continuous(u)` follows soon: reads the guide entry of the row it will
     /// search (the marginal and the guide tables are small and stay cached) and starts loading the
     /// cell where its walk starts. No effect on results.
-    #[inline]
+    #[inline(always)]
     pub fn prefetch(&self, u: Vec2) {
         // The row of `sample_entries(marginal, u.y)`, without its remapped u (a division).
         let iv = find(&self.marginal.entries, u.y.clamp(0.0, ONE_MINUS_EPSILON));
