@@ -6,11 +6,11 @@
 //!
 //! The radiance is piecewise constant: the pixel whose area on the continuous image plane contains
 //! the direction (nearest pixel). Sampling follows the same pixels:
-//! - lat-long: a pixel is chosen with probability ∝ max-channel radiance × its exact solid angle
-//!   (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within it
-//!   (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's max channel exactly;
+//! - lat-long: a pixel is chosen with probability ∝ its luminance (`sampling_weight`) × its exact
+//!   solid angle (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within
+//!   it (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's luminance exactly;
 //! - angular map: a continuous point (a, b) ∈ [−1, 1]² of the image plane is drawn from a
-//!   [`PiecewiseConstant2D`] with pixel weights ∝ max channel × sinθ/θ at the pixel centre (∝ its solid
+//!   [`PiecewiseConstant2D`] with pixel weights ∝ luminance × sinθ/θ at the pixel centre (∝ its solid
 //!   angle, 0 for pixels whose centre lies outside the disc ρ ≤ 1), mapped by θ = πρ,
 //!   φ = atan2(b, a). In polar coordinates da db = ρ dρ dφ and dω = sinθ dθ dφ = π sin(πρ) dρ dφ,
 //!   so dω = π² (sinθ/θ) da db = 4π² (sinθ/θ) du dv for the unit square (u, v) the distribution
@@ -84,9 +84,15 @@ fn sinc(theta: f32) -> f32 {
     if theta < 1e-3 { 1.0 - theta * theta * (1.0 / 6.0) } else { theta.sin() / theta }
 }
 
+/// What the sampling tables follow in a pixel: its Rec. 709 luminance Y = 0.2126 R + 0.7152 G +
+/// 0.0722 B (docs/src/conventions.md §2, "Light sampling"), positive wherever any channel is, so every pixel that
+/// gives light can be drawn. A light sample estimates channel c as L_c/p, constant only where
+/// p ∝ L_c: under a coloured map the largest channel follows one channel's distribution (red, in a
+/// warm map), luminance a blend closer to all three, and every channel's variance is lower with it
+/// (guide, "Performance notes and their history", 2026-12-05 morning).
 #[inline]
-fn max_channel(p: [f32; 3]) -> f32 {
-    p[0].max(p[1]).max(p[2])
+fn sampling_weight(p: [f32; 3]) -> f32 {
+    crate::output::luminance(p) as f32
 }
 
 impl Envmap {
@@ -121,7 +127,7 @@ impl Envmap {
         }
         let mut sampler = match mapping {
             Mapping::LatLong => {
-                let g: Vec<f32> = image.pixels.iter().map(|&p| max_channel(p)).collect();
+                let g: Vec<f32> = image.pixels.iter().map(|&p| sampling_weight(p)).collect();
                 EnvSampler::LatLong(LatLongGrid::build(&g, w, h))
             }
             Mapping::Angular => {
@@ -130,7 +136,7 @@ impl Envmap {
                     .par_iter()
                     .enumerate()
                     .map(|(i, &p)| match angular_pixel_theta(i / w, i % w, w) {
-                        Some(theta) => max_channel(p) * sinc(theta),
+                        Some(theta) => sampling_weight(p) * sinc(theta),
                         None => 0.0,
                     })
                     .collect();
@@ -647,7 +653,7 @@ mod tests {
             .filter_map(|_| rot.sample(Vec2::new(rng.next_f32(), rng.next_f32())))
             .filter(|s| s.wi.dot(Vec3::Y) > 0.99)
             .count();
-        // Lat-long sampling picks a pixel ∝ max channel × its exact solid angle and is uniform in solid
+        // Lat-long sampling picks a pixel ∝ luminance × its exact solid angle and is uniform in solid
         // angle within it, so P(ω·y > 0.99) is exact: the bright pixel (θ ∈ [90°, 95.6°], φ ∈ [90°,
         // 95.6°] after the rotation: every point within 7.95° < acos 0.99 = 8.1° of +y) lies wholly in
         // the cap, and the dim pixels contribute their share of the rest of the cap's 2π(1 − 0.99).
@@ -655,12 +661,42 @@ mod tests {
         let d_omega =
             2.0 * std::f64::consts::PI / w as f64 * ((t * (h / 2) as f64).cos() - (t * (h / 2 + 1) as f64).cos());
         let cap = 2.0 * std::f64::consts::PI * (1.0 - 0.99);
-        let (m_spot, m_rest) = (9.0 * d_omega, 0.1 * (4.0 * std::f64::consts::PI - d_omega));
+        let y_spot = 0.2126 * 9.0 + 0.7152 * 8.0 + 0.0722 * 7.0;
+        let (m_spot, m_rest) = (y_spot * d_omega, 0.1 * (4.0 * std::f64::consts::PI - d_omega));
         let p = (m_spot + 0.1 * (cap - d_omega)) / (m_spot + m_rest);
         let (n, expect) = (2000.0, 2000.0 * p);
         // Binomial: 4σ (one comparison).
         let sd = (n * p * (1.0 - p)).sqrt();
         assert!((near as f64 - expect).abs() <= 4.0 * sd, "{near} samples near +y, expected {expect:.1} ± {sd:.1}");
+    }
+
+    /// The sampling tables follow luminance: pixels of equal solid angle, pure red, green and blue
+    /// of the same value, have densities in the ratio of their luminances 0.2126 : 0.7152 : 0.0722
+    /// (the largest channel, which the tables followed before, makes them equal), in both mappings.
+    #[test]
+    fn sampling_follows_luminance() {
+        // Lat-long: three pixels of one row. Angular: three pixels at the same radius (mirror images).
+        let cases = [
+            (Mapping::LatLong, 16, 8, [(3, 2), (3, 9), (3, 13)]),
+            (Mapping::Angular, 16, 16, [(3, 5), (5, 3), (3, 10)]),
+        ];
+        for (mapping, w, h, pixels) in cases {
+            let mut img = RgbImage { width: w, height: h, pixels: vec![[0.5; 3]; w * h] };
+            for (k, &(r, c)) in pixels.iter().enumerate() {
+                let mut p = [0.0; 3];
+                p[k] = 2.0;
+                img.pixels[r * w + c] = p;
+            }
+            let e = Envmap::new(img, mapping, 1.0, glam::Mat3::IDENTITY).unwrap();
+            let pdf = pixels.map(|(r, c)| e.pdf(centre_direction(mapping, r, c, w, h).unwrap()) as f64);
+            for (k, y) in [0.2126, 0.7152, 0.0722].into_iter().enumerate() {
+                let (ratio, want) = (pdf[k] / pdf[0], y / 0.2126);
+                assert!(
+                    (ratio - want).abs() <= 1e-5 * want,
+                    "{mapping:?} channel {k}: density ratio {ratio}, luminance ratio {want}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -771,7 +807,7 @@ mod tests {
         for (ch, (mean, sigma)) in mc_integral(&e, 1_000_000, 17).into_iter().enumerate() {
             eprintln!("grace ∫L dω channel {ch}: MC {mean} ± {sigma}, pixel sum {}", exact[ch]);
             assert!((mean - exact[ch]).abs() < 4.0 * sigma, "channel {ch}: {mean} ± {sigma} vs {}", exact[ch]);
-            // Importance sampling by max channel: each channel's estimate is already precise.
+            // Importance sampling by luminance: each channel's estimate is already precise.
             assert!(sigma / mean < 5e-3, "relative σ {}", sigma / mean);
         }
     }

@@ -2,7 +2,7 @@
 //! θ ∈ [πr/H, π(r+1)/H], column c spans φ ∈ [2πc/W, 2π(c+1)/W], row 0 at the top, θ = 0).
 //!
 //! Parameters: `height` H, `width` W and a non-negative value g per cell (the radiance to follow,
-//! e.g. the max channel of a pixel). A cell is chosen with probability ∝ g·ΔΩ, ΔΩ = (2π/W)·Δz its
+//! e.g. the luminance of a pixel). A cell is chosen with probability ∝ g·ΔΩ, ΔΩ = (2π/W)·Δz its
 //! exact solid angle (Δz = cos θ_top − cos θ_bottom), by a [`PiecewiseConstant2D`] over the unit square
 //! (u = φ/2π, v = row coordinate). Within the cell the direction is drawn uniformly in solid
 //! angle: φ linear in u and z = cosθ linear in v. That warp has the constant Jacobian
