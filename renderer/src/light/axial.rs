@@ -6,7 +6,8 @@
 //! (two entries with the same θ make a step). Radiance may be signed; sampling follows |L|.
 //!
 //! Sampling: θ ∈ [0, π] is cut into `THETA_CELLS` equal cells; cell i gets the weight
-//! (g_i + c)·ΔΩ_i, where g_i bounds max-channel |L| on the cell (L is piecewise linear, so its
+//! (g_i + c)·ΔΩ_i, where g_i bounds the luminance of |L| (`super::sampling_weight`) on the cell
+//! (a sum of the channels' |L|, each convex between profile knots as L is linear there, so its
 //! maximum over a cell is at a cell end or a profile knot: g_i > 0 wherever L ≠ 0), ΔΩ_i =
 //! 2π(cosθ_i − cosθ_{i+1}) the cell's exact solid angle, and c a floor that gives 10 % of the mass
 //! to the uniform sphere (robustness for MIS). Within a cell z = cosθ and φ are uniform, so the
@@ -48,13 +49,13 @@ impl Axial {
         let z64: Vec<f64> =
             (0..=THETA_CELLS).map(|i| (std::f64::consts::PI * i as f64 / THETA_CELLS as f64).cos()).collect();
         let dz: Vec<f64> = z64.windows(2).map(|w| w[0] - w[1]).collect();
-        // g_i = max over the cell of max-channel |L|: at its two ends and at every knot inside.
-        let h = |theta: f32| profile_radiance(&profile, theta).abs().max_element() as f64;
+        // g_i = max over the cell of the luminance of |L|: at its two ends and at every knot inside.
+        let h = |theta: f32| super::sampling_weight(profile_radiance(&profile, theta)) as f64;
         let edge_theta = |i: usize| PI * i as f32 / THETA_CELLS as f32;
         let mut g: Vec<f64> = (0..THETA_CELLS).map(|i| h(edge_theta(i)).max(h(edge_theta(i + 1)))).collect();
         for &(t, l) in &profile {
             let i = theta_cell(t.clamp(0.0, PI));
-            g[i] = g[i].max(l.abs().max_element() as f64);
+            g[i] = g[i].max(super::sampling_weight(l) as f64);
         }
         let mass: f64 = g.iter().zip(&dz).map(|(g, d)| g * 2.0 * std::f64::consts::PI * d).sum();
         // Floor c with c·4π = α/(1−α) · Σ gΔΩ, i.e. a fraction α of the total mass.
@@ -199,6 +200,22 @@ mod tests {
         check_light(&a, "axial", 1.0);
         // Every direction with L ≠ 0 has pdf > 0 (and so does every other, thanks to the floor).
         assert!(a.pdf(-a.axis) > 0.0);
+    }
+
+    /// The table follows luminance (`super::sampling_weight`): a pure red hemisphere and a pure
+    /// green one of the same value have densities in the ratio (0.7152 + c) / (0.2126 + c), c the
+    /// uniform floor (c·4π a ninth of Σ g ΔΩ = 2π (0.2126 + 0.7152)); the largest channel makes it 1.
+    /// The cell at the step takes the larger of the two (0.3 % of the mass: 2e-4 of the ratio).
+    #[test]
+    fn axial_samples_by_luminance() {
+        let (red, green) = (Rgb::new(1.0, 0.0, 0.0), Rgb::new(0.0, 1.0, 0.0));
+        let a = Axial::new(Vec3::Z, vec![(0.0, red), (PI / 2.0, red), (PI / 2.0, green), (PI, green)]);
+        let (yr, yg) = (0.2126, 0.7152);
+        let c = (yr + yg) / 2.0 / 9.0;
+        let want = (yg + c) / (yr + c);
+        let at = |theta: f32| a.pdf(crate::math::spherical_direction(theta, 0.3)) as f64;
+        let ratio = at(2.5) / at(0.6);
+        assert!((ratio - want).abs() < 1e-3 * want, "density ratio {ratio}, luminance's {want}");
     }
 
     #[test]

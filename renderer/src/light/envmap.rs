@@ -6,7 +6,7 @@
 //!
 //! The radiance is piecewise constant: the pixel whose area on the continuous image plane contains
 //! the direction (nearest pixel). Sampling follows the same pixels:
-//! - lat-long: a pixel is chosen with probability ∝ its luminance (`sampling_weight`) × its exact
+//! - lat-long: a pixel is chosen with probability ∝ its luminance (`super::sampling_weight`) × its exact
 //!   solid angle (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within
 //!   it (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's luminance exactly;
 //! - angular map: a continuous point (a, b) ∈ [−1, 1]² of the image plane is drawn from a
@@ -19,7 +19,7 @@
 //!   the accepted directions is still p(ω), which integrates to slightly less than 1.
 
 use super::latlong_grid::LatLongGrid;
-use super::{DistantLight, LightSample, LightSamples, Located};
+use super::{DistantLight, LightSample, LightSamples, Located, sampling_weight};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
 use crate::simd::{Float, Float3, Isa, Mask};
@@ -84,17 +84,6 @@ fn sinc(theta: f32) -> f32 {
     if theta < 1e-3 { 1.0 - theta * theta * (1.0 / 6.0) } else { theta.sin() / theta }
 }
 
-/// What the sampling tables follow in a pixel: its Rec. 709 luminance Y = 0.2126 R + 0.7152 G +
-/// 0.0722 B (docs/src/conventions.md §2, "Light sampling"), positive wherever any channel is, so every pixel that
-/// gives light can be drawn. A light sample estimates channel c as L_c/p, constant only where
-/// p ∝ L_c: under a coloured map the largest channel follows one channel's distribution (red, in a
-/// warm map), luminance a blend closer to all three, and every channel's variance is lower with it
-/// (guide, "Performance notes and their history", 2026-12-05 morning).
-#[inline]
-fn sampling_weight(p: [f32; 3]) -> f32 {
-    crate::output::luminance(p) as f32
-}
-
 impl Envmap {
     /// Validates the image (non-empty, square for the angular map, finite non-negative pixels), the
     /// scale (finite, ≥ 0) and the rotation, and builds the sampling tables.
@@ -127,7 +116,7 @@ impl Envmap {
         }
         let mut sampler = match mapping {
             Mapping::LatLong => {
-                let g: Vec<f32> = image.pixels.iter().map(|&p| sampling_weight(p)).collect();
+                let g: Vec<f32> = image.pixels.iter().map(|&p| sampling_weight(Rgb::from(p))).collect();
                 EnvSampler::LatLong(LatLongGrid::build(&g, w, h))
             }
             Mapping::Angular => {
@@ -136,7 +125,7 @@ impl Envmap {
                     .par_iter()
                     .enumerate()
                     .map(|(i, &p)| match angular_pixel_theta(i / w, i % w, w) {
-                        Some(theta) => sampling_weight(p) * sinc(theta),
+                        Some(theta) => sampling_weight(Rgb::from(p)) * sinc(theta),
                         None => 0.0,
                     })
                     .collect();

@@ -6,7 +6,7 @@
 //! sign, so Monte Carlo estimates of linear functionals (the reflected light B_lm) stay unbiased.
 //!
 //! Evaluation uses [`analysis::sh::ShBasis`] into a fixed-size stack buffer (no allocation).
-//! Sampling tabulates max-channel |L| at the centres of a `GRID_H` × `GRID_W` lat-long grid, adds a
+//! Sampling tabulates the luminance of |L| (`super::sampling_weight`) at the centres of a `GRID_H` × `GRID_W` lat-long grid, adds a
 //! floor worth 10 % of the mass (so every direction has pdf > 0, including where the centre value
 //! happens to vanish), and draws cells with `LatLongGrid` (`light/latlong_grid.rs`): the density is constant on each cell.
 
@@ -100,7 +100,7 @@ impl ShLight {
         s
     }
 
-    /// Max-channel |L| at the cell centres, plus the uniform floor.
+    /// The luminance of |L| at the cell centres, plus the uniform floor.
     fn build_grid(&self) -> LatLongGrid {
         let mut g = vec![0f32; GRID_H * GRID_W];
         g.par_chunks_mut(GRID_W).enumerate().for_each(|(r, row)| {
@@ -108,7 +108,7 @@ impl ShLight {
             for (c, v) in row.iter_mut().enumerate() {
                 let phi = 2.0 * PI * (c as f32 + 0.5) / GRID_W as f32;
                 let l = self.eval_f64(crate::math::spherical_direction(theta, phi));
-                *v = l[0].abs().max(l[1].abs()).max(l[2].abs()) as f32;
+                *v = super::sampling_weight(Rgb::new(l[0] as f32, l[1] as f32, l[2] as f32));
             }
         });
         // Σ g ΔΩ with ΔΩ = (2π/W)(cosθ_top − cosθ_bottom), then c·4π = α/(1−α) · Σ g ΔΩ.
