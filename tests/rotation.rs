@@ -287,10 +287,14 @@ fn rotated_environment_render_projects_to_the_rotated_coefficients() {
         }
     }
 
-    // The sampling density: p(ω) = g(pixel ∋ Rᵀω) / Σ g ΔΩ (f32: relative 1e-4).
+    // The sampling density: p(ω) = g(pixel ∋ Rᵀω) / Σ g ΔΩ, g the luminance (docs/src/conventions.md
+    // §2, "Light sampling"; f32: relative 1e-4).
     let (iw, ih) = (img.width, img.height);
-    let g: Vec<f64> =
-        (0..iw * ih).map(|i| ["R", "G", "B"].iter().map(|c| img.channels[*c][i] as f64).fold(0.0, f64::max)).collect();
+    let g: Vec<f64> = (0..iw * ih)
+        .map(|i| {
+            [("R", 0.2126), ("G", 0.7152), ("B", 0.0722)].iter().map(|(c, y)| y * img.channels[*c][i] as f64).sum()
+        })
+        .collect();
     let total: f64 = (0..iw * ih).map(|i| g[i] * cell_solid_angle(i / iw, iw, ih)).sum();
     let rt = r.transpose();
     for j in 0..200 {

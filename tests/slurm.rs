@@ -40,8 +40,8 @@ fn slurm_array_of_four_merges_to_the_single_render() {
     }
 }
 
-/// A render to a target error in rounds on a real Slurm: the first round (32 spp, about 19 % at the
-/// 95th percentile) misses the 8 % target, the step jobs submit further rounds until the merged
+/// A render to a target error in rounds on a real Slurm: the first round (32 spp, 17.8 % at the
+/// 95th percentile) misses the 8.5 % target (128 spp: 8.0 %, as in tests/slurm_scripts.rs), the step jobs submit further rounds until the merged
 /// image reaches it, and `--wait` follows them; the image is the single render of the total spp.
 #[test]
 #[ignore = "needs a running Slurm: .ci/run starts one with .ci/slurm-up and runs this test with --ignored"]
@@ -57,7 +57,7 @@ fn slurm_rounds_reach_the_target_and_equal_the_single_render() {
     let (final_, single) = (dir.join("final.exr"), dir.join("single.exr"));
     let o = Command::new(exe)
         .args(["slurm", "render", scene.to_str().unwrap(), "--tasks", "2", "--out", final_.to_str().unwrap()])
-        .args(["--spp", "1024", "--target-rel-error", "0.08", "--first-round-spp", "32", "--wait"])
+        .args(["--spp", "1024", "--target-rel-error", "0.085", "--first-round-spp", "32", "--wait"])
         .args(["--threads", "1", "--", "--time=5"])
         .output()
         .unwrap();
