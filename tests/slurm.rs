@@ -41,8 +41,8 @@ fn slurm_array_of_four_merges_to_the_single_render() {
 }
 
 /// A render to a target error in rounds on a real Slurm: the first round (32 spp, 17.8 % at the
-/// 95th percentile) misses the 8.5 % target (128 spp: 8.0 %, as in tests/slurm_scripts.rs), the step jobs submit further rounds until the merged
-/// image reaches it, and `--wait` follows them; the image is the single render of the total spp.
+/// 95th percentile) misses the 8.5 % target (128 spp: 8.0 %, as in tests/slurm_scripts.rs), the
+/// step jobs submit further rounds until the merged image reaches it, and `--wait` follows them; the image is the single render of the total spp.
 #[test]
 #[ignore = "needs a running Slurm: .ci/run starts one with .ci/slurm-up and runs this test with --ignored"]
 fn slurm_rounds_reach_the_target_and_equal_the_single_render() {

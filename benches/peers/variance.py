@@ -10,8 +10,9 @@ Usage (from the repository root, after `cargo build --release`; Mitsuba set up a
     python3 benches/peers/variance.py [--scenes lambert-grace,beckmann-grace] [--sampler independent|qmc]
                                       [--seeds 16] [--spp 64] [--size 128] [--reflect target/release/reflect]
 
-For each scene, `--seeds` images from each renderer (seeds 1…K), the scene of `scenes/bench-*.toml` (or
-`benches/peers/bench-mesh-sky.toml`) and its Mitsuba translation (`mitsuba_worker.py`). `--sampler independent`
+For each scene, `--seeds` images from each renderer (seeds 1…K): the scene of `scenes/bench-*.toml` (or
+`benches/peers/bench-mesh-sky.toml`), found as peers.py finds it, with its map in `../shared/data` beside the
+checkout, and its Mitsuba translation (`mitsuba_worker.py`). `--sampler independent`
 compares the independent samplers; `qmc` compares `sobol-single` with Mitsuba's `ldsampler`. Per pixel and
 channel, the variance across the K images divided by the square of their mean (each renderer's own mean),
 averaged over the object's pixels (reflect's mask = 1 and every channel's mean > 0, both renderers on the
@@ -31,23 +32,7 @@ import tempfile
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mitsuba_worker  # noqa: E402  (the one translation of the scenes)
-
-
-def scene_file(name, data, tmp):
-    """Our scene file with the map's path made absolute (the files name it relative to the repository)."""
-    path = os.path.join(ROOT, "benches", "peers", "bench-mesh-sky.toml") if name == "mesh-sky" \
-        else os.path.join(ROOT, "scenes", f"bench-{name}.toml")
-    text = open(path).read()
-    out = []
-    for line in text.splitlines():
-        if line.strip().startswith("file =") and line.strip().endswith('.exr"'):
-            base = line.split('"')[1].split("/")[-1]
-            line = f'file = "{os.path.join(data, base)}"'
-        out.append(line)
-    copy = os.path.join(tmp, f"{name}.toml")
-    with open(copy, "w") as f:
-        f.write("\n".join(out) + "\n")
-    return copy
+import peers  # noqa: E402  (the scene files and the data folder, as peers.py finds them)
 
 
 def main():
@@ -58,7 +43,6 @@ def main():
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--reflect", default=os.path.join(ROOT, "target", "release", "reflect"))
-    ap.add_argument("--data", default=os.path.join(ROOT, "..", "shared", "data"))
     a = ap.parse_args()
     if a.seeds < 2:
         sys.exit("error: --seeds must be at least 2 (a variance needs two images)")
@@ -71,13 +55,13 @@ def main():
     mi.set_variant("llvm_ad_rgb")
     ours_sampler, theirs_sampler = ("independent", "independent") if a.sampler == "independent" \
         else ("sobol-single", "ldsampler")
-    data = os.path.abspath(a.data)
+    data = os.path.abspath(peers.data_dir())
     print(f"{a.size}² pixels, {a.spp} spp, {a.seeds} seeds; reflect `{ours_sampler}` against Mitsuba `{theirs_sampler}`")
     print("| scene | channel | reflect rel. variance | Mitsuba rel. variance | ours ÷ Mitsuba | mean ratio |")
     print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for name in a.scenes.split(","):
-            toml = scene_file(name, data, tmp)
+            toml = peers.scene_file(name)
             ours, mask = [], None
             for s in range(1, a.seeds + 1):
                 out = os.path.join(tmp, f"{name}-{s}.exr")

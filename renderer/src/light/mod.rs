@@ -243,8 +243,8 @@ impl DistantLight for Light {
 /// The scalar every light's sampling table follows for a radiance L: the Rec. 709 luminance of
 /// |L| channel by channel, Y = 0.2126 |R| + 0.7152 |G| + 0.0722 |B| (docs/src/conventions.md §2,
 /// "Light sampling"). Positive wherever any channel is non-zero, so no direction that gives light
-/// is left out; the largest channel, which the tables followed before, gave every channel more
-/// variance under coloured light (guide, "Performance notes and their history", 2026-12-05 morning).
+/// is left out. Luminance rather than the largest channel: every channel's variance is lower under
+/// coloured light (guide, "Performance notes and their history").
 #[inline]
 pub(crate) fn sampling_weight(l: Rgb) -> f32 {
     crate::output::luminance(l.abs().to_array()) as f32

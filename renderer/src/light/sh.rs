@@ -6,9 +6,10 @@
 //! sign, so Monte Carlo estimates of linear functionals (the reflected light B_lm) stay unbiased.
 //!
 //! Evaluation uses [`analysis::sh::ShBasis`] into a fixed-size stack buffer (no allocation).
-//! Sampling tabulates the luminance of |L| (`super::sampling_weight`) at the centres of a `GRID_H` × `GRID_W` lat-long grid, adds a
-//! floor worth 10 % of the mass (so every direction has pdf > 0, including where the centre value
-//! happens to vanish), and draws cells with `LatLongGrid` (`light/latlong_grid.rs`): the density is constant on each cell.
+//! Sampling tabulates the luminance of |L| (`super::sampling_weight`) at the centres of a
+//! `GRID_H` × `GRID_W` lat-long grid, adds a floor worth 10 % of the mass (so every direction has
+//! pdf > 0, including where the centre value happens to vanish), and draws cells with `LatLongGrid`
+//! (`light/latlong_grid.rs`): the density is constant on each cell.
 
 use super::latlong_grid::LatLongGrid;
 use super::{DistantLight, LightSample};
