@@ -424,6 +424,7 @@ impl SceneGeometry {
             let slot = lane.walk.prims.x + k;
             let p = &self.prims[slot as usize];
             let r = &mut lane.ray.ray;
+            count_primitive_test();
             if let Some((t, b1, b2)) = p.intersect(r.origin, r.direction, r.tmax) {
                 r.tmax = t;
                 lane.best = Some((slot, t, b1, b2));
@@ -795,6 +796,20 @@ fn median_split_bvh2(aabbs: &[Aabb]) -> obvhs::bvh2::Bvh2 {
     Bvh2 { nodes, primitive_indices: order, ..Default::default() }
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Primitive tests of closest-hit walks on this thread (tests only): the packet walk must run
+    /// exactly the tests its rays' single walks run.
+    static PRIMITIVE_TESTS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Counts one closest-hit primitive test in tests; nothing otherwise.
+#[inline(always)]
+fn count_primitive_test() {
+    #[cfg(test)]
+    PRIMITIVE_TESTS.with(|c| c.set(c.get() + 1));
+}
+
 /// Rays in flight in [`SceneGeometry::intersect_batch`] and [`SceneGeometry::occluded_batch`].
 pub const BATCH_LANES: usize = 8;
 
@@ -876,6 +891,23 @@ impl NodeRay {
         // (`NodeRay::new`), so the read stays inside the node; it needs no alignment.
         let plane = |k: usize| u64::from_le(unsafe { base.add(self.planes[k]).cast::<u64>().read_unaligned() });
         let hit = slab8::<AVX>([plane(0), plane(1), plane(2)], [plane(3), plane(4), plane(5)], dir_inv, orig, r.tmax);
+        self.encode(node, hit)
+    }
+
+    /// [`NodeRay::node_hitmask`] for a ray of a packet whose rays all have this ray's direction,
+    /// bit for bit: `scaled` holds the node's planes times the shared scale (computed once per node
+    /// by [`ScaledPlanes::new`]), and only the ray's own offset and t_max are applied here.
+    #[inline(always)]
+    fn node_hitmask_scaled<const AVX: bool>(&self, node: &CwBvhNode, scaled: &ScaledPlanes) -> u32 {
+        let r = &self.ray;
+        let orig = (Vec3A::from(node.p) - r.origin) * r.inv_direction;
+        self.encode(node, scaled.hits::<AVX>(orig, orig, r.tmax))
+    }
+
+    /// The hit mask of [`NodeRay::node_hitmask`] from the node's child hit bits `hit` (bit i:
+    /// child i's box is entered).
+    #[inline(always)]
+    fn encode(&self, node: &CwBvhNode, hit: u32) -> u32 {
         // Internal child i hit: bit 24 + (i ^ octant) (its meta is 24 + i; Ylitie et al. 2017).
         let octant = (self.oct_inv4 & 7) as usize;
         let mut mask = (XOR_PERMUTE[octant][(hit & node.imask as u32) as usize] as u32) << 24;
@@ -1026,6 +1058,138 @@ fn slab8_sse2(near: [u64; 3], far: [u64; 3], s: Vec3A, o: Vec3A, t_max: f32) -> 
             _mm_movemask_ps(_mm_cmple_ps(_mm_max_ps(tmin, eps), _mm_min_ps(tmax, tm))) as u32
         };
         half(n[0].0, n[1].0, n[2].0, f[0].0, f[1].0, f[2].0) | half(n[0].1, n[1].1, n[2].1, f[0].1, f[1].1, f[2].1) << 4
+    }
+}
+
+/// A node's quantised planes times the scale of a direction (q · extent/d, per axis), in the
+/// order of [`NodeRay::planes`] (near x, y, z, then far), eight children each: the part of
+/// [`slab8`] that depends on the ray's direction only. The rays of an orthographic camera's packet
+/// share their direction, so this is computed once per node for all of them; each ray then adds
+/// its own offset (p − o)/d and clamps by its own t_max. The arithmetic is [`slab8`]'s (a product,
+/// rounded, then a sum), so the hit bits are the same.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct ScaledPlanes([[f32; 8]; 6]);
+
+impl ScaledPlanes {
+    /// The planes of `node` scaled for `ray`'s direction (and octant).
+    #[inline(always)]
+    fn new<const AVX: bool>(node: &CwBvhNode, ray: &NodeRay) -> Self {
+        let s = node.compute_extent() * ray.ray.inv_direction;
+        let base = (node as *const CwBvhNode).cast::<u8>();
+        // SAFETY: as in NodeRay::node_hitmask (offsets of the node's own plane arrays).
+        let plane = |k: usize| u64::from_le(unsafe { base.add(ray.planes[k]).cast::<u64>().read_unaligned() });
+        let scale = [s.x, s.y, s.z];
+        let mut out = ScaledPlanes([[0.0; 8]; 6]);
+        for (k, row) in out.0.iter_mut().enumerate() {
+            *row = scale8::<AVX>(plane(k), scale[k % 3]);
+        }
+        out
+    }
+
+    /// Bit i set when child i's interval [max(near + o_near, 1e-4), min(far + o_far, t_max)] is
+    /// not empty, per axis; with o_near = o_far = (p − origin)/d this is [`slab8`] with the products
+    /// already taken. Every step is monotone in each of o_near, o_far and t_max (rounding is), which
+    /// is what lets a packet bound its rays' answers by two calls (`bvh/packet.rs`).
+    #[inline(always)]
+    fn hits<const AVX: bool>(&self, o_near: Vec3A, o_far: Vec3A, t_max: f32) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if AVX {
+                // SAFETY: AVX is true only on the paths taken when `avx2_walk()` holds.
+                unsafe { scaled_hits_avx2(&self.0, o_near, o_far, t_max) }
+            } else {
+                scaled_hits_sse2(&self.0, o_near, o_far, t_max)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let q = &self.0;
+            let mut hit = 0;
+            for i in 0..8 {
+                let tn = Vec3A::new(q[0][i], q[1][i], q[2][i]) + o_near;
+                let tf = Vec3A::new(q[3][i], q[4][i], q[5][i]) + o_far;
+                if tn.max_element().max(NODE_T_MIN) <= tf.min_element().min(t_max) {
+                    hit |= 1 << i;
+                }
+            }
+            hit
+        }
+    }
+}
+
+/// The eight quantised planes of `v` (one byte each) times `s`, rounded as [`slab8`]'s product.
+#[inline(always)]
+fn scale8<const AVX: bool>(v: u64, s: f32) -> [f32; 8] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let mut out = [0.0f32; 8];
+        if AVX {
+            // SAFETY: AVX is true only on the paths taken when `avx2_walk()` holds; the store writes
+            // the eight floats of `out`.
+            unsafe { scale8_avx2(v, s, &mut out) }
+        } else {
+            // SAFETY: SSE2 is part of x86_64; the stores write the eight floats of `out`.
+            unsafe {
+                use std::arch::x86_64::*;
+                let z = _mm_setzero_si128();
+                let w = _mm_unpacklo_epi8(_mm_cvtsi64_si128(v as i64), z);
+                let s = _mm_set1_ps(s);
+                _mm_storeu_ps(out.as_mut_ptr(), _mm_mul_ps(_mm_cvtepi32_ps(_mm_unpacklo_epi16(w, z)), s));
+                _mm_storeu_ps(out.as_mut_ptr().add(4), _mm_mul_ps(_mm_cvtepi32_ps(_mm_unpackhi_epi16(w, z)), s));
+            }
+        }
+        out
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        std::array::from_fn(|i| ((v >> (8 * i)) & 0xff) as f32 * s)
+    }
+}
+
+/// [`scale8`] with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn scale8_avx2(v: u64, s: f32, out: &mut [f32; 8]) {
+    use std::arch::x86_64::*;
+    let q = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_cvtsi64_si128(v as i64)));
+    // SAFETY: `out` holds eight floats; the store needs no alignment.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), _mm256_mul_ps(q, _mm256_set1_ps(s))) }
+}
+
+/// [`ScaledPlanes::hits`] with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn scaled_hits_avx2(q: &[[f32; 8]; 6], n: Vec3A, f: Vec3A, t_max: f32) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY: each row holds eight floats; the loads need no alignment.
+    let t = |k: usize, o: f32| _mm256_add_ps(unsafe { _mm256_loadu_ps(q[k].as_ptr()) }, _mm256_set1_ps(o));
+    let tmin = _mm256_max_ps(t(0, n.x), _mm256_max_ps(t(1, n.y), t(2, n.z)));
+    let tmax = _mm256_min_ps(t(3, f.x), _mm256_min_ps(t(4, f.y), t(5, f.z)));
+    let tmin = _mm256_max_ps(tmin, _mm256_set1_ps(NODE_T_MIN));
+    let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(t_max));
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tmin, tmax)) as u32
+}
+
+/// [`ScaledPlanes::hits`] with SSE2: children 0–3 and 4–7 in two halves.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn scaled_hits_sse2(q: &[[f32; 8]; 6], n: Vec3A, f: Vec3A, t_max: f32) -> u32 {
+    // SAFETY: SSE2 is part of x86_64; each load reads four of a row's eight floats.
+    unsafe {
+        use std::arch::x86_64::*;
+        let (nx, ny, nz) = (_mm_set1_ps(n.x), _mm_set1_ps(n.y), _mm_set1_ps(n.z));
+        let (fx, fy, fz) = (_mm_set1_ps(f.x), _mm_set1_ps(f.y), _mm_set1_ps(f.z));
+        let (eps, tm) = (_mm_set1_ps(NODE_T_MIN), _mm_set1_ps(t_max));
+        let half = |h: usize| {
+            let t = |k: usize, o: __m128| _mm_add_ps(_mm_loadu_ps(q[k].as_ptr().add(4 * h)), o);
+            let tmin = _mm_max_ps(t(0, nx), _mm_max_ps(t(1, ny), t(2, nz)));
+            let tmax = _mm_min_ps(t(3, fx), _mm_min_ps(t(4, fy), t(5, fz)));
+            _mm_movemask_ps(_mm_cmple_ps(_mm_max_ps(tmin, eps), _mm_min_ps(tmax, tm))) as u32
+        };
+        half(0) | half(1) << 4
     }
 }
 
