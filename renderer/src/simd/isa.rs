@@ -25,8 +25,9 @@ pub struct Sse2;
 ///
 /// Crate-private, and named only in the tile-loop copies compiled with AVX2
 /// (`render::render_tile_x86_64_v3` and `_v4`), which the dispatcher calls only on CPUs that have
-/// the features: an operation on `Avx2` lanes executes AVX2 instructions, so creating such lanes
-/// anywhere else could execute them on a CPU without AVX2.
+/// the features, and in tests behind a run-time check of AVX2: an operation on `Avx2` lanes
+/// executes AVX2 instructions, so creating such lanes anywhere else could execute them on a CPU
+/// without AVX2.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Avx2;
 
