@@ -886,12 +886,19 @@ impl NodeRay {
         let r = &self.ray;
         let dir_inv = node.compute_extent() * r.inv_direction;
         let orig = (Vec3A::from(node.p) - r.origin) * r.inv_direction;
+        let plane = |k: usize| self.plane(node, k);
+        let hit = slab8::<AVX>([plane(0), plane(1), plane(2)], [plane(3), plane(4), plane(5)], dir_inv, orig, r.tmax);
+        self.encode(node, hit)
+    }
+
+    /// The eight quantised planes (one byte a child) of `node` at this ray's plane `k`, in the
+    /// order of `planes` (near x, y, z, then far).
+    #[inline(always)]
+    fn plane(&self, node: &CwBvhNode, k: usize) -> u64 {
         let base = (node as *const CwBvhNode).cast::<u8>();
         // SAFETY: every offset in `planes` is that of one of the node's six 8-byte plane arrays
         // (`NodeRay::new`), so the read stays inside the node; it needs no alignment.
-        let plane = |k: usize| u64::from_le(unsafe { base.add(self.planes[k]).cast::<u64>().read_unaligned() });
-        let hit = slab8::<AVX>([plane(0), plane(1), plane(2)], [plane(3), plane(4), plane(5)], dir_inv, orig, r.tmax);
-        self.encode(node, hit)
+        u64::from_le(unsafe { base.add(self.planes[k]).cast::<u64>().read_unaligned() })
     }
 
     /// [`NodeRay::node_hitmask`] for a ray of a packet whose rays all have this ray's direction,
@@ -1076,13 +1083,10 @@ impl ScaledPlanes {
     #[inline(always)]
     fn new<const AVX: bool>(node: &CwBvhNode, ray: &NodeRay) -> Self {
         let s = node.compute_extent() * ray.ray.inv_direction;
-        let base = (node as *const CwBvhNode).cast::<u8>();
-        // SAFETY: as in NodeRay::node_hitmask (offsets of the node's own plane arrays).
-        let plane = |k: usize| u64::from_le(unsafe { base.add(ray.planes[k]).cast::<u64>().read_unaligned() });
         let scale = [s.x, s.y, s.z];
         let mut out = ScaledPlanes([[0.0; 8]; 6]);
         for (k, row) in out.0.iter_mut().enumerate() {
-            *row = scale8::<AVX>(plane(k), scale[k % 3]);
+            *row = scale8::<AVX>(ray.plane(node, k), scale[k % 3]);
         }
         out
     }

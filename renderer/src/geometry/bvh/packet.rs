@@ -61,8 +61,8 @@ struct Packet {
     beam: Option<Beam>,
 }
 
-/// A packet of rays of one direction: the lane whose direction stands for all, and the per-axis
-/// least and greatest origin coordinates of the active rays.
+/// A packet of rays of one direction: the lane whose direction stands for all, that direction's
+/// inverse, and the per-axis least and greatest origin coordinates of the active rays.
 ///
 /// Per node, two tests bound every ray's answer. A ray's node test (`ScaledPlanes::hits`) adds the
 /// offset (p − origin)·(1/d) to the scaled planes and compares with its t_max; each step is
@@ -76,6 +76,7 @@ struct Packet {
 #[derive(Clone, Copy)]
 struct Beam {
     lead: usize,
+    inv: Vec3A,
     lo: Vec3A,
     hi: Vec3A,
 }
@@ -90,7 +91,7 @@ impl Beam {
                 hi = hi.max(rays[k].ray.origin);
             }
         }
-        Beam { lead, lo, hi }
+        Beam { lead, inv: rays[lead].ray.inv_direction, lo, hi }
     }
 
     /// The greatest t_max of the rays (inactive lanes have t_max 0). The bounds may take in more
@@ -113,13 +114,12 @@ impl Beam {
         &self,
         node: &CwBvhNode,
         scaled: &ScaledPlanes,
-        inv: Vec3A,
         (t_lo, t_hi): (f32, f32),
     ) -> Option<u32> {
         let p = Vec3A::from(node.p);
         // The rounded offsets (p − o)·(1/d) of the extreme origins: the least and greatest of the
         // packet's on each axis (which is which depends on the sign of 1/d).
-        let (a, b) = ((p - self.hi) * inv, (p - self.lo) * inv);
+        let (a, b) = ((p - self.hi) * self.inv, (p - self.lo) * self.inv);
         let (least, greatest) = (a.min(b), a.max(b));
         let outer = scaled.hits::<AVX>(least, greatest, t_hi);
         let inner = scaled.hits::<AVX>(greatest, least, t_lo);
@@ -229,17 +229,14 @@ impl SceneGeometry {
         let mut prims = [0u32; LANES];
         // The beam's t_max bounds over the active rays: the least follows each hit, the greatest
         // is recomputed at the next node after a ray's t_max has shrunk.
+        let mut t_range = (f32::INFINITY, 0.0f32);
         if packet.beam.is_some() {
             for (r, a) in rays.iter_mut().zip(active) {
-                if !a {
+                if *a {
+                    t_range = (t_range.0.min(r.ray.tmax), t_range.1.max(r.ray.tmax));
+                } else {
                     r.ray.tmax = 0.0;
                 }
-            }
-        }
-        let mut t_range = (f32::INFINITY, 0.0f32);
-        for (r, a) in rays.iter().zip(active) {
-            if *a {
-                t_range = (t_range.0.min(r.ray.tmax), t_range.1.max(r.ray.tmax));
             }
         }
         let mut t_stale = false;
@@ -296,8 +293,7 @@ impl SceneGeometry {
                             t_stale = false;
                         }
                         let scaled = ScaledPlanes::new::<AVX>(node, &rays[beam.lead]);
-                        let inv = rays[beam.lead].ray.inv_direction;
-                        let common = beam.common_mask::<AVX>(node, &scaled, inv, t_range);
+                        let common = beam.common_mask::<AVX>(node, &scaled, t_range);
                         (Some(scaled), common.map(|hit| rays[beam.lead].encode(node, hit)))
                     }
                     None => (None, None),
@@ -364,6 +360,13 @@ mod tests {
     use crate::math::Vec3;
     use crate::sampling::chi2::TestRng;
 
+    /// The packet tests' scenes: spheres and a mesh (`scene`), and a fine mesh alone.
+    fn packet_scenes() -> [SceneGeometry; 2] {
+        let mut fine = icosphere(5);
+        fine.transform(glam::Affine3A::from_scale(Vec3::splat(0.9)));
+        [scene(), SceneGeometry::new(vec![Shape::Mesh(fine)])]
+    }
+
     /// Every wanted lane of a packet gets the single-ray walk's hit bit for bit: packets of
     /// parallel rays from a small square (orthographic camera rays of a pixel), of rays from one
     /// point through a small cone (a pinhole camera's), of random directions (several octants:
@@ -371,9 +374,7 @@ mod tests {
     /// on a scene of spheres and a mesh and on a fine mesh.
     #[test]
     fn packet_gives_the_single_ray_hits() {
-        let mut fine = icosphere(5);
-        fine.transform(glam::Affine3A::from_scale(Vec3::splat(0.9)));
-        let scenes = [scene(), SceneGeometry::new(vec![Shape::Mesh(fine)])];
+        let scenes = packet_scenes();
         let mut rng = TestRng::new(8);
         let mut compared = [0usize; 2];
         for g in &scenes {
@@ -422,9 +423,7 @@ mod tests {
     /// the other, and both ways of testing a node.
     #[test]
     fn shared_direction_packets_give_the_single_ray_hits_in_every_copy() {
-        let mut fine = icosphere(5);
-        fine.transform(glam::Affine3A::from_scale(Vec3::splat(0.9)));
-        let scenes = [scene(), SceneGeometry::new(vec![Shape::Mesh(fine)])];
+        let scenes = packet_scenes();
         let mut rng = TestRng::new(9);
         let bits =
             |h: Option<(u32, f32, f32, f32)>| h.map(|(s, t, b1, b2)| (s, t.to_bits(), b1.to_bits(), b2.to_bits()));
