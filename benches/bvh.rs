@@ -6,13 +6,13 @@
 //! - "aimed": same origins, each ray aimed at a uniform random point inside the unit ball (almost
 //!   all hit; origins inside the ball still hit the surface from inside).
 //!
-//! Each set is traced by `SceneGeometry::intersect` one ray at a time and by
-//! `SceneGeometry::intersect_batch` in batches of 256 (rows `box`/`aimed` and `box_batch`/`aimed_batch`).
+//! Each set is traced by `SceneGeometry::intersect`, one ray at a time on each thread (rows
+//! `box` and `aimed`).
 //!
 //! Instruction counts of the build settings (`BVH_COUNT`, see [`count`]): `BVH_COUNT=leaf=2 valgrind
 //! --tool=callgrind --toggle-collect='*trace_1t*' target/release/deps/bvh-… --bench` traces 2^16 rays of
-//! each set on the 1.31M-triangle icosphere once per ray set and per single/batch, on the calling
-//! thread, and exits before criterion (`callgrind_annotate --inclusive=yes` splits the four).
+//! each set on the 1.31M-triangle icosphere once per ray set, on the calling thread, and exits before
+//! criterion (`callgrind_annotate --inclusive=yes` splits the two).
 //!
 //! Run: `cargo bench --bench bvh` (about 2 minutes). Throughput is printed as elements/s = rays/s.
 //! Before each group one untimed-by-criterion pass per ray set prints the hit fraction, the
@@ -84,27 +84,7 @@ fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray]) -> usize {
     pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| geo.intersect(r).is_some()).count())
 }
 
-/// Rays per `SceneGeometry::intersect_batch` call (a tile's worth).
-const BATCH: usize = 256;
-
-/// As [`trace`], through `SceneGeometry::intersect_batch` in batches of [`BATCH`] rays.
-fn trace_batch(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray]) -> usize {
-    pool.install(|| rays.par_chunks(4096).map(|c| batch_hits(geo, c)).sum())
-}
-
-/// Number of hits among `rays`, traced with `intersect_batch` in batches of [`BATCH`].
-fn batch_hits(geo: &SceneGeometry, rays: &[Ray]) -> usize {
-    let mut hits = [None; BATCH];
-    rays.chunks(BATCH)
-        .map(|c| {
-            geo.intersect_batch(c, &mut hits[..c.len()]);
-            hits[..c.len()].iter().filter(|h| h.is_some()).count()
-        })
-        .sum()
-}
-
-// Closest hits of `rays` on this thread, one function per ray set and per single/batch (not
-// inlined, each with its own constant so the compiler cannot merge them: callgrind's
+// Closest hits of `rays` on this thread, one function per ray set (not inlined, each with its own constant so the compiler cannot merge them: callgrind's
 // `--toggle-collect='*trace_1t*'` counts exactly these, and `callgrind_annotate --inclusive=yes`
 // splits them).
 
@@ -118,18 +98,6 @@ fn trace_1t_box(geo: &SceneGeometry, rays: &[Ray]) -> usize {
 fn trace_1t_aimed(geo: &SceneGeometry, rays: &[Ray]) -> usize {
     black_box(2);
     rays.iter().filter(|r| geo.intersect(r).is_some()).count()
-}
-
-#[inline(never)]
-fn trace_1t_batch_box(geo: &SceneGeometry, rays: &[Ray]) -> usize {
-    black_box(3);
-    batch_hits(geo, rays)
-}
-
-#[inline(never)]
-fn trace_1t_batch_aimed(geo: &SceneGeometry, rays: &[Ray]) -> usize {
-    black_box(4);
-    batch_hits(geo, rays)
 }
 
 /// The counting mode: `BVH_COUNT` is a comma-separated list of `leaf=N` (max primitives per leaf),
@@ -164,7 +132,6 @@ fn count(spec: &str) {
     let (b, a) = (rays("box", 1), rays("aimed", 2));
     let hb = trace_1t_box(&geo, &b[..n]);
     let ha = trace_1t_aimed(&geo, &a[..n]);
-    assert_eq!((trace_1t_batch_box(&geo, &b[..n]), trace_1t_batch_aimed(&geo, &a[..n])), (hb, ha));
     println!("BVH_COUNT {spec}: build {:.2} s; hits box {hb}, aimed {ha} of {n}", geo.build_time().as_secs_f64());
 }
 
@@ -185,12 +152,10 @@ fn bench(c: &mut Criterion) {
             "icosphere({n}): {tris} triangles, BVH build {build:.3} s wall ({:.2} M tris/s, 1 thread, incl. setup)",
             tris as f64 / build * 1e-6
         );
-        for ((kind, rs), batch) in ray_sets.iter().flat_map(|s| [(s, false), (s, true)]) {
-            let run = |rs: &[Ray]| if batch { trace_batch(&pool, &geo, rs) } else { trace(&pool, &geo, rs) };
-            let hits = run(rs); // also warms caches and the pool
+        for (kind, rs) in &ray_sets {
+            let hits = trace(&pool, &geo, rs); // also warms caches and the pool
             let (c0, t0) = (process_cpu_seconds(), Instant::now());
-            black_box(run(rs));
-            let kind = if batch { format!("{kind} (intersect_batch)") } else { kind.to_string() };
+            black_box(trace(&pool, &geo, rs));
             let (cpu, wall) = (process_cpu_seconds().map(|c| c - c0.unwrap_or(0.0)), t0.elapsed().as_secs_f64());
             // On a machine shared with other jobs the wall-clock rate understates the code's speed;
             // rays per CPU-second × THREADS removes the time-sharing (not the cache sharing).
@@ -212,9 +177,6 @@ fn bench(c: &mut Criterion) {
             .throughput(Throughput::Elements(N_RAYS as u64));
         for (kind, rs) in &ray_sets {
             g.bench_function(*kind, |b| b.iter(|| black_box(trace(&pool, &geo, black_box(rs)))));
-            g.bench_function(format!("{kind}_batch"), |b| {
-                b.iter(|| black_box(trace_batch(&pool, &geo, black_box(rs))))
-            });
         }
         g.finish();
     }

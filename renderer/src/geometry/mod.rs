@@ -51,6 +51,14 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// Its primitives in the BVH: 1 for a sphere, a mesh's triangles.
+    pub fn primitive_count(&self) -> usize {
+        match self {
+            Shape::Sphere(_) => 1,
+            Shape::Mesh(m) => m.triangles.len(),
+        }
+    }
+
     /// How far the shape reaches from the origin: the largest coordinate magnitude of its bounds
     /// (of the sphere's c ± r, of the mesh's vertices), in f64 so that it is finite for any finite
     /// input.

@@ -123,19 +123,6 @@ impl<S: Isa> Paths<S> {
     }
 }
 
-/// One stage's rays, a slot per lane (`want[k]`: lane k has a ray to trace).
-struct LaneRays {
-    rays: [Ray; LANES],
-    want: [bool; LANES],
-}
-
-impl LaneRays {
-    #[inline(always)]
-    fn new() -> Self {
-        LaneRays { rays: [Ray::new(Vec3::ZERO, Vec3::Z); LANES], want: [false; LANES] }
-    }
-}
-
 /// The closest hits of a stage's rays, in lanes (`hit[k]`: lane k's ray hit something).
 struct LaneHits<S: Isa> {
     hit: Mask<LANES, S>,
@@ -148,18 +135,6 @@ struct LaneHits<S: Isa> {
 impl<S: Isa> LaneHits<S> {
     const NONE: Self =
         LaneHits { hit: Mask::NONE, p: Float3::ZERO, n: Float3::ZERO, ng: Float3::ZERO, object: [0; LANES] };
-
-    /// The hits of a packet walk, in lanes.
-    #[inline(always)]
-    fn from_hits(hits: &[Option<Hit>; LANES]) -> Self {
-        let mut out = Self::NONE;
-        for (k, h) in hits.iter().enumerate() {
-            if let Some(h) = h {
-                out.set_lane(k, h);
-            }
-        }
-        out
-    }
 
     /// Lane `k` hit `h`.
     #[inline(always)]
@@ -197,8 +172,7 @@ impl<'a> PathTracer<'a> {
     /// code at one lane), the light's lookups of the BRDF directions ([`DistantLight::locate_each`],
     /// which starts their loads), the light samples ([`DistantLight::sample_each`]), the BRDF's
     /// value and density for them, MIS, the shadow rays, the bounce rays (a single sphere's roots
-    /// over the lanes; a BVH ray by ray), the escaped light and Russian roulette. A BVH's camera
-    /// rays are walked as one packet ([`crate::geometry::SceneGeometry::intersect_packet`]).
+    /// over the lanes; a BVH ray by ray), the escaped light and Russian roulette.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
@@ -232,14 +206,14 @@ impl<'a> PathTracer<'a> {
         // it out of line.)
         let [cx, cy] = draws.draw_2d(0);
         let u = if jitter { [cx, cy] } else { [Float::splat(0.5); 2] };
-        let mut camera = LaneRays::new();
+        let mut want = [false; LANES];
         let (mut origins, mut dirs) = (Float3::ZERO, Float3::splat(Vec3::Z));
         if let Some((o, d)) = scene.camera.generate_rays(row, col, u) {
             // A ray camera: every lane's ray at once (lanes past `n` are not wanted: every stage
             // below masks them out).
             (origins, dirs) = (o, d);
             for k in 0..n {
-                camera.want[k] = true;
+                want[k] = true;
                 out[k].rays += 1;
             }
         } else {
@@ -252,18 +226,10 @@ impl<'a> PathTracer<'a> {
                 }
             }
         }
-        // A pixel's camera rays run nearly parallel: one packet walk of a BVH for all of them.
-        let hits = if self.single_convex {
-            self.trace_lanes(origins, dirs, Mask::from_bools(camera.want))
-        } else {
-            for k in 0..n {
-                camera.rays[k] = Ray::new(origins.lane(k), dirs.lane(k));
-            }
-            LaneHits::from_hits(&scene.geometry.intersect_packet(&camera.rays, &camera.want))
-        };
+        let hits = self.trace_lanes(origins, dirs, Mask::from_bools(want));
         // The light seen by the camera rays that miss (in SIMD lanes for a lat-long map).
         // Most batches have none (every lane inside an object's silhouette): then no lookup runs.
-        let missed = Mask::from_bools(camera.want) & !hits.hit;
+        let missed = Mask::from_bools(want) & !hits.hit;
         let background = if missed.any() { light.eval_each(dirs, missed) } else { [Rgb::ZERO; LANES] };
         for k in 0..n {
             if hits.hit.lane(k) {
@@ -516,9 +482,9 @@ impl<'a> PathTracer<'a> {
             }
             return hits;
         }
-        // A BVH: ray by ray. `intersect_batch` on a stage's ≤ 8 rays gives the same hits, but costed
-        // 62 % more render instructions on bench-mesh-sky and no wall time (guide "Performance notes and their
-        // history", eighth round): its interleaving pays off over many rays, not over one pixel's batch.
+        // A BVH: ray by ray, camera rays too. Walking a pixel's rays as one packet, or several rays
+        // interleaved, gained nothing once a single ray's walk was cheap (guide, "Performance notes and
+        // their history").
         for k in 0..LANES {
             if want.lane(k)
                 && let Some(h) = geometry.intersect(&Ray::new(origin.lane(k), dir.lane(k)))

@@ -185,6 +185,7 @@ impl Scene {
         }
 
         timings.meshes_seconds = t_meshes.elapsed().as_secs_f64();
+        check_primitive_count(shapes.iter().map(Shape::primitive_count).sum())?;
         // Camera.
         let (w, h) = (settings.width, settings.height);
         let first_sphere = match shapes.first() {
@@ -200,6 +201,18 @@ impl Scene {
         timings.bvh_seconds = t_bvh.elapsed().as_secs_f64();
         Ok(Scene { settings, camera, light, geometry, brdfs, textures, description: file, path: None, timings })
     }
+}
+
+/// Refuses a scene of more primitives (triangles and spheres) than its BVH holds
+/// ([`crate::geometry::bvh::MAX_PRIMITIVES`]).
+fn check_primitive_count(count: usize) -> Result<()> {
+    use crate::geometry::bvh::MAX_PRIMITIVES;
+    if count > MAX_PRIMITIVES {
+        return Err(Error::new(format!(
+            "the scene has {count} primitives (triangles and spheres), more than the {MAX_PRIMITIVES} a scene may hold"
+        )));
+    }
+    Ok(())
 }
 
 fn build_camera(
@@ -360,6 +373,16 @@ mod tests {
             "[camera]\ntype = \"orthographic\"\nfrom = [0.0, -3.0, 0.0]\nto = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nextent = 1.0\n[lighting]\ntype = \"uniform\"\nradiance = 1.0\n[[objects]]\nshape = \"icosphere\"\n{params}\nbrdf = {{ type = \"lambert\", albedo = 0.5 }}\n"
         );
         Scene::build(SceneFile::parse(&toml).map_err(Error::new)?, Path::new("."))
+    }
+
+    /// The BVH's limit is checked before it is built: a count one past it is refused with a
+    /// message naming the limit, the limit itself passes.
+    #[test]
+    fn primitive_count_beyond_the_bvh_is_refused() {
+        use crate::geometry::bvh::MAX_PRIMITIVES;
+        assert!(check_primitive_count(MAX_PRIMITIVES).is_ok());
+        let e = check_primitive_count(MAX_PRIMITIVES + 1).unwrap_err().to_string();
+        assert!(e.contains("536870913 primitives") && e.contains("536870912"), "{e}");
     }
 
     #[test]

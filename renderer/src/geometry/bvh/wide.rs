@@ -1,0 +1,355 @@
+//! The BVH8 every ray walks: obvhs's compressed tree decoded to float planes.
+//!
+//! obvhs builds a compressed wide BVH (`CwBvh`, Ylitie et al. 2017): each node stores its
+//! children's boxes as bytes on a per-node grid, and its traversal orders children by the ray's
+//! octant and keeps node groups with hit bits on its stack, a design made for GPUs. On a CPU each
+//! visit then spends more on decoding and bookkeeping than on the box test itself. This module
+//! converts the finished tree, node for node and child for child, into [`WideNode`]s with the
+//! children's boxes as floats and a child reference per slot, and walks it as CPU ray tracers do
+//! (Wald et al. 2008; Embree's BVH8 kernels): one node test gives the hit children and their
+//! entry distances, a single hit child is entered directly, several are pushed nearest last,
+//! leaves are tested when they are reached, and a popped entry farther than the closest hit so
+//! far is skipped.
+//!
+//! **Same boxes, never smaller.** A child's box is obvhs's quantised box, p + q · 2^e per plane,
+//! computed exactly in f64 and rounded outward to f32: it contains the compressed box, which
+//! contains the child's primitives.
+//!
+//! **Exact hits.** The slab test is conservative: t = (plane − o) · (1/d) in single precision,
+//! with the exit distance, and the closest hit's distance that culls boxes, scaled up by 1 + 2γ₃
+//! (pbrt-v4 §6.1.2) so that rounding never drops a box the ray meets before that hit; 1/d is ±∞
+//! on an axis the ray runs parallel to, where the one undefined case (0 · ∞, a ray in a box's
+//! face plane) comes out as NaN and the test's min/max order turns a NaN into "no bound" (the box
+//! is kept). Boxes behind the origin (exit < 0) are dropped. So the hit is that of a test of every
+//! primitive with t in (0, t_max), up to the triangle test's own rounding: where several triangles
+//! are hit at nearly the same t (a ray through a shared edge or vertex), the t of the one the walk
+//! keeps can exceed the least by a few units in the last place, as a box is culled by its
+//! geometric entry and a triangle's t carries Möller–Trumbore's error. The walk keeps the same one
+//! for a ray on every run and in every copy (tested).
+
+use super::{Prim, SceneGeometry};
+use crate::geometry::Ray;
+use glam::Vec3A;
+use obvhs::cwbvh::CwBvh;
+use std::mem::MaybeUninit;
+
+/// Entries of a walk's stack: a node leaves at most 7 of its 8 children behind at each level, so
+/// a tree of depth D needs at most 7 (D − 1) + 1, and `build_cwbvh` keeps D below
+/// `MAX_CWBVH_DEPTH`. A power of two, so that the index's wrap (which keeps every access in
+/// bounds without a check) is a mask.
+const STACK: usize = 256;
+const _: () = assert!(7 * super::MAX_CWBVH_DEPTH < STACK);
+
+/// A child reference with this bit set is a leaf: bits 29–30 hold its primitive count (1–3), bits
+/// 0–28 its first primitive slot ([`MAX_SLOTS`]). Otherwise it is the index of an internal node.
+const LEAF: u32 = 1 << 31;
+const COUNT_SHIFT: u32 = 29;
+const SLOT_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+
+/// The most primitives a tree can hold: the leaves' slots fit 29 bits.
+pub(super) const MAX_SLOTS: usize = 1 << COUNT_SHIFT;
+
+/// A node of eight children: their boxes by plane (rows min x, min y, min z, max x, max y, max z;
+/// an empty slot has min +∞ and max −∞, which no ray enters) and their references (`LEAF`).
+/// 224 bytes, aligned to 32: four cache lines a node.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+pub(super) struct WideNode {
+    bounds: [[f32; 8]; 6],
+    child: [u32; 8],
+}
+
+/// The decoded tree: node 0 is the root.
+pub(super) struct WideBvh {
+    nodes: Vec<WideNode>,
+}
+
+/// An entry of a walk's stack: a child reference (`LEAF`) and the distance at which the ray
+/// enters its box.
+#[derive(Clone, Copy)]
+struct Entry {
+    child: u32,
+    t: f32,
+}
+
+impl WideBvh {
+    /// The float-plane copy of `bvh` (non-empty: node 0 is its root; its leaves index fewer than
+    /// [`MAX_SLOTS`] primitives).
+    pub(super) fn new(bvh: &CwBvh) -> WideBvh {
+        let nodes = bvh
+            .nodes
+            .iter()
+            .map(|n| {
+                let extent = [n.e[0], n.e[1], n.e[2]].map(|e| f32::from_bits((e as u32) << 23) as f64);
+                let p = [n.p.x as f64, n.p.y as f64, n.p.z as f64];
+                let rows = [n.child_min_x, n.child_min_y, n.child_min_z, n.child_max_x, n.child_max_y, n.child_max_z];
+                let mut node = WideNode { bounds: [[0.0; 8]; 6], child: [0; 8] };
+                for (i, &meta) in n.child_meta.iter().enumerate() {
+                    let meta = meta as u32;
+                    if meta == 0 {
+                        for k in 0..3 {
+                            node.bounds[k][i] = f32::INFINITY;
+                            node.bounds[k + 3][i] = f32::NEG_INFINITY;
+                        }
+                        continue;
+                    }
+                    for k in 0..6 {
+                        let exact = p[k % 3] + rows[k][i] as f64 * extent[k % 3];
+                        node.bounds[k][i] = if k < 3 { round_down(exact) } else { round_up(exact) };
+                    }
+                    // Internal children follow each other from child_base_idx; a leaf's primitives
+                    // start at its offset (meta bits 0–4) and number its unary count (bits 5–7).
+                    if n.imask & (1 << i) != 0 {
+                        node.child[i] = n.child_base_idx + (n.imask as u32 & ((1 << i) - 1)).count_ones();
+                    } else {
+                        let first = n.primitive_base_idx + (meta & 0x1f);
+                        node.child[i] = LEAF | (meta >> 5).count_ones() << COUNT_SHIFT | (first & SLOT_MASK);
+                    }
+                }
+                node
+            })
+            .collect::<Vec<_>>();
+        // Every ray walks the nodes at random addresses: in huge pages where the kernel gives them.
+        crate::memory::advise_huge_pages(&nodes);
+        WideBvh { nodes }
+    }
+}
+
+/// The largest f32 not above `x`.
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x { f.next_down() } else { f }
+}
+
+/// The least f32 not below `x`.
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x { f.next_up() } else { f }
+}
+
+/// γ₃ = 3u / (1 − 3u), u = 2⁻²⁴: the bound on the relative error of the slab distances.
+const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
+
+/// A ray prepared for [`WideNode`] tests: origin, inverse direction, and for each
+/// axis the offsets (in floats, from the node's start) of the rows of its entry and exit planes:
+/// min where the ray runs up the axis, max where it runs down.
+#[derive(Clone, Copy)]
+struct WideRay {
+    origin: [f32; 3],
+    inv: [f32; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl WideRay {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        // 1/±0 = ±∞, whose sign picks the rows as any other direction's does.
+        let inv = ray.dir.recip().to_array();
+        let row = |axis: usize| {
+            if inv[axis].is_sign_negative() { (8 * (axis + 3), 8 * axis) } else { (8 * axis, 8 * (axis + 3)) }
+        };
+        let (x, y, z) = (row(0), row(1), row(2));
+        WideRay { origin: ray.origin.to_array(), inv, near: [x.0, y.0, z.0], far: [x.1, y.1, z.1] }
+    }
+}
+
+/// Bit i set when child i's box meets the ray within [0, `t_max`] (up to rounding, never
+/// dropping a box that does: the exit and `t_max` scaled by 1 + 2γ₃), and the children's
+/// entry distances in `entry`. `AVX`: eight children per instruction with AVX2 (only inside
+/// `walk_wide_avx2`), else four with SSE2; the same bits either way (separate subtract and
+/// multiply, no fused operation).
+#[inline(always)]
+fn test<const AVX: bool>(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: AVX is true only in the copy compiled with AVX2 (`walk_wide_avx2`, called where
+        // `avx2_walk()` holds); every row offset of `ray` is that of one of the node's six rows.
+        unsafe { if AVX { test_avx2(node, ray, t_max, entry) } else { test_sse2(node, ray, t_max, entry) } }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let b = node.bounds.as_flattened();
+        let mut hit = 0;
+        for i in 0..8 {
+            let t = |off: usize, a: usize| (b[off + i] - ray.origin[a]) * ray.inv[a];
+            let tn = t(ray.near[0], 0).max(t(ray.near[1], 1)).max(t(ray.near[2], 2)).max(0.0);
+            let tf = t(ray.far[0], 0).min(t(ray.far[1], 1)).min(t(ray.far[2], 2)).min(t_max) * GROW;
+            entry[i] = tn;
+            if tn <= tf {
+                hit |= 1 << i;
+            }
+        }
+        hit
+    }
+}
+
+/// 1 + 2γ₃: the exit distances' scale.
+const GROW: f32 = 1.0 + 2.0 * GAMMA3;
+
+/// [`test`] with AVX2. Not a `target_feature` function, so that it is always inlined: call it
+/// only from code compiled with AVX2, with row offsets inside the node.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn test_avx2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+    let b = node.bounds.as_ptr().cast::<f32>();
+    // SAFETY (caller): the offsets are rows of the node, 32-byte aligned as the node is.
+    unsafe {
+        let t = |off: usize, a: usize| {
+            _mm256_mul_ps(
+                _mm256_sub_ps(_mm256_load_ps(b.add(off)), _mm256_set1_ps(ray.origin[a])),
+                _mm256_set1_ps(ray.inv[a]),
+            )
+        };
+        let tn = _mm256_max_ps(
+            _mm256_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)),
+            _mm256_max_ps(t(ray.near[2], 2), _mm256_setzero_ps()),
+        );
+        let tf = _mm256_min_ps(t(ray.far[0], 0), _mm256_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
+        let tf = _mm256_mul_ps(_mm256_min_ps(tf, _mm256_set1_ps(t_max)), _mm256_set1_ps(GROW));
+        _mm256_storeu_ps(entry.as_mut_ptr(), tn);
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tn, tf)) as u32
+    }
+}
+
+/// [`test`] with SSE2: children 0–3 and 4–7 in two halves (row offsets inside the node).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+    let b = node.bounds.as_ptr().cast::<f32>();
+    // SAFETY (caller): the offsets are rows of the node; each load reads four of a row's eight
+    // floats (16-byte aligned), each store four of `entry`'s.
+    unsafe {
+        let o = ray.origin.map(|x| _mm_set1_ps(x));
+        let inv = ray.inv.map(|x| _mm_set1_ps(x));
+        let (zero, tm, grow) = (_mm_setzero_ps(), _mm_set1_ps(t_max), _mm_set1_ps(GROW));
+        let mut half = |h: usize| {
+            let t = |off: usize, a: usize| _mm_mul_ps(_mm_sub_ps(_mm_load_ps(b.add(off + 4 * h)), o[a]), inv[a]);
+            let tn = _mm_max_ps(_mm_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)), _mm_max_ps(t(ray.near[2], 2), zero));
+            let tf = _mm_min_ps(t(ray.far[0], 0), _mm_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
+            let tf = _mm_mul_ps(_mm_min_ps(tf, tm), grow);
+            _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
+            _mm_movemask_ps(_mm_cmple_ps(tn, tf)) as u32
+        };
+        half(0) | half(1) << 4
+    }
+}
+
+impl SceneGeometry {
+    /// One ray's walk of the float-plane tree: the closest hit (`ANY` false) or the first hit
+    /// found (`ANY` true), as (slot, t, b1, b2); `AVX` selects the AVX2 node test.
+    #[inline(always)]
+    pub(super) fn walk_wide<const ANY: bool, const AVX: bool>(
+        &self,
+        wide: &WideBvh,
+        ray: &Ray,
+    ) -> Option<(u32, f32, f32, f32)> {
+        let w = WideRay::new(ray);
+        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+        let mut t_max = ray.t_max;
+        let mut best = None;
+        let mut stack = [MaybeUninit::<Entry>::uninit(); STACK];
+        let mut sp = 0usize;
+        let mut entry = [0.0f32; 8];
+        let mut child = 0u32;
+        loop {
+            if child & LEAF == 0 {
+                let node = &wide.nodes[child as usize];
+                let mut hit = test::<AVX>(node, &w, t_max, &mut entry);
+                if hit != 0 {
+                    if hit & (hit - 1) == 0 {
+                        child = node.child[hit.trailing_zeros() as usize];
+                        continue;
+                    }
+                    // Several: push them all, then order the new entries farthest first so that
+                    // the nearest is popped next (closest hit only).
+                    let base = sp;
+                    while hit != 0 {
+                        let i = hit.trailing_zeros() as usize;
+                        hit &= hit - 1;
+                        let e = Entry { child: node.child[i], t: entry[i] };
+                        self.prefetch_child(wide, e);
+                        stack[sp % STACK] = MaybeUninit::new(e);
+                        sp += 1;
+                    }
+                    if !ANY {
+                        sort_farthest_first(&mut stack, base, sp);
+                    }
+                }
+            } else {
+                let first = child & SLOT_MASK;
+                for slot in first..first + ((child >> COUNT_SHIFT) & 3) {
+                    let p: &Prim = &self.prims[slot as usize];
+                    if let Some((t, b1, b2)) = p.intersect(origin, dir, t_max) {
+                        if ANY {
+                            return Some((slot, t, 0.0, 0.0));
+                        }
+                        t_max = t;
+                        best = Some((slot, t, b1, b2));
+                    }
+                }
+            }
+            // The next entry that can still hold a closer hit.
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                // SAFETY: every entry below sp was written by a push above.
+                let e = unsafe { stack[sp % STACK].assume_init() };
+                if ANY || e.t <= t_max * GROW {
+                    child = e.child;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+impl SceneGeometry {
+    /// Starts loading what child reference `c` leads to: a node's four cache lines, or a leaf's
+    /// primitive records (48 bytes each). The entries a node pushes are visited later, after the
+    /// nearest one's subtree; their loads then overlap with that walk instead of each waiting in turn.
+    #[inline(always)]
+    fn prefetch_child(&self, wide: &WideBvh, e: Entry) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let (ptr, bytes) = if e.child & LEAF == 0 {
+                (wide.nodes.as_ptr().wrapping_add(e.child as usize) as *const i8, size_of::<WideNode>())
+            } else {
+                let first = self.prims.as_ptr().wrapping_add((e.child & SLOT_MASK) as usize);
+                (first as *const i8, size_of::<Prim>() * ((e.child >> COUNT_SHIFT) & 3) as usize)
+            };
+            let mut off = 0;
+            while off < bytes {
+                // SAFETY: prefetch is a hint and never faults, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(ptr.wrapping_add(off)) };
+                off += 64;
+            }
+        }
+    }
+}
+
+/// Orders `stack[base..end]` (entries written just before) by descending entry distance:
+/// insertion sort, as there are at most eight.
+#[inline(always)]
+fn sort_farthest_first(stack: &mut [MaybeUninit<Entry>; STACK], base: usize, end: usize) {
+    for i in base + 1..end {
+        // SAFETY: entries base..end were written by the caller.
+        let x = unsafe { stack[i % STACK].assume_init() };
+        let mut j = i;
+        while j > base {
+            // SAFETY: as above (base ≤ j − 1 < end).
+            let y = unsafe { stack[(j - 1) % STACK].assume_init() };
+            if y.t >= x.t {
+                break;
+            }
+            stack[j % STACK] = MaybeUninit::new(y);
+            j -= 1;
+        }
+        stack[j % STACK] = MaybeUninit::new(x);
+    }
+}
