@@ -84,9 +84,9 @@ fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray]) -> usize {
     pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| geo.intersect(r).is_some()).count())
 }
 
-// Closest hits of `rays` on this thread, one function per ray set (not inlined, each with its own constant so the compiler cannot merge them: callgrind's
-// `--toggle-collect='*trace_1t*'` counts exactly these, and `callgrind_annotate --inclusive=yes`
-// splits them).
+// Closest hits of `rays` on this thread, one function per ray set (not inlined, each with its own
+// constant so the compiler cannot merge them: callgrind's `--toggle-collect='*trace_1t*'` counts
+// exactly these, and `callgrind_annotate --inclusive=yes` splits them).
 
 #[inline(never)]
 fn trace_1t_box(geo: &SceneGeometry, rays: &[Ray]) -> usize {

@@ -149,17 +149,14 @@ impl SceneGeometry {
         }
 
         // Primitive k of the build is primitive k − first[o] of object o, where first[o] ≤ k < first[o + 1].
+        let count: usize = shapes.iter().map(Shape::primitive_count).sum();
+        assert!(count <= MAX_PRIMITIVES, "{count} primitives, more than the {MAX_PRIMITIVES} a BVH holds");
         let mut first = Vec::with_capacity(shapes.len() + 1);
         first.push(0u32);
         for shape in &shapes {
-            let n = match shape {
-                Shape::Sphere(_) => 1,
-                Shape::Mesh(m) => m.triangles.len() as u32,
-            };
-            first.push(first.last().unwrap() + n);
+            // Below 2^29 in all: no overflow.
+            first.push(first.last().unwrap() + shape.primitive_count() as u32);
         }
-        let count = *first.last().unwrap() as usize;
-        assert!(count <= MAX_PRIMITIVES, "{count} primitives, more than the {MAX_PRIMITIVES} a BVH holds");
         let aabbs = || {
             let mut aabbs = Vec::with_capacity(count);
             for shape in &shapes {
@@ -273,9 +270,10 @@ impl SceneGeometry {
         obvhs::ray::Ray::new(ray.origin.into(), dir, 0.0, ray.t_max)
     }
 
-    /// Closest hit with t in (0, ray.t_max): the hit of obvhs's own traversal of its tree (kept as
-    /// the tests' oracle), the same t bit for bit; where two primitives are hit at exactly the same
-    /// t (a ray through a shared edge) either may be returned, always the same one for a ray.
+    /// Closest hit with t in (0, ray.t_max): the closest of every primitive's hit, the same t bit
+    /// for bit, except where several triangles are hit at nearly the same t (a ray through a shared
+    /// edge or vertex): then one of them, whose t exceeds the least by the triangle test's rounding,
+    /// always the same one for a ray (`bvh/wide.rs`).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         if let Some(s) = &self.single_sphere {
@@ -301,9 +299,9 @@ impl SceneGeometry {
         }
     }
 
-    /// [`SceneGeometry::walk_wide`] compiled for AVX2 and for the bit instructions its child
-    /// choice uses (POPCNT, LZCNT, BMI1, BMI2). Run-time dispatch: call only where [`avx2_walk`]
-    /// holds, which checks exactly these features.
+    /// [`SceneGeometry::walk_wide`] compiled for AVX2 and the bit instructions of [`avx2_walk`]'s
+    /// list (the child choice's TZCNT and BLSR are BMI1). Run-time dispatch: call only where
+    /// [`avx2_walk`] holds, which checks exactly these features.
     #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx2,popcnt,lzcnt,bmi1,bmi2"))]
     fn walk_wide_avx2<const ANY: bool>(&self, wide: &wide::WideBvh, ray: &Ray) -> Option<(u32, f32, f32, f32)> {
         self.walk_wide::<ANY, true>(wide, ray)
@@ -901,7 +899,7 @@ mod tests {
                 }
             }
             if !avx2_walk() {
-                eprintln!("walk_finds_obvhs_hits: no AVX2 on this CPU, the AVX2 copy is not compared");
+                eprintln!("walk_finds_the_closest_hits: no AVX2 on this CPU, the AVX2 copy is not compared");
             }
             assert!(compared == 0 || compared > rays.len() / 2);
         }
