@@ -27,8 +27,10 @@
 //! geometric entry and a triangle's t carries Möller–Trumbore's error. The walk keeps the same one
 //! for a ray on every run and in every copy (tested).
 
+use super::leaf::{LANES, LaneRay, Leaf};
 use super::{Prim, SceneGeometry};
 use crate::geometry::Ray;
+use crate::geometry::mesh::TriangleRecord;
 use glam::Vec3A;
 use obvhs::cwbvh::CwBvh;
 use std::mem::MaybeUninit;
@@ -40,14 +42,13 @@ use std::mem::MaybeUninit;
 const STACK: usize = 256;
 const _: () = assert!(7 * super::MAX_CWBVH_DEPTH < STACK);
 
-/// A child reference with this bit set is a leaf: bits 29–30 hold its primitive count (1–3), bits
-/// 0–28 its first primitive slot ([`MAX_SLOTS`]). Otherwise it is the index of an internal node.
+/// A child reference with this bit set is a leaf: bits 0–30 hold its index in
+/// [`WideBvh::leaves`]. Otherwise it is the index of an internal node.
 const LEAF: u32 = 1 << 31;
-const COUNT_SHIFT: u32 = 29;
-const SLOT_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 
-/// The most primitives a tree can hold: the leaves' slots fit 29 bits.
-pub(super) const MAX_SLOTS: usize = 1 << COUNT_SHIFT;
+/// The most primitives a tree is built for: slots are `u32` and leaf indices 31 bits, both with
+/// room to spare (a tree of 2^29 primitives alone takes some 50 GB).
+pub(super) const MAX_SLOTS: usize = 1 << 29;
 
 /// A node of eight children: their boxes by plane (rows min x, min y, min z, max x, max y, max z;
 /// an empty slot has min +∞ and max −∞, which no ray enters) and their references (`LEAF`).
@@ -59,9 +60,11 @@ pub(super) struct WideNode {
     child: [u32; 8],
 }
 
-/// The decoded tree: node 0 is the root.
+/// The decoded tree: node 0 is the root. A primitive's slot is its position in obvhs's leaf order
+/// (`primitive_indices`).
 pub(super) struct WideBvh {
     nodes: Vec<WideNode>,
+    leaves: Vec<Leaf>,
 }
 
 /// An entry of a walk's stack: a child reference (`LEAF`) and the distance at which the ray
@@ -74,8 +77,14 @@ struct Entry {
 
 impl WideBvh {
     /// The float-plane copy of `bvh` (non-empty: node 0 is its root; its leaves index fewer than
-    /// [`MAX_SLOTS`] primitives).
-    pub(super) fn new(bvh: &CwBvh) -> WideBvh {
+    /// [`MAX_SLOTS`] primitives), with the record of the primitive in slot k from `prim(k)`.
+    pub(super) fn new(bvh: &CwBvh, prim: impl Fn(u32) -> Prim) -> WideBvh {
+        let n_leaves = bvh
+            .nodes
+            .iter()
+            .map(|n| n.child_meta.iter().filter(|&&m| m != 0).count() - n.imask.count_ones() as usize)
+            .sum::<usize>();
+        let mut leaves = Vec::with_capacity(n_leaves);
         let nodes = bvh
             .nodes
             .iter()
@@ -103,7 +112,9 @@ impl WideBvh {
                         node.child[i] = n.child_base_idx + (n.imask as u32 & ((1 << i) - 1)).count_ones();
                     } else {
                         let first = n.primitive_base_idx + (meta & 0x1f);
-                        node.child[i] = LEAF | (meta >> 5).count_ones() << COUNT_SHIFT | (first & SLOT_MASK);
+                        let count = (meta >> 5).count_ones();
+                        node.child[i] = LEAF | leaves.len() as u32;
+                        leaves.push(Leaf::new(first, (first..first + count).map(&prim)));
                     }
                 }
                 node
@@ -111,7 +122,20 @@ impl WideBvh {
             .collect::<Vec<_>>();
         // Every ray walks the nodes at random addresses: in huge pages where the kernel gives them.
         crate::memory::advise_huge_pages(&nodes);
-        WideBvh { nodes }
+        crate::memory::advise_huge_pages(&leaves);
+        WideBvh { nodes, leaves }
+    }
+
+    /// The slot of the primitive in leaf lane `id` (as [`SceneGeometry::walk_wide`] returns it).
+    #[inline(always)]
+    pub(super) fn slot(&self, id: u32) -> u32 {
+        self.leaves[id as usize / LANES].first() + id % LANES as u32
+    }
+
+    /// The triangle in leaf lane `id` (a triangle's lane).
+    #[inline(always)]
+    pub(super) fn triangle(&self, id: u32) -> TriangleRecord {
+        self.leaves[id as usize / LANES].triangle(id as usize % LANES)
     }
 }
 
@@ -239,7 +263,8 @@ unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
 
 impl SceneGeometry {
     /// One ray's walk of the float-plane tree: the closest hit (`ANY` false) or the first hit
-    /// found (`ANY` true), as (slot, t, b1, b2); `AVX` selects the AVX2 node test.
+    /// found (`ANY` true), as (lane id, t, b1, b2), a lane id being a leaf's index × 4 + the lane
+    /// ([`WideBvh::slot`], [`WideBvh::triangle`]); `AVX` selects the AVX2 node test.
     #[inline(always)]
     pub(super) fn walk_wide<const ANY: bool, const AVX: bool>(
         &self,
@@ -247,7 +272,7 @@ impl SceneGeometry {
         ray: &Ray,
     ) -> Option<(u32, f32, f32, f32)> {
         let w = WideRay::new(ray);
-        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+        let lanes = LaneRay::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir));
         let mut t_max = ray.t_max;
         let mut best = None;
         let mut stack = [MaybeUninit::<Entry>::uninit(); STACK];
@@ -270,7 +295,7 @@ impl SceneGeometry {
                         let i = hit.trailing_zeros() as usize;
                         hit &= hit - 1;
                         let e = Entry { child: node.child[i], t: entry[i] };
-                        self.prefetch_child(wide, e);
+                        prefetch_child(wide, e);
                         stack[sp % STACK] = MaybeUninit::new(e);
                         sp += 1;
                     }
@@ -279,16 +304,14 @@ impl SceneGeometry {
                     }
                 }
             } else {
-                let first = child & SLOT_MASK;
-                for slot in first..first + ((child >> COUNT_SHIFT) & 3) {
-                    let p: &Prim = &self.prims[slot as usize];
-                    if let Some((t, b1, b2)) = p.intersect(origin, dir, t_max) {
-                        if ANY {
-                            return Some((slot, t, 0.0, 0.0));
-                        }
-                        t_max = t;
-                        best = Some((slot, t, b1, b2));
+                let leaf = &wide.leaves[(child & !LEAF) as usize];
+                if let Some((lane, t, b1, b2)) = leaf.intersect::<ANY>(&lanes, t_max) {
+                    let id = (child & !LEAF) * LANES as u32 + lane;
+                    if ANY {
+                        return Some((id, t, 0.0, 0.0));
                     }
+                    t_max = t;
+                    best = Some((id, t, b1, b2));
                 }
             }
             // The next entry that can still hold a closer hit.
@@ -308,27 +331,24 @@ impl SceneGeometry {
     }
 }
 
-impl SceneGeometry {
-    /// Starts loading what child reference `c` leads to: a node's four cache lines, or a leaf's
-    /// primitive records (48 bytes each). The entries a node pushes are visited later, after the
-    /// nearest one's subtree; their loads then overlap with that walk instead of each waiting in turn.
-    #[inline(always)]
-    fn prefetch_child(&self, wide: &WideBvh, e: Entry) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            let (ptr, bytes) = if e.child & LEAF == 0 {
-                (wide.nodes.as_ptr().wrapping_add(e.child as usize) as *const i8, size_of::<WideNode>())
-            } else {
-                let first = self.prims.as_ptr().wrapping_add((e.child & SLOT_MASK) as usize);
-                (first as *const i8, size_of::<Prim>() * ((e.child >> COUNT_SHIFT) & 3) as usize)
-            };
-            let mut off = 0;
-            while off < bytes {
-                // SAFETY: prefetch is a hint and never faults, whatever the address.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(ptr.wrapping_add(off)) };
-                off += 64;
-            }
+/// Starts loading what child reference `e.child` leads to: a node's four cache lines, or a leaf's
+/// three. The entries a node pushes are visited later, after the
+/// nearest one's subtree; their loads then overlap with that walk instead of each waiting in turn.
+#[inline(always)]
+fn prefetch_child(wide: &WideBvh, e: Entry) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let (ptr, bytes) = if e.child & LEAF == 0 {
+            (wide.nodes.as_ptr().wrapping_add(e.child as usize) as *const i8, size_of::<WideNode>())
+        } else {
+            (wide.leaves.as_ptr().wrapping_add((e.child & !LEAF) as usize) as *const i8, size_of::<Leaf>())
+        };
+        let mut off = 0;
+        while off < bytes {
+            // SAFETY: prefetch is a hint and never faults, whatever the address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(ptr.wrapping_add(off)) };
+            off += 64;
         }
     }
 }
