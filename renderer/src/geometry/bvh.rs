@@ -8,8 +8,8 @@
 //!   recursion or the walk's stack overflow.
 //! - After the build the primitive records are made leaf by leaf (`bvh/leaf.rs`): each leaf's
 //!   one to three primitives in four lanes, triangles as (v0, e1, e2) for Möller–Trumbore, tested
-//!   at once; spheres as (centre, radius), tested one by one. A primitive's slot (leaf × 4 + lane)
-//!   indexes its object reference.
+//!   at once; spheres as (centre, radius), tested one by one. A primitive's slot (its position in
+//!   obvhs's leaf order, `primitive_indices`) indexes its object reference; a leaf holds its first.
 //! - The finished tree is decoded into nodes with float planes (`bvh/wide.rs`), which every ray
 //!   walks one at a time, nearest child first, with a conservative slab test of eight children
 //!   at once (AVX2 chosen at run time, SSE2 otherwise; same bits) and a prefetch of the children
@@ -190,9 +190,9 @@ impl SceneGeometry {
             (None, None, Vec::new())
         } else {
             let bvh = build_cwbvh(aabbs, params);
-            // The records are made after the build, straight in leaf order (a slot id indexes them
-            // directly): they and the build's boxes are never in memory together with the build's
-            // largest buffers (guide, "Performance notes and their history": peak memory).
+            // The leaves' records and the references are made after the build, in leaf order:
+            // they and the build's boxes are never in memory together with the build's largest
+            // buffers (guide, "Performance notes and their history": peak memory).
             let locate = |k: u32| {
                 let object = first.partition_point(|&f| f <= k) - 1;
                 (object, k - first[object])

@@ -332,8 +332,8 @@ impl SceneGeometry {
 }
 
 /// Starts loading what child reference `e.child` leads to: a node's four cache lines, or a leaf's
-/// three. The entries a node pushes are visited later, after the
-/// nearest one's subtree; their loads then overlap with that walk instead of each waiting in turn.
+/// three. The entries a node pushes are visited later, after the nearest one's subtree; their
+/// loads then overlap with that walk instead of each waiting in turn.
 #[inline(always)]
 fn prefetch_child(wide: &WideBvh, e: Entry) {
     #[cfg(target_arch = "x86_64")]
