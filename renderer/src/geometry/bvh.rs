@@ -6,14 +6,16 @@
 //!   binary tree it is converted from is obvhs's PLOC tree, or an object-median tree where PLOC
 //!   degenerates or builds too deep a tree (`build_cwbvh`): no input makes the conversion's
 //!   recursion or the walk's stack overflow.
-//! - After the build the primitive records are made leaf by leaf (`bvh/leaf.rs`): each leaf's
-//!   one to three primitives in four lanes, triangles as (v0, e1, e2) for Möller–Trumbore, tested
-//!   at once; spheres as (centre, radius), tested one by one. A primitive's slot (its position in
-//!   obvhs's leaf order, `primitive_indices`) indexes its object reference; a leaf holds its first.
+//! - After the build the primitive records are made node by node (`bvh/leaf.rs`): the primitives
+//!   of all of a node's leaf children in blocks of four lanes, triangles as (v0, e1, e2) for
+//!   Möller–Trumbore, tested four at once; spheres as (centre, radius), tested one by one. A
+//!   primitive's slot (its position in obvhs's leaf order, `primitive_indices`) indexes its object
+//!   reference; a block holds the slot of its first lane.
 //! - The finished tree is decoded into nodes with float planes (`bvh/wide.rs`), which every ray
 //!   walks one at a time, nearest child first, with a conservative slab test of eight children
-//!   at once (AVX2 chosen at run time, SSE2 otherwise; same bits) and a prefetch of the children
-//!   it leaves on its stack. Any hit (`occluded`) stops at the first primitive hit. The compressed
+//!   at once (AVX2 chosen at run time, SSE2 otherwise; same bits); the leaf children it meets are
+//!   tested at the node, the blocks holding their lanes once each, and the internal children it
+//!   leaves on its stack are prefetched. Any hit (`occluded`) stops at the first primitive hit. The compressed
 //!   tree itself is dropped after the decoding (the tests keep it for obvhs's own traversal, their
 //!   oracle).
 //! - A scene that is a single sphere bypasses the BVH (one analytic test per ray), and an empty
@@ -39,7 +41,7 @@ use obvhs::cwbvh::CwBvh;
 pub use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
 
 /// The most primitives (triangles and spheres) one scene's BVH holds: 2^29, within what its slots
-/// (`u32`) and leaf references (31 bits) address (`bvh/wide.rs`). Scene files beyond it are refused
+/// and lane ids (`u32`) address (`bvh/wide.rs`). Scene files beyond it are refused
 /// when they are built.
 pub const MAX_PRIMITIVES: usize = wide::MAX_SLOTS;
 use std::time::{Duration, Instant};
@@ -296,7 +298,7 @@ impl SceneGeometry {
             return None;
         }
         let (id, t, b1, b2) = self.walk_wide_here::<false>(wide, ray)?;
-        // The leaf was just read: its lane gives the triangle without another miss.
+        // The block was just read: its lane gives the triangle without another miss.
         Some(self.make_hit(ray, wide.slot(id) as usize, || wide.triangle(id), t, (b1, b2)))
     }
 

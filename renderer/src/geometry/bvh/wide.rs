@@ -7,9 +7,10 @@
 //! converts the finished tree, node for node and child for child, into [`WideNode`]s with the
 //! children's boxes as floats and a child reference per slot, and walks it as CPU ray tracers do
 //! (Wald et al. 2008; Embree's BVH8 kernels): one node test gives the hit children and their
-//! entry distances, a single hit child is entered directly, several are pushed nearest last,
-//! leaves are tested when they are reached, and a popped entry farther than the closest hit so
-//! far is skipped.
+//! entry distances, the leaf children hit are tested at once (their primitives are stored by
+//! node, four lanes a block: `bvh/leaf.rs`), a single internal child hit is entered directly,
+//! several are pushed nearest last, and a popped entry farther than the closest hit so far is
+//! skipped.
 //!
 //! **Same boxes, never smaller.** A child's box is obvhs's quantised box, p + q · 2^e per plane,
 //! computed exactly in f64 and rounded outward to f32: it contains the compressed box, which
@@ -42,36 +43,44 @@ use std::mem::MaybeUninit;
 const STACK: usize = 256;
 const _: () = assert!(7 * super::MAX_CWBVH_DEPTH < STACK);
 
-/// A child reference with this bit set is a leaf: bits 0–30 hold its index in
-/// [`WideBvh::leaves`]. Otherwise it is the index of an internal node.
+/// A child reference with this bit set is a leaf: bits 0–30 are the mask of its primitives' lanes
+/// in the node's run of [`Leaf`] blocks (bit 4 k + i: block k, lane i). Otherwise it is the index
+/// of an internal node.
 const LEAF: u32 = 1 << 31;
 
-/// The most primitives a tree is built for: slots are `u32` and leaf indices 31 bits, both with
-/// room to spare (a tree of 2^29 primitives alone takes some 50 GB).
+/// The most primitives a tree is built for: slots and lane ids (a block's index × 4 + its lane,
+/// with at most one block a primitive) are `u32`, with room to spare (a tree of 2^29 primitives
+/// alone takes some 50 GB).
 pub(super) const MAX_SLOTS: usize = 1 << 29;
 
 /// A node of eight children: their boxes by plane (rows min x, min y, min z, max x, max y, max z;
-/// an empty slot has min +∞ and max −∞, which no ray enters) and their references (`LEAF`).
-/// 224 bytes, aligned to 32: four cache lines a node.
+/// an empty slot has min +∞ and max −∞, which no ray enters), their references (`LEAF`), the
+/// first of the blocks that hold its leaf children's primitives, and which children are leaves.
+/// 256 bytes on a 64-byte boundary: four cache lines a node.
 #[derive(Clone, Copy)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 pub(super) struct WideNode {
     bounds: [[f32; 8]; 6],
     child: [u32; 8],
+    /// The index in [`WideBvh::leaves`] of the node's first block.
+    block: u32,
+    /// Bit i set when child i is a leaf.
+    leaf_children: u32,
 }
 
 /// The decoded tree: node 0 is the root. A primitive's slot is its position in obvhs's leaf order
-/// (`primitive_indices`).
+/// (`primitive_indices`); a node's leaf children's primitives fill consecutive slots, which its
+/// blocks hold in order (`bvh/leaf.rs`).
 pub(super) struct WideBvh {
     nodes: Vec<WideNode>,
     leaves: Vec<Leaf>,
 }
 
-/// An entry of a walk's stack: a child reference (`LEAF`) and the distance at which the ray
-/// enters its box.
+/// An entry of a walk's stack: an internal node's index and the distance at which the ray enters
+/// its box.
 #[derive(Clone, Copy)]
 struct Entry {
-    child: u32,
+    node: u32,
     t: f32,
 }
 
@@ -79,12 +88,7 @@ impl WideBvh {
     /// The float-plane copy of `bvh` (non-empty: node 0 is its root; its leaves index fewer than
     /// [`MAX_SLOTS`] primitives), with the record of the primitive in slot k from `prim(k)`.
     pub(super) fn new(bvh: &CwBvh, prim: impl Fn(u32) -> Prim) -> WideBvh {
-        let n_leaves = bvh
-            .nodes
-            .iter()
-            .map(|n| n.child_meta.iter().filter(|&&m| m != 0).count() - n.imask.count_ones() as usize)
-            .sum::<usize>();
-        let mut leaves = Vec::with_capacity(n_leaves);
+        let mut leaves = Vec::with_capacity(bvh.primitive_indices.len().div_ceil(LANES));
         let nodes = bvh
             .nodes
             .iter()
@@ -92,7 +96,10 @@ impl WideBvh {
                 let extent = [n.e[0], n.e[1], n.e[2]].map(|e| f32::from_bits((e as u32) << 23) as f64);
                 let p = [n.p.x as f64, n.p.y as f64, n.p.z as f64];
                 let rows = [n.child_min_x, n.child_min_y, n.child_min_z, n.child_max_x, n.child_max_y, n.child_max_z];
-                let mut node = WideNode { bounds: [[0.0; 8]; 6], child: [0; 8] };
+                let mut node =
+                    WideNode { bounds: [[0.0; 8]; 6], child: [0; 8], block: leaves.len() as u32, leaf_children: 0 };
+                // The lanes of the node's primitive run that some leaf child owns.
+                let mut owned = 0u32;
                 for (i, &meta) in n.child_meta.iter().enumerate() {
                     let meta = meta as u32;
                     if meta == 0 {
@@ -107,32 +114,63 @@ impl WideBvh {
                         node.bounds[k][i] = if k < 3 { round_down(exact) } else { round_up(exact) };
                     }
                     // Internal children follow each other from child_base_idx; a leaf's primitives
-                    // start at its offset (meta bits 0–4) and number its unary count (bits 5–7).
+                    // are the run's lanes from its offset (meta bits 0–4), as many as its unary
+                    // count (bits 5–7).
                     if n.imask & (1 << i) != 0 {
                         node.child[i] = n.child_base_idx + (n.imask as u32 & ((1 << i) - 1)).count_ones();
                     } else {
-                        let first = n.primitive_base_idx + (meta & 0x1f);
-                        let count = (meta >> 5).count_ones();
-                        node.child[i] = LEAF | leaves.len() as u32;
-                        leaves.push(Leaf::new(first, (first..first + count).map(&prim)));
+                        let (offset, count) = (meta & 0x1f, (meta >> 5).count_ones());
+                        assert!(offset + count <= 31, "a leaf's lanes {offset} + {count} beyond a reference's 31 bits");
+                        let lanes = ((1 << count) - 1) << offset;
+                        node.child[i] = LEAF | lanes;
+                        node.leaf_children |= 1 << i;
+                        owned |= lanes;
                     }
+                }
+                let run = 32 - owned.leading_zeros();
+                for k in 0..run.div_ceil(LANES as u32) {
+                    let first = n.primitive_base_idx + LANES as u32 * k;
+                    leaves.push(Leaf::new(
+                        first,
+                        std::array::from_fn(|i| {
+                            let lane = LANES as u32 * k + i as u32;
+                            (owned & (1 << lane) != 0).then(|| prim(first + i as u32))
+                        }),
+                    ));
                 }
                 node
             })
             .collect::<Vec<_>>();
+        // The walk reads nodes and blocks without bounds checks: every reference must be in range.
+        // Lane ids are u32 (a block holds at least one primitive, so this holds below MAX_SLOTS).
+        assert!(!nodes.is_empty() && leaves.len() <= (u32::MAX as usize + 1) / LANES);
+        for node in &nodes {
+            for (i, &c) in node.child.iter().enumerate() {
+                if node.leaf_children & (1 << i) != 0 {
+                    let lanes = c & !LEAF;
+                    let last_block = || node.block as usize + (31 - lanes.leading_zeros() as usize) / LANES;
+                    assert!(
+                        c & LEAF != 0 && lanes != 0 && last_block() < leaves.len(),
+                        "a leaf child beyond the blocks"
+                    );
+                } else {
+                    assert!((c as usize) < nodes.len(), "a child reference beyond the nodes");
+                }
+            }
+        }
         // Every ray walks the nodes at random addresses: in huge pages where the kernel gives them.
         crate::memory::advise_huge_pages(&nodes);
         crate::memory::advise_huge_pages(&leaves);
         WideBvh { nodes, leaves }
     }
 
-    /// The slot of the primitive in leaf lane `id` (as [`SceneGeometry::walk_wide`] returns it).
+    /// The slot of the primitive in block lane `id` (as [`SceneGeometry::walk_wide`] returns it).
     #[inline(always)]
     pub(super) fn slot(&self, id: u32) -> u32 {
         self.leaves[id as usize / LANES].first() + id % LANES as u32
     }
 
-    /// The triangle in leaf lane `id` (a triangle's lane).
+    /// The triangle in block lane `id` (a triangle's lane).
     #[inline(always)]
     pub(super) fn triangle(&self, id: u32) -> TriangleRecord {
         self.leaves[id as usize / LANES].triangle(id as usize % LANES)
@@ -154,13 +192,17 @@ fn round_up(x: f64) -> f32 {
 /// γ₃ = 3u / (1 − 3u), u = 2⁻²⁴: the bound on the relative error of the slab distances.
 const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
 
-/// A ray prepared for [`WideNode`] tests: origin, inverse direction, and for each
+/// A ray prepared for [`WideNode`] tests: origin, negated inverse direction, and for each
 /// axis the offsets (in floats, from the node's start) of the rows of its entry and exit planes:
 /// min where the ray runs up the axis, max where it runs down.
+///
+/// A plane's distance is computed as (o − plane) · (−1/d), which has the bits of
+/// (plane − o) · (1/d) (rounding is symmetric; only a zero's sign can differ, which no comparison
+/// sees) and lets the node's row be the subtraction's memory operand.
 #[derive(Clone, Copy)]
 struct WideRay {
     origin: [f32; 3],
-    inv: [f32; 3],
+    neg_inv: [f32; 3],
     near: [usize; 3],
     far: [usize; 3],
 }
@@ -171,10 +213,12 @@ impl WideRay {
         // 1/±0 = ±∞, whose sign picks the rows as any other direction's does.
         let inv = ray.dir.recip().to_array();
         let row = |axis: usize| {
-            if inv[axis].is_sign_negative() { (8 * (axis + 3), 8 * axis) } else { (8 * axis, 8 * (axis + 3)) }
+            // The sign bit, without a branch: the rows' order is as random as the rays.
+            let down = (inv[axis].to_bits() >> 31) as usize;
+            (8 * axis + 24 * down, 8 * axis + 24 * (1 - down))
         };
         let (x, y, z) = (row(0), row(1), row(2));
-        WideRay { origin: ray.origin.to_array(), inv, near: [x.0, y.0, z.0], far: [x.1, y.1, z.1] }
+        WideRay { origin: ray.origin.to_array(), neg_inv: inv.map(|x| -x), near: [x.0, y.0, z.0], far: [x.1, y.1, z.1] }
     }
 }
 
@@ -196,7 +240,7 @@ fn test<const AVX: bool>(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut
         let b = node.bounds.as_flattened();
         let mut hit = 0;
         for i in 0..8 {
-            let t = |off: usize, a: usize| (b[off + i] - ray.origin[a]) * ray.inv[a];
+            let t = |off: usize, a: usize| (ray.origin[a] - b[off + i]) * ray.neg_inv[a];
             let tn = t(ray.near[0], 0).max(t(ray.near[1], 1)).max(t(ray.near[2], 2)).max(0.0);
             let tf = t(ray.far[0], 0).min(t(ray.far[1], 1)).min(t(ray.far[2], 2)).min(t_max) * GROW;
             entry[i] = tn;
@@ -222,8 +266,8 @@ unsafe fn test_avx2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
     unsafe {
         let t = |off: usize, a: usize| {
             _mm256_mul_ps(
-                _mm256_sub_ps(_mm256_load_ps(b.add(off)), _mm256_set1_ps(ray.origin[a])),
-                _mm256_set1_ps(ray.inv[a]),
+                _mm256_sub_ps(_mm256_set1_ps(ray.origin[a]), _mm256_load_ps(b.add(off))),
+                _mm256_set1_ps(ray.neg_inv[a]),
             )
         };
         let tn = _mm256_max_ps(
@@ -247,10 +291,10 @@ unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
     // floats (16-byte aligned), each store four of `entry`'s.
     unsafe {
         let o = ray.origin.map(|x| _mm_set1_ps(x));
-        let inv = ray.inv.map(|x| _mm_set1_ps(x));
+        let neg_inv = ray.neg_inv.map(|x| _mm_set1_ps(x));
         let (zero, tm, grow) = (_mm_setzero_ps(), _mm_set1_ps(t_max), _mm_set1_ps(GROW));
         let mut half = |h: usize| {
-            let t = |off: usize, a: usize| _mm_mul_ps(_mm_sub_ps(_mm_load_ps(b.add(off + 4 * h)), o[a]), inv[a]);
+            let t = |off: usize, a: usize| _mm_mul_ps(_mm_sub_ps(o[a], _mm_load_ps(b.add(off + 4 * h))), neg_inv[a]);
             let tn = _mm_max_ps(_mm_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)), _mm_max_ps(t(ray.near[2], 2), zero));
             let tf = _mm_min_ps(t(ray.far[0], 0), _mm_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
             let tf = _mm_mul_ps(_mm_min_ps(tf, tm), grow);
@@ -263,8 +307,11 @@ unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
 
 impl SceneGeometry {
     /// One ray's walk of the float-plane tree: the closest hit (`ANY` false) or the first hit
-    /// found (`ANY` true), as (lane id, t, b1, b2), a lane id being a leaf's index × 4 + the lane
+    /// found (`ANY` true), as (lane id, t, b1, b2), a lane id being a block's index × 4 + the lane
     /// ([`WideBvh::slot`], [`WideBvh::triangle`]); `AVX` selects the AVX2 node test.
+    ///
+    /// A node's leaf children that the ray meets are tested at the node, block by block
+    /// (`bvh/leaf.rs`); only internal children go on the stack.
     #[inline(always)]
     pub(super) fn walk_wide<const ANY: bool, const AVX: bool>(
         &self,
@@ -272,46 +319,75 @@ impl SceneGeometry {
         ray: &Ray,
     ) -> Option<(u32, f32, f32, f32)> {
         let w = WideRay::new(ray);
-        let lanes = LaneRay::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+        let lane_ray = LaneRay::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir));
         let mut t_max = ray.t_max;
         let mut best = None;
         let mut stack = [MaybeUninit::<Entry>::uninit(); STACK];
         let mut sp = 0usize;
         let mut entry = [0.0f32; 8];
-        let mut child = 0u32;
+        let mut index = 0u32;
         loop {
-            if child & LEAF == 0 {
-                let node = &wide.nodes[child as usize];
-                let mut hit = test::<AVX>(node, &w, t_max, &mut entry);
-                if hit != 0 {
-                    if hit & (hit - 1) == 0 {
-                        child = node.child[hit.trailing_zeros() as usize];
-                        continue;
-                    }
-                    // Several: push them all, then order the new entries farthest first so that
-                    // the nearest is popped next (closest hit only).
-                    let base = sp;
-                    while hit != 0 {
-                        let i = hit.trailing_zeros() as usize;
-                        hit &= hit - 1;
-                        let e = Entry { child: node.child[i], t: entry[i] };
-                        prefetch_child(wide, e);
-                        stack[sp % STACK] = MaybeUninit::new(e);
-                        sp += 1;
-                    }
-                    if !ANY {
-                        sort_farthest_first(&mut stack, base, sp);
+            // SAFETY: node 0 and every internal child reference are nodes (checked by
+            // `WideBvh::new`).
+            let node = unsafe { wide.nodes.get_unchecked(index as usize) };
+            let mut hit = test::<AVX>(node, &w, t_max, &mut entry);
+            let leaves = hit & node.leaf_children;
+            if leaves != 0 {
+                hit &= !leaves;
+                // The lanes of every leaf child met, then each block holding some of them.
+                let (mut lanes, mut l) = (0, leaves);
+                while l != 0 {
+                    lanes |= node.child[l.trailing_zeros() as usize & 7];
+                    l &= l - 1;
+                }
+                lanes &= !LEAF;
+                let t_before = t_max;
+                while lanes != 0 {
+                    let shift = lanes.trailing_zeros() & !(LANES as u32 - 1);
+                    let want = (lanes >> shift) & ((1 << LANES) - 1);
+                    lanes &= !(((1 << LANES) - 1) << shift);
+                    let block = node.block + shift / LANES as u32;
+                    // SAFETY: a node's blocks are in `leaves` (checked by `WideBvh::new`).
+                    let leaf = unsafe { wide.leaves.get_unchecked(block as usize) };
+                    if let Some((lane, t, b1, b2)) = leaf.intersect::<ANY>(&lane_ray, t_max, want) {
+                        let id = block * LANES as u32 + lane;
+                        if ANY {
+                            return Some((id, t, 0.0, 0.0));
+                        }
+                        t_max = t;
+                        best = Some((id, t, b1, b2));
                     }
                 }
-            } else {
-                let leaf = &wide.leaves[(child & !LEAF) as usize];
-                if let Some((lane, t, b1, b2)) = leaf.intersect::<ANY>(&lanes, t_max) {
-                    let id = (child & !LEAF) * LANES as u32 + lane;
-                    if ANY {
-                        return Some((id, t, 0.0, 0.0));
+                if t_max < t_before {
+                    // Internal children the ray enters only beyond the new closest hit.
+                    let mut h = hit;
+                    while h != 0 {
+                        let i = h.trailing_zeros() as usize & 7;
+                        h &= h - 1;
+                        if entry[i] > t_max * GROW {
+                            hit &= !(1 << i);
+                        }
                     }
-                    t_max = t;
-                    best = Some((id, t, b1, b2));
+                }
+            }
+            if hit != 0 {
+                if hit & (hit - 1) == 0 {
+                    index = node.child[hit.trailing_zeros() as usize & 7];
+                    continue;
+                }
+                // Several: push them all, then order the new entries farthest first so that
+                // the nearest is popped next (closest hit only).
+                let base = sp;
+                while hit != 0 {
+                    let i = hit.trailing_zeros() as usize & 7;
+                    hit &= hit - 1;
+                    let e = Entry { node: node.child[i], t: entry[i] };
+                    prefetch_node(wide, e.node);
+                    stack[sp % STACK] = MaybeUninit::new(e);
+                    sp += 1;
+                }
+                if !ANY {
+                    sort_farthest_first(&mut stack, base, sp);
                 }
             }
             // The next entry that can still hold a closer hit.
@@ -323,7 +399,7 @@ impl SceneGeometry {
                 // SAFETY: every entry below sp was written by a push above.
                 let e = unsafe { stack[sp % STACK].assume_init() };
                 if ANY || e.t <= t_max * GROW {
-                    child = e.child;
+                    index = e.node;
                     break;
                 }
             }
@@ -331,24 +407,18 @@ impl SceneGeometry {
     }
 }
 
-/// Starts loading what child reference `e.child` leads to: a node's four cache lines, or a leaf's
-/// three. The entries a node pushes are visited later, after the nearest one's subtree; their
-/// loads then overlap with that walk instead of each waiting in turn.
+/// Starts loading node `index`'s four cache lines. The entries a node pushes are visited later,
+/// after the nearest one's subtree; their loads then overlap with that walk instead of each
+/// waiting in turn.
 #[inline(always)]
-fn prefetch_child(wide: &WideBvh, e: Entry) {
+fn prefetch_node(wide: &WideBvh, index: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let (ptr, bytes) = if e.child & LEAF == 0 {
-            (wide.nodes.as_ptr().wrapping_add(e.child as usize) as *const i8, size_of::<WideNode>())
-        } else {
-            (wide.leaves.as_ptr().wrapping_add((e.child & !LEAF) as usize) as *const i8, size_of::<Leaf>())
-        };
-        let mut off = 0;
-        while off < bytes {
+        let ptr = wide.nodes.as_ptr().wrapping_add(index as usize) as *const i8;
+        for line in 0..size_of::<WideNode>() / 64 {
             // SAFETY: prefetch is a hint and never faults, whatever the address.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(ptr.wrapping_add(off)) };
-            off += 64;
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(ptr.wrapping_add(64 * line)) };
         }
     }
 }
