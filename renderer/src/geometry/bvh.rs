@@ -15,9 +15,9 @@
 //!   walks one at a time, nearest child first, with a conservative slab test of eight children
 //!   at once (AVX2 chosen at run time, SSE2 otherwise; same bits); the leaf children it meets are
 //!   tested at the node, the blocks holding their lanes once each, and the internal children it
-//!   leaves on its stack are prefetched. Any hit (`occluded`) stops at the first primitive hit. The compressed
-//!   tree itself is dropped after the decoding (the tests keep it for obvhs's own traversal, their
-//!   oracle).
+//!   leaves on its stack are prefetched. Any hit (`occluded`) stops at the first primitive hit.
+//!   The compressed tree itself is dropped after the decoding (the tests keep it for obvhs's own
+//!   traversal, their oracle).
 //! - A scene that is a single sphere bypasses the BVH (one analytic test per ray), and an empty
 //!   scene always misses.
 //!
@@ -41,8 +41,8 @@ use obvhs::cwbvh::CwBvh;
 pub use obvhs::{BvhBuildParams, ploc::PlocSearchDistance, ploc::SortPrecision};
 
 /// The most primitives (triangles and spheres) one scene's BVH holds: 2^29, within what its slots
-/// and lane ids (`u32`) address (`bvh/wide.rs`). Scene files beyond it are refused
-/// when they are built.
+/// and lane ids (`u32`) address (`bvh/wide.rs`). Scene files beyond it are refused when they are
+/// built.
 pub const MAX_PRIMITIVES: usize = wide::MAX_SLOTS;
 use std::time::{Duration, Instant};
 
@@ -65,8 +65,8 @@ pub const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
 const KIND_TRIANGLE: f32 = 0.0;
 const KIND_SPHERE: f32 = 1.0;
 
-/// One BVH primitive's record, as a leaf is made of them and as a lane of a leaf holding a sphere
-/// is tested (`bvh/leaf.rs`). Triangle: a = (v0, 0), b = (e1, ·), c = (e2, ·).
+/// One BVH primitive's record, as a block of leaf primitives is made of them and as a lane of a
+/// block holding a sphere is tested (`bvh/leaf.rs`). Triangle: a = (v0, 0), b = (e1, ·), c = (e2, ·).
 /// Sphere: a = (centre, 1), b = (radius, ·, ·, ·).
 #[derive(Clone, Copy, Debug)]
 struct Prim {
@@ -896,14 +896,14 @@ mod tests {
     /// primitive's and exceeds the least by at most a relative 10⁻⁵ (Möller–Trumbore's rounding;
     /// `bvh/wide.rs`), and where Möller–Trumbore's rounding counts a ray that passes beside a
     /// triangle's edge as a hit: the walk's box test culls what lies outside the triangle's box
-    /// (`edge_artefact`, at most 3 rays of a set). obvhs's own traversal of its compressed tree agrees as closely, except where
-    /// its node test drops boxes the ray leaves before t = 1e-4 (obvhs's node epsilon), and with them
-    /// hits at smaller t (rays from surface points), or, rarely, the box of a triangle whose edge
-    /// the ray runs along (the edge rays): there the walk must find the hit of every primitive's
-    /// test; elsewhere any hit agrees with obvhs's too. The SSE2
-    /// and AVX2 copies give the same bits. On a mesh-only scene (a 20,480-triangle unit icosphere,
-    /// PEERS.md's mesh at n = 5) and the mixed scene, with rays along edges and from surface points
-    /// (`ray_sets`).
+    /// (`edge_artefact`, at most 3 rays of a set). obvhs's own traversal of its compressed tree
+    /// agrees as closely, except where its node test drops boxes the ray leaves before t = 1e-4
+    /// (obvhs's node epsilon), and with them hits at smaller t (rays from surface points), or,
+    /// rarely, the box of a triangle whose edge the ray runs along (the edge rays): there the walk
+    /// must find the hit of every primitive's test; elsewhere any hit agrees with obvhs's too. The
+    /// SSE2 and AVX2 copies give the same bits. On a mesh-only scene (a 20,480-triangle unit
+    /// icosphere, PEERS.md's mesh at n = 5) and the mixed scene, with rays along edges and from
+    /// surface points (`ray_sets`).
     #[test]
     fn walk_finds_the_closest_hits() {
         let mut rng = TestRng::new(7);

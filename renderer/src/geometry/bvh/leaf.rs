@@ -5,7 +5,7 @@
 //! a leaf child's box is tested with its node's) spreads the primitives over as many leaf
 //! children as it can: on the 1.31 M-triangle icosphere a leaf child holds 1.44 primitives on
 //! average. So the walk does not visit leaf children one by one. The primitives of all of a
-//! node's leaf children are stored together, in obvhs's order, as [`Leaf`] blocks of four lanes,
+//! node's leaf children are stored together, in obvhs's order, as [`Block`] blocks of four lanes,
 //! and a leaf child's reference is the mask of its lanes in that run. After the node test the
 //! walk ORs the masks of the leaf children the ray meets and tests each block that holds one of
 //! those lanes once, the other lanes masked off: one straight run of arithmetic and one mask per
@@ -33,7 +33,7 @@ pub(super) const LANES: usize = 4;
 /// `spheres`. 160 bytes.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub(super) struct Leaf {
+pub(super) struct Block {
     rows: [[f32; LANES]; 9],
     /// The slot of lane 0; lane i's is `first + i`.
     first: u32,
@@ -62,21 +62,21 @@ impl LaneRay {
     }
 }
 
-impl Leaf {
+impl Block {
     /// The block whose lane i holds `prims[i]` (`None`: unused), the primitive of slot `first + i`.
-    pub(super) fn new(first: u32, prims: [Option<Prim>; LANES]) -> Leaf {
-        let mut leaf = Leaf { rows: [[0.0; LANES]; 9], first, spheres: 0 };
+    pub(super) fn new(first: u32, prims: [Option<Prim>; LANES]) -> Block {
+        let mut block = Block { rows: [[0.0; LANES]; 9], first, spheres: 0 };
         for (i, p) in prims.iter().enumerate() {
             let Some(p) = p else { continue };
             let v = [p.a.x, p.a.y, p.a.z, p.b.x, p.b.y, p.b.z, p.c.x, p.c.y, p.c.z];
-            for (row, x) in leaf.rows.iter_mut().zip(v) {
+            for (row, x) in block.rows.iter_mut().zip(v) {
                 row[i] = x;
             }
             if p.a.w == KIND_SPHERE {
-                leaf.spheres |= 1 << i;
+                block.spheres |= 1 << i;
             }
         }
-        leaf
+        block
     }
 
     /// The slot of lane 0.
@@ -160,7 +160,7 @@ impl Leaf {
         Some((lane as u32, t[lane], b1.to_array()[lane], b2.to_array()[lane]))
     }
 
-    /// [`Leaf::intersect`] one lane at a time with each primitive's own test (blocks with spheres).
+    /// [`Block::intersect`] one lane at a time with each primitive's own test (blocks with spheres).
     #[cold]
     fn intersect_each(&self, ray: &LaneRay, mut t_max: f32, mut want: u32) -> Option<(u32, f32, f32, f32)> {
         let mut best = None;
@@ -228,17 +228,17 @@ mod tests {
                 }
                 n_hit += tri.intersect(o, d, t_max).is_some() as usize;
             }
-            let leaf = Leaf::new(0, std::array::from_fn(|i| tris.get(i).map(Prim::triangle)));
+            let block = Block::new(0, std::array::from_fn(|i| tris.get(i).map(Prim::triangle)));
             let bits =
                 |h: Option<(u32, f32, f32, f32)>| h.map(|(l, t, b1, b2)| (l, t.to_bits(), b1.to_bits(), b2.to_bits()));
             let ray = LaneRay::new(o, d);
-            let got = leaf.intersect::<false>(&ray, t_max, want);
+            let got = block.intersect::<false>(&ray, t_max, want);
             assert_eq!(bits(got), expected, "case {k}: lanes {want:b} of {tris:?}, {o}, {d}");
-            let any = leaf.intersect::<true>(&ray, t_max, want);
+            let any = block.intersect::<true>(&ray, t_max, want);
             assert_eq!(any.is_some(), expected.is_some(), "case {k}");
             hits += expected.is_some() as usize;
             several += (n_hit > 1) as usize;
         }
-        assert!(hits > 3_500 && several > 300, "{hits} hits, {several} leaves hit more than once");
+        assert!(hits > 3_500 && several > 300, "{hits} hits, {several} blocks hit more than once");
     }
 }

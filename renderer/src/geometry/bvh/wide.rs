@@ -28,7 +28,7 @@
 //! geometric entry and a triangle's t carries Möller–Trumbore's error. The walk keeps the same one
 //! for a ray on every run and in every copy (tested).
 
-use super::leaf::{LANES, LaneRay, Leaf};
+use super::leaf::{Block, LANES, LaneRay};
 use super::{Prim, SceneGeometry};
 use crate::geometry::Ray;
 use crate::geometry::mesh::TriangleRecord;
@@ -44,7 +44,7 @@ const STACK: usize = 256;
 const _: () = assert!(7 * super::MAX_CWBVH_DEPTH < STACK);
 
 /// A child reference with this bit set is a leaf: bits 0–30 are the mask of its primitives' lanes
-/// in the node's run of [`Leaf`] blocks (bit 4 k + i: block k, lane i). Otherwise it is the index
+/// in the node's run of [`Block`]s (bit 4 k + i: block k, lane i). Otherwise it is the index
 /// of an internal node.
 const LEAF: u32 = 1 << 31;
 
@@ -62,7 +62,7 @@ pub(super) const MAX_SLOTS: usize = 1 << 29;
 pub(super) struct WideNode {
     bounds: [[f32; 8]; 6],
     child: [u32; 8],
-    /// The index in [`WideBvh::leaves`] of the node's first block.
+    /// The index in [`WideBvh::blocks`] of the node's first block.
     block: u32,
     /// Bit i set when child i is a leaf.
     leaf_children: u32,
@@ -73,7 +73,7 @@ pub(super) struct WideNode {
 /// blocks hold in order (`bvh/leaf.rs`).
 pub(super) struct WideBvh {
     nodes: Vec<WideNode>,
-    leaves: Vec<Leaf>,
+    blocks: Vec<Block>,
 }
 
 /// An entry of a walk's stack: an internal node's index and the distance at which the ray enters
@@ -88,7 +88,7 @@ impl WideBvh {
     /// The float-plane copy of `bvh` (non-empty: node 0 is its root; its leaves index fewer than
     /// [`MAX_SLOTS`] primitives), with the record of the primitive in slot k from `prim(k)`.
     pub(super) fn new(bvh: &CwBvh, prim: impl Fn(u32) -> Prim) -> WideBvh {
-        let mut leaves = Vec::with_capacity(bvh.primitive_indices.len().div_ceil(LANES));
+        let mut blocks = Vec::with_capacity(bvh.primitive_indices.len().div_ceil(LANES));
         let nodes = bvh
             .nodes
             .iter()
@@ -97,7 +97,7 @@ impl WideBvh {
                 let p = [n.p.x as f64, n.p.y as f64, n.p.z as f64];
                 let rows = [n.child_min_x, n.child_min_y, n.child_min_z, n.child_max_x, n.child_max_y, n.child_max_z];
                 let mut node =
-                    WideNode { bounds: [[0.0; 8]; 6], child: [0; 8], block: leaves.len() as u32, leaf_children: 0 };
+                    WideNode { bounds: [[0.0; 8]; 6], child: [0; 8], block: blocks.len() as u32, leaf_children: 0 };
                 // The lanes of the node's primitive run that some leaf child owns.
                 let mut owned = 0u32;
                 for (i, &meta) in n.child_meta.iter().enumerate() {
@@ -130,7 +130,7 @@ impl WideBvh {
                 let run = 32 - owned.leading_zeros();
                 for k in 0..run.div_ceil(LANES as u32) {
                     let first = n.primitive_base_idx + LANES as u32 * k;
-                    leaves.push(Leaf::new(
+                    blocks.push(Block::new(
                         first,
                         std::array::from_fn(|i| {
                             let lane = LANES as u32 * k + i as u32;
@@ -143,14 +143,14 @@ impl WideBvh {
             .collect::<Vec<_>>();
         // The walk reads nodes and blocks without bounds checks: every reference must be in range.
         // Lane ids are u32 (a block holds at least one primitive, so this holds below MAX_SLOTS).
-        assert!(!nodes.is_empty() && leaves.len() <= (u32::MAX as usize + 1) / LANES);
+        assert!(!nodes.is_empty() && blocks.len() <= (u32::MAX as usize + 1) / LANES);
         for node in &nodes {
             for (i, &c) in node.child.iter().enumerate() {
                 if node.leaf_children & (1 << i) != 0 {
                     let lanes = c & !LEAF;
                     let last_block = || node.block as usize + (31 - lanes.leading_zeros() as usize) / LANES;
                     assert!(
-                        c & LEAF != 0 && lanes != 0 && last_block() < leaves.len(),
+                        c & LEAF != 0 && lanes != 0 && last_block() < blocks.len(),
                         "a leaf child beyond the blocks"
                     );
                 } else {
@@ -160,20 +160,20 @@ impl WideBvh {
         }
         // Every ray walks the nodes at random addresses: in huge pages where the kernel gives them.
         crate::memory::advise_huge_pages(&nodes);
-        crate::memory::advise_huge_pages(&leaves);
-        WideBvh { nodes, leaves }
+        crate::memory::advise_huge_pages(&blocks);
+        WideBvh { nodes, blocks }
     }
 
     /// The slot of the primitive in block lane `id` (as [`SceneGeometry::walk_wide`] returns it).
     #[inline(always)]
     pub(super) fn slot(&self, id: u32) -> u32 {
-        self.leaves[id as usize / LANES].first() + id % LANES as u32
+        self.blocks[id as usize / LANES].first() + id % LANES as u32
     }
 
     /// The triangle in block lane `id` (a triangle's lane).
     #[inline(always)]
     pub(super) fn triangle(&self, id: u32) -> TriangleRecord {
-        self.leaves[id as usize / LANES].triangle(id as usize % LANES)
+        self.blocks[id as usize / LANES].triangle(id as usize % LANES)
     }
 }
 
@@ -347,9 +347,9 @@ impl SceneGeometry {
                     let want = (lanes >> shift) & ((1 << LANES) - 1);
                     lanes &= !(((1 << LANES) - 1) << shift);
                     let block = node.block + shift / LANES as u32;
-                    // SAFETY: a node's blocks are in `leaves` (checked by `WideBvh::new`).
-                    let leaf = unsafe { wide.leaves.get_unchecked(block as usize) };
-                    if let Some((lane, t, b1, b2)) = leaf.intersect::<ANY>(&lane_ray, t_max, want) {
+                    // SAFETY: a node's blocks are in `blocks` (checked by `WideBvh::new`).
+                    let b = unsafe { wide.blocks.get_unchecked(block as usize) };
+                    if let Some((lane, t, b1, b2)) = b.intersect::<ANY>(&lane_ray, t_max, want) {
                         let id = block * LANES as u32 + lane;
                         if ANY {
                             return Some((id, t, 0.0, 0.0));
