@@ -146,11 +146,11 @@ impl Block {
             return None;
         }
         let t = t.to_array();
-        let mut lane = mask.trailing_zeros() as usize;
+        let mut lane = mask.trailing_zeros() as usize & (LANES - 1);
         if !ANY {
             mask &= mask - 1;
             while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
+                let i = mask.trailing_zeros() as usize & (LANES - 1);
                 mask &= mask - 1;
                 if t[i] < t[lane] {
                     lane = i;

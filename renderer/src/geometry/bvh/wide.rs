@@ -8,8 +8,8 @@
 //! children's boxes as floats and a child reference per slot, and walks it as CPU ray tracers do
 //! (Wald et al. 2008; Embree's BVH8 kernels): one node test gives the hit children and their
 //! entry distances, the leaf children hit are tested at once (their primitives are stored by
-//! node, four lanes a block: `bvh/leaf.rs`), a single internal child hit is entered directly,
-//! several are pushed nearest last, and a popped entry farther than the closest hit so far is
+//! node, four lanes a block: `bvh/leaf.rs`), the nearest internal child hit is entered directly
+//! and the others pushed nearest last, and a popped entry farther than the closest hit so far is
 //! skipped.
 //!
 //! **Same boxes, never smaller.** A child's box is obvhs's quantised box, p + q · 2^e per plane,
@@ -212,15 +212,31 @@ impl WideRay {
     fn new(ray: &Ray) -> Self {
         // 1/±0 = ±∞, whose sign picks the rows as any other direction's does.
         let inv = ray.dir.recip().to_array();
-        let row = |axis: usize| {
-            // The sign bit, without a branch: the rows' order is as random as the rays.
-            let down = (inv[axis].to_bits() >> 31) as usize;
-            (8 * axis + 24 * down, 8 * axis + 24 * (1 - down))
-        };
-        let (x, y, z) = (row(0), row(1), row(2));
-        WideRay { origin: ray.origin.to_array(), neg_inv: inv.map(|x| -x), near: [x.0, y.0, z.0], far: [x.1, y.1, z.1] }
+        // The octant (bit a: the ray runs down axis a) picks both rows of every axis from one
+        // table entry, without a branch: the rows' order is as random as the rays.
+        let octant = (0..3).fold(0, |o, a| o | ((inv[a].to_bits() >> 31) as usize) << a);
+        let (near, far) = ROWS[octant];
+        WideRay { origin: ray.origin.to_array(), neg_inv: inv.map(|x| -x), near, far }
     }
 }
+
+/// For each octant (bit a set: the ray runs down axis a), the float offsets of the entry rows
+/// (min a where the ray runs up axis a, max a where down) and of the exit rows.
+const ROWS: [([usize; 3], [usize; 3]); 8] = {
+    let mut rows = [([0; 3], [0; 3]); 8];
+    let mut octant = 0;
+    while octant < 8 {
+        let mut a = 0;
+        while a < 3 {
+            let down = (octant >> a) & 1;
+            rows[octant].0[a] = 8 * a + 24 * down;
+            rows[octant].1[a] = 8 * a + 24 * (1 - down);
+            a += 1;
+        }
+        octant += 1;
+    }
+    rows
+};
 
 /// Bit i set when child i's box meets the ray within [0, `t_max`] (up to rounding, never
 /// dropping a box that does: the exit and `t_max` scaled by 1 + 2γ₃), and the children's
@@ -371,12 +387,41 @@ impl SceneGeometry {
                 }
             }
             if hit != 0 {
-                if hit & (hit - 1) == 0 {
+                let rest = hit & (hit - 1);
+                if rest == 0 {
                     index = node.child[hit.trailing_zeros() as usize & 7];
                     continue;
                 }
-                // Several: push them all, then order the new entries farthest first so that
-                // the nearest is popped next (closest hit only).
+                // Several. The child the ray would pop next is entered directly and the others
+                // pushed, in the order a push of all of them (sorted farthest first for the
+                // closest hit) would leave: the same walk, without a push and pop of the child
+                // entered. Any hit: the highest child is entered, the others pushed in order.
+                if ANY {
+                    let last = (31 - hit.leading_zeros() as usize) & 7;
+                    hit &= !(1 << last);
+                    while hit != 0 {
+                        let i = hit.trailing_zeros() as usize & 7;
+                        hit &= hit - 1;
+                        prefetch_node(wide, node.child[i]);
+                        stack[sp % STACK] = MaybeUninit::new(Entry { node: node.child[i], t: entry[i] });
+                        sp += 1;
+                    }
+                    index = node.child[last];
+                    continue;
+                }
+                if rest & (rest - 1) == 0 {
+                    // Two: the nearer is entered (the second on a tie, as the sort leaves it on
+                    // top), the farther pushed.
+                    let (i, j) = (hit.trailing_zeros() as usize & 7, rest.trailing_zeros() as usize & 7);
+                    let (near, far) = if entry[j] <= entry[i] { (j, i) } else { (i, j) };
+                    prefetch_node(wide, node.child[far]);
+                    stack[sp % STACK] = MaybeUninit::new(Entry { node: node.child[far], t: entry[far] });
+                    sp += 1;
+                    index = node.child[near];
+                    continue;
+                }
+                // Three or more: push them all, then order the new entries farthest first so
+                // that the nearest is popped next.
                 let base = sp;
                 while hit != 0 {
                     let i = hit.trailing_zeros() as usize & 7;
@@ -386,9 +431,7 @@ impl SceneGeometry {
                     stack[sp % STACK] = MaybeUninit::new(e);
                     sp += 1;
                 }
-                if !ANY {
-                    sort_farthest_first(&mut stack, base, sp);
-                }
+                sort_farthest_first(&mut stack, base, sp);
             }
             // The next entry that can still hold a closer hit.
             loop {
