@@ -6,13 +6,20 @@
 //! - "aimed": same origins, each ray aimed at a uniform random point inside the unit ball (almost
 //!   all hit; origins inside the ball still hit the surface from inside).
 //!
-//! Each set is traced by `SceneGeometry::intersect`, one ray at a time on each thread (rows
-//! `box` and `aimed`).
+//! Each set is traced one ray at a time on each thread, by `SceneGeometry::intersect` (rows `box`
+//! and `aimed`: the hit record with its shading normal, as the renderer asks) and by
+//! `SceneGeometry::intersect_primitive` (rows `box_primitive` and `aimed_primitive`: t,
+//! barycentrics and the primitive, what Embree's `rtcIntersect1` returns and
+//! `benches/peers/embree_bvh.py` times; the peer comparison uses these rows).
 //!
 //! Instruction counts of the build settings (`BVH_COUNT`, see [`count`]): `BVH_COUNT=leaf=2 valgrind
 //! --tool=callgrind --toggle-collect='*trace_1t*' target/release/deps/bvh-… --bench` traces 2^16 rays of
 //! each set on the 1.31M-triangle icosphere once per ray set, on the calling thread, and exits before
 //! criterion (`callgrind_annotate --inclusive=yes` splits the two).
+//!
+//! Other meshes and thread counts, as `benches/peers/embree_bvh.py --levels … --threads …` takes
+//! them: `BVH_LEVELS=5,6,7,8` (subdivision levels n, 20·4ⁿ triangles; default 5,8) and
+//! `BVH_THREADS=1` (default 2) in the environment; the group names carry both.
 //!
 //! Run: `cargo bench --bench bvh` (about 2 minutes). Throughput is printed as elements/s = rays/s.
 //! Before each group one untimed-by-criterion pass per ray set prints the hit fraction, the
@@ -28,7 +35,19 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 const N_RAYS: usize = 1 << 20;
+/// Threads of the tracing pool unless `BVH_THREADS` says otherwise.
 const THREADS: usize = 2;
+
+/// A comma-separated list of numbers from the environment variable `name`, or `default`.
+fn env_list(name: &str, default: &[u32]) -> Vec<u32> {
+    match std::env::var(name) {
+        Ok(v) => v
+            .split(',')
+            .map(|x| x.trim().parse().unwrap_or_else(|_| panic!("{name}: {v:?} is not a list of numbers")))
+            .collect(),
+        Err(_) => default.to_vec(),
+    }
+}
 
 fn uniform_dir(rng: &mut TestRng) -> Vec3 {
     let z = 1.0 - 2.0 * rng.next_f32();
@@ -79,9 +98,27 @@ fn process_cpu_seconds() -> Option<f64> {
     Some(ticks / 100.0) // USER_HZ = 100 on Linux
 }
 
-/// Closest hits of all rays on the pool; returns the number of hits so nothing is optimised away.
-fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray]) -> usize {
-    pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| geo.intersect(r).is_some()).count())
+/// What each ray asks: the hit record (`intersect`: point, geometric and shading normals, as the
+/// renderer uses it) or the primitive alone (`intersect_primitive`: t, barycentrics, object and
+/// index; the query Embree's `rtcIntersect1` answers, which `embree_bvh.py` times).
+#[derive(Clone, Copy, PartialEq)]
+enum Query {
+    Hit,
+    Primitive,
+}
+
+#[inline(always)]
+fn hits(geo: &SceneGeometry, r: &Ray, query: Query) -> bool {
+    match query {
+        Query::Hit => black_box(geo.intersect(r)).is_some(),
+        Query::Primitive => black_box(geo.intersect_primitive(r)).is_some(),
+    }
+}
+
+/// Closest hits of all rays on the pool; returns the number of hits (each result also passes
+/// through `black_box`, so nothing is optimised away).
+fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray], query: Query) -> usize {
+    pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| hits(geo, r, query)).count())
 }
 
 // Closest hits of `rays` on this thread, one function per ray set (not inlined, each with its own
@@ -140,10 +177,13 @@ fn bench(c: &mut Criterion) {
         count(&spec);
         std::process::exit(0);
     }
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(THREADS).build().expect("thread pool");
+    let threads = env_list("BVH_THREADS", &[THREADS as u32])[0] as usize;
+    assert!((1..=1024).contains(&threads), "BVH_THREADS: {threads} threads");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     let ray_sets = [("box", rays("box", 1)), ("aimed", rays("aimed", 2))];
 
-    for n in [5u32, 8] {
+    for n in env_list("BVH_LEVELS", &[5, 8]) {
+        assert!(n <= 10, "BVH_LEVELS: level {n} (20·4^{n} triangles) is beyond 10");
         let mesh = icosphere(n);
         let tris = mesh.triangles.len();
         let geo = SceneGeometry::new(vec![Shape::Mesh(mesh)]);
@@ -153,30 +193,34 @@ fn bench(c: &mut Criterion) {
             tris as f64 / build * 1e-6
         );
         for (kind, rs) in &ray_sets {
-            let hits = trace(&pool, &geo, rs); // also warms caches and the pool
+            let hits = trace(&pool, &geo, rs, Query::Hit); // also warms caches and the pool
             let (c0, t0) = (process_cpu_seconds(), Instant::now());
-            black_box(trace(&pool, &geo, rs));
+            black_box(trace(&pool, &geo, rs, Query::Hit));
             let (cpu, wall) = (process_cpu_seconds().map(|c| c - c0.unwrap_or(0.0)), t0.elapsed().as_secs_f64());
             // On a machine shared with other jobs the wall-clock rate understates the code's speed;
-            // rays per CPU-second × THREADS removes the time-sharing (not the cache sharing).
+            // rays per CPU-second × threads removes the time-sharing (not the cache sharing).
             let cpu_rate = cpu.map_or(String::from("n/a"), |c| {
-                format!("{:.2} M rays/s", N_RAYS as f64 / (c / THREADS as f64) * 1e-6)
+                format!("{:.2} M rays/s", N_RAYS as f64 / (c / threads as f64) * 1e-6)
             });
             println!(
-                "  {kind}: hit fraction {:.4}; one pass {:.2} M rays/s wall, {cpu_rate} CPU-time-normalised to {THREADS} cores",
+                "  {kind}: hit fraction {:.4}; one pass {:.2} M rays/s wall, {cpu_rate} CPU-time-normalised to {threads} cores",
                 hits as f64 / rs.len() as f64,
                 N_RAYS as f64 / wall * 1e-6
             );
         }
 
-        let mut g = c.benchmark_group(format!("bvh_icosphere{n}_{tris}tris_{THREADS}threads"));
+        let mut g = c.benchmark_group(format!("bvh_icosphere{n}_{tris}tris_{threads}threads"));
         g.sampling_mode(SamplingMode::Flat)
             .sample_size(10)
             .warm_up_time(Duration::from_millis(500))
             .measurement_time(Duration::from_secs(3))
             .throughput(Throughput::Elements(N_RAYS as u64));
-        for (kind, rs) in &ray_sets {
-            g.bench_function(*kind, |b| b.iter(|| black_box(trace(&pool, &geo, black_box(rs)))));
+        for (query, suffix) in [(Query::Hit, ""), (Query::Primitive, "_primitive")] {
+            for (kind, rs) in &ray_sets {
+                g.bench_function(format!("{kind}{suffix}"), |b| {
+                    b.iter(|| black_box(trace(&pool, &geo, black_box(rs), query)))
+                });
+            }
         }
         g.finish();
     }

@@ -9,6 +9,9 @@ AVX2/AVX-512 kernels), the rays split into `--threads` equal parts traced by tha
 threads (embreex releases the GIL while Embree traces). The rays are not the same numbers as the
 Rust bench's (another generator), only the same distributions; the hit fractions are printed for
 comparison. Build time is that of the scene's commit (Embree's BVH, build quality medium).
+`rtcIntersect1` returns t, barycentrics, the geometric normal and the primitive's ids: set its figures beside the
+Rust bench's `box_primitive` and `aimed_primitive` rows (`SceneGeometry::intersect_primitive`, the same question),
+not beside `box` and `aimed`, which also build the renderer's hit record with its shading normal.
 
 Usage: python3 benches/peers/embree_bvh.py [--levels 5,8] [--runs 3] [--threads 2]
 (needs `pip install embreex numpy`).

@@ -8,9 +8,9 @@
 //!   recursion or the walk's stack overflow.
 //! - After the build the primitive records are made node by node (`bvh/leaf.rs`): the primitives
 //!   of all of a node's leaf children in blocks of four lanes, triangles as (v0, e1, e2) for
-//!   Möller–Trumbore, tested four at once; spheres as (centre, radius), tested one by one. A
-//!   primitive's slot (its position in obvhs's leaf order, `primitive_indices`) indexes its object
-//!   reference; a block holds the slot of its first lane.
+//!   Möller–Trumbore, tested four at once; spheres as (centre, radius), tested one by one. Each
+//!   lane carries its primitive's object and index, so that a hit names its primitive from the
+//!   block it was found in, without a table read at a random address.
 //! - The finished tree is decoded into nodes with float planes (`bvh/wide.rs`), which every ray
 //!   walks one at a time, nearest child first, with a conservative slab test of eight children
 //!   at once (AVX2 chosen at run time, SSE2 otherwise; same bits); the leaf children it meets are
@@ -32,7 +32,7 @@
 //! direction hit nothing.
 
 use super::mesh::TriangleRecord;
-use super::{Hit, Ray, Shape, Sphere};
+use super::{Hit, PrimitiveHit, Ray, Shape, Sphere};
 use crate::math::Vec3;
 use glam::{Vec3A, Vec4};
 use obvhs::aabb::Aabb;
@@ -116,7 +116,9 @@ pub struct SceneGeometry {
     /// The tree every ray walks: obvhs's, with float planes (`bvh/wide.rs`); `None` for an empty
     /// scene and a single sphere.
     wide: Option<wide::WideBvh>,
-    /// For each slot (position in obvhs's leaf order), its primitive's object and index.
+    /// For each slot (position in obvhs's leaf order), its primitive's object and index, for the
+    /// tests' oracles (the walk reads them from the blocks).
+    #[cfg(test)]
     refs: Vec<PrimRef>,
     /// Primitives in the BVH.
     num_prims: usize,
@@ -149,6 +151,7 @@ impl SceneGeometry {
                 #[cfg(test)]
                 bvh: None,
                 wide: None,
+                #[cfg(test)]
                 refs: Vec::new(),
                 num_prims: 1,
                 #[cfg(test)]
@@ -188,8 +191,8 @@ impl SceneGeometry {
             aabbs
         };
 
-        let (bvh, wide, refs) = if count == 0 {
-            (None, None, Vec::new())
+        let (bvh, wide) = if count == 0 {
+            (None, None)
         } else {
             let bvh = build_cwbvh(aabbs, params);
             // The leaves' records and the references are made after the build, in leaf order:
@@ -201,31 +204,22 @@ impl SceneGeometry {
             };
             let prim = |slot: u32| {
                 let (object, index) = locate(bvh.primitive_indices[slot as usize]);
-                match &shapes[object] {
+                let p = match &shapes[object] {
                     Shape::Sphere(s) => Prim::sphere(s),
                     Shape::Mesh(m) => Prim::triangle(&TriangleRecord::new(m.vertices(index as usize))),
-                }
+                };
+                (p, PrimRef { object: object as u32, index })
             };
             let wide = wide::WideBvh::new(&bvh, prim);
+            // The tests' oracle walks obvhs's tree, by slot.
             #[cfg(test)]
-            let wide = (wide, (0..count as u32).map(prim).collect::<Vec<Prim>>());
-            let refs: Vec<PrimRef> = bvh
-                .primitive_indices
-                .iter()
-                .map(|&k| {
-                    let (object, index) = locate(k);
-                    PrimRef { object: object as u32, index }
-                })
-                .collect();
-            // Hits read the references of their slots at random addresses: in huge pages where
-            // the kernel gives them.
-            crate::memory::advise_huge_pages(&refs);
-            (Some(bvh), Some(wide), refs)
+            let wide = (wide, (0..count as u32).map(prim).unzip());
+            (Some(bvh), Some(wide))
         };
         #[cfg(test)]
-        let (wide, prims) = match wide {
+        let (wide, (prims, refs)) = match wide {
             Some((w, p)) => (Some(w), p),
-            None => (None, Vec::new()),
+            None => (None, (Vec::new(), Vec::new())),
         };
         // Only the tests walk obvhs's own tree (their oracle).
         #[cfg(not(test))]
@@ -235,6 +229,7 @@ impl SceneGeometry {
             #[cfg(test)]
             bvh,
             wide,
+            #[cfg(test)]
             refs,
             num_prims: count,
             #[cfg(test)]
@@ -299,7 +294,26 @@ impl SceneGeometry {
         }
         let (id, t, b1, b2) = self.walk_wide_here::<false>(wide, ray)?;
         // The block was just read: its lane gives the triangle without another miss.
-        Some(self.make_hit(ray, wide.slot(id) as usize, || wide.triangle(id), t, (b1, b2)))
+        Some(self.make_hit(ray, wide.prim_ref(id), || wide.triangle(id), t, (b1, b2)))
+    }
+
+    /// The closest hit as [`SceneGeometry::intersect`] finds it (the same t, bit for bit), without
+    /// the hit record's point and normals: the primitive, its distance and barycentrics. What a
+    /// caller needs that shades nothing (visibility, distances), and the query Embree's
+    /// `rtcIntersect1` answers (`benches/bvh.rs` times both).
+    #[inline]
+    pub fn intersect_primitive(&self, ray: &Ray) -> Option<PrimitiveHit> {
+        if let Some(s) = &self.single_sphere {
+            let t = s.intersect_t(ray.origin, ray.dir, ray.t_max)?;
+            return Some(PrimitiveHit { t, b1: 0.0, b2: 0.0, object: 0, index: 0 });
+        }
+        let wide = self.wide.as_ref()?;
+        if !Self::is_valid(ray) {
+            return None;
+        }
+        let (id, t, b1, b2) = self.walk_wide_here::<false>(wide, ray)?;
+        let r = wide.prim_ref(id);
+        Some(PrimitiveHit { t, b1, b2, object: r.object, index: r.index })
     }
 
     /// [`SceneGeometry::walk_wide`] in the copy this CPU runs: AVX2 where [`avx2_walk`] holds,
@@ -322,17 +336,16 @@ impl SceneGeometry {
         self.walk_wide::<ANY, true>(wide, ray)
     }
 
-    /// Assembles the hit record of slot `slot` (a triangle: `triangle()` its record) at distance `t`.
+    /// Assembles the hit record of primitive `r` (a triangle: `triangle()` its record) at distance `t`.
     #[inline]
     fn make_hit(
         &self,
         ray: &Ray,
-        slot: usize,
+        r: PrimRef,
         triangle: impl FnOnce() -> TriangleRecord,
         t: f32,
         (b1, b2): (f32, f32),
     ) -> Hit {
-        let r = self.refs[slot];
         match &self.shapes[r.object as usize] {
             Shape::Sphere(s) => s.hit_at(ray, t, r.object),
             Shape::Mesh(m) => {
@@ -385,7 +398,7 @@ impl SceneGeometry {
             }
         });
         let (slot, t, b1, b2) = best?;
-        Some(self.make_hit(ray, slot as usize, || self.prims[slot as usize].as_triangle(), t, (b1, b2)))
+        Some(self.make_hit(ray, self.refs[slot as usize], || self.prims[slot as usize].as_triangle(), t, (b1, b2)))
     }
 
     /// Any hit through obvhs's `ray_traverse_miss` on its compressed tree; for tests.
@@ -775,6 +788,45 @@ mod tests {
         let bad = Ray::new(Vec3::new(0.0, 0.0, f32::NAN), Vec3::Z);
         assert!(g.intersect(&bad).is_none() && !g.occluded(&bad));
         assert!(g.intersect(&r).is_some());
+    }
+
+    /// `intersect_primitive` names the primitive `intersect` hits: the same t and object, bit for
+    /// bit, and its index is the primitive whose own test gives that t and the barycentrics (each
+    /// lane of a block carries its own reference). On a mesh-only, a mixed and a single-sphere
+    /// scene, with the walk tests' rays.
+    #[test]
+    fn primitive_hits_name_the_walks_primitive() {
+        let mut rng = TestRng::new(11);
+        let single = SceneGeometry::new(vec![Shape::Sphere(Sphere::new(Vec3::new(0.3, 0.0, 0.2), 0.9))]);
+        for g in [SceneGeometry::new(vec![Shape::Mesh(icosphere(4))]), scene(), single] {
+            // `ray_sets` aims some rays along triangles' edges: the sphere alone gets random rays.
+            let rays = if g.is_single_sphere() {
+                (0..4000).map(|_| Ray::new(in_box(&mut rng, 2.0), uniform_dir(&mut rng))).collect()
+            } else {
+                ray_sets(&g, &mut rng)
+            };
+            let mut hits = 0;
+            for (i, r) in rays.iter().enumerate() {
+                let (h, p) = (g.intersect(r), g.intersect_primitive(r));
+                assert_eq!(h.is_some(), p.is_some(), "ray {i}: {r:?}");
+                let (Some(h), Some(p)) = (h, p) else { continue };
+                hits += 1;
+                assert_eq!((h.t.to_bits(), h.object), (p.t.to_bits(), p.object), "ray {i}: {r:?}");
+                let (o, d) = (Vec3A::from(r.origin), Vec3A::from(r.dir));
+                match &g.shapes[p.object as usize] {
+                    Shape::Mesh(m) => {
+                        let own = TriangleRecord::new(m.vertices(p.index as usize)).intersect(o, d, f32::INFINITY);
+                        let bits = |x: (f32, f32, f32)| (x.0.to_bits(), x.1.to_bits(), x.2.to_bits());
+                        assert_eq!(own.map(bits), Some(bits((p.t, p.b1, p.b2))), "ray {i}: {r:?}: {p:?}");
+                    }
+                    Shape::Sphere(s) => {
+                        assert_eq!((p.index, p.b1, p.b2), (0, 0.0, 0.0), "ray {i}");
+                        assert_eq!(s.intersect_t(r.origin, r.dir, r.t_max).map(f32::to_bits), Some(p.t.to_bits()));
+                    }
+                }
+            }
+            assert!(hits > rays.len() / 20, "{hits} hits of {}", rays.len());
+        }
     }
 
     /// Bitwise equality of two hit results (every field, as bits).

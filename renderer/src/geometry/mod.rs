@@ -43,6 +43,22 @@ pub struct Hit {
     pub object: u32,
 }
 
+/// The closest primitive a ray meets, before any shading: what a BVH query gives (as Embree's
+/// `rtcIntersect1` or pbrt-v4's `TriangleIntersection`), from [`SceneGeometry::intersect_primitive`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimitiveHit {
+    /// Distance along the ray, in units of the ray's direction.
+    pub t: f32,
+    /// Barycentrics of the point on a triangle, p = v0 + b1 (v1 − v0) + b2 (v2 − v0), with the
+    /// vertices in the mesh's order (`TriangleMesh::vertices`); zero for a sphere.
+    pub b1: f32,
+    pub b2: f32,
+    /// Index of the object in the scene's object list.
+    pub object: u32,
+    /// The primitive's index inside its object: a mesh's triangle; 0 for a sphere.
+    pub index: u32,
+}
+
 /// One object's shape.
 #[derive(Clone, Debug)]
 pub enum Shape {

@@ -29,7 +29,7 @@
 //! for a ray on every run and in every copy (tested).
 
 use super::leaf::{Block, LANES, LaneRay};
-use super::{Prim, SceneGeometry};
+use super::{Prim, PrimRef, SceneGeometry};
 use crate::geometry::Ray;
 use crate::geometry::mesh::TriangleRecord;
 use glam::Vec3A;
@@ -86,8 +86,9 @@ struct Entry {
 
 impl WideBvh {
     /// The float-plane copy of `bvh` (non-empty: node 0 is its root; its leaves index fewer than
-    /// [`MAX_SLOTS`] primitives), with the record of the primitive in slot k from `prim(k)`.
-    pub(super) fn new(bvh: &CwBvh, prim: impl Fn(u32) -> Prim) -> WideBvh {
+    /// [`MAX_SLOTS`] primitives), with the record, object and index of the primitive in slot k
+    /// from `prim(k)`.
+    pub(super) fn new(bvh: &CwBvh, prim: impl Fn(u32) -> (Prim, PrimRef)) -> WideBvh {
         let mut blocks = Vec::with_capacity(bvh.primitive_indices.len().div_ceil(LANES));
         let nodes = bvh
             .nodes
@@ -130,13 +131,10 @@ impl WideBvh {
                 let run = 32 - owned.leading_zeros();
                 for k in 0..run.div_ceil(LANES as u32) {
                     let first = n.primitive_base_idx + LANES as u32 * k;
-                    blocks.push(Block::new(
-                        first,
-                        std::array::from_fn(|i| {
-                            let lane = LANES as u32 * k + i as u32;
-                            (owned & (1 << lane) != 0).then(|| prim(first + i as u32))
-                        }),
-                    ));
+                    blocks.push(Block::new(std::array::from_fn(|i| {
+                        let lane = LANES as u32 * k + i as u32;
+                        (owned & (1 << lane) != 0).then(|| prim(first + i as u32))
+                    })));
                 }
                 node
             })
@@ -164,10 +162,11 @@ impl WideBvh {
         WideBvh { nodes, blocks }
     }
 
-    /// The slot of the primitive in block lane `id` (as [`SceneGeometry::walk_wide`] returns it).
+    /// The object and index of the primitive in block lane `id` (as [`SceneGeometry::walk_wide`]
+    /// returns it).
     #[inline(always)]
-    pub(super) fn slot(&self, id: u32) -> u32 {
-        self.blocks[id as usize / LANES].first() + id % LANES as u32
+    pub(super) fn prim_ref(&self, id: u32) -> PrimRef {
+        self.blocks[id as usize / LANES].prim_ref(id as usize % LANES)
     }
 
     /// The triangle in block lane `id` (a triangle's lane).
@@ -324,7 +323,7 @@ unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
 impl SceneGeometry {
     /// One ray's walk of the float-plane tree: the closest hit (`ANY` false) or the first hit
     /// found (`ANY` true), as (lane id, t, b1, b2), a lane id being a block's index × 4 + the lane
-    /// ([`WideBvh::slot`], [`WideBvh::triangle`]); `AVX` selects the AVX2 node test.
+    /// ([`WideBvh::prim_ref`], [`WideBvh::triangle`]); `AVX` selects the AVX2 node test.
     ///
     /// A node's leaf children that the ray meets are tested at the node, block by block
     /// (`bvh/leaf.rs`); only internal children go on the stack.
