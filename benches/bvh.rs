@@ -101,14 +101,14 @@ fn process_cpu_seconds() -> Option<f64> {
 /// What each ray asks: the hit record (`intersect`: point, geometric and shading normals, as the
 /// renderer uses it) or the primitive alone (`intersect_primitive`: t, barycentrics, object and
 /// index; the query Embree's `rtcIntersect1` answers, which `embree_bvh.py` times).
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum Query {
     Hit,
     Primitive,
 }
 
 #[inline(always)]
-fn hits(geo: &SceneGeometry, r: &Ray, query: Query) -> bool {
+fn is_hit(geo: &SceneGeometry, r: &Ray, query: Query) -> bool {
     match query {
         Query::Hit => black_box(geo.intersect(r)).is_some(),
         Query::Primitive => black_box(geo.intersect_primitive(r)).is_some(),
@@ -118,7 +118,7 @@ fn hits(geo: &SceneGeometry, r: &Ray, query: Query) -> bool {
 /// Closest hits of all rays on the pool; returns the number of hits (each result also passes
 /// through `black_box`, so nothing is optimised away).
 fn trace(pool: &rayon::ThreadPool, geo: &SceneGeometry, rays: &[Ray], query: Query) -> usize {
-    pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| hits(geo, r, query)).count())
+    pool.install(|| rays.par_iter().with_min_len(4096).filter(|r| is_hit(geo, r, query)).count())
 }
 
 // Closest hits of `rays` on this thread, one function per ray set (not inlined, each with its own

@@ -38,13 +38,14 @@ fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half()
         assert_eq!(s["points"].as_array().unwrap().len(), 5, "{s}");
         let t = s["time_to_target"]["median"].as_f64().unwrap_or(f64::NAN);
         assert!(t.is_finite() && t > 0.0, "{}: time to target {t}", s["sampler"]);
+        let n = s["target_spp"]["median"].as_f64().unwrap_or(f64::NAN);
+        assert!(n.is_finite() && n > 0.0 && s["extrapolated"].is_boolean(), "{}: spp to target {n}", s["sampler"]);
         let ph = &s["phases"];
         assert!(ph["lighting_read"].as_f64().unwrap() > 0.0 && ph["render"].as_f64().unwrap() > 0.0, "{ph}");
     }
-    // Independent samples: e ∝ t^(−½) (render time ∝ spp at the ladder's top). Over the ladder's 2.4
-    // decades of spp at 16² the fitted slope's spread is a few hundredths; ±0.15 is a wide margin
-    // that still fails a wrong time axis (planted: the whole process's time, whose fixed load
-    // flattens the slope). The subtraction of the reference's noise is checked by the unit test
+    // Independent samples: e ∝ n^(−½) (n: spp). Over the ladder's 2.4 decades of spp at 16² the
+    // fitted slope's spread is a few hundredths; ±0.15 is a wide margin that still fails a wrong
+    // abscissa (planted: spp², which halves the slope). The subtraction of the reference's noise is checked by the unit test
     // `error_subtracts_the_reference_noise` (here the 65,536-spp reference's floor is too low to matter).
     let ind = series.iter().find(|s| s["sampler"] == "independent").unwrap();
     let b = ind["exponent"]["median"].as_f64().unwrap();

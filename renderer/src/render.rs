@@ -397,37 +397,91 @@ mod tests {
         paths
     }
 
+    /// Three objects in contact, so that bounce and shadow rays hit other objects at every depth
+    /// (each scene in `scenes/` is one convex object, whose rays, once reflected, escape): a Lambert
+    /// sphere, a mirror icosphere and a Beckmann sphere on a row, with the camera looking along the
+    /// row's side.
+    const CLUSTER: &str = r#"
+        [render]
+        width = 16
+        height = 16
+        spp = 16
+        max_depth = 5
+        [camera]
+        type = "perspective"
+        from = [0.5, -4.0, 1.5]
+        to = [0.0, 0.0, 0.0]
+        up = [0.0, 0.0, 1.0]
+        fov_deg = 45.0
+        [lighting]
+        type = "envmap"
+        file = "../../shared/data/grace_latlong.exr"
+        mapping = "latlong"
+        [[objects]]
+        shape = "sphere"
+        center = [-1.0, 0.0, 0.0]
+        radius = 1.0
+        brdf = { type = "lambert", albedo = 0.8 }
+        [[objects]]
+        shape = "icosphere"
+        subdivisions = 2
+        center = [0.8, 0.3, 0.0]
+        radius = 0.8
+        brdf = { type = "mirror" }
+        [[objects]]
+        shape = "sphere"
+        center = [0.2, 1.2, -0.2]
+        radius = 0.7
+        brdf = { type = "microfacet", distribution = "beckmann", alpha = 0.3, fresnel = "none" }
+    "#;
+
+    /// Every scene file of `scenes/` and [`CLUSTER`] (whose map path is relative to `scenes/`):
+    /// (name, scene file, the directory its paths are relative to).
+    fn test_scenes() -> Vec<(String, SceneFile, PathBuf)> {
+        let mut scenes: Vec<_> = scene_files()
+            .into_iter()
+            .map(|path| {
+                let file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
+                (path.display().to_string(), file, path.parent().unwrap().to_path_buf())
+            })
+            .collect();
+        let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        scenes.push(("cluster".into(), SceneFile::parse(CLUSTER).unwrap(), dir));
+        scenes
+    }
+
     fn bits(v: &[Stats]) -> Vec<u64> {
         v.iter().flat_map(|s| s.0.map(f64::to_bits)).collect()
     }
 
     /// The batched integrator (`PathTracer::li_lanes`, through the tile loop the renderer runs)
     /// gives, on every scene in `scenes/` (every camera, BRDF, light, texture and mesh there), the
-    /// bits and ray counts of the one-sample-at-a-time path tracer it replaced. 16², depth as the
-    /// scene says (at least 4, so that Russian roulette runs), samples [3, 14) of 16 (a full batch
-    /// of 8 with its numbers drawn ahead, then a partial one of 3) and [0, 16).
+    /// bits and ray counts of the one-sample-at-a-time path tracer it replaced; and on [`CLUSTER`],
+    /// whose paths meet other objects (the last vertex's bounce rays are any-hit rays in the
+    /// batched integrator, closest-hit rays in the reference). 16², depth as the scene says (at
+    /// least 5, so that Russian roulette runs), samples [3, 14) of 16 (a full batch of 8 with its
+    /// numbers drawn ahead, then a partial one of 3) and [0, 16).
     #[test]
     fn batched_integrator_gives_the_reference_bits() {
-        for path in scene_files() {
-            let mut file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        for (name, mut file, dir) in test_scenes() {
             file.render.width = 16;
             file.render.height = 16;
             file.render.spp = 16;
             file.render.max_depth = file.render.max_depth.max(5);
-            let scene = Scene::build(file, path.parent().unwrap()).unwrap();
+            let scene = Scene::build(file, &dir).unwrap();
             let tracer = PathTracer::new(&scene);
             let rect = [0, 0, 16, 16];
             for (start, end) in [(3, 14), (0, 16)] {
                 let (a, ra) = render_tile(&scene, &tracer, rect, start, end);
                 let (b, rb) = render_tile_reference(&scene, &tracer, rect, start, end);
-                assert_eq!(ra, rb, "{}: ray counts", path.display());
-                assert!(bits(&a) == bits(&b), "{}: the batched integrator changed bits", path.display());
+                assert_eq!(ra, rb, "{name}: ray counts");
+                assert!(bits(&a) == bits(&b), "{name}: the batched integrator changed bits");
             }
         }
     }
 
-    /// Every scene in `scenes/` (24², samples 3–15: every camera, BRDF, light, texture and mesh there)
-    /// gives the same bits through the dispatched tile loop, and through each instruction-set copy
+    /// Every scene in `scenes/` and [`CLUSTER`] (24², samples 3–15: every camera, BRDF, light,
+    /// texture and mesh there) gives the same bits through the dispatched tile loop, and through each instruction-set copy
     /// this CPU runs (x86-64-v3, x86-64-v4), as through the loop compiled for the build's baseline.
     /// Copies the CPU lacks are not compared (the test says so on stderr).
     /// Rust's semantics give every copy the same values (no multiply-add contraction; `mul_add` is
@@ -442,12 +496,11 @@ mod tests {
             // The copies this CPU cannot run are not compared here; say so.
             eprintln!("dispatch_gives_the_baseline_bits: this CPU is {level:?}; the copies above it are not compared");
         }
-        for path in scene_files() {
-            let mut file = SceneFile::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        for (name, mut file, dir) in test_scenes() {
             file.render.width = 24;
             file.render.height = 24;
             file.render.spp = 16;
-            let scene = Scene::build(file, path.parent().unwrap()).unwrap();
+            let scene = Scene::build(file, &dir).unwrap();
             let tracer = PathTracer::new(&scene);
             let rect = [0, 0, 24, 24];
             // From sample 3: a partial batch first, then aligned octets (the film's octet sums).
@@ -465,9 +518,9 @@ mod tests {
                     copies.push(("x86-64-v4", unsafe { render_tile_x86_64_v4(&scene, &tracer, rect, 3, 16) }));
                 }
             }
-            for (name, (b, rb)) in copies {
-                assert_eq!(ra, rb, "{}: {name}", path.display());
-                assert!(bits(&a) == bits(&b), "{}: the {name} tile loop changed bits", path.display());
+            for (copy, (b, rb)) in copies {
+                assert_eq!(ra, rb, "{name}: {copy}");
+                assert!(bits(&a) == bits(&b), "{name}: the {copy} tile loop changed bits");
             }
         }
     }

@@ -11,10 +11,16 @@
 //! difference is below the reference's noise). The reference's error bars must be calibrated for
 //! this to be unbiased: references are rendered with the independent sampler.
 //!
-//! **Time to a target.** Monte Carlo error falls as a power of the time, e = a·t^(−b) (b = ½ for
-//! independent samples, up to 1 or more for a low-discrepancy sampler on smooth integrands). A
-//! least-squares line through (ln t, ln e) of a ladder of renders gives t* = (a / e*)^(1/b). The
-//! fit uses the points whose error the subtraction can resolve ([`Reference::min_measurable`]).
+//! **Samples to a target.** Monte Carlo error falls as a power of the samples per pixel n,
+//! e = a·n^(−b) (b = ½ for independent samples, up to 1 or more for a low-discrepancy sampler on
+//! smooth integrands). Where two rungs of a ladder of renders bracket the target e*, n* is
+//! interpolated on the line through those two (ln n, ln e) points; beyond the ladder, a
+//! least-squares line through all of them gives n* = (a / e*)^(1/b), marked as extrapolated
+//! ([`SamplesToTarget`]). Only the points whose error the subtraction can resolve
+//! ([`Reference::min_measurable`]) count. The abscissa is n, not the render time: n is exact,
+//! while the short renders' times carry the host's noise, which a line through (ln t, ln e)
+//! turns into a wrong slope and, extrapolated, a wrong time (the caller converts n* to time with
+//! the sample rate of the ladder's longest render).
 
 use vocab::image::Image;
 
@@ -95,10 +101,10 @@ impl Reference {
     }
 }
 
-/// A power law e = a·t^(−b) fitted to (time, error) points.
+/// A power law e = a·n^(−b) fitted to (samples per pixel, error) points.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct PowerLaw {
-    /// Error at t = 1 s.
+    /// Error at n = 1.
     pub a: f64,
     /// Convergence exponent (½ for independent samples).
     pub b: f64,
@@ -107,8 +113,8 @@ pub struct PowerLaw {
 }
 
 impl PowerLaw {
-    /// Least squares through (ln t, ln e) of the points with t > 0 and e ≥ `min_error`; None with
-    /// fewer than two such points, equal times, or an error that does not fall with time (b ≤ 0).
+    /// Least squares through (ln n, ln e) of the points with n > 0 and e ≥ `min_error`; None with
+    /// fewer than two such points, equal abscissae, or an error that does not fall (b ≤ 0).
     pub fn fit(points: &[(f64, f64)], min_error: f64) -> Option<PowerLaw> {
         let p: Vec<(f64, f64)> = points
             .iter()
@@ -128,9 +134,41 @@ impl PowerLaw {
         (slope < 0.0).then(|| PowerLaw { a: (my - slope * mx).exp(), b: -slope, points: p.len() })
     }
 
-    /// The time at which the law reaches `error`: (a / error)^(1/b).
-    pub fn time_to(&self, error: f64) -> f64 {
+    /// The abscissa at which the law reaches `error`: (a / error)^(1/b).
+    pub fn samples_to(&self, error: f64) -> f64 {
         (self.a / error).powf(1.0 / self.b)
+    }
+}
+
+/// The samples per pixel a ladder needs to reach a target error (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SamplesToTarget {
+    /// n*, samples per pixel (not rounded).
+    pub spp: f64,
+    /// The fitted law over the ladder's resolvable points.
+    pub law: PowerLaw,
+    /// n* lies outside the ladder's resolvable rungs (found with `law`, not between two rungs).
+    pub extrapolated: bool,
+}
+
+impl SamplesToTarget {
+    /// From (spp, e) points of one ladder: interpolated between the two consecutive resolvable
+    /// rungs (e ≥ `min_error`) whose errors bracket `target`, else extrapolated with the power law
+    /// fitted to all resolvable rungs. None where no law can be fitted ([`PowerLaw::fit`]).
+    pub fn find(points: &[(f64, f64)], target: f64, min_error: f64) -> Option<SamplesToTarget> {
+        let law = PowerLaw::fit(points, min_error)?;
+        let mut p: Vec<(f64, f64)> =
+            points.iter().copied().filter(|(n, e)| *n > 0.0 && *e >= min_error && *e > 0.0 && e.is_finite()).collect();
+        p.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for w in p.windows(2) {
+            let ((n0, e0), (n1, e1)) = (w[0], w[1]);
+            if e0 >= target && target >= e1 && e0 > e1 {
+                let f = (e0 / target).ln() / (e0 / e1).ln();
+                let spp = (n0.ln() + f * (n1 / n0).ln()).exp();
+                return Some(SamplesToTarget { spp, law, extrapolated: false });
+            }
+        }
+        Some(SamplesToTarget { spp: law.samples_to(target), law, extrapolated: true })
     }
 }
 
@@ -153,10 +191,33 @@ mod tests {
         let pts: Vec<(f64, f64)> = [0.1, 0.4, 1.6, 6.4].iter().map(|t: &f64| (*t, 0.05 * t.powf(-0.75))).collect();
         let f = PowerLaw::fit(&pts, 0.0).unwrap();
         assert!((f.a - 0.05).abs() < 1e-12 && (f.b - 0.75).abs() < 1e-12, "{f:?}");
-        assert!((f.time_to(0.01) - 5f64.powf(1.0 / 0.75)).abs() < 1e-9);
+        assert!((f.samples_to(0.01) - 5f64.powf(1.0 / 0.75)).abs() < 1e-9);
         // Points under the floor are left out; a flat or rising series has no law.
         assert_eq!(PowerLaw::fit(&pts, 0.2).map(|f| f.points), None);
         assert!(PowerLaw::fit(&[(1.0, 0.1), (2.0, 0.1)], 0.0).is_none());
+    }
+
+    /// Inside the ladder n* comes from the two rungs that bracket the target, whatever the others
+    /// say; beyond it, from the law of all resolvable rungs, and says so.
+    #[test]
+    fn samples_to_target_interpolate_inside_the_ladder_and_extrapolate_beyond() {
+        // e = 0.4 n^(−½) on four rungs, but the top rung's error too small by 30 % (a reference
+        // whose noise was over-subtracted): the target 0.03 lies between 64 and 256 spp.
+        let pts = [(16.0, 0.1), (64.0, 0.05), (256.0, 0.025), (1024.0, 0.0125 * 0.7)];
+        let s = SamplesToTarget::find(&pts, 0.03, 0.0).unwrap();
+        let exact = (0.4f64 / 0.03).powi(2);
+        assert!(!s.extrapolated && (s.spp - exact).abs() < 1e-9 * exact, "{s:?} against {exact}");
+        // The global fit alone would be pulled by the low top rung.
+        assert!((s.law.samples_to(0.03) - exact).abs() > 0.02 * exact, "{s:?}");
+        // Beyond the top: the fitted law, marked. Below the lowest rung's error: the same.
+        let clean: Vec<(f64, f64)> = [16.0f64, 64.0, 256.0].iter().map(|n| (*n, 0.4 / n.sqrt())).collect();
+        let beyond = SamplesToTarget::find(&clean, 0.01, 0.0).unwrap();
+        assert!(beyond.extrapolated && (beyond.spp - 1600.0).abs() < 1e-6, "{beyond:?}");
+        let before = SamplesToTarget::find(&clean, 0.2, 0.0).unwrap();
+        assert!(before.extrapolated && (before.spp - 4.0).abs() < 1e-9, "{before:?}");
+        // A rung below the reference's resolution neither brackets nor fits.
+        let floor = SamplesToTarget::find(&pts, 0.011, 0.02).unwrap();
+        assert!(floor.extrapolated && floor.law.points == 3, "{floor:?}");
     }
 
     #[test]

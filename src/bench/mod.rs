@@ -9,8 +9,9 @@
 //! Per scene: a reference render (independent sampler, calibrated error bars, many spp) of the
 //! suite's camera at `size`², cached in the work folder; then, for each seed, a ladder of renders
 //! at increasing spp, each compared with the reference ([`convergence::Reference::rms_rel_error`]),
-//! and a power law through (render time, error) gives the time to the target error
-//! ([`convergence::PowerLaw`]). Peers (Mitsuba 3 where its Python package imports) render the same
+//! and the samples per pixel that reach the target error ([`convergence::SamplesToTarget`]: between
+//! the two rungs that bracket it, else extrapolated with a power law), which the sample rate of the
+//! ladder's longest render turns into the time to the target. Peers (Mitsuba 3 where its Python package imports) render the same
 //! scenes through `benches/peers/mitsuba_worker.py` in the same run, series by series alternated
 //! with ours, and are judged against the same reference.
 
@@ -19,7 +20,7 @@ pub mod host;
 pub mod peers;
 pub mod suite;
 
-use convergence::{PowerLaw, Reference};
+use convergence::{Reference, SamplesToTarget};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -126,10 +127,16 @@ pub struct Series {
     pub renderer: String,
     pub sampler: String,
     pub points: Vec<Point>,
-    /// Time of the render loop to reach the target error, seconds, over seeds (null when no seed's
-    /// errors fall with time above the reference's noise).
+    /// Time of the render loop to reach the target error, seconds, over seeds: `target_spp` times
+    /// the seed's render time per spp at the ladder's top (null when no seed's errors fall with
+    /// spp above the reference's noise).
     pub time_to_target: Option<Spread>,
-    /// Convergence exponent b of e = a·t^(−b), over seeds.
+    /// Samples per pixel that reach the target error, over seeds.
+    pub target_spp: Option<Spread>,
+    /// Some seed's `target_spp` lies beyond the ladder's resolvable rungs (extrapolated with the
+    /// fitted exponent, not interpolated between two rungs).
+    pub extrapolated: bool,
+    /// Convergence exponent b of e = a·n^(−b) (n: spp), over seeds.
     pub exponent: Option<Spread>,
     /// Camera samples (pixels × spp) per second of the render loop, at the ladder's top.
     pub samples_per_sec: Option<Spread>,
@@ -222,14 +229,16 @@ fn render_ours(
 
 /// Fits each seed's ladder and summarises a series.
 pub fn summarise(mut s: Series, target: f64, min_error: f64, seeds: &[u64], pixels: f64) -> Series {
-    let mut times = Vec::new();
-    let mut exps = Vec::new();
+    let (mut times, mut spps, mut exps) = (Vec::new(), Vec::new(), Vec::new());
     for seed in seeds {
-        let pts: Vec<(f64, f64)> =
-            s.points.iter().filter(|q| q.seed == *seed).map(|q| (q.render_seconds, q.rms_rel_error)).collect();
-        if let Some(law) = PowerLaw::fit(&pts, min_error) {
-            times.push(law.time_to(target));
-            exps.push(law.b);
+        let ladder: Vec<&Point> = s.points.iter().filter(|q| q.seed == *seed).collect();
+        let pts: Vec<(f64, f64)> = ladder.iter().map(|q| (f64::from(q.spp), q.rms_rel_error)).collect();
+        let Some(top) = ladder.iter().max_by_key(|q| q.spp) else { continue };
+        if let Some(n) = SamplesToTarget::find(&pts, target, min_error) {
+            times.push(n.spp * top.render_seconds / f64::from(top.spp));
+            spps.push(n.spp);
+            exps.push(n.law.b);
+            s.extrapolated |= n.extrapolated;
         }
     }
     if s.samples_per_sec.is_none() {
@@ -239,6 +248,7 @@ pub fn summarise(mut s: Series, target: f64, min_error: f64, seeds: &[u64], pixe
         s.samples_per_sec = Spread::of(&rates);
     }
     s.time_to_target = Spread::of(&times);
+    s.target_spp = Spread::of(&spps);
     s.exponent = Spread::of(&exps);
     s
 }
@@ -287,6 +297,8 @@ pub fn run(p: &BenchParams, mut progress: impl FnMut(&str)) -> Result<BenchRepor
                 sampler: sampler.into(),
                 points: Vec::new(),
                 time_to_target: None,
+                target_spp: None,
+                extrapolated: false,
                 exponent: None,
                 samples_per_sec: None,
                 rays_per_sec: None,
@@ -401,7 +413,7 @@ impl std::fmt::Display for BenchReport {
         writeln!(f, "{}", self.host)?;
         writeln!(
             f,
-            "{}² pixels, spp ladder {:?}, {} seeds; time to {} % RMS relative error against an independent-sampler \
+            "{}² pixels, spp ladder {:?}, {} seed(s); time to {} % RMS relative error against an independent-sampler \
              reference (its own noise subtracted); median [min–max] over seeds",
             self.size,
             self.ladder,
@@ -414,10 +426,10 @@ impl std::fmt::Display for BenchReport {
         writeln!(f)?;
         writeln!(
             f,
-            "| scene | renderer | sampler | time to {} % (s) | exponent b | M samples/s | M rays/s | load: parse / meshes / BVH / map / tables (s) | peak MB |",
+            "| scene | renderer | sampler | time to {0} % (s) | spp to {0} % | exponent b | M samples/s | M rays/s | load: parse / meshes / BVH / map / tables (s) | peak MB |",
             100.0 * self.target_rel_error
         )?;
-        writeln!(f, "|---|---|---|---|---|---|---|---|---|")?;
+        writeln!(f, "|---|---|---|---|---|---|---|---|---|---|")?;
         let sp = |s: &Option<Spread>, scale: f64, digits: usize| match s {
             Some(s) if s.n > 1 => {
                 format!("{:.d$} [{:.d$}–{:.d$}]", s.median * scale, s.min * scale, s.max * scale, d = digits)
@@ -433,13 +445,16 @@ impl std::fmt::Display for BenchReport {
                         p.parse, p.meshes, p.bvh, p.lighting_read, p.lighting_tables
                     )
                 });
+                // † marks a figure found beyond the ladder (the footnote below).
+                let mark = if s.extrapolated && s.target_spp.is_some() { " †" } else { "" };
                 writeln!(
                     f,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {}{mark} | {}{mark} | {} | {} | {} | {} | {} |",
                     sc.name,
                     s.renderer,
                     s.sampler,
                     sp(&s.time_to_target, 1.0, 3),
+                    sp(&s.target_spp, 1.0, 0),
                     sp(&s.exponent, 1.0, 2),
                     sp(&s.samples_per_sec, 1e-6, 2),
                     sp(&s.rays_per_sec, 1e-6, 2),
@@ -447,6 +462,14 @@ impl std::fmt::Display for BenchReport {
                     s.peak_rss_mb.map_or("–".into(), |m| format!("{m:.0}"))
                 )?;
             }
+        }
+        if self.scenes.iter().flat_map(|sc| &sc.series).any(|s| s.extrapolated && s.target_spp.is_some()) {
+            writeln!(
+                f,
+                "\n† some seed's spp to the target lies above the ladder's top rung or below its first: \
+                 extrapolated with the power law fitted through its rungs; elsewhere interpolated between the two \
+                 rungs that bracket the target"
+            )?;
         }
         write!(f, "\nwall time {:.0} s", self.wall_seconds)
     }

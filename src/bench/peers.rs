@@ -184,6 +184,8 @@ impl Mitsuba {
                 sampler: sampler.into(),
                 points,
                 time_to_target: None,
+                target_spp: None,
+                extrapolated: false,
                 exponent: None,
                 samples_per_sec: None,
                 rays_per_sec: None,

@@ -388,10 +388,19 @@ impl<'a> PathTracer<'a> {
                     out[k].rays += 1;
                 }
             }
-            let hits = self.trace_lanes(offset_origins(ps.p, ps.ng, wi_world), wi_world, traced);
+            // At the last vertex a bounce ray only asks whether it escapes (no surface emits), so
+            // it is an any-hit ray: no ordering of children, and it stops at the first blocker.
+            let last = depth >= self.max_depth;
+            let bounce_origins = offset_origins(ps.p, ps.ng, wi_world);
+            let (blocked, hits) = if last {
+                (self.occluded_lanes(bounce_origins, wi_world, traced), LaneHits::NONE)
+            } else {
+                let hits = self.trace_lanes(bounce_origins, wi_world, traced);
+                (hits.hit, hits)
+            };
 
             // The light where the path escapes, with the complementary MIS weight.
-            let escaped = sampled & !hits.hit;
+            let escaped = sampled & !blocked;
             if escaped.any() {
                 let (mut le, mut light_pdf) = (Float3::<LANES, S>::ZERO, Float::<LANES, S>::ZERO);
                 for k in 0..LANES {
@@ -409,7 +418,7 @@ impl<'a> PathTracer<'a> {
             }
             // The next vertex, unless the depth limit or Russian roulette (after `RR_START`
             // vertices, survival probability min(max β, 0.95)) ends the path.
-            if depth >= self.max_depth {
+            if last {
                 break;
             }
             if !ps.alive.any() {
@@ -451,6 +460,33 @@ impl<'a> PathTracer<'a> {
     fn unoccluded<S: Isa>(&self, ps: &Paths<S>, ignores: Mask<LANES, S>, dir: Float3<LANES, S>) -> Mask<LANES, S> {
         let below = ps.n.dot(dir).le(Float::ZERO) & ignores;
         if self.single_convex { below | ps.ng.dot(dir).gt(Float::ZERO) } else { below }
+    }
+
+    /// The lanes of `want` whose ray (`origin`, `dir`, unbounded) hits something: the lanes where
+    /// [`PathTracer::trace_lanes`] finds a hit, found by any-hit walks.
+    #[inline(always)]
+    fn occluded_lanes<S: Isa>(
+        &self,
+        origin: Float3<LANES, S>,
+        dir: Float3<LANES, S>,
+        want: Mask<LANES, S>,
+    ) -> Mask<LANES, S> {
+        let geometry = &self.scene.geometry;
+        if !want.any() {
+            return Mask::NONE;
+        }
+        if let Some(sphere) = geometry.single_sphere() {
+            // The roots of `trace_lanes`, without the hit records.
+            let (_, hit) = sphere.intersect_ts(origin, dir, Float::splat(f32::INFINITY));
+            return want & hit;
+        }
+        let mut blocked = Mask::NONE;
+        for k in 0..LANES {
+            if want.lane(k) && geometry.occluded(&Ray::new(origin.lane(k), dir.lane(k))) {
+                blocked.set(k, true);
+            }
+        }
+        blocked
     }
 
     /// Closest hits of the rays (`origin`, `dir`) of the lanes in `want` (unbounded rays).
