@@ -66,6 +66,36 @@ fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half()
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(!err.contains("reference at"), "the reference was rendered again: {err}");
+    // Another scene text (here another data folder holding the same maps) is another key: the
+    // reference is rendered anew.
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    for map in ["grace_latlong.exr", "grace_probe.hdr", "sky_latlong.exr"] {
+        std::fs::copy(shared.join(map), data.join(map)).unwrap();
+    }
+    let (code, _, err) = reflect_out(&[
+        "bench",
+        "--scenes",
+        "lambert-grace",
+        "--size",
+        "16",
+        "--seeds",
+        "1",
+        "--peers",
+        "none",
+        "--data",
+        data.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("reference at"), "a reference of another scene text was reused: {err}");
+    let refs = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains("-reference-"))
+        .count();
+    assert_eq!(refs, 2, "one reference per key");
 }
 
 #[test]

@@ -227,6 +227,16 @@ fn render_ours(
     Ok(OurRun { doc, error })
 }
 
+/// The cache key of a reference: the first 8 bytes of the SHA-256 of the scene's text and the
+/// build's version string.
+fn reference_key(scene_text: &str, version: &str) -> u64 {
+    use sha2::{Digest, Sha256};
+    let digest = Sha256::new().chain_update(scene_text).chain_update([0]).chain_update(version).finalize();
+    let mut first = [0u8; 8];
+    first.copy_from_slice(&digest[..8]);
+    u64::from_be_bytes(first)
+}
+
 /// Fits each seed's ladder and summarises a series.
 pub fn summarise(mut s: Series, target: f64, min_error: f64, seeds: &[u64], pixels: f64) -> Series {
     let (mut times, mut spps, mut exps) = (Vec::new(), Vec::new(), Vec::new());
@@ -272,10 +282,13 @@ pub fn run(p: &BenchParams, mut progress: impl FnMut(&str)) -> Result<BenchRepor
     let mut scenes = Vec::new();
     for sc in &p.scenes {
         let file = p.work.join(format!("{}.toml", sc.name));
-        std::fs::write(&file, sc.toml(&p.data, p.size, p.reference_spp))
-            .map_err(|e| BenchError::File(file.clone(), e.to_string()))?;
-        // The reference: cached by scene text (size, spp, data folder) in the work folder.
-        let ref_path = p.work.join(format!("{}-reference-{}-{}.exr", sc.name, p.size, p.reference_spp));
+        let text = sc.toml(&p.data, p.size, p.reference_spp);
+        std::fs::write(&file, &text).map_err(|e| BenchError::File(file.clone(), e.to_string()))?;
+        // The reference, cached in the work folder under a key of the scene's text (size, spp, the
+        // maps' folder) and the build (version and commit): a reference of another scene or
+        // another build is never reused.
+        let key = reference_key(&text, &fingerprint.version);
+        let ref_path = p.work.join(format!("{}-reference-{}-{}-{key:016x}.exr", sc.name, p.size, p.reference_spp));
         let t = Instant::now();
         if !ref_path.is_file() {
             render_ours(p, &file, 1_000_003, p.reference_spp, "independent", &ref_path, None)?;
