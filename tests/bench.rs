@@ -5,26 +5,19 @@
 mod common;
 use common::*;
 
+/// The tiny run's arguments (one scene at 16², one seed, no peers, work folder `out`), then `extra`.
+fn tiny_bench<'a>(out: &'a std::path::Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["bench", "--scenes", "lambert-grace", "--size", "16", "--seeds", "1", "--peers", "none"];
+    a.extend_from_slice(&["--out", out.to_str().unwrap()]);
+    a.extend_from_slice(extra);
+    a
+}
+
 #[test]
 fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half() {
     let dir = temp_dir("bench-tiny");
     let out = dir.join("work");
-    let doc = reflect_json(&[
-        "bench",
-        "--scenes",
-        "lambert-grace",
-        "--size",
-        "16",
-        "--seeds",
-        "1",
-        "--peers",
-        "none",
-        "--threads",
-        "2",
-        "--out",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
+    let doc = reflect_json(&tiny_bench(&out, &["--threads", "2", "--json"]));
     assert!(out.join("bench.json").is_file(), "bench.json not written");
     common::json::assert_documented("bench", &doc);
     assert!(doc["host"]["cpu_features"].is_array() && doc["host"]["load_before"].is_array(), "{}", doc["host"]);
@@ -45,25 +38,14 @@ fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half()
     }
     // Independent samples: e ∝ n^(−½) (n: spp). Over the ladder's 2.4 decades of spp at 16² the
     // fitted slope's spread is a few hundredths; ±0.15 is a wide margin that still fails a wrong
-    // abscissa (planted: spp², which halves the slope). The subtraction of the reference's noise is checked by the unit test
-    // `error_subtracts_the_reference_noise` (here the 65,536-spp reference's floor is too low to matter).
+    // abscissa (planted: spp², which halves the slope). The subtraction of the reference's noise is
+    // checked by the unit test `error_subtracts_the_reference_noise` (here the 65,536-spp
+    // reference's floor is too low to matter).
     let ind = series.iter().find(|s| s["sampler"] == "independent").unwrap();
     let b = ind["exponent"]["median"].as_f64().unwrap();
     assert!((b - 0.5).abs() < 0.15, "independent sampler's exponent {b}");
     // A second run reuses the reference (same size and spp): it is not rendered again.
-    let (code, _, err) = reflect_out(&[
-        "bench",
-        "--scenes",
-        "lambert-grace",
-        "--size",
-        "16",
-        "--seeds",
-        "1",
-        "--peers",
-        "none",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, _, err) = reflect_out(&tiny_bench(&out, &[]));
     assert_eq!(code, 0, "{err}");
     assert!(!err.contains("reference at"), "the reference was rendered again: {err}");
     // Another scene text (here another data folder holding the same maps) is another key: the
@@ -74,21 +56,7 @@ fn a_tiny_run_reports_every_figure_and_plain_monte_carlo_converges_at_one_half()
     for map in ["grace_latlong.exr", "grace_probe.hdr", "sky_latlong.exr"] {
         std::fs::copy(shared.join(map), data.join(map)).unwrap();
     }
-    let (code, _, err) = reflect_out(&[
-        "bench",
-        "--scenes",
-        "lambert-grace",
-        "--size",
-        "16",
-        "--seeds",
-        "1",
-        "--peers",
-        "none",
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, _, err) = reflect_out(&tiny_bench(&out, &["--data", data.to_str().unwrap()]));
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("reference at"), "a reference of another scene text was reused: {err}");
     let refs = std::fs::read_dir(&out)

@@ -481,8 +481,8 @@ mod tests {
     }
 
     /// Every scene in `scenes/` and [`CLUSTER`] (24², samples 3–15: every camera, BRDF, light,
-    /// texture and mesh there) gives the same bits through the dispatched tile loop, and through each instruction-set copy
-    /// this CPU runs (x86-64-v3, x86-64-v4), as through the loop compiled for the build's baseline.
+    /// texture and mesh there) gives the same bits through the dispatched tile loop, and through
+    /// each instruction-set copy this CPU runs (x86-64-v3, x86-64-v4), as through the loop compiled for the build's baseline.
     /// Copies the CPU lacks are not compared (the test says so on stderr).
     /// Rust's semantics give every copy the same values (no multiply-add contraction; `mul_add` is
     /// fused in both, an `fmaf` call or an FMA instruction), so this guards the claim against a

@@ -101,6 +101,12 @@ impl Reference {
     }
 }
 
+/// The points a fit may use: n > 0 and a finite error of at least `min_error` (above the
+/// reference's noise floor) and above zero.
+fn resolvable(points: &[(f64, f64)], min_error: f64) -> impl Iterator<Item = (f64, f64)> + '_ {
+    points.iter().copied().filter(move |(n, e)| *n > 0.0 && *e >= min_error && *e > 0.0 && e.is_finite())
+}
+
 /// A power law e = a·n^(−b) fitted to (samples per pixel, error) points.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct PowerLaw {
@@ -116,11 +122,7 @@ impl PowerLaw {
     /// Least squares through (ln n, ln e) of the points with n > 0 and e ≥ `min_error`; None with
     /// fewer than two such points, equal abscissae, or an error that does not fall (b ≤ 0).
     pub fn fit(points: &[(f64, f64)], min_error: f64) -> Option<PowerLaw> {
-        let p: Vec<(f64, f64)> = points
-            .iter()
-            .filter(|(t, e)| *t > 0.0 && *e >= min_error && *e > 0.0 && e.is_finite())
-            .map(|(t, e)| (t.ln(), e.ln()))
-            .collect();
+        let p: Vec<(f64, f64)> = resolvable(points, min_error).map(|(t, e)| (t.ln(), e.ln())).collect();
         if p.len() < 2 {
             return None;
         }
@@ -157,8 +159,7 @@ impl SamplesToTarget {
     /// fitted to all resolvable rungs. None where no law can be fitted ([`PowerLaw::fit`]).
     pub fn find(points: &[(f64, f64)], target: f64, min_error: f64) -> Option<SamplesToTarget> {
         let law = PowerLaw::fit(points, min_error)?;
-        let mut p: Vec<(f64, f64)> =
-            points.iter().copied().filter(|(n, e)| *n > 0.0 && *e >= min_error && *e > 0.0 && e.is_finite()).collect();
+        let mut p: Vec<(f64, f64)> = resolvable(points, min_error).collect();
         p.sort_by(|x, y| x.0.total_cmp(&y.0));
         for w in p.windows(2) {
             let ((n0, e0), (n1, e1)) = (w[0], w[1]);

@@ -11,8 +11,8 @@
 //! at increasing spp, each compared with the reference ([`convergence::Reference::rms_rel_error`]),
 //! and the samples per pixel that reach the target error ([`convergence::SamplesToTarget`]: between
 //! the two rungs that bracket it, else extrapolated with a power law), which the sample rate of the
-//! ladder's longest render turns into the time to the target. Peers (Mitsuba 3 where its Python package imports) render the same
-//! scenes through `benches/peers/mitsuba_worker.py` in the same run, series by series alternated
+//! ladder's longest render turns into the time to the target. Peers (Mitsuba 3 where its Python
+//! package imports) render the same scenes through `benches/peers/mitsuba_worker.py` in the same run, series by series alternated
 //! with ours, and are judged against the same reference.
 
 pub mod convergence;
@@ -134,7 +134,7 @@ pub struct Series {
     /// Samples per pixel that reach the target error, over seeds.
     pub target_spp: Option<Spread>,
     /// Some seed's `target_spp` lies beyond the ladder's resolvable rungs (extrapolated with the
-    /// fitted exponent, not interpolated between two rungs).
+    /// power law fitted through its rungs, not interpolated between two of them).
     pub extrapolated: bool,
     /// Convergence exponent b of e = a·n^(−b) (n: spp), over seeds.
     pub exponent: Option<Spread>,
