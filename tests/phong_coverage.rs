@@ -26,8 +26,8 @@
 //! coverage p is √(p(1 − p)/n). The 1σ and 2σ rates must not fall below nominal by more than 3 of
 //! those (bars too wide are conservative, not wrong): measured n = 8 for one view, 19 for two, so
 //! ≥ 18.9 % / 73.2 % and ≥ 36.3 % / 81.0 % (measured
-//! 85.4 / 100 % and 87.5 / 98.2 %). Planted error: the bars divided by 3 give 2σ rates 62.5 % and
-//! 56.3 %, below those bounds.
+//! 85.4 / 100 % and 87.5 / 98.2 %). Planted error: the bars divided by 6 give 2σ rates 39.6 % and
+//! 32.6 % (2026-12-06), below those bounds.
 
 mod common;
 use common::*;
@@ -37,8 +37,11 @@ use std::path::{Path, PathBuf};
 const LMAX: usize = 4;
 const S: f64 = 32.0;
 /// The planted error of the CI version: error bars this many times too narrow (the one-view
-/// L_00 was 28 of its σ off).
-const PLANTED_DIVISOR: f64 = 3.0;
+/// L_00 was 28 of its σ off). Six, not three: with one view's 8 effective comparisons the 2σ bound
+/// is 73 %, and honest bars divided by 3 (|z| < 2/3, probability 0.50 each) still reach it by chance
+/// 14 % of the time, as they did once the light samples were compensated (2026-12-06: 75 %);
+/// divided by 6 (probability 0.26 each) 0.5 % of the time.
+const PLANTED_DIVISOR: f64 = 6.0;
 
 /// Per view set: comparisons, |z| < 1, < 2, < 3, coefficients of undetermined orders, orders seen.
 #[derive(Default, Debug, Clone)]

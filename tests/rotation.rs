@@ -210,8 +210,9 @@ fn map_coefficients(img: &Image) -> (Vec<[f64; 3]>, [f64; 3]) {
 /// every pixel within k σ + T (Šidák–Student over the pixels), and the SH projection of the
 /// render against that of the prediction on the same grid within k σ_proj + T Σ|w Y|
 /// (σ_proj² = Σ (w Y)² σ², Šidák over the coefficients). Also the light's sampling density is
-/// p(ω) = g / Σ g ΔΩ, g the max channel of the map pixel containing Rᵀω (an importance sampler that
-/// drops ΔΩ from its weights is unbiased, so only this catches it).
+/// p(ω) = g / Σ g ΔΩ, g = max(Y − Ȳ, 0) of the map pixel containing Rᵀω, Y its luminance and Ȳ the
+/// mean luminance over the sphere (an importance sampler that drops ΔΩ from its weights is
+/// unbiased, so only this catches it).
 #[test]
 fn rotated_environment_render_projects_to_the_rotated_coefficients() {
     let d = temp_dir("rotation-render");
@@ -287,15 +288,18 @@ fn rotated_environment_render_projects_to_the_rotated_coefficients() {
         }
     }
 
-    // The sampling density: p(ω) = g(pixel ∋ Rᵀω) / Σ g ΔΩ, g the luminance (docs/src/conventions.md
-    // §2, "Light sampling"; f32: relative 1e-4).
+    // The sampling density: p(ω) = g(pixel ∋ Rᵀω) / Σ g ΔΩ, g = max(Y − Ȳ, 0), Y the luminance and
+    // Ȳ its mean over the sphere (docs/src/conventions.md §2, "Light sampling"; f32: relative 1e-4).
     let (iw, ih) = (img.width, img.height);
-    let g: Vec<f64> = (0..iw * ih)
+    let y: Vec<f64> = (0..iw * ih)
         .map(|i| {
             [("R", 0.2126), ("G", 0.7152), ("B", 0.0722)].iter().map(|(c, y)| y * img.channels[*c][i] as f64).sum()
         })
         .collect();
+    let mean = (0..iw * ih).map(|i| y[i] * cell_solid_angle(i / iw, iw, ih)).sum::<f64>() / (4.0 * PI);
+    let g: Vec<f64> = y.iter().map(|&y| (y - mean).max(0.0)).collect();
     let total: f64 = (0..iw * ih).map(|i| g[i] * cell_solid_angle(i / iw, iw, ih)).sum();
+    let mut lit = 0;
     let rt = r.transpose();
     for j in 0..200 {
         // Golden-spiral directions, kept away from pixel edges (f32 lookups may pick the neighbour).
@@ -311,6 +315,11 @@ fn rotated_environment_render_projects_to_the_rotated_coefficients() {
         let i = (rf as usize).min(ih - 1) * iw + (cf as usize).min(iw - 1);
         let expect = g[i] / total;
         let got = s.light.pdf(Vec3::new(om[0] as f32, om[1] as f32, om[2] as f32)) as f64;
-        assert!((got - expect).abs() <= 1e-4 * expect, "ω {om:?}: light pdf {got} vs g/Σ g ΔΩ = {expect}");
+        // The f32 rounding of Y is relative to Y, and the subtraction of Ȳ keeps it: 1e-4 of Y's share.
+        let tol = 1e-4 * y[i] / total;
+        assert!((got - expect).abs() <= tol, "ω {om:?}: light pdf {got} vs g/Σ g ΔΩ = {expect} ± {tol:.1e}");
+        lit += (expect > 0.0) as usize;
     }
+    // Both kinds of pixel were looked at: above the mean (sampled) and below it (density 0).
+    assert!((10..190).contains(&lit), "{lit} of 200 directions above the mean luminance");
 }

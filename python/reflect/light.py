@@ -23,10 +23,12 @@ __all__ = ["Light", "Uniform", "Directional", "Axial", "SH", "Envmap"]
 class Light:
     """A distant light of the renderer, from its ``[lighting]`` table (see the module docs)."""
 
-    def __init__(self, table: Dict[str, Any], base: Union[str, "os.PathLike[str]", None] = None):
+    def __init__(self, table: Dict[str, Any], base: Union[str, "os.PathLike[str]", None] = None,
+                 compensated: bool = False):
         #: The scene file's ``[lighting]`` table this light was built from.
         self.table = dict(table)
-        self._native = _reflect.NativeLight(self.table, os.fspath(base) if base is not None else os.getcwd())
+        base = os.fspath(base) if base is not None else os.getcwd()
+        self._native = _reflect.NativeLight(self.table, base, _args.boolean("compensated", compensated))
 
     def eval(self, direction: Any) -> np.ndarray:
         """Radiance L(ω) arriving from each direction: (N, 3) float32 RGB (0 for :class:`Directional`)."""
@@ -87,7 +89,11 @@ class SH(Light):
 class Envmap(Light):
     """An environment map file (``.hdr``/``.exr``): ``mapping`` "latlong" or "angular" (default: from
     the aspect ratio), ``scale`` (multiplies the radiance), ``rotate_deg`` (x, y, z rotation, degrees;
-    guide "Conventions" §2), ``layer`` (an EXR layer). The map is importance-sampled texel by texel."""
+    guide "Conventions" §2), ``layer`` (an EXR layer). The map is importance-sampled texel by texel, by
+    luminance, so that :meth:`sample` alone estimates ∫L dω; with ``compensated=True``, by the
+    renderer's table instead (guide "Conventions" §2, "Light sampling": luminance less the map's mean,
+    zero on the darker texels), whose samples are unbiased only combined by MIS with samples that
+    reach every direction, as the path tracer's BRDF samples do."""
 
     def __init__(
         self,
@@ -96,6 +102,7 @@ class Envmap(Light):
         scale: float = 1.0,
         rotate_deg: Tuple[float, float, float] = (0.0, 0.0, 0.0),
         layer: Optional[str] = None,
+        compensated: bool = False,
     ):
         t: Dict[str, Any] = {
             "type": "envmap",
@@ -107,4 +114,4 @@ class Envmap(Light):
             t["mapping"] = _args.string("mapping", mapping)
         if layer is not None:
             t["layer"] = _args.string("layer", layer)
-        super().__init__(t)
+        super().__init__(t, compensated=compensated)

@@ -10,6 +10,7 @@ use crate::convert::{IntoPy, input_error};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use renderer::brdf::{Brdf, Bxdf, build_brdf};
+use renderer::light::envmap::Table;
 use renderer::light::{DistantLight, Light};
 use renderer::math::{Vec2, Vec3};
 use vocab::scene::{BrdfSection, LightingSection};
@@ -122,12 +123,21 @@ pub struct NativeLight {
 #[pymethods]
 impl NativeLight {
     /// From a scene file's `[lighting]` table (a dict with `type`), data files relative to `base`.
+    /// An environment map samples by luminance unless `compensated` (the renderer's table, which
+    /// only MIS with samples covering every direction makes unbiased; `light::envmap::Table`).
     #[new]
-    fn new(py: Python<'_>, table: &Bound<'_, PyAny>, base: std::path::PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (table, base, compensated = false))]
+    fn new(py: Python<'_>, table: &Bound<'_, PyAny>, base: std::path::PathBuf, compensated: bool) -> PyResult<Self> {
         let mut section: LightingSection = pythonize::depythonize(table)
             .map_err(|e| input_error(format!("lighting: {}", e.to_string().replace('\n', " "))))?;
-        let light =
-            py.detach(|| renderer::scene::build::build_light(&mut section, &base, &mut Default::default())).py()?;
+        let light = py
+            .detach(|| {
+                renderer::scene::build::build_light(&mut section, &base, &mut Default::default()).map(|l| match l {
+                    Light::Envmap(e) if !compensated => Light::Envmap(e.with_table(Table::Luminance)),
+                    l => l,
+                })
+            })
+            .py()?;
         Ok(NativeLight { light })
     }
 

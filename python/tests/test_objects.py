@@ -126,6 +126,15 @@ def test_uniform_light_furnace_and_envmap_consistency(data_dir):
     imp = s.weight.astype(np.float64)
     sigma = np.sqrt(uni.var(0) / n + imp.var(0) / len(imp))
     assert np.all(np.abs(uni.mean(0) - imp.mean(0)) <= K * sigma), (uni.mean(0), imp.mean(0), sigma)
+    # The renderer's compensated table samples only the texels brighter than the mean: alone, its
+    # samples miss the rest of ∫L dω (by far more than K σ), and their density is 0 on the darker
+    # texels, which the default table samples.
+    comp = reflect.light.Envmap(data_dir / "grace_probe.hdr", mapping="angular", compensated=True)
+    sc = comp.sample(np.random.default_rng(2).random((20_000, 2)))
+    missed = uni.mean(0) - sc.weight.astype(np.float64).mean(0)
+    assert np.all(missed > K * np.sqrt(uni.var(0) / n + sc.weight.var(0) / len(sc.weight))), missed
+    dark = (comp.pdf(d[:2000]) == 0) & (env.pdf(d[:2000]) > 0)
+    assert dark.sum() > 100, dark.sum()
 
 
 def test_batches_broadcast_and_bad_arrays_name_the_keyword():

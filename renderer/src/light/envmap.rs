@@ -5,13 +5,15 @@
 //! (world = rotation · map direction, from `rotate_deg`; `eval(wi)` looks up rotationᵀ·wi).
 //!
 //! The radiance is piecewise constant: the pixel whose area on the continuous image plane contains
-//! the direction (nearest pixel). Sampling follows the same pixels:
-//! - lat-long: a pixel is chosen with probability ∝ its luminance (`super::sampling_weight`) × its exact
-//!   solid angle (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within
-//!   it (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's luminance exactly;
+//! the direction (nearest pixel). Sampling follows the same pixels, by their luminance Y
+//! (`super::sampling_weight`) less the map's mean luminance Ȳ over the sphere, max(Y − Ȳ, 0)
+//! (MIS compensation, `super::compensated`: the darker pixels are left to the BRDF's samples):
+//! - lat-long: a pixel is chosen with probability ∝ max(Y − Ȳ, 0) × its exact solid angle
+//!   (2π/W)(cosθ_top − cosθ_bottom) and the direction is uniform in solid angle within it
+//!   (`LatLongGrid` in `light/latlong_grid.rs`), so p(ω) ∝ the pixel's max(Y − Ȳ, 0) exactly;
 //! - angular map: a continuous point (a, b) ∈ [−1, 1]² of the image plane is drawn from a
-//!   [`PiecewiseConstant2D`] with pixel weights ∝ luminance × sinθ/θ at the pixel centre (∝ its solid
-//!   angle, 0 for pixels whose centre lies outside the disc ρ ≤ 1), mapped by θ = πρ,
+//!   [`PiecewiseConstant2D`] with pixel weights ∝ max(Y − Ȳ, 0) × sinθ/θ at the pixel centre (∝ its
+//!   solid angle, 0 for pixels whose centre lies outside the disc ρ ≤ 1), mapped by θ = πρ,
 //!   φ = atan2(b, a). In polar coordinates da db = ρ dρ dφ and dω = sinθ dθ dφ = π sin(πρ) dρ dφ,
 //!   so dω = π² (sinθ/θ) da db = 4π² (sinθ/θ) du dv for the unit square (u, v) the distribution
 //!   lives on, and p(ω) = p_uv / (4π² sinθ/θ) with the exact Jacobian at the sampled point. Points
@@ -19,7 +21,7 @@
 //!   the accepted directions is still p(ω), which integrates to slightly less than 1.
 
 use super::latlong_grid::LatLongGrid;
-use super::{DistantLight, LightSample, LightSamples, Located, sampling_weight};
+use super::{DistantLight, LightSample, LightSamples, Located, compensated, sampling_weight};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
 use crate::simd::{Float, Float3, Isa, Mask};
@@ -29,6 +31,31 @@ use vocab::image::RgbImage;
 
 /// Environment-map parameterization (docs/src/conventions.md §2), defined in `vocab`.
 pub use vocab::Mapping;
+
+/// The density an environment map's light samples follow (docs/src/conventions.md §2, "Light
+/// sampling"), per pixel × its solid angle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Table {
+    /// max(Y − Ȳ, 0), Y the pixel's luminance and Ȳ the map's mean (MIS compensation, `light::compensated`):
+    /// zero on the pixels no brighter than the mean, so the samples are only for combining by
+    /// MIS with samples that cover every direction, as the path tracer's BRDF samples do. What
+    /// [`Envmap::new`] builds and the renderer uses.
+    #[default]
+    Compensated,
+    /// Y: every pixel with light, so the light's samples alone estimate ∫L dω (the Python
+    /// objects' default, `reflect.light.Envmap(compensated=False)`).
+    Luminance,
+}
+
+impl Table {
+    /// The table's weights from the pixels' luminance `g` and their solid angles.
+    fn weights(self, g: &[f32], solid_angle: impl Fn(usize) -> f64) -> Vec<f32> {
+        match self {
+            Table::Compensated => compensated(g, solid_angle),
+            Table::Luminance => g.to_vec(),
+        }
+    }
+}
 
 /// The importance-sampling structure of each mapping.
 #[derive(Clone, Debug)]
@@ -48,6 +75,8 @@ pub struct Envmap {
     pub rotation: glam::Mat3,
     /// rotationᵀ: world → map.
     inv_rotation: glam::Mat3,
+    /// The density the light samples follow ([`Table`]).
+    table: Table,
     /// The sampling tables, which also hold the hot-path texels (see [`Texel`]).
     sampler: EnvSampler,
 }
@@ -114,43 +143,30 @@ impl Envmap {
                 image.pixels[i]
             )));
         }
-        let mut sampler = match mapping {
-            Mapping::LatLong => {
-                let g: Vec<f32> = image.pixels.iter().map(|&p| sampling_weight(Rgb::from(p))).collect();
-                EnvSampler::LatLong(LatLongGrid::build(&g, w, h))
-            }
-            Mapping::Angular => {
-                let weights: Vec<f32> = image
-                    .pixels
-                    .par_iter()
-                    .enumerate()
-                    .map(|(i, &p)| match angular_pixel_theta(i / w, i % w, w) {
-                        Some(theta) => sampling_weight(Rgb::from(p)) * sinc(theta),
-                        None => 0.0,
-                    })
-                    .collect();
-                EnvSampler::Angular(PiecewiseConstant2D::build(&weights, w, h))
-            }
-        };
-        let texels: Vec<Texel> = (0..w * h)
-            .into_par_iter()
-            .map(|i| {
-                let radiance = match mapping {
-                    Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
-                    _ => Rgb::from(image.pixels[i]) * scale,
-                };
-                let pdf = match &sampler {
-                    EnvSampler::Angular(dist) => dist.pdf_index(i % w, i / w),
-                    EnvSampler::LatLong(grid) => grid.pdf_cell(i / w, i % w),
-                };
-                Texel { radiance: radiance.to_array(), pdf }
-            })
-            .collect();
-        match &mut sampler {
-            EnvSampler::LatLong(grid) => grid.set_payloads(&texels),
-            EnvSampler::Angular(dist) => dist.set_payloads(&texels),
+        let sampler = build_sampler(&image, mapping, scale, Table::Compensated);
+        Ok(Envmap {
+            image,
+            mapping,
+            scale,
+            rotation,
+            inv_rotation: rotation.transpose(),
+            table: Table::Compensated,
+            sampler,
+        })
+    }
+
+    /// The same light with its light samples drawn from `table`; the radiance is unchanged.
+    pub fn with_table(self, table: Table) -> Self {
+        if table == self.table {
+            return self;
         }
-        Ok(Envmap { image, mapping, scale, rotation, inv_rotation: rotation.transpose(), sampler })
+        let sampler = build_sampler(&self.image, self.mapping, self.scale, table);
+        Envmap { table, sampler, ..self }
+    }
+
+    /// The density the light samples follow.
+    pub fn table(&self) -> Table {
+        self.table
     }
 
     /// Reads an `.exr` / `.hdr` file and builds the light; every error names the file.
@@ -262,6 +278,57 @@ impl Envmap {
         }
         sum.map(|s| s * self.scale as f64)
     }
+}
+
+/// The sampling tables of a validated image, with its texels (radiance × `scale`) as their payload.
+fn build_sampler(image: &RgbImage, mapping: Mapping, scale: f32, table: Table) -> EnvSampler {
+    let (w, h) = (image.width, image.height);
+    let mut sampler = match mapping {
+        Mapping::LatLong => {
+            let g: Vec<f32> = image.pixels.iter().map(|&p| sampling_weight(Rgb::from(p))).collect();
+            // A row's pixels share their solid angle, ∝ cosθ_top − cosθ_bottom.
+            let dz: Vec<f64> = (0..h)
+                .map(|r| {
+                    let t = std::f64::consts::PI / h as f64;
+                    (t * r as f64).cos() - (t * (r + 1) as f64).cos()
+                })
+                .collect();
+            EnvSampler::LatLong(LatLongGrid::build(&table.weights(&g, |i| dz[i / w]), w, h))
+        }
+        Mapping::Angular => {
+            // A pixel's solid angle ∝ sinθ/θ at its centre, 0 outside the disc.
+            let solid_angle: Vec<f32> =
+                (0..w * h).into_par_iter().map(|i| angular_pixel_theta(i / w, i % w, w).map_or(0.0, sinc)).collect();
+            let g: Vec<f32> = image
+                .pixels
+                .iter()
+                .zip(&solid_angle)
+                .map(|(&p, &a)| if a > 0.0 { sampling_weight(Rgb::from(p)) } else { 0.0 })
+                .collect();
+            let weights: Vec<f32> =
+                table.weights(&g, |i| solid_angle[i] as f64).iter().zip(&solid_angle).map(|(&g, &a)| g * a).collect();
+            EnvSampler::Angular(PiecewiseConstant2D::build(&weights, w, h))
+        }
+    };
+    let texels: Vec<Texel> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let radiance = match mapping {
+                Mapping::Angular if angular_pixel_theta(i / w, i % w, w).is_none() => Rgb::ZERO,
+                _ => Rgb::from(image.pixels[i]) * scale,
+            };
+            let pdf = match &sampler {
+                EnvSampler::Angular(dist) => dist.pdf_index(i % w, i / w),
+                EnvSampler::LatLong(grid) => grid.pdf_cell(i / w, i % w),
+            };
+            Texel { radiance: radiance.to_array(), pdf }
+        })
+        .collect();
+    match &mut sampler {
+        EnvSampler::LatLong(grid) => grid.set_payloads(&texels),
+        EnvSampler::Angular(dist) => dist.set_payloads(&texels),
+    }
+    sampler
 }
 
 /// θ = πρ at the centre of angular-map pixel (r, c) of a W × W image, or None if ρ > 1.
@@ -432,8 +499,10 @@ mod tests {
                 if (r * 7 / h) == 5 {
                     p = [0.0; 3];
                 }
+                // Bright, but not so bright that the mean luminance exceeds the gradient's
+                // (about a third of the pixels lie above it: light samples see both).
                 if (r as i64 - (h / 4) as i64).abs() <= 1 && (c as i64 - (5 * w / 8) as i64).abs() <= 1 {
-                    p = [400.0, 300.0, 200.0];
+                    p = [40.0, 30.0, 20.0];
                 }
                 pixels.push(p);
             }
@@ -539,7 +608,7 @@ mod tests {
                 let e = Envmap::new(synthetic(w, h), mapping, 2.5, rot).unwrap();
                 let mut rng = crate::sampling::chi2::TestRng::new(11);
                 let (mut near_edge, mut given) = (0, 0);
-                for batch in 0..512 {
+                for batch in 0..4096 {
                     let u: [Vec2; 8] = std::array::from_fn(|_| Vec2::new(rng.next_f32(), rng.next_f32()));
                     let want: [bool; 8] = std::array::from_fn(|k| (batch + k) % 5 != 0);
                     let lanes = e.sample_each(
@@ -636,55 +705,67 @@ mod tests {
         assert_eq!(rot.eval(d_world), Rgb::new(9.0, 8.0, 7.0));
         assert_eq!(rot.eval(d_map), Rgb::splat(0.1));
         assert!((rot.pdf(d_world) - plain.pdf(d_map)).abs() < 1e-4 * plain.pdf(d_map));
-        // The sampled directions follow: most samples land near world +y.
+        // The sampled directions follow. Only the bright pixel lies above the map's mean luminance,
+        // so every light sample lands in it (θ ∈ [90°, 95.6°], φ ∈ [90°, 95.6°] after the rotation:
+        // every point within 7.95° < acos 0.99 = 8.1° of +y).
         let mut rng = TestRng::new(2);
-        let near = (0..2000)
-            .filter_map(|_| rot.sample(Vec2::new(rng.next_f32(), rng.next_f32())))
-            .filter(|s| s.wi.dot(Vec3::Y) > 0.99)
-            .count();
-        // Lat-long sampling picks a pixel ∝ luminance × its exact solid angle and is uniform in solid
-        // angle within it, so P(ω·y > 0.99) is exact: the bright pixel (θ ∈ [90°, 95.6°], φ ∈ [90°,
-        // 95.6°] after the rotation: every point within 7.95° < acos 0.99 = 8.1° of +y) lies wholly in
-        // the cap, and the dim pixels contribute their share of the rest of the cap's 2π(1 − 0.99).
-        let t = std::f64::consts::PI / h as f64;
-        let d_omega =
-            2.0 * std::f64::consts::PI / w as f64 * ((t * (h / 2) as f64).cos() - (t * (h / 2 + 1) as f64).cos());
-        let cap = 2.0 * std::f64::consts::PI * (1.0 - 0.99);
-        let y_spot = 0.2126 * 9.0 + 0.7152 * 8.0 + 0.0722 * 7.0;
-        let (m_spot, m_rest) = (y_spot * d_omega, 0.1 * (4.0 * std::f64::consts::PI - d_omega));
-        let p = (m_spot + 0.1 * (cap - d_omega)) / (m_spot + m_rest);
-        let (n, expect) = (2000.0, 2000.0 * p);
-        // Binomial: 4σ (one comparison).
-        let sd = (n * p * (1.0 - p)).sqrt();
-        assert!((near as f64 - expect).abs() <= 4.0 * sd, "{near} samples near +y, expected {expect:.1} ± {sd:.1}");
+        let samples: Vec<LightSample> =
+            (0..2000).filter_map(|_| rot.sample(Vec2::new(rng.next_f32(), rng.next_f32()))).collect();
+        assert_eq!(samples.len(), 2000);
+        assert!(samples.iter().all(|s| s.wi.dot(Vec3::Y) > 0.99), "a sample outside the bright pixel");
     }
 
-    /// The sampling tables follow luminance: pixels of equal solid angle, pure red, green and blue
-    /// of the same value, have densities in the ratio of their luminances 0.2126 : 0.7152 : 0.0722
-    /// (the largest channel, which the tables followed before, makes them equal), in both mappings.
+    /// The solid-angle mean of the luminance of `e`'s pixels (f64, from the pixels' solid angles of
+    /// `radiance_integral`, which the tests of the integral check).
+    fn mean_luminance(e: &Envmap) -> f64 {
+        let y = |p: [f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+        let grey = |img: &RgbImage, f: &dyn Fn([f32; 3]) -> f64| {
+            let pixels = img.pixels.iter().map(|&p| [f(p) as f32; 3]).collect();
+            Envmap::new(RgbImage { pixels, ..*img }, e.mapping, 1.0, glam::Mat3::IDENTITY).unwrap().radiance_integral()
+                [0]
+        };
+        grey(&e.image, &y) / grey(&e.image, &|_| 1.0)
+    }
+
+    /// The sampling tables follow luminance less its mean (`light::compensated`): pixels of equal
+    /// solid angle, lit in one channel each, have densities in the ratio of their luminances less
+    /// the map's mean, pixels below the mean have none, and a constant map keeps its plain
+    /// luminance table, in both mappings.
     #[test]
-    fn sampling_follows_luminance() {
+    fn sampling_follows_luminance_above_the_mean() {
         // Lat-long: three pixels of one row. Angular: three pixels at the same radius (mirror images).
+        // Each has one channel lit, to luminance 2, 3 and 5, on a grey background of luminance 0.5.
         let cases = [
             (Mapping::LatLong, 16, 8, [(3, 2), (3, 9), (3, 13)]),
             (Mapping::Angular, 16, 16, [(3, 5), (5, 3), (3, 10)]),
         ];
+        let coefficient = [0.2126, 0.7152, 0.0722];
+        let luminance = [2.0, 3.0, 5.0];
         for (mapping, w, h, pixels) in cases {
             let mut img = RgbImage { width: w, height: h, pixels: vec![[0.5; 3]; w * h] };
             for (k, &(r, c)) in pixels.iter().enumerate() {
                 let mut p = [0.0; 3];
-                p[k] = 2.0;
+                p[k] = (luminance[k] / coefficient[k]) as f32;
                 img.pixels[r * w + c] = p;
             }
             let e = Envmap::new(img, mapping, 1.0, glam::Mat3::IDENTITY).unwrap();
+            let mean = mean_luminance(&e);
+            assert!(mean > 0.5 && mean < 2.0, "{mapping:?}: mean luminance {mean}");
             let pdf = pixels.map(|(r, c)| e.pdf(centre_direction(mapping, r, c, w, h).unwrap()) as f64);
-            for (k, y) in [0.2126, 0.7152, 0.0722].into_iter().enumerate() {
-                let (ratio, want) = (pdf[k] / pdf[0], y / 0.2126);
+            for k in 0..3 {
+                let (ratio, want) = (pdf[k] / pdf[0], (luminance[k] - mean) / (luminance[0] - mean));
                 assert!(
                     (ratio - want).abs() <= 1e-5 * want,
-                    "{mapping:?} channel {k}: density ratio {ratio}, luminance ratio {want}"
+                    "{mapping:?} channel {k}: density ratio {ratio}, want {want}"
                 );
             }
+            // The background, below the mean, is left to the BRDF's samples.
+            assert_eq!(e.pdf(centre_direction(mapping, 6, 7, w, h).unwrap()), 0.0, "{mapping:?}");
+            // A map with no pixel above its mean (constant) is sampled by its luminance as it is.
+            let flat = RgbImage { width: w, height: h, pixels: vec![[0.3, 0.6, 0.9]; w * h] };
+            let e = Envmap::new(flat, mapping, 1.0, glam::Mat3::IDENTITY).unwrap();
+            let p = e.pdf(centre_direction(mapping, 6, 7, w, h).unwrap()) as f64;
+            assert!(p > 0.0 && (p - e.pdf(centre_direction(mapping, 3, 5, w, h).unwrap()) as f64).abs() < 1e-4 * p);
         }
     }
 
@@ -706,7 +787,7 @@ mod tests {
     fn angular_sampling_matches_pdf() {
         let e = Envmap::new(synthetic(64, 64), Mapping::Angular, 1.0, glam::Mat3::IDENTITY).unwrap();
         let mass = 1.0 - refused_mass(&e);
-        let r = check_light(&e, "envmap angular 64×64", mass);
+        let r = check_light_with(&e, "envmap angular 64×64", mass, 200);
         assert!((r.sampled_fraction - mass).abs() < 4.0 * (mass * (1.0 - mass) / 1e6).sqrt() + 1e-4, "{r:?} vs {mass}");
     }
 
@@ -758,12 +839,22 @@ mod tests {
         check_light_with(&e, "envmap grace", 1.0 - refused_mass(&e), 200);
     }
 
-    /// MC estimate of ∫ L dω with the light's own samples: (mean, σ) per channel, σ = sqrt(var/n).
+    /// MC estimate of ∫ L dω as the integrator forms it: each of `n` steps takes one light sample
+    /// and one direction uniform on the sphere (the other technique, standing in for the BRDF's
+    /// samples, whose density covers every direction) and weights them by the balance heuristic,
+    /// L(ω)/(p_light(ω) + 1/4π) for each. The light's samples alone would miss the pixels below
+    /// the mean luminance. (mean, σ) per channel, σ = sqrt(var/n).
     fn mc_integral(e: &Envmap, n: usize, seed: u64) -> [(f64, f64); 3] {
         let mut rng = TestRng::new(seed);
+        let uniform = 1.0 / (4.0 * PI);
         let (mut s, mut s2) = ([0.0f64; 3], [0.0f64; 3]);
         for _ in 0..n {
-            let v = e.sample(Vec2::new(rng.next_f32(), rng.next_f32())).map_or(Rgb::ZERO, |s| s.value);
+            let mut v = e
+                .sample(Vec2::new(rng.next_f32(), rng.next_f32()))
+                .map_or(Rgb::ZERO, |s| e.eval(s.wi) / (s.pdf + uniform));
+            let d = crate::math::spherical_direction((1.0 - 2.0 * rng.next_f32()).acos(), 2.0 * PI * rng.next_f32());
+            let (l, p) = e.eval_pdf(d);
+            v += l / (p + uniform);
             for ch in 0..3 {
                 s[ch] += v[ch] as f64;
                 s2[ch] += (v[ch] as f64).powi(2);
@@ -773,6 +864,45 @@ mod tests {
             let mean = s[ch] / n as f64;
             (mean, ((s2[ch] / n as f64 - mean * mean) / n as f64).sqrt())
         })
+    }
+
+    /// `Table::Luminance` (the Python objects' default): every lit pixel is sampled, by its
+    /// luminance, in both mappings (χ²), and the light's samples alone integrate the whole map,
+    /// where the compensated table's miss the pixels below the mean.
+    #[test]
+    fn luminance_table_samples_every_lit_pixel_and_integrates_alone() {
+        for (mapping, w, h) in [(Mapping::LatLong, 64, 32), (Mapping::Angular, 64, 64)] {
+            let e = Envmap::new(synthetic(w, h), mapping, 1.5, rotation_xyz_deg([0.0, 40.0, 0.0])).unwrap();
+            let plain = e.clone().with_table(Table::Luminance);
+            assert_eq!((e.table(), plain.table()), (Table::Compensated, Table::Luminance));
+            // A dim lit pixel (the gradient's darkest corner): sampled by luminance only.
+            let d = rotation_xyz_deg([0.0, 40.0, 0.0]) * centre_direction(mapping, 3, w / 2 - 3, w, h).unwrap();
+            assert!(plain.pdf(d) > 0.0 && e.pdf(d) == 0.0, "{mapping:?}: {} / {}", plain.pdf(d), e.pdf(d));
+            assert_eq!(plain.eval(d), e.eval(d));
+            let mass = if mapping == Mapping::Angular { 1.0 - refused_mass(&plain) } else { 1.0 };
+            check_light_with(&plain, &format!("envmap {mapping:?}, luminance table"), mass, 200);
+            let exact = plain.radiance_integral();
+            let mut rng = TestRng::new(31);
+            let n = 400_000;
+            let (mut s, mut s2) = ([0.0f64; 3], [0.0f64; 3]);
+            for _ in 0..n {
+                let v = plain.sample(Vec2::new(rng.next_f32(), rng.next_f32())).map_or(Rgb::ZERO, |s| s.value);
+                for ch in 0..3 {
+                    s[ch] += v[ch] as f64;
+                    s2[ch] += (v[ch] as f64).powi(2);
+                }
+            }
+            for ch in 0..3 {
+                let mean = s[ch] / n as f64;
+                let sigma = ((s2[ch] / n as f64 - mean * mean) / n as f64).sqrt();
+                // The angular map's pixel sum is a midpoint rule (≈ 1e-5 relative): inside 4σ.
+                assert!(
+                    (mean - exact[ch]).abs() < 4.0 * sigma,
+                    "{mapping:?} ch {ch}: {mean} ± {sigma} vs {}",
+                    exact[ch]
+                );
+            }
+        }
     }
 
     #[test]
@@ -787,7 +917,7 @@ mod tests {
 
     #[test]
     fn grace_integral_by_sampling_matches_pixel_sum() {
-        // ∫ L dω by MC with the light's own samples vs the pixel sum with the per-pixel solid angles
+        // ∫ L dω by MC with the light's samples and uniform ones vs the pixel sum with the per-pixel solid angles
         // of docs/src/conventions.md §2. 4σ per channel with σ = sqrt(sample variance / n) (≈ 3e-4 relative).
         // The §2 angular formula is the midpoint value of the exact Jacobian (2/W)²·π² sinθ/θ: its
         // error, O((2/W)²) ≈ 1e-5 relative plus the few dark rim pixels, is far below σ.
@@ -807,7 +937,7 @@ mod tests {
         let t = std::time::Instant::now();
         let e = Envmap::new(img, Mapping::Angular, 1.0, glam::Mat3::IDENTITY).unwrap();
         eprintln!("Envmap::new(grace 1000×1000) took {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
-        assert!(e.pdf(Vec3::Z) > 0.0);
+        assert!(e.sample(Vec2::splat(0.5)).is_some_and(|s| s.pdf > 0.0));
     }
 
     fn temp_dir() -> std::path::PathBuf {

@@ -100,7 +100,11 @@ impl Located {
 pub trait DistantLight {
     /// Radiance arriving from world direction `wi` (0 for a delta light).
     fn eval(&self, wi: Vec3) -> Rgb;
-    /// Draws a direction with density `pdf`, proportional (where possible) to |L|.
+    /// Draws a direction with density `pdf`, proportional (where possible) to |L|. An environment
+    /// map's density follows only its brighter-than-average pixels (MIS compensation,
+    /// docs/src/conventions.md §2, "Light sampling") and is zero on the rest: its samples are meant
+    /// to be combined by MIS with a technique that covers every direction (the integrator's BRDF
+    /// samples), never used alone.
     fn sample(&self, u: Vec2) -> Option<LightSample>;
     /// Solid-angle density with which `sample` draws `wi` (0 for a delta light).
     fn pdf(&self, wi: Vec3) -> f32;
@@ -248,6 +252,29 @@ impl DistantLight for Light {
 #[inline]
 pub(crate) fn sampling_weight(l: Rgb) -> f32 {
     crate::output::luminance(l.abs().to_array()) as f32
+}
+
+/// MIS compensation of a sampling table (Karlík et al. 2019, "MIS Compensation: Optimizing
+/// Sampling Techniques in Multiple Importance Sampling"; pbrt-v4's image light does the same):
+/// max(g_i − ḡ, 0) per cell, ḡ = Σ g_i ΔΩ_i / Σ ΔΩ_i the solid-angle mean of g, `solid_angle(i)`
+/// the cell's ΔΩ_i (any common factor; 0 for cells outside the map). Light samples then go only
+/// to the cells brighter than the mean, where the BRDF's samples, which the integrator always
+/// combines with them, do worst; the darker cells are left to the BRDF's samples, which cover every
+/// direction a non-Dirac BRDF reflects (`brdf::tests::sampling_covers_what_every_brdf_reflects`).
+/// A table with no cell above its mean (a constant map) is returned unchanged. Shapes: `g` and the
+/// result have one entry per cell; entries ≤ 0 or NaN count as 0.
+pub(crate) fn compensated(g: &[f32], solid_angle: impl Fn(usize) -> f64) -> Vec<f32> {
+    let (mut sum, mut area) = (0.0f64, 0.0f64);
+    for (i, &v) in g.iter().enumerate() {
+        let a = solid_angle(i);
+        area += a;
+        if v > 0.0 {
+            sum += v as f64 * a;
+        }
+    }
+    let mean = if area > 0.0 { sum / area } else { 0.0 };
+    let out: Vec<f32> = g.iter().map(|&v| if v as f64 > mean { (v as f64 - mean) as f32 } else { 0.0 }).collect();
+    if out.iter().any(|&v| v > 0.0) { out } else { g.to_vec() }
 }
 
 #[cfg(test)]
