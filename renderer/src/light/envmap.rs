@@ -20,7 +20,7 @@
 //!   of a rim pixel that fall outside the disc are refused (`sample` returns None): the density of
 //!   the accepted directions is still p(ω), which integrates to slightly less than 1.
 
-use super::latlong_grid::LatLongGrid;
+use super::latlong_grid::{LatLongGrid, row_edges};
 use super::{DistantLight, LightSample, LightSamples, Located, compensated, sampling_weight};
 use crate::math::{PI, Rgb, Vec2, Vec3, fast, prefetch_read};
 use crate::sampling::distribution::PiecewiseConstant2D;
@@ -287,13 +287,8 @@ fn build_sampler(image: &RgbImage, mapping: Mapping, scale: f32, table: Table) -
         Mapping::LatLong => {
             let g: Vec<f32> = image.pixels.iter().map(|&p| sampling_weight(Rgb::from(p))).collect();
             // A row's pixels share their solid angle, ∝ cosθ_top − cosθ_bottom.
-            let dz: Vec<f64> = (0..h)
-                .map(|r| {
-                    let t = std::f64::consts::PI / h as f64;
-                    (t * r as f64).cos() - (t * (r + 1) as f64).cos()
-                })
-                .collect();
-            EnvSampler::LatLong(LatLongGrid::build(&table.weights(&g, |i| dz[i / w]), w, h))
+            let z = row_edges(h);
+            EnvSampler::LatLong(LatLongGrid::build(&table.weights(&g, |i| z[i / w] - z[i / w + 1]), w, h))
         }
         Mapping::Angular => {
             // A pixel's solid angle ∝ sinθ/θ at its centre, 0 outside the disc.

@@ -26,6 +26,12 @@ const PHI_MARGIN: f32 = 4e-6;
 /// In φ, the rounding of `cell`'s φ·W/2π and of u·W here, relative to W (a few ulps of W).
 const PHI_ROUNDING: f32 = 16.0 / 16_777_216.0;
 
+/// cos(πr/H) for r = 0..=H, in f64: the z of each row's top and bottom edge (row r spans
+/// z ∈ [edge r + 1, edge r], its cells' solid angle (2π/W) × the difference).
+pub(super) fn row_edges(height: usize) -> Vec<f64> {
+    (0..=height).map(|r| (std::f64::consts::PI * r as f64 / height as f64).cos()).collect()
+}
+
 /// The grid's sampling table can carry a payload `P` per cell (see [`PiecewiseConstant2D`]): the
 /// environment map keeps its texels there, so the sampled cell's texel is in the cache line the
 /// search just read.
@@ -51,7 +57,7 @@ impl<P: Copy + Default + Send + Sync> LatLongGrid<P> {
     /// As [`LatLongGrid::new`], with a payload per cell (`P::default()` until `set_payloads`).
     pub fn build(g: &[f32], width: usize, height: usize) -> Self {
         assert!(width > 0 && height > 0 && g.len() == width * height, "LatLongGrid: bad size");
-        let z64: Vec<f64> = (0..=height).map(|r| (std::f64::consts::PI * r as f64 / height as f64).cos()).collect();
+        let z64 = row_edges(height);
         let dz: Vec<f64> = z64.windows(2).map(|w| w[0] - w[1]).collect();
         let weights: Vec<f32> = g
             .chunks_exact(width)

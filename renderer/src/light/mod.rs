@@ -101,10 +101,10 @@ pub trait DistantLight {
     /// Radiance arriving from world direction `wi` (0 for a delta light).
     fn eval(&self, wi: Vec3) -> Rgb;
     /// Draws a direction with density `pdf`, proportional (where possible) to |L|. An environment
-    /// map's density follows only its brighter-than-average pixels (MIS compensation,
-    /// docs/src/conventions.md §2, "Light sampling") and is zero on the rest: its samples are meant
-    /// to be combined by MIS with a technique that covers every direction (the integrator's BRDF
-    /// samples), never used alone.
+    /// map built by [`Envmap::new`] (the renderer's) follows only its brighter-than-average pixels
+    /// (MIS compensation, docs/src/conventions.md §2, "Light sampling") and is zero on the rest: its
+    /// samples are meant to be combined by MIS with a technique that covers every direction (the
+    /// integrator's BRDF samples); [`Envmap::with_table`] gives one whose samples can be used alone.
     fn sample(&self, u: Vec2) -> Option<LightSample>;
     /// Solid-angle density with which `sample` draws `wi` (0 for a delta light).
     fn pdf(&self, wi: Vec3) -> f32;
