@@ -17,6 +17,7 @@
 
 use crate::brdf::{BrdfSamples, Bxdf, Outgoing};
 use crate::camera::PrimarySample;
+use crate::geometry::bvh::PACKET;
 use crate::geometry::shading::adapt_shading_normal;
 use crate::geometry::{Hit, Ray};
 use crate::light::{DistantLight, LightSamples};
@@ -52,6 +53,7 @@ pub struct PathTracer<'a> {
 /// the magnitude of the position (f32 rounding grows with it). The one-lane call of
 /// [`offset_origins`].
 #[inline]
+#[cfg(test)]
 pub(crate) fn offset_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     offset_origins::<1, Sse2>(Float3::splat(p), Float3::splat(ng), Float3::splat(dir)).lane(0)
 }
@@ -172,7 +174,7 @@ impl<'a> PathTracer<'a> {
     /// code at one lane), the light's lookups of the BRDF directions ([`DistantLight::locate_each`],
     /// which starts their loads), the light samples ([`DistantLight::sample_each`]), the BRDF's
     /// value and density for them, MIS, the shadow rays, the bounce rays (a single sphere's roots
-    /// over the lanes; a BVH ray by ray), the escaped light and Russian roulette.
+    /// over the lanes; a BVH's as packets, `bvh/packet.rs`), the escaped light and Russian roulette.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
@@ -352,14 +354,23 @@ impl<'a> PathTracer<'a> {
             let nee = drawn & !f.is_zero();
             // The batch's shadow rays.
             let free = self.unoccluded(&ps, ignores, ls_wi);
-            let mut occluded = Mask::<LANES, S>::NONE;
+            let shadow = nee & !free;
+            let shadow_origins = offset_origins(ps.p, ps.ng, ls_wi);
+            // The BRDF's direction continues the path: the batch's bounce rays.
+            let traced = sampled & !self.unoccluded(&ps, ignores, wi_world);
+            let bounce_origins = offset_origins(ps.p, ps.ng, wi_world);
             for k in 0..LANES {
-                if nee.lane(k) && !free.lane(k) {
-                    let (p, ng, dir) = (ps.p.lane(k), ps.ng.lane(k), ls_wi.lane(k));
-                    occluded.set(k, scene.geometry.occluded(&Ray::new(offset_origin(p, ng, dir), dir)));
-                    out[k].rays += 1;
-                }
+                out[k].rays += shadow.lane(k) as u32 + traced.lane(k) as u32;
             }
+            // At the last vertex a bounce ray only asks whether it escapes (no surface emits), so
+            // it is an any-hit ray like the shadow rays, and both leave from the same points: they
+            // are walked as one packet.
+            let last = depth >= self.max_depth;
+            let (occluded, last_blocked) = if last {
+                self.occluded_pairs([shadow_origins, bounce_origins], [ls_wi, wi_world], [shadow, traced])
+            } else {
+                (self.occluded_lanes(shadow_origins, ls_wi, shadow), Mask::NONE)
+            };
             let lit = nee & !occluded;
             // MIS against the BRDF's density of each unoccluded, non-Dirac light sample (power
             // heuristic; a Dirac light takes weight 1).
@@ -379,21 +390,10 @@ impl<'a> PathTracer<'a> {
             let w = ls_delta.select(Float::ONE, power_heuristics(ls_pdf, brdf_pdf));
             ps.radiance = Float3::select(lit, ps.radiance + ps.beta * f * ls_value * w, ps.radiance);
 
-            // The BRDF's direction continues the path; the batch's bounce rays.
             ps.alive = sampled;
             ps.beta = Float3::select(sampled, ps.beta * bs.weight, ps.beta);
-            let traced = sampled & !self.unoccluded(&ps, ignores, wi_world);
-            for k in 0..LANES {
-                if traced.lane(k) {
-                    out[k].rays += 1;
-                }
-            }
-            // At the last vertex a bounce ray only asks whether it escapes (no surface emits), so
-            // it is an any-hit ray: no ordering of children, and it stops at the first blocker.
-            let last = depth >= self.max_depth;
-            let bounce_origins = offset_origins(ps.p, ps.ng, wi_world);
             let (blocked, hits) = if last {
-                (self.occluded_lanes(bounce_origins, wi_world, traced), LaneHits::NONE)
+                (last_blocked, LaneHits::NONE)
             } else {
                 let hits = self.trace_lanes(bounce_origins, wi_world, traced);
                 (hits.hit, hits)
@@ -480,13 +480,39 @@ impl<'a> PathTracer<'a> {
             let (_, hit) = sphere.intersect_ts(origin, dir, Float::splat(f32::INFINITY));
             return want & hit;
         }
-        let mut blocked = Mask::NONE;
+        // A BVH: the lanes' rays as one packet (`bvh/packet.rs`).
+        let (rays, bits) = packet(origin, dir, want);
+        let blocked = geometry.occluded_packet(&rays, bits);
+        let mut out = Mask::NONE;
         for k in 0..LANES {
-            if want.lane(k) && geometry.occluded(&Ray::new(origin.lane(k), dir.lane(k))) {
-                blocked.set(k, true);
-            }
+            out.set(k, blocked & (1 << k) != 0);
         }
-        blocked
+        out
+    }
+
+    /// [`PathTracer::occluded_lanes`] of two sets of rays (the lanes' shadow and bounce rays),
+    /// walked as one packet of sixteen when the scene has a BVH.
+    #[inline(always)]
+    fn occluded_pairs<S: Isa>(
+        &self,
+        origin: [Float3<LANES, S>; 2],
+        dir: [Float3<LANES, S>; 2],
+        want: [Mask<LANES, S>; 2],
+    ) -> (Mask<LANES, S>, Mask<LANES, S>) {
+        let geometry = &self.scene.geometry;
+        if geometry.single_sphere().is_some() || !(want[0].any() && want[1].any()) {
+            return (self.occluded_lanes(origin[0], dir[0], want[0]), self.occluded_lanes(origin[1], dir[1], want[1]));
+        }
+        let (first, bits0) = packet(origin[0], dir[0], want[0]);
+        let (second, bits1) = packet(origin[1], dir[1], want[1]);
+        let rays: [Ray; 2 * PACKET] = std::array::from_fn(|r| if r < PACKET { first[r] } else { second[r - PACKET] });
+        let blocked = geometry.occluded_packet(&rays, bits0 | bits1 << PACKET);
+        let (mut a, mut b) = (Mask::NONE, Mask::NONE);
+        for k in 0..LANES {
+            a.set(k, blocked & (1 << k) != 0);
+            b.set(k, blocked & (1 << (k + PACKET)) != 0);
+        }
+        (a, b)
     }
 
     /// Closest hits of the rays (`origin`, `dir`) of the lanes in `want` (unbounded rays).
@@ -518,18 +544,25 @@ impl<'a> PathTracer<'a> {
             }
             return hits;
         }
-        // A BVH: ray by ray, camera rays too. Walking a pixel's rays as one packet, or several rays
-        // interleaved, gained nothing once a single ray's walk was cheap (guide, "Performance notes and
-        // their history").
-        for k in 0..LANES {
-            if want.lane(k)
-                && let Some(h) = geometry.intersect(&Ray::new(origin.lane(k), dir.lane(k)))
-            {
-                hits.set_lane(k, &h);
+        // A BVH: the lanes' rays as one packet (`bvh/packet.rs`).
+        let (rays, bits) = packet(origin, dir, want);
+        for (k, h) in geometry.intersect_packet(&rays, bits).iter().enumerate() {
+            if let Some(h) = h {
+                hits.set_lane(k, h);
             }
         }
         hits
     }
+}
+
+/// The lanes' rays (`origin`, `dir`, unbounded) as a packet, and the bits of `want`.
+#[inline(always)]
+fn packet<S: Isa>(origin: Float3<LANES, S>, dir: Float3<LANES, S>, want: Mask<LANES, S>) -> ([Ray; PACKET], u32) {
+    let mut bits = 0;
+    for k in 0..LANES {
+        bits |= (want.lane(k) as u32) << k;
+    }
+    (std::array::from_fn(|k| Ray::new(origin.lane(k), dir.lane(k))), bits)
 }
 
 /// The object of every lane in `lanes`, where they all have the same (the BRDF's calls can then

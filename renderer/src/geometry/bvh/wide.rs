@@ -40,13 +40,13 @@ use std::mem::MaybeUninit;
 /// a tree of depth D needs at most 7 (D − 1) + 1, and `build_cwbvh` keeps D below
 /// `MAX_CWBVH_DEPTH`. A power of two, so that the index's wrap (which keeps every access in
 /// bounds without a check) is a mask.
-const STACK: usize = 256;
+pub(super) const STACK: usize = 256;
 const _: () = assert!(7 * super::MAX_CWBVH_DEPTH < STACK);
 
 /// A child reference with this bit set is a leaf: bits 0–30 are the mask of its primitives' lanes
 /// in the node's run of [`Block`]s (bit 4 k + i: block k, lane i). Otherwise it is the index
 /// of an internal node.
-const LEAF: u32 = 1 << 31;
+pub(super) const LEAF: u32 = 1 << 31;
 
 /// The most primitives a tree is built for: slots and lane ids (a block's index × 4 + its lane,
 /// with at most one block a primitive) are `u32`, with room to spare (a tree of 2^29 primitives
@@ -61,19 +61,19 @@ pub(super) const MAX_SLOTS: usize = 1 << 29;
 #[repr(C, align(64))]
 pub(super) struct WideNode {
     bounds: [[f32; 8]; 6],
-    child: [u32; 8],
+    pub(super) child: [u32; 8],
     /// The index in [`WideBvh::blocks`] of the node's first block.
-    block: u32,
+    pub(super) block: u32,
     /// Bit i set when child i is a leaf.
-    leaf_children: u32,
+    pub(super) leaf_children: u32,
 }
 
 /// The decoded tree: node 0 is the root. A primitive's slot is its position in obvhs's leaf order
 /// (`primitive_indices`); a node's leaf children's primitives fill consecutive slots, which its
 /// blocks hold in order (`bvh/leaf.rs`).
 pub(super) struct WideBvh {
-    nodes: Vec<WideNode>,
-    blocks: Vec<Block>,
+    pub(super) nodes: Vec<WideNode>,
+    pub(super) blocks: Vec<Block>,
 }
 
 /// An entry of a walk's stack: an internal node's index and the distance at which the ray enters
@@ -199,7 +199,7 @@ const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.
 /// (plane − o) · (1/d) (rounding is symmetric; only a zero's sign can differ, which no comparison
 /// sees) and lets the node's row be the subtraction's memory operand.
 #[derive(Clone, Copy)]
-struct WideRay {
+pub(super) struct WideRay {
     origin: [f32; 3],
     neg_inv: [f32; 3],
     near: [usize; 3],
@@ -208,7 +208,7 @@ struct WideRay {
 
 impl WideRay {
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
+    pub(super) fn new(ray: &Ray) -> Self {
         // 1/±0 = ±∞, whose sign picks the rows as any other direction's does.
         let inv = ray.dir.recip().to_array();
         // The octant (bit a: the ray runs down axis a) picks both rows of every axis from one
@@ -268,13 +268,31 @@ fn test<const AVX: bool>(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut
 }
 
 /// 1 + 2γ₃: the exit distances' scale.
-const GROW: f32 = 1.0 + 2.0 * GAMMA3;
+pub(super) const GROW: f32 = 1.0 + 2.0 * GAMMA3;
 
 /// [`test`] with AVX2. Not a `target_feature` function, so that it is always inlined: call it
 /// only from code compiled with AVX2, with row offsets inside the node.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn test_avx2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY (caller): as `slabs_avx2`'s.
+    unsafe {
+        let (tn, hit) = slabs_avx2(node, ray, t_max);
+        _mm256_storeu_ps(entry.as_mut_ptr(), tn);
+        _mm256_movemask_ps(hit) as u32
+    }
+}
+
+/// The slab test of [`test_avx2`]: the eight children's entry distances and the mask of those
+/// the ray meets.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn slabs_avx2(
+    node: &WideNode,
+    ray: &WideRay,
+    t_max: f32,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
     use std::arch::x86_64::*;
     let b = node.bounds.as_ptr().cast::<f32>();
     // SAFETY (caller): the offsets are rows of the node, 32-byte aligned as the node is.
@@ -291,8 +309,7 @@ unsafe fn test_avx2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
         );
         let tf = _mm256_min_ps(t(ray.far[0], 0), _mm256_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
         let tf = _mm256_mul_ps(_mm256_min_ps(tf, _mm256_set1_ps(t_max)), _mm256_set1_ps(GROW));
-        _mm256_storeu_ps(entry.as_mut_ptr(), tn);
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tn, tf)) as u32
+        (tn, _mm256_cmp_ps::<_CMP_LE_OS>(tn, tf))
     }
 }
 
@@ -301,22 +318,95 @@ unsafe fn test_avx2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32
 #[inline(always)]
 unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
     use std::arch::x86_64::*;
+    // SAFETY (caller): as `slabs_sse2`'s; each store writes four of `entry`'s floats.
+    unsafe {
+        let mut hit = 0;
+        for h in 0..2 {
+            let (tn, m) = slabs_sse2(node, ray, t_max, h);
+            _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
+            hit |= (_mm_movemask_ps(m) as u32) << (4 * h);
+        }
+        hit
+    }
+}
+
+/// The slab test of [`test_sse2`] for children 4 h … 4 h + 3: their entry distances and the mask
+/// of those the ray meets.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn slabs_sse2(
+    node: &WideNode,
+    ray: &WideRay,
+    t_max: f32,
+    h: usize,
+) -> (std::arch::x86_64::__m128, std::arch::x86_64::__m128) {
+    use std::arch::x86_64::*;
     let b = node.bounds.as_ptr().cast::<f32>();
     // SAFETY (caller): the offsets are rows of the node; each load reads four of a row's eight
-    // floats (16-byte aligned), each store four of `entry`'s.
+    // floats (16-byte aligned).
     unsafe {
-        let o = ray.origin.map(|x| _mm_set1_ps(x));
-        let neg_inv = ray.neg_inv.map(|x| _mm_set1_ps(x));
-        let (zero, tm, grow) = (_mm_setzero_ps(), _mm_set1_ps(t_max), _mm_set1_ps(GROW));
-        let mut half = |h: usize| {
-            let t = |off: usize, a: usize| _mm_mul_ps(_mm_sub_ps(o[a], _mm_load_ps(b.add(off + 4 * h))), neg_inv[a]);
-            let tn = _mm_max_ps(_mm_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)), _mm_max_ps(t(ray.near[2], 2), zero));
-            let tf = _mm_min_ps(t(ray.far[0], 0), _mm_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
-            let tf = _mm_mul_ps(_mm_min_ps(tf, tm), grow);
-            _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
-            _mm_movemask_ps(_mm_cmple_ps(tn, tf)) as u32
+        let t = |off: usize, a: usize| {
+            _mm_mul_ps(
+                _mm_sub_ps(_mm_set1_ps(ray.origin[a]), _mm_load_ps(b.add(off + 4 * h))),
+                _mm_set1_ps(ray.neg_inv[a]),
+            )
         };
-        half(0) | half(1) << 4
+        let tn = _mm_max_ps(
+            _mm_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)),
+            _mm_max_ps(t(ray.near[2], 2), _mm_setzero_ps()),
+        );
+        let tf = _mm_min_ps(t(ray.far[0], 0), _mm_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
+        let tf = _mm_mul_ps(_mm_min_ps(tf, _mm_set1_ps(t_max)), _mm_set1_ps(GROW));
+        (tn, _mm_cmple_ps(tn, tf))
+    }
+}
+
+/// [`test`] for a ray of a packet: its hit children, and each child's least entry distance over
+/// the packet's rays so far (`near`), lowered by this ray's distance where it meets the child
+/// (a lower bound of every entry, which orders and culls the packet's stack entries).
+#[inline(always)]
+pub(super) fn test_min<const AVX: bool>(
+    node: &WideNode,
+    ray: &WideRay,
+    t_max: f32,
+    entry: &mut [f32; 8],
+    near: &mut [f32; 8],
+) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: AVX is true only in the copies compiled with AVX2; the ray's row offsets are
+        // rows of the node; loads and stores are unaligned, of eight (four) floats.
+        unsafe {
+            if AVX {
+                let (tn, m) = slabs_avx2(node, ray, t_max);
+                _mm256_storeu_ps(entry.as_mut_ptr(), tn);
+                let met = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), tn, m);
+                _mm256_storeu_ps(near.as_mut_ptr(), _mm256_min_ps(_mm256_loadu_ps(near.as_ptr()), met));
+                _mm256_movemask_ps(m) as u32
+            } else {
+                let mut hit = 0;
+                for h in 0..2 {
+                    let (tn, m) = slabs_sse2(node, ray, t_max, h);
+                    _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
+                    let met = _mm_or_ps(_mm_and_ps(m, tn), _mm_andnot_ps(m, _mm_set1_ps(f32::INFINITY)));
+                    let lower = _mm_min_ps(_mm_loadu_ps(near.as_ptr().add(4 * h)), met);
+                    _mm_storeu_ps(near.as_mut_ptr().add(4 * h), lower);
+                    hit |= (_mm_movemask_ps(m) as u32) << (4 * h);
+                }
+                hit
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let hit = test::<AVX>(node, ray, t_max, entry);
+        for i in 0..8 {
+            if hit & (1 << i) != 0 {
+                near[i] = near[i].min(entry[i]);
+            }
+        }
+        hit
     }
 }
 
@@ -430,7 +520,7 @@ impl SceneGeometry {
                     stack[sp % STACK] = MaybeUninit::new(e);
                     sp += 1;
                 }
-                sort_farthest_first(&mut stack, base, sp);
+                sort_farthest_first(&mut stack, base, sp, |e| e.t);
             }
             // The next entry that can still hold a closer hit.
             loop {
@@ -453,7 +543,7 @@ impl SceneGeometry {
 /// after the nearest one's subtree; their loads then overlap with that walk instead of each
 /// waiting in turn.
 #[inline(always)]
-fn prefetch_node(wide: &WideBvh, index: u32) {
+pub(super) fn prefetch_node(wide: &WideBvh, index: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
@@ -465,10 +555,15 @@ fn prefetch_node(wide: &WideBvh, index: u32) {
     }
 }
 
-/// Orders `stack[base..end]` (entries written just before) by descending entry distance:
+/// Orders `stack[base..end]` (entries written just before) by descending entry distance `t`:
 /// insertion sort, as there are at most eight.
 #[inline(always)]
-fn sort_farthest_first(stack: &mut [MaybeUninit<Entry>; STACK], base: usize, end: usize) {
+pub(super) fn sort_farthest_first<E: Copy>(
+    stack: &mut [MaybeUninit<E>; STACK],
+    base: usize,
+    end: usize,
+    t: impl Fn(&E) -> f32,
+) {
     for i in base + 1..end {
         // SAFETY: entries base..end were written by the caller.
         let x = unsafe { stack[i % STACK].assume_init() };
@@ -476,7 +571,7 @@ fn sort_farthest_first(stack: &mut [MaybeUninit<Entry>; STACK], base: usize, end
         while j > base {
             // SAFETY: as above (base ≤ j − 1 < end).
             let y = unsafe { stack[(j - 1) % STACK].assume_init() };
-            if y.t >= x.t {
+            if t(&y) >= t(&x) {
                 break;
             }
             stack[j % STACK] = MaybeUninit::new(y);
