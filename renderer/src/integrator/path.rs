@@ -174,7 +174,8 @@ impl<'a> PathTracer<'a> {
     /// code at one lane), the light's lookups of the BRDF directions ([`DistantLight::locate_each`],
     /// which starts their loads), the light samples ([`DistantLight::sample_each`]), the BRDF's
     /// value and density for them, MIS, the shadow rays, the bounce rays (a single sphere's roots
-    /// over the lanes; a BVH's as packets, `bvh/packet.rs`), the escaped light and Russian roulette.
+    /// over the lanes; a BVH's closest hits ray by ray, its any hits as packets, `bvh/packet.rs`),
+    /// the escaped light and Russian roulette.
     ///
     /// Always inlined, so that each instruction-set copy of the render's tile loop has its own.
     #[inline(always)]
@@ -544,16 +545,22 @@ impl<'a> PathTracer<'a> {
             }
             return hits;
         }
-        // A BVH: the lanes' rays as one packet (`bvh/packet.rs`).
-        let (rays, bits) = packet(origin, dir, want);
-        for (k, h) in geometry.intersect_packet(&rays, bits).iter().enumerate() {
-            if let Some(h) = h {
-                hits.set_lane(k, h);
+        // A BVH: ray by ray. (A packet's closest hits could depend on which rays share it, where
+        // several triangles are hit at nearly the same t, and a sample's value must not depend on
+        // its batch: `bvh/packet.rs`.)
+        for k in 0..LANES {
+            if want.lane(k)
+                && let Some(h) = geometry.intersect(&Ray::new(origin.lane(k), dir.lane(k)))
+            {
+                hits.set_lane(k, &h);
             }
         }
         hits
     }
 }
+
+// A packet holds one ray of each lane.
+const _: () = assert!(LANES == PACKET);
 
 /// The lanes' rays (`origin`, `dir`, unbounded) as a packet, and the bits of `want`.
 #[inline(always)]

@@ -1,44 +1,41 @@
-//! Up to eight rays walked through the float-plane tree together: a packet.
+//! Eight or sixteen any-hit rays walked through the float-plane tree together: a packet.
 //!
-//! The integrator's lanes are eight samples of one pixel, so their camera rays are nearly one ray,
-//! and their shadow and bounce rays leave from nearly one point: their walks visit mostly the same
-//! nodes (measured in the guide, "Performance notes and their history"). A packet visits each node
-//! once for all of its rays that entered it: each of those rays runs its own node test
-//! ([`test_min`], the single walk's), and the choices a visit makes (which children, in what
-//! order, pushed or entered, popped or skipped) are made once for the packet, with a mask of the
-//! rays they concern. The visit's load and its branches are then shared, where eight walks would
-//! each wait for the same node and mispredict their own choices. Each ray's leaf tests are its
-//! own, with its own closest hit so far. Rays that go different ways only cost their own tests:
-//! a node's test runs only for the rays that met its box.
+//! The integrator's lanes are eight samples of one pixel, so their shadow and bounce rays leave
+//! from nearly one point, and their walks visit mostly the same nodes (measured in the guide,
+//! "Performance notes and their history"). A packet visits each node once for all of its rays
+//! that entered it: each of those rays runs its own node test (the single walk's, [`test`]), and
+//! the choices a visit makes (which children, pushed or entered, popped or skipped) are made once
+//! for the packet, with a mask of the rays they concern. The wait for the node's lines and the
+//! branches of those choices are then shared, where eight walks would each wait for the same node
+//! and mispredict their own choices. Rays that go different ways cost only their own tests: a
+//! node's test runs only for the rays that met its box.
 //!
-//! **Same answers as the single walk.** A ray of the packet runs the single walk's node test on
-//! every node whose parent's test it passed, and the triangle tests on every leaf child it meets,
-//! so it visits every node and tests every primitive its single walk would (and possibly more:
-//! the packet's order is not each ray's). Any-hit: the same answer. Closest hit: the least t of
-//! the primitives tested, as for the single walk, which can differ from it only where several
-//! triangles are hit at nearly the same t (`bvh/wide.rs`, "Exact hits").
+//! **The single walk's answers.** A ray of the packet runs its node test at every node whose
+//! parent's test it passed, until it finds a hit, and tests the primitives of every leaf child it
+//! meets: it reaches every node and primitive its single any-hit walk would, and finds a hit
+//! exactly when that walk does. Whether a ray is blocked does not depend on the order of the visits
+//! nor on which other rays share its packet.
 //!
-//! The stack holds a node, the mask of rays that met it, and the least entry distance of those
-//! rays (a lower bound of each one's): an entry is skipped, for each ray, where that bound lies
-//! beyond the ray's closest hit so far.
+//! Closest hits stay with the single walk: which of several triangles hit at nearly the same t a
+//! walk keeps depends on the order of its visits (`bvh/wide.rs`, "Exact hits"), and in a packet
+//! that order depends on the other rays, so a sample's value would depend on how the samples are
+//! batched (a shard or a round that starts inside a batch), which it must not.
 
 use super::SceneGeometry;
 use super::leaf::{LANES, LaneRay};
-use super::wide::{GROW, LEAF, STACK, WideBvh, WideRay, prefetch_node, sort_farthest_first, test_min};
+use super::wide::{LEAF, STACK, WideBvh, WideRay, prefetch_node, test};
 use crate::geometry::Ray;
 use glam::Vec3A;
 use std::mem::MaybeUninit;
 
-/// Rays in a packet: the integrator's lanes.
+/// Rays in the integrator's packets: its lanes.
 pub const PACKET: usize = 8;
 
-/// An entry of a packet's stack: a node, the rays that met its box, and the least of their entry
-/// distances.
+/// An entry of a packet's stack: a node and the rays that met its box.
 #[derive(Clone, Copy)]
 struct Entry {
     node: u32,
     rays: u32,
-    t: f32,
 }
 
 /// Transposes the 8 × 8 bit matrix whose byte r holds row r: bit 8 r + c moves to 8 c + r
@@ -72,57 +69,41 @@ fn or_bytes(x: u64) -> u32 {
     (x | x >> 8) as u32 & 0xff
 }
 
-/// The rays of `rays` (bit r: ray r) whose closest hit so far lies at or beyond `t`, so that a box
-/// they enter at `t` can still hold a closer one.
-#[inline(always)]
-fn within<const N: usize>(t: f32, t_max: &[f32; N], rays: u32) -> u32 {
-    let mut keep = 0;
-    for (r, &t_max) in t_max.iter().enumerate() {
-        keep |= ((t <= t_max * GROW) as u32) << r;
-    }
-    keep & rays
-}
-
 impl SceneGeometry {
-    /// The walks of the rays `rays[r]` for the bits r of `want` (valid rays), as one packet of
-    /// `N` = 8 or 16 rays: for each, the closest hit (`ANY` false) or a hit (`ANY` true) as
-    /// [`SceneGeometry::walk_wide`] returns it; `None` for the rays not wanted. `AVX` selects the
-    /// AVX2 node test.
+    /// Which of the rays `rays[r]` for the bits r of `want` (valid rays) hit something with t in
+    /// (0, t_max), walked as one packet of `N` = 8 or 16 rays: bit r set where ray r's single
+    /// any-hit walk ([`SceneGeometry::walk_wide`]) finds a hit. `AVX` selects the AVX2 node test.
     #[inline(always)]
-    pub(super) fn walk_packet<const ANY: bool, const AVX: bool, const N: usize>(
+    pub(super) fn walk_packet<const AVX: bool, const N: usize>(
         &self,
         wide: &WideBvh,
         rays: &[Ray; N],
         want: u32,
-    ) -> [Option<(u32, f32, f32, f32)>; N] {
+    ) -> u32 {
         const { assert!(N == 8 || N == 16) };
-        let mut best = [None; N];
         if want == 0 {
-            return best;
+            return 0;
         }
         let w: [WideRay; N] = std::array::from_fn(|r| WideRay::new(&rays[r]));
         let lane_rays: [LaneRay; N] =
             std::array::from_fn(|r| LaneRay::new(Vec3A::from(rays[r].origin), Vec3A::from(rays[r].dir)));
-        let mut t_max: [f32; N] = std::array::from_fn(|r| rays[r].t_max);
-        // Any hit: the rays still looking for one.
+        // The rays still looking for a hit.
         let mut live = want;
         let mut stack = [MaybeUninit::<Entry>::uninit(); STACK];
         let mut sp = 0usize;
-        let mut entry = [[0.0f32; 8]; N];
+        let mut entry = [0.0f32; 8];
         let (mut index, mut active) = (0u32, want);
         loop {
             // SAFETY: node 0 and every internal child reference are nodes (checked by
             // `WideBvh::new`).
             let node = unsafe { wide.nodes.get_unchecked(index as usize) };
-            // Each active ray's test: byte r % 8 of `hits[r / 8]` its hit children; `near` each
-            // child's least entry distance over the rays that meet it.
-            let mut near = [f32::INFINITY; 8];
+            // Each active ray's test: byte r % 8 of `hits[r / 8]` its hit children.
             let mut hits = [0u64; 2];
             let mut a = active;
             while a != 0 {
                 let r = a.trailing_zeros() as usize % N;
                 a &= a - 1;
-                let h = test_min::<AVX>(node, &w[r], t_max[r], &mut entry[r], &mut near);
+                let h = test::<AVX>(node, &w[r], rays[r].t_max, &mut entry);
                 hits[r / 8] |= (h as u64) << (8 * (r % 8));
             }
             let leaf_bytes = (node.leaf_children as u64) * 0x0101_0101_0101_0101;
@@ -130,7 +111,7 @@ impl SceneGeometry {
             if leaf_hits[0] | leaf_hits[1] != 0 {
                 hits = hits.map(|h| h & !leaf_bytes);
                 // Ray by ray, as the single walk: the lanes of every leaf child it meets, then each
-                // block holding some of them.
+                // block holding some of them, until one is hit.
                 let mut with_leaves = nonzero_bytes(leaf_hits[0]) | nonzero_bytes(leaf_hits[1]) << 8;
                 while with_leaves != 0 {
                     let r = with_leaves.trailing_zeros() as usize % N;
@@ -142,7 +123,6 @@ impl SceneGeometry {
                         l &= l - 1;
                     }
                     lanes &= !LEAF;
-                    let t_before = t_max[r];
                     while lanes != 0 {
                         let shift = lanes.trailing_zeros() & !(LANES as u32 - 1);
                         let lane_mask = (lanes >> shift) & ((1 << LANES) - 1);
@@ -150,34 +130,15 @@ impl SceneGeometry {
                         let block = node.block + shift / LANES as u32;
                         // SAFETY: a node's blocks are in `blocks` (checked by `WideBvh::new`).
                         let b = unsafe { wide.blocks.get_unchecked(block as usize) };
-                        if let Some((lane, t, b1, b2)) = b.intersect::<ANY>(&lane_rays[r], t_max[r], lane_mask) {
-                            let id = block * LANES as u32 + lane;
-                            best[r] = Some((id, t, b1, b2));
-                            if ANY {
-                                break;
-                            }
-                            t_max[r] = t;
-                        }
-                    }
-                    if ANY {
-                        if best[r].is_some() {
+                        if b.intersect::<true>(&lane_rays[r], rays[r].t_max, lane_mask).is_some() {
                             live &= !(1 << r);
                             hits[g] &= !(0xff << byte);
-                        }
-                    } else if t_max[r] < t_before {
-                        // Internal children this ray enters only beyond its new closest hit.
-                        let mut h = (hits[g] >> byte) as u32 & 0xff;
-                        while h != 0 {
-                            let i = h.trailing_zeros() as usize & 7;
-                            h &= h - 1;
-                            if entry[r][i] > t_max[r] * GROW {
-                                hits[g] &= !(1u64 << (byte + i));
-                            }
+                            break;
                         }
                     }
                 }
-                if ANY && live == 0 {
-                    return best;
+                if live == 0 {
+                    return want;
                 }
             }
             let children = or_bytes(hits[0]) | or_bytes(hits[1]);
@@ -186,55 +147,29 @@ impl SceneGeometry {
                 let by_child = hits.map(transpose8);
                 let rays_of =
                     |c: usize| (by_child[0] >> (8 * c)) as u32 & 0xff | ((by_child[1] >> (8 * c)) as u32 & 0xff) << 8;
-                let rest = children & (children - 1);
-                if rest == 0 {
-                    let c = children.trailing_zeros() as usize & 7;
-                    (index, active) = (node.child[c], rays_of(c));
-                    continue;
-                }
-                // Several: as the single walk, the child that would be popped next is entered and
-                // the others pushed (for the closest hit farthest first by their least entry
-                // distance; for any hit in child order, the highest entered).
-                if rest & (rest - 1) == 0 {
-                    let (i, j) = (children.trailing_zeros() as usize & 7, rest.trailing_zeros() as usize & 7);
-                    let (enter, push) = if ANY || near[j] <= near[i] { (j, i) } else { (i, j) };
-                    let e = Entry { node: node.child[push], rays: rays_of(push), t: near[push] };
-                    prefetch_node(wide, e.node);
-                    stack[sp % STACK] = MaybeUninit::new(e);
-                    sp += 1;
-                    (index, active) = (node.child[enter], rays_of(enter));
-                    continue;
-                }
-                let base = sp;
-                let mut ch = children;
-                while ch != 0 {
-                    let c = ch.trailing_zeros() as usize & 7;
-                    ch &= ch - 1;
-                    let e = Entry { node: node.child[c], rays: rays_of(c), t: near[c] };
-                    prefetch_node(wide, e.node);
-                    stack[sp % STACK] = MaybeUninit::new(e);
+                // As the single any-hit walk: the highest child is entered, the others pushed.
+                let last = (31 - children.leading_zeros() as usize) & 7;
+                let mut rest = children & !(1 << last);
+                while rest != 0 {
+                    let c = rest.trailing_zeros() as usize & 7;
+                    rest &= rest - 1;
+                    prefetch_node(wide, node.child[c]);
+                    stack[sp % STACK] = MaybeUninit::new(Entry { node: node.child[c], rays: rays_of(c) });
                     sp += 1;
                 }
-                if !ANY {
-                    sort_farthest_first(&mut stack, base, sp, |e| e.t);
-                }
-                sp -= 1;
-                // SAFETY: written just above.
-                let e = unsafe { stack[sp % STACK].assume_init() };
-                (index, active) = (e.node, e.rays);
+                (index, active) = (node.child[last], rays_of(last));
                 continue;
             }
-            // The next entry that some ray can still find a closer hit (any hit: a first hit) in.
+            // The next entry that a ray still looking for a hit entered.
             loop {
                 if sp == 0 {
-                    return best;
+                    return want & !live;
                 }
                 sp -= 1;
                 // SAFETY: every entry below sp was written by a push above.
                 let e = unsafe { stack[sp % STACK].assume_init() };
-                let rays = if ANY { e.rays & live } else { within(e.t, &t_max, e.rays) };
-                if rays != 0 {
-                    (index, active) = (e.node, rays);
+                if e.rays & live != 0 {
+                    (index, active) = (e.node, e.rays & live);
                     break;
                 }
             }

@@ -243,7 +243,7 @@ const ROWS: [([usize; 3], [usize; 3]); 8] = {
 /// `walk_wide_avx2`), else four with SSE2; the same bits either way (separate subtract and
 /// multiply, no fused operation).
 #[inline(always)]
-fn test<const AVX: bool>(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
+pub(super) fn test<const AVX: bool>(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
     #[cfg(target_arch = "x86_64")]
     {
         // SAFETY: AVX is true only in the copy compiled with AVX2 (`walk_wide_avx2`, called where
@@ -268,31 +268,13 @@ fn test<const AVX: bool>(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut
 }
 
 /// 1 + 2γ₃: the exit distances' scale.
-pub(super) const GROW: f32 = 1.0 + 2.0 * GAMMA3;
+const GROW: f32 = 1.0 + 2.0 * GAMMA3;
 
 /// [`test`] with AVX2. Not a `target_feature` function, so that it is always inlined: call it
 /// only from code compiled with AVX2, with row offsets inside the node.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn test_avx2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
-    use std::arch::x86_64::*;
-    // SAFETY (caller): as `slabs_avx2`'s.
-    unsafe {
-        let (tn, hit) = slabs_avx2(node, ray, t_max);
-        _mm256_storeu_ps(entry.as_mut_ptr(), tn);
-        _mm256_movemask_ps(hit) as u32
-    }
-}
-
-/// The slab test of [`test_avx2`]: the eight children's entry distances and the mask of those
-/// the ray meets.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-unsafe fn slabs_avx2(
-    node: &WideNode,
-    ray: &WideRay,
-    t_max: f32,
-) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
     use std::arch::x86_64::*;
     let b = node.bounds.as_ptr().cast::<f32>();
     // SAFETY (caller): the offsets are rows of the node, 32-byte aligned as the node is.
@@ -309,7 +291,8 @@ unsafe fn slabs_avx2(
         );
         let tf = _mm256_min_ps(t(ray.far[0], 0), _mm256_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
         let tf = _mm256_mul_ps(_mm256_min_ps(tf, _mm256_set1_ps(t_max)), _mm256_set1_ps(GROW));
-        (tn, _mm256_cmp_ps::<_CMP_LE_OS>(tn, tf))
+        _mm256_storeu_ps(entry.as_mut_ptr(), tn);
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tn, tf)) as u32
     }
 }
 
@@ -318,95 +301,22 @@ unsafe fn slabs_avx2(
 #[inline(always)]
 unsafe fn test_sse2(node: &WideNode, ray: &WideRay, t_max: f32, entry: &mut [f32; 8]) -> u32 {
     use std::arch::x86_64::*;
-    // SAFETY (caller): as `slabs_sse2`'s; each store writes four of `entry`'s floats.
-    unsafe {
-        let mut hit = 0;
-        for h in 0..2 {
-            let (tn, m) = slabs_sse2(node, ray, t_max, h);
-            _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
-            hit |= (_mm_movemask_ps(m) as u32) << (4 * h);
-        }
-        hit
-    }
-}
-
-/// The slab test of [`test_sse2`] for children 4 h … 4 h + 3: their entry distances and the mask
-/// of those the ray meets.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-unsafe fn slabs_sse2(
-    node: &WideNode,
-    ray: &WideRay,
-    t_max: f32,
-    h: usize,
-) -> (std::arch::x86_64::__m128, std::arch::x86_64::__m128) {
-    use std::arch::x86_64::*;
     let b = node.bounds.as_ptr().cast::<f32>();
     // SAFETY (caller): the offsets are rows of the node; each load reads four of a row's eight
-    // floats (16-byte aligned).
+    // floats (16-byte aligned), each store four of `entry`'s.
     unsafe {
-        let t = |off: usize, a: usize| {
-            _mm_mul_ps(
-                _mm_sub_ps(_mm_set1_ps(ray.origin[a]), _mm_load_ps(b.add(off + 4 * h))),
-                _mm_set1_ps(ray.neg_inv[a]),
-            )
+        let o = ray.origin.map(|x| _mm_set1_ps(x));
+        let neg_inv = ray.neg_inv.map(|x| _mm_set1_ps(x));
+        let (zero, tm, grow) = (_mm_setzero_ps(), _mm_set1_ps(t_max), _mm_set1_ps(GROW));
+        let mut half = |h: usize| {
+            let t = |off: usize, a: usize| _mm_mul_ps(_mm_sub_ps(o[a], _mm_load_ps(b.add(off + 4 * h))), neg_inv[a]);
+            let tn = _mm_max_ps(_mm_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)), _mm_max_ps(t(ray.near[2], 2), zero));
+            let tf = _mm_min_ps(t(ray.far[0], 0), _mm_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
+            let tf = _mm_mul_ps(_mm_min_ps(tf, tm), grow);
+            _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
+            _mm_movemask_ps(_mm_cmple_ps(tn, tf)) as u32
         };
-        let tn = _mm_max_ps(
-            _mm_max_ps(t(ray.near[0], 0), t(ray.near[1], 1)),
-            _mm_max_ps(t(ray.near[2], 2), _mm_setzero_ps()),
-        );
-        let tf = _mm_min_ps(t(ray.far[0], 0), _mm_min_ps(t(ray.far[1], 1), t(ray.far[2], 2)));
-        let tf = _mm_mul_ps(_mm_min_ps(tf, _mm_set1_ps(t_max)), _mm_set1_ps(GROW));
-        (tn, _mm_cmple_ps(tn, tf))
-    }
-}
-
-/// [`test`] for a ray of a packet: its hit children, and each child's least entry distance over
-/// the packet's rays so far (`near`), lowered by this ray's distance where it meets the child
-/// (a lower bound of every entry, which orders and culls the packet's stack entries).
-#[inline(always)]
-pub(super) fn test_min<const AVX: bool>(
-    node: &WideNode,
-    ray: &WideRay,
-    t_max: f32,
-    entry: &mut [f32; 8],
-    near: &mut [f32; 8],
-) -> u32 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::*;
-        // SAFETY: AVX is true only in the copies compiled with AVX2; the ray's row offsets are
-        // rows of the node; loads and stores are unaligned, of eight (four) floats.
-        unsafe {
-            if AVX {
-                let (tn, m) = slabs_avx2(node, ray, t_max);
-                _mm256_storeu_ps(entry.as_mut_ptr(), tn);
-                let met = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), tn, m);
-                _mm256_storeu_ps(near.as_mut_ptr(), _mm256_min_ps(_mm256_loadu_ps(near.as_ptr()), met));
-                _mm256_movemask_ps(m) as u32
-            } else {
-                let mut hit = 0;
-                for h in 0..2 {
-                    let (tn, m) = slabs_sse2(node, ray, t_max, h);
-                    _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), tn);
-                    let met = _mm_or_ps(_mm_and_ps(m, tn), _mm_andnot_ps(m, _mm_set1_ps(f32::INFINITY)));
-                    let lower = _mm_min_ps(_mm_loadu_ps(near.as_ptr().add(4 * h)), met);
-                    _mm_storeu_ps(near.as_mut_ptr().add(4 * h), lower);
-                    hit |= (_mm_movemask_ps(m) as u32) << (4 * h);
-                }
-                hit
-            }
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let hit = test::<AVX>(node, ray, t_max, entry);
-        for i in 0..8 {
-            if hit & (1 << i) != 0 {
-                near[i] = near[i].min(entry[i]);
-            }
-        }
-        hit
+        half(0) | half(1) << 4
     }
 }
 
@@ -520,7 +430,7 @@ impl SceneGeometry {
                     stack[sp % STACK] = MaybeUninit::new(e);
                     sp += 1;
                 }
-                sort_farthest_first(&mut stack, base, sp, |e| e.t);
+                sort_farthest_first(&mut stack, base, sp);
             }
             // The next entry that can still hold a closer hit.
             loop {
@@ -555,15 +465,10 @@ pub(super) fn prefetch_node(wide: &WideBvh, index: u32) {
     }
 }
 
-/// Orders `stack[base..end]` (entries written just before) by descending entry distance `t`:
+/// Orders `stack[base..end]` (entries written just before) by descending entry distance:
 /// insertion sort, as there are at most eight.
 #[inline(always)]
-pub(super) fn sort_farthest_first<E: Copy>(
-    stack: &mut [MaybeUninit<E>; STACK],
-    base: usize,
-    end: usize,
-    t: impl Fn(&E) -> f32,
-) {
+fn sort_farthest_first(stack: &mut [MaybeUninit<Entry>; STACK], base: usize, end: usize) {
     for i in base + 1..end {
         // SAFETY: entries base..end were written by the caller.
         let x = unsafe { stack[i % STACK].assume_init() };
@@ -571,7 +476,7 @@ pub(super) fn sort_farthest_first<E: Copy>(
         while j > base {
             // SAFETY: as above (base ≤ j − 1 < end).
             let y = unsafe { stack[(j - 1) % STACK].assume_init() };
-            if t(&y) >= t(&x) {
+            if y.t >= x.t {
                 break;
             }
             stack[j % STACK] = MaybeUninit::new(y);
