@@ -14,8 +14,10 @@
 //! - The finished tree is decoded into nodes with float planes (`bvh/wide.rs`), which a ray
 //!   walks nearest child first, with a conservative slab test of eight children at once (AVX2
 //!   chosen at run time, SSE2 otherwise; same bits); the leaf children it meets are tested at the
-//!   node, the blocks holding their lanes once each, and the internal children it leaves on its
-//!   stack are prefetched. Any hit (`occluded`) stops at the first primitive hit. The renderer's
+//!   node, the blocks holding their lanes once each. Two kinds of load are started before they are
+//!   needed: the internal children a ray leaves on its stack, and, as a visit starts, the node's
+//!   first leaf blocks (from a table of each node's first block, so that the blocks do not wait
+//!   for the node's own lines). Any hit (`occluded`) stops at the first primitive hit. The renderer's
 //!   any-hit rays, eight or sixteen of one pixel's samples at a time, walk it as packets
 //!   (`bvh/packet.rs`, [`SceneGeometry::occluded_packet`]), which visit a node once for all of
 //!   their rays that entered it and give each ray its own walk's answer.
@@ -1152,6 +1154,37 @@ mod tests {
             for (r, ray) in p.iter().enumerate() {
                 assert_eq!(got & (1 << r) != 0, 0b1011_0111 & (1 << r) != 0 && g.occluded(ray), "ray {r}");
             }
+        }
+    }
+
+    /// The prefetch table names each node's first leaf block (and none for a node without leaf
+    /// children), and a node's leaf blocks are those holding its leaf children's lanes, each once,
+    /// in order, with exactly those lanes: on the icosphere and the mixed scene.
+    #[test]
+    fn leaf_blocks_and_their_prefetch_table() {
+        for g in [SceneGeometry::new(vec![Shape::Mesh(icosphere(5))]), scene()] {
+            let wide = g.wide.as_ref().expect("a BVH scene");
+            assert_eq!(wide.first_block.len(), wide.nodes.len());
+            let mut tested = 0;
+            for (i, node) in wide.nodes.iter().enumerate() {
+                let hint = if node.leaf_children != 0 { node.block } else { wide::NO_BLOCKS };
+                assert_eq!(wide.first_block[i], hint, "node {i}");
+                for leaves in [node.leaf_children, node.leaf_children & node.leaf_children.wrapping_neg()] {
+                    let lanes =
+                        (0..8).filter(|c| leaves & (1 << c) != 0).fold(0, |m, c| m | node.child[c]) & !wide::LEAF;
+                    let blocks: Vec<(u32, u32)> = node.leaf_blocks(leaves).collect();
+                    let mut rebuilt = 0u32;
+                    for (k, &(block, mask)) in blocks.iter().enumerate() {
+                        assert!(mask != 0 && mask < 1 << leaf::LANES, "node {i}: block {block} mask {mask:#b}");
+                        assert!(k == 0 || block > blocks[k - 1].0, "node {i}: blocks {blocks:?}");
+                        let shift = (block - node.block) * leaf::LANES as u32;
+                        rebuilt |= mask << shift;
+                    }
+                    assert_eq!(rebuilt, lanes, "node {i}, leaf children {leaves:#b}: {blocks:?}");
+                    tested += blocks.len();
+                }
+            }
+            assert!(tested > 100, "{tested} blocks");
         }
     }
 

@@ -22,8 +22,8 @@
 //! batched (a shard or a round that starts inside a batch), which it must not.
 
 use super::SceneGeometry;
-use super::leaf::{LANES, LaneRay};
-use super::wide::{LEAF, STACK, WideBvh, WideRay, prefetch_node, test};
+use super::leaf::LaneRay;
+use super::wide::{STACK, WideBvh, WideRay, prefetch_leaf_blocks, prefetch_node, test};
 use crate::geometry::Ray;
 use glam::Vec3A;
 use std::mem::MaybeUninit;
@@ -97,6 +97,7 @@ impl SceneGeometry {
             // SAFETY: node 0 and every internal child reference are nodes (checked by
             // `WideBvh::new`).
             let node = unsafe { wide.nodes.get_unchecked(index as usize) };
+            prefetch_leaf_blocks(wide, index);
             // Each active ray's test: byte r % 8 of `hits[r / 8]` its hit children.
             let mut hits = [0u64; 2];
             let mut a = active;
@@ -117,17 +118,7 @@ impl SceneGeometry {
                     let r = with_leaves.trailing_zeros() as usize % N;
                     with_leaves &= with_leaves - 1;
                     let (g, byte) = (r / 8, 8 * (r % 8));
-                    let (mut lanes, mut l) = (0, (leaf_hits[g] >> byte) as u32 & 0xff);
-                    while l != 0 {
-                        lanes |= node.child[l.trailing_zeros() as usize & 7];
-                        l &= l - 1;
-                    }
-                    lanes &= !LEAF;
-                    while lanes != 0 {
-                        let shift = lanes.trailing_zeros() & !(LANES as u32 - 1);
-                        let lane_mask = (lanes >> shift) & ((1 << LANES) - 1);
-                        lanes &= !(((1 << LANES) - 1) << shift);
-                        let block = node.block + shift / LANES as u32;
+                    for (block, lane_mask) in node.leaf_blocks((leaf_hits[g] >> byte) as u32 & 0xff) {
                         // SAFETY: a node's blocks are in `blocks` (checked by `WideBvh::new`).
                         let b = unsafe { wide.blocks.get_unchecked(block as usize) };
                         if b.intersect::<true>(&lane_rays[r], rays[r].t_max, lane_mask).is_some() {
